@@ -1,0 +1,540 @@
+"""The complex-variable Lagrange model of a planar link tree, generated as CasADi SX.
+
+The seed paper's way, for any tree (equations (1)-(21) for the six-link case):
+
+* each centre of mass is one sum of complex exponentials (paper (1)-(6)),
+      w_i = sum_{k ancestor of i} o_k e^{j psi_parent(k)} + c_i e^{j psi_i},
+  with o_k the start hinge of link k in its parent's frame (l_parent for a paper link) and
+  c_i = n_i l_i the centre of mass in the link's frame;
+* velocities come from multiplying each exponential by j dpsi (paper (7)-(12)), accelerations
+  from d^2/dt^2 e^{j psi} = (j ddpsi - dpsi^2) e^{j psi};
+* T = 1/2 sum (m_i |dw_i/dt|^2 + J_i dpsi_i^2) and Pi = g sum m_i Im(w_i) (paper (13)-(15));
+* Lagrange's equations of the second kind, d/dt dT/d(dpsi_k) - dT/dpsi_k + dPi/dpsi_k = Q_k.
+  Because dw_i/dt is linear in dpsi with coefficients dw_i/dpsi_k, their left-hand side is
+      sum_i m_i Re( conj(dw_i/dpsi_k) (d^2w_i/dt^2 + j g) ) + J_k ddpsi_k ,
+  with dw_i/dpsi_k = j o e^{j psi_k} (a quarter turn of the lever from link k's start hinge).
+  Summing over the subtree of k link by link gives the equations in O(n) complex operations;
+  expanded, they are exactly sum_m B_km cos(psi_k - psi_m) ddpsi_m + B_km sin(psi_k - psi_m)
+  dpsi_m^2 + gravity = Q_k of DESIGN.md and the corrected (16)-(21) of the paper.
+* Q_k = M_k - sum_{children c} M_c, so the hinge torque is M_k = sum of Q over the subtree of k.
+
+Every CasADi Function is built the first time it is asked for (``Dynamics.function(name)``)
+and cached: a problem that needs only inverse dynamics never builds forward dynamics.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+
+import casadi as ca
+import numpy as np
+
+from model.complex_sx import ZERO, Cx, expj, imag_of_conj_product, real_of_product
+from model.errors import DefinitionError, DefinitionTypeError
+from model.linkage import Linkage
+from model.numpy_tape import NumpyTape
+
+logger = logging.getLogger(__name__)
+
+#: name -> (input names, output names, one-line description); the catalogue of Functions.
+FUNCTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], str]] = {
+    "hinge_positions": (("psi",), ("hinge_x", "hinge_y"), "hinges H0..Hn, m"),
+    "hinge_velocities": (("psi", "dpsi"), ("hinge_vx", "hinge_vy"), "hinge velocities, m/s"),
+    "com_positions": (("psi",), ("com_x", "com_y"), "centres of mass, m"),
+    "com_velocities": (("psi", "dpsi"), ("com_vx", "com_vy"), "centre-of-mass velocities, m/s"),
+    "energy": (("psi", "dpsi"), ("kinetic", "potential"), "T and Pi, J"),
+    "mass_matrix": (("psi",), ("mass_matrix",), "generalised mass matrix, kg m^2"),
+    "inverse_dynamics": (("psi", "dpsi", "ddpsi"), ("M",), "hinge torques, N m"),
+    "gravity_torques": (("psi",), ("M",), "hinge torques holding a static pose, N m"),
+    "forward_dynamics": (("psi", "dpsi", "M"), ("ddpsi",), "angular accelerations, rad/s^2"),
+    "dynamics_residual": (
+        ("psi", "dpsi", "ddpsi", "M"),
+        ("residual",),
+        "inverse_dynamics - M, N m (zero on the motion)",
+    ),
+    "ground_reaction": (("psi", "dpsi", "ddpsi"), ("Fx", "Fy"), "force of the ground at H0, N"),
+    "ode": (("x", "u"), ("xdot",), "x = [psi; dpsi], u = M -> [dpsi; ddpsi]"),
+}
+
+
+class Dynamics:
+    """Equations of motion of a :class:`model.Linkage`, generated lazily as CasADi SX.
+
+    Angles psi (n,) rad are absolute, from +x counter-clockwise; dpsi (n,) rad/s; ddpsi (n,)
+    rad/s^2; hinge torques M (n,) N m act at the start hinge of each link, on the link, from
+    its parent (from the ground for the root).
+
+    Symbolic use: ``function(name)`` returns a named CasADi Function (see ``FUNCTIONS``).
+    Numeric use: the methods below take one state (n,) or a batch (K, n) of numpy values and
+    return numpy arrays of matching leading shape; batches are evaluated in one vectorised
+    pass (no Python loop over states).
+    """
+
+    def __init__(self, linkage: Linkage) -> None:
+        if not isinstance(linkage, Linkage):
+            raise DefinitionTypeError(
+                f"`linkage`: must be a model.Linkage, got {type(linkage).__name__}"
+            )
+        self._linkage = linkage
+        n = linkage.n
+        self._psi = ca.SX.sym("psi", n)
+        self._dpsi = ca.SX.sym("dpsi", n)
+        self._ddpsi = ca.SX.sym("ddpsi", n)
+        self._torque = ca.SX.sym("M", n)
+        self._functions: dict[str, ca.Function] = {}
+        self._tapes: dict[str, NumpyTape | None] = {}
+        self._cache: dict[str, object] = {}
+        self.generation_seconds: dict[str, float] = {}
+        links = linkage.links
+        # Constant geometry in each link's own frame (complex, m).
+        self._origin = [linkage.origin_in_parent(i) for i in range(n)]
+        self._com = [link.com_offset for link in links]
+        self._mass = [link.mass for link in links]
+        self._inertia = [link.inertia for link in links]
+        self._length = [link.length for link in links]
+        subtree_mass = [0.0] * n
+        for i in reversed(range(n)):
+            subtree_mass[i] = self._mass[i] + sum(subtree_mass[c] for c in linkage.children[i])
+        self._subtree_mass = subtree_mass
+
+    # ---- catalogue ----------------------------------------------------------------------
+    @property
+    def linkage(self) -> Linkage:
+        return self._linkage
+
+    @property
+    def n(self) -> int:
+        return self._linkage.n
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self._linkage.names
+
+    @property
+    def built(self) -> tuple[str, ...]:
+        """Names of the CasADi Functions generated so far, in the order they were built."""
+        return tuple(self._functions)
+
+    def function(self, name: str) -> ca.Function:
+        """The named CasADi Function, generated on first use and cached."""
+        if name not in FUNCTIONS:
+            raise DefinitionError(
+                f"`name`: unknown function {name!r}; available: {sorted(FUNCTIONS)}"
+            )
+        if name not in self._functions:
+            start = time.perf_counter()
+            inputs, outputs, _ = FUNCTIONS[name]
+            expressions = getattr(self, "_build_" + name)()
+            symbols = [self._symbol(k) for k in inputs]
+            self._functions[name] = ca.Function(name, symbols, expressions, inputs, outputs)
+            self.generation_seconds[name] = time.perf_counter() - start
+            logger.debug("generated %s in %.3f ms", name, 1e3 * self.generation_seconds[name])
+        return self._functions[name]
+
+    def _symbol(self, name: str) -> ca.SX:
+        if name == "x":
+            return ca.vertcat(self._psi, self._dpsi)
+        if name == "u":
+            return self._torque
+        return {"psi": self._psi, "dpsi": self._dpsi, "ddpsi": self._ddpsi, "M": self._torque}[
+            name
+        ]
+
+    # ---- shared symbolic building blocks (each built once) -----------------------------
+    def _memo(self, key: str, build: Callable[[], object]):
+        if key not in self._cache:
+            self._cache[key] = build()
+        return self._cache[key]
+
+    def _frames(self) -> list[Cx]:
+        """e^{j psi_k} for every link: the only transcendental functions of the model."""
+        return self._memo("frames", lambda: [expj(self._psi[k]) for k in range(self.n)])
+
+    def _propagate(self, per_link: list[Cx]) -> tuple[list[Cx], list[Cx]]:
+        """Start hinges and centres of mass from per-link phasor terms.
+
+        ``per_link[k]`` is e^{j psi_k} (positions), its first or its second time derivative
+        (velocities, accelerations): the same sums of exponentials serve all three.
+        Returns (start hinge of each link, centre of mass of each link).
+        """
+        parents = self._linkage.parents
+        start: list[Cx] = []
+        com: list[Cx] = []
+        for k in range(self.n):
+            p = parents[k]
+            base = ZERO if p < 0 else start[p] + self._origin[k] * per_link[p]
+            start.append(base)
+            com.append(base + self._com[k] * per_link[k])
+        return start, com
+
+    def _positions(self) -> tuple[list[Cx], list[Cx]]:
+        def build():
+            start, com = self._propagate(self._frames())
+            root = self._origin[0]  # the root's start is fixed in the world
+            return [s + root for s in start], [c + root for c in com]
+
+        return self._memo("positions", build)
+
+    def _velocities(self) -> tuple[list[Cx], list[Cx]]:
+        # d/dt e^{j psi} = j dpsi e^{j psi}  (paper (7)-(12))
+        def build():
+            rates = [e.times_j().scale(self._dpsi[k]) for k, e in enumerate(self._frames())]
+            return self._propagate(rates)
+
+        return self._memo("velocities", build)
+
+    def _phasor_accelerations(self, ddpsi, static: bool = False) -> list[Cx]:
+        """d^2/dt^2 e^{j psi_k} = (j ddpsi_k - dpsi_k^2) e^{j psi_k} (zero when static)."""
+        if static:
+            return [ZERO] * self.n
+        out = []
+        for k, e in enumerate(self._frames()):
+            w2 = self._dpsi[k] * self._dpsi[k]
+            if ddpsi is None:  # bias terms only
+                out.append(e.scale(-w2))
+            else:
+                out.append(Cx(-w2 * e.re - ddpsi[k] * e.im, ddpsi[k] * e.re - w2 * e.im))
+        return out
+
+    def _lagrange(self, ddpsi, static: bool = False) -> tuple[list[ca.SX], Cx]:
+        """Left-hand sides of Lagrange's equations, in hinge-torque form, and the ground force.
+
+        Returns (M, F): hinge torques M_k (sum of the generalised forces Q over the subtree of
+        k) and F = sum_i m_i (d^2w_i/dt^2 + j g), the force the ground applies at H0.
+        ``ddpsi=None`` gives the bias (velocity and gravity) terms alone; ``static=True`` the
+        gravity terms alone (dpsi = ddpsi = 0).
+        """
+        linkage = self._linkage
+        n, g = self.n, linkage.gravity
+        children = linkage.children
+        _, acc = self._propagate(self._phasor_accelerations(ddpsi, static))
+        # d'Alembert force plus weight of each link: m_i (d^2 w_i/dt^2 + j g).
+        force = [acc[i] * self._mass[i] + 1j * (self._mass[i] * g) for i in range(n)]
+        subtree_force: list[Cx] = [ZERO] * n
+        for i in reversed(range(n)):
+            total = force[i]
+            for c in children[i]:
+                total = total + subtree_force[c]
+            subtree_force[i] = total
+        frames = self._frames()
+        generalized: list[ca.SX] = []
+        for k in range(n):
+            # sum over the subtree of conj(lever) * force, lever from link k's start hinge.
+            moment = force[k] * self._com[k].conjugate()
+            for c in children[k]:
+                moment = moment + subtree_force[c] * self._origin[c].conjugate()
+            # Re(conj(j lever e^{j psi_k}) F) = Im(conj(e^{j psi_k}) conj(lever) F)
+            q = imag_of_conj_product(frames[k], moment)
+            if ddpsi is not None and self._inertia[k] != 0.0:
+                q = q + self._inertia[k] * ddpsi[k]
+            generalized.append(q)
+        torque: list[ca.SX] = [None] * n  # type: ignore[list-item]
+        for k in reversed(range(n)):
+            total = generalized[k]
+            for c in children[k]:
+                total = total + torque[c]
+            torque[k] = total
+        return torque, subtree_force[0]
+
+    def _mass_matrix_entries(self) -> ca.SX:
+        """M_km = Re( conj(o_km) K_m e^{j(psi_m - psi_k)} ) for k an ancestor of m.
+
+        o_km: the hinge on link k through which m's subtree hangs (k's frame);
+        K_m = m_m c_m + sum_{children c} o_c mass(subtree c): the first moment of m's subtree
+        about m's start hinge. Unrelated links (different branches) couple with an exact zero,
+        which keeps the tree sparsity that the forward solve exploits.
+        """
+
+        def build():
+            linkage = self._linkage
+            n = self.n
+            frames = self._frames()
+            first_moment = [
+                self._mass[m] * self._com[m]
+                + sum(self._origin[c] * self._subtree_mass[c] for c in linkage.children[m])
+                for m in range(n)
+            ]
+            entries = ca.SX(n, n)
+            for m in range(n):
+                second = self._inertia[m] + self._mass[m] * abs(self._com[m]) ** 2 + sum(
+                    abs(self._origin[c]) ** 2 * self._subtree_mass[c]
+                    for c in linkage.children[m]
+                )
+                entries[m, m] = second
+                below = m  # walk up from m: o_km is the origin of the link below k on the path
+                for k in reversed(linkage.ancestors(m)):
+                    coefficient = self._origin[below].conjugate() * first_moment[m]
+                    relative = Cx(
+                        frames[k].re * frames[m].re + frames[k].im * frames[m].im,
+                        frames[k].re * frames[m].im - frames[k].im * frames[m].re,
+                    )  # conj(e^{j psi_k}) e^{j psi_m}
+                    value = real_of_product(coefficient, relative)
+                    entries[k, m] = value
+                    entries[m, k] = value
+                    below = k
+            return entries
+
+        return self._memo("mass_matrix", build)
+
+    def _solve_mass_matrix(self, rhs: list[ca.SX]) -> list[ca.SX]:
+        """Solve M(psi) x = rhs by the sparse L^T D L factorisation of a tree's mass matrix.
+
+        (Featherstone, Rigid Body Dynamics Algorithms, sec. 6.3.) With parents numbered before
+        children the factorisation has no fill-in, needs no pivoting (M is SPD) and costs
+        O(n d^2) for depth d. No inverse is formed.
+        """
+        parents = self._linkage.parents
+        n = self.n
+        entries = self._mass_matrix_entries()
+        h = {(i, j): entries[i, j] for i in range(n) for j in range(i + 1) if j == i or j in self._linkage.ancestors(i)}
+        for k in reversed(range(n)):
+            i = parents[k]
+            while i >= 0:
+                a = h[k, i] / h[k, k]
+                j = i
+                while j >= 0:
+                    h[i, j] = h[i, j] - a * h[k, j]
+                    j = parents[j]
+                h[k, i] = a
+                i = parents[i]
+        x = list(rhs)
+        for i in reversed(range(n)):  # x <- L^{-T} x
+            j = parents[i]
+            while j >= 0:
+                x[j] = x[j] - h[i, j] * x[i]
+                j = parents[j]
+        x = [x[i] / h[i, i] for i in range(n)]  # x <- D^{-1} x
+        for i in range(n):  # x <- L^{-1} x
+            j = parents[i]
+            while j >= 0:
+                x[i] = x[i] - h[i, j] * x[j]
+                j = parents[j]
+        return x
+
+    def _generalized_from_torques(self, torque) -> list[ca.SX]:
+        """Q_k = M_k - sum_{children c} M_c."""
+        children = self._linkage.children
+        return [torque[k] - sum(torque[c] for c in children[k]) for k in range(self.n)]
+
+    # ---- Function bodies -----------------------------------------------------------------
+    def _build_hinge_positions(self):
+        start, _ = self._positions()
+        frames = self._frames()
+        ends = [start[k] + self._length[k] * frames[k] for k in range(self.n)]
+        root = start[0]
+        points = [root, *ends]
+        return [ca.vertcat(*[p.re for p in points]), ca.vertcat(*[p.im for p in points])]
+
+    def _build_hinge_velocities(self):
+        start, _ = self._velocities()
+        frames = self._frames()
+        ends = [
+            start[k] + (self._length[k] * frames[k].times_j()).scale(self._dpsi[k])
+            for k in range(self.n)
+        ]
+        points = [ZERO, *ends]
+        return [ca.vertcat(*[p.re for p in points]), ca.vertcat(*[p.im for p in points])]
+
+    def _build_com_positions(self):
+        _, com = self._positions()
+        return [ca.vertcat(*[c.re for c in com]), ca.vertcat(*[c.im for c in com])]
+
+    def _build_com_velocities(self):
+        _, com = self._velocities()
+        return [ca.vertcat(*[c.re for c in com]), ca.vertcat(*[c.im for c in com])]
+
+    def _build_energy(self):
+        _, com_velocity = self._velocities()
+        _, com = self._positions()
+        kinetic = 0.5 * sum(
+            self._mass[i] * com_velocity[i].abs2()
+            + self._inertia[i] * self._dpsi[i] * self._dpsi[i]
+            for i in range(self.n)
+        )
+        potential = self._linkage.gravity * sum(
+            self._mass[i] * com[i].im for i in range(self.n)
+        )
+        return [kinetic, potential]
+
+    def _build_mass_matrix(self):
+        return [self._mass_matrix_entries()]
+
+    def _full_lagrange(self) -> tuple[list[ca.SX], Cx]:
+        return self._memo("lagrange", lambda: self._lagrange(self._ddpsi))
+
+    def _build_inverse_dynamics(self):
+        torque, _ = self._full_lagrange()
+        return [ca.vertcat(*torque)]
+
+    def _build_gravity_torques(self):
+        torque, _ = self._lagrange(None, static=True)
+        return [ca.vertcat(*torque)]
+
+    def _build_forward_dynamics(self):
+        return [ca.vertcat(*self._forward_expressions())]
+
+    def _forward_expressions(self) -> list[ca.SX]:
+        def build():
+            bias, _ = self._lagrange(None)
+            bias_q = self._generalized_from_torques(bias)
+            applied_q = self._generalized_from_torques([self._torque[k] for k in range(self.n)])
+            rhs = [applied_q[k] - bias_q[k] for k in range(self.n)]
+            return self._solve_mass_matrix(rhs)
+
+        return self._memo("forward", build)
+
+    def _build_dynamics_residual(self):
+        torque, _ = self._full_lagrange()
+        return [ca.vertcat(*torque) - self._torque]
+
+    def _build_ground_reaction(self):
+        _, force = self._full_lagrange()
+        return [force.re, force.im]
+
+    def _build_ode(self):
+        return [ca.vertcat(self._dpsi, *self._forward_expressions())]
+
+    # ---- numeric evaluation ---------------------------------------------------------------
+    def _evaluate(self, name: str, *arrays: np.ndarray) -> list[np.ndarray]:
+        """Evaluate Function ``name`` on one state or a batch; returns per-output arrays with
+        the batch as the leading axis (dropped again for a single state)."""
+        function = self.function(name)
+        batch, columns = _as_columns(function, arrays)
+        if columns.__len__() and columns[0].shape[1] >= NumpyTape.MIN_BATCH:
+            tape = self._tape(name)
+            if tape is not None:
+                results = tape(columns)
+                return [_restore(r, function.sparsity_out(i), batch) for i, r in enumerate(results)]
+        raw = function.call(columns)
+        return [
+            _restore(np.asarray(raw[i]), function.sparsity_out(i), batch, dense_columns=True)
+            for i in range(function.n_out())
+        ]
+
+    def _tape(self, name: str) -> NumpyTape | None:
+        if name not in self._tapes:
+            self._tapes[name] = NumpyTape.try_build(self.function(name))
+        return self._tapes[name]
+
+    def mass_matrix(self, psi) -> np.ndarray:
+        """Generalised mass matrix, kg m^2: (n, n) or (K, n, n)."""
+        return self._evaluate("mass_matrix", psi)[0]
+
+    def inverse_dynamics(self, psi, dpsi, ddpsi) -> np.ndarray:
+        """Hinge torques M, N m: (n,) or (K, n)."""
+        return self._evaluate("inverse_dynamics", psi, dpsi, ddpsi)[0]
+
+    def gravity_torques(self, psi) -> np.ndarray:
+        """Hinge torques that hold the pose psi at rest, N m: (n,) or (K, n)."""
+        return self._evaluate("gravity_torques", psi)[0]
+
+    def forward_dynamics(self, psi, dpsi, torques) -> np.ndarray:
+        """Angular accelerations ddpsi, rad/s^2: (n,) or (K, n)."""
+        return self._evaluate("forward_dynamics", psi, dpsi, torques)[0]
+
+    def dynamics_residual(self, psi, dpsi, ddpsi, torques) -> np.ndarray:
+        """inverse_dynamics(psi, dpsi, ddpsi) - torques, N m: (n,) or (K, n)."""
+        return self._evaluate("dynamics_residual", psi, dpsi, ddpsi, torques)[0]
+
+    def energy(self, psi, dpsi) -> tuple[np.ndarray, np.ndarray]:
+        """(kinetic, potential) energy, J: scalars or (K,) arrays."""
+        kinetic, potential = self._evaluate("energy", psi, dpsi)
+        return kinetic, potential
+
+    def hinge_positions(self, psi) -> np.ndarray:
+        """Hinges H0..Hn as complex numbers x + j y, m: (n+1,) or (K, n+1)."""
+        x, y = self._evaluate("hinge_positions", psi)
+        return x + 1j * y
+
+    def hinge_velocities(self, psi, dpsi) -> np.ndarray:
+        """Velocities of H0..Hn, complex, m/s: (n+1,) or (K, n+1)."""
+        x, y = self._evaluate("hinge_velocities", psi, dpsi)
+        return x + 1j * y
+
+    def com_positions(self, psi) -> np.ndarray:
+        """Centres of mass w_i, complex, m: (n,) or (K, n)."""
+        x, y = self._evaluate("com_positions", psi)
+        return x + 1j * y
+
+    def com_velocities(self, psi, dpsi) -> np.ndarray:
+        """dw_i/dt, complex, m/s: (n,) or (K, n)."""
+        x, y = self._evaluate("com_velocities", psi, dpsi)
+        return x + 1j * y
+
+    def ground_reaction(self, psi, dpsi, ddpsi) -> np.ndarray:
+        """Force of the ground on the root at H0, complex Fx + j Fy, N: scalar or (K,).
+
+        F = sum_i m_i d^2w_i/dt^2 + j g sum_i m_i; Fy >= 0 means the ground pushes up.
+        """
+        fx, fy = self._evaluate("ground_reaction", psi, dpsi, ddpsi)
+        return fx + 1j * fy
+
+    def __repr__(self) -> str:
+        return f"Dynamics({self._linkage!r}; built: {list(self.built)})"
+
+
+def _as_columns(function: ca.Function, arrays) -> tuple[int | None, list[np.ndarray]]:
+    """Validate numeric inputs against the Function and lay them out as (n_i, K) columns.
+
+    Returns (K or None for a single state, list of column blocks).
+    """
+    if len(arrays) != function.n_in():
+        raise DefinitionError(
+            f"`{function.name()}`: expects {function.n_in()} arrays "
+            f"({', '.join(function.name_in())}), got {len(arrays)}"
+        )
+    batch = None
+    columns = []
+    for i, value in enumerate(arrays):
+        name = function.name_in(i)
+        size = function.size1_in(i)
+        try:
+            array = np.asarray(value, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise DefinitionTypeError(
+                f"`{name}`: must be numeric of shape ({size},) or (K, {size}), got {value!r}"
+            ) from exc
+        if array.ndim == 1 and array.shape[0] == size:
+            this = None
+            block = array[:, None]
+        elif array.ndim == 2 and array.shape[1] == size:
+            this = array.shape[0]
+            block = array.T
+        else:
+            raise DefinitionError(
+                f"`{name}`: expected shape ({size},) or (K, {size}), got {array.shape}"
+            )
+        if not np.all(np.isfinite(array)):
+            raise DefinitionError(f"`{name}`: contains NaN or inf; give finite values")
+        if i == 0:
+            batch = this
+        elif this != batch:
+            raise DefinitionError(
+                f"`{name}`: batch size {this} differs from `{function.name_in(0)}` ({batch}); "
+                "give every input the same leading dimension"
+            )
+        columns.append(np.ascontiguousarray(block))
+    return batch, columns
+
+
+def _restore(values: np.ndarray, sparsity: ca.Sparsity, batch: int | None, dense_columns=False):
+    """Turn a Function output evaluated on K columns into an array with the batch leading."""
+    rows, cols = sparsity.size1(), sparsity.size2()
+    values = np.asarray(values, dtype=float)
+    k = 1 if batch is None else batch
+    if dense_columns:
+        # CasADi returns the (rows, cols * K) horizontal concatenation, dense.
+        out = values.reshape(rows, k, cols).transpose(1, 0, 2) if cols > 1 else values.reshape(rows, k).T
+    else:
+        # The tape returns (nnz, K); scatter into dense (K, rows, cols) in column-major order.
+        dense = np.zeros((k, rows * cols))
+        dense[:, np.asarray(sparsity.find(), dtype=int)] = values.T
+        out = dense.reshape(k, cols, rows).transpose(0, 2, 1)
+        if cols == 1:
+            out = out[:, :, 0]
+    if cols == 1 and rows == 1:
+        out = out.reshape(k)
+        return float(out[0]) if batch is None else out
+    return out[0] if batch is None else out

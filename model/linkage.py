@@ -1,0 +1,393 @@
+"""Planar trees of rigid links: definition, validation and reduced sub-scenes.
+
+Conventions (``shared/DESIGN.md``): the plane is x right, y up, a point is the complex number
+z = x + j y; link i has the absolute angle psi_i measured from +x counter-clockwise; its
+frame is the complex unit e^{j psi_i}. A link runs from its start hinge to its end hinge
+(``length`` along its axis); its children start at its end hinge unless a lock moved them.
+
+Two generalisations of the paper's links make locking exact and are otherwise invisible:
+
+* ``com_lateral``: the centre of mass may sit off the link's axis (fraction of the length,
+  positive to the left of the axis). Merging a child locked at an angle produces such a body.
+* ``origin``: where the link's start hinge sits, as a complex number in metres in the parent's
+  frame (for the root: in the world frame). ``None`` means the parent's end hinge (for the
+  root: H0 at the origin). A child of a link that was locked into its parent keeps its true
+  hinge on the merged body this way.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field, replace
+
+from model.errors import DefinitionError, DefinitionTypeError, check_real
+
+
+@dataclass(frozen=True)
+class Link:
+    """One rigid link of a planar tree.
+
+    Parameters
+    ----------
+    name : str
+        Unique, non-empty name.
+    parent : str or None
+        Name of the parent link; ``None`` for the root, which starts at the ground hinge H0.
+    length : float
+        Distance from the start hinge to the end hinge, m (> 0).
+    mass : float
+        kg (> 0).
+    com : float
+        Position of the centre of mass along the axis from the start hinge, as a fraction of
+        ``length`` (the paper's n_i), in [0, 1] (a merged body may lie outside).
+    inertia : float or None
+        Moment of inertia about the centre of mass J_i, kg m^2 (>= 0). ``None``: uniform rod,
+        m l^2 / 12.
+    com_lateral : float
+        Offset of the centre of mass perpendicular to the axis, fraction of ``length``,
+        positive to the left. 0 for every paper link.
+    origin : complex or None
+        Start hinge in the parent's frame, m (root: world frame). ``None``: the parent's end
+        hinge (root: the origin).
+    merged : tuple of str
+        Names of links locked into this one (set by :meth:`Linkage.lock`).
+    """
+
+    name: str
+    parent: str | None
+    length: float
+    mass: float
+    com: float = 0.5
+    inertia: float | None = None
+    com_lateral: float = 0.0
+    origin: complex | None = None
+    merged: tuple[str, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        where = f"Link {self.name!r}" if isinstance(self.name, str) else "Link"
+        if not isinstance(self.name, str):
+            raise DefinitionTypeError(f"`Link.name`: must be a string, got {self.name!r}")
+        if not self.name.strip():
+            raise DefinitionError(f"`Link.name`: must be a non-empty string, got {self.name!r}")
+        if self.parent is not None and not isinstance(self.parent, str):
+            raise DefinitionTypeError(
+                f"`{where}.parent`: must be a link name (str) or None for the root, "
+                f"got {self.parent!r}"
+            )
+        length = check_real(f"{where}.length", self.length)
+        if length <= 0:
+            raise DefinitionError(f"`{where}.length`: must be > 0 m, got {length!r}")
+        mass = check_real(f"{where}.mass", self.mass)
+        if mass <= 0:
+            raise DefinitionError(f"`{where}.mass`: must be > 0 kg, got {mass!r}")
+        com = check_real(f"{where}.com", self.com)
+        if not self.merged and not 0.0 <= com <= 1.0:
+            raise DefinitionError(
+                f"`{where}.com`: the centre of mass fraction must lie in [0, 1] "
+                f"(0 = start hinge, 1 = end hinge), got {com!r}"
+            )
+        if self.inertia is None:
+            inertia = mass * length**2 / 12.0
+        else:
+            inertia = check_real(f"{where}.inertia", self.inertia)
+            if inertia < 0:
+                raise DefinitionError(
+                    f"`{where}.inertia`: the moment of inertia about the centre of mass must be "
+                    f">= 0 kg m^2, got {inertia!r}; use None for a uniform rod"
+                )
+        lateral = check_real(f"{where}.com_lateral", self.com_lateral)
+        origin = self.origin
+        if origin is not None:
+            if isinstance(origin, bool) or not isinstance(origin, (int, float, complex)):
+                raise DefinitionTypeError(
+                    f"`{where}.origin`: must be a complex number (m) or None, got {origin!r}"
+                )
+            origin = complex(origin)
+            if not cmath.isfinite(origin):
+                raise DefinitionError(f"`{where}.origin`: must be finite, got {origin!r}")
+        if not isinstance(self.merged, tuple) or not all(isinstance(m, str) for m in self.merged):
+            raise DefinitionTypeError(f"`{where}.merged`: must be a tuple of link names")
+        # Store canonical floats so equality and hashing behave.
+        object.__setattr__(self, "length", length)
+        object.__setattr__(self, "mass", mass)
+        object.__setattr__(self, "com", com)
+        object.__setattr__(self, "inertia", inertia)
+        object.__setattr__(self, "com_lateral", lateral)
+        object.__setattr__(self, "origin", origin)
+
+    @property
+    def com_offset(self) -> complex:
+        """Centre of mass in the link's own frame, m (complex: along + j across the axis)."""
+        return self.length * complex(self.com, self.com_lateral)
+
+    @property
+    def inertia_about_start(self) -> float:
+        """The paper's I_i: moment of inertia about the start hinge, kg m^2."""
+        return self.inertia + self.mass * abs(self.com_offset) ** 2
+
+    @property
+    def is_paper_link(self) -> bool:
+        """True when the link has the paper's form: centre of mass on the axis, starting at
+        the parent's end hinge (or at H0 for the root)."""
+        return self.com_lateral == 0.0 and self.origin is None
+
+
+class Linkage:
+    """A validated planar tree of links with gravity.
+
+    Parameters
+    ----------
+    links : sequence of Link
+        In an order where each parent comes before its children. Every array of the model
+        (angles, torques, ...) follows this order.
+    gravity : float
+        Magnitude g of gravity along -y, m/s^2 (>= 0).
+
+    Raises
+    ------
+    DefinitionError, DefinitionTypeError
+        At construction, naming the field, the value and the fix.
+    """
+
+    def __init__(self, links: Sequence[Link], gravity: float = 9.81) -> None:
+        if isinstance(links, (str, bytes)) or not isinstance(links, Iterable):
+            raise DefinitionTypeError(
+                f"`links`: must be a sequence of model.Link, got {type(links).__name__}"
+            )
+        links = tuple(links)
+        if not links:
+            raise DefinitionError("`links`: the tree is empty; give at least one model.Link")
+        for i, link in enumerate(links):
+            if not isinstance(link, Link):
+                raise DefinitionTypeError(
+                    f"`links[{i}]`: must be a model.Link, got {type(link).__name__}"
+                )
+        g = check_real("gravity", gravity)
+        if g < 0:
+            raise DefinitionError(
+                f"`gravity`: the magnitude of g (acting along -y) must be >= 0 m/s^2, got {g!r}"
+            )
+        index: dict[str, int] = {}
+        for i, link in enumerate(links):
+            if link.name in index:
+                raise DefinitionError(
+                    f"`links[{i}].name`: duplicate name {link.name!r} (also links[{index[link.name]}]); "
+                    "give every link a unique name"
+                )
+            index[link.name] = i
+        names = [link.name for link in links]
+        parents: list[int] = []
+        root = None
+        for i, link in enumerate(links):
+            if link.parent is None:
+                if root is not None:
+                    raise DefinitionError(
+                        f"`links[{i}].parent`: None makes {link.name!r} a second root "
+                        f"(the root is {links[root].name!r}); a tree has one root: name its parent"
+                    )
+                root = i
+                parents.append(-1)
+                continue
+            if link.parent not in index:
+                raise DefinitionError(
+                    f"`links[{i}].parent`: unknown parent {link.parent!r} of {link.name!r}; "
+                    f"known links: {names}"
+                )
+            p = index[link.parent]
+            if p >= i:
+                raise DefinitionError(
+                    f"`links[{i}].parent`: parent {link.parent!r} of {link.name!r} comes after it "
+                    f"(links[{p}]); order the links so that each parent comes before its children"
+                )
+            parents.append(p)
+        if root != 0:
+            raise DefinitionError(
+                "`links[0].parent`: the first link must be the root (parent None), "
+                f"got parent {links[0].parent!r}"
+            )
+        self._links = links
+        self._gravity = g
+        self._index = index
+        self._parents = tuple(parents)
+        self._children = tuple(
+            tuple(c for c in range(len(links)) if parents[c] == i) for i in range(len(links))
+        )
+
+    # ---- read access -------------------------------------------------------------------
+    @property
+    def links(self) -> tuple[Link, ...]:
+        return self._links
+
+    @property
+    def gravity(self) -> float:
+        """g, m/s^2, acting along -y."""
+        return self._gravity
+
+    @property
+    def n(self) -> int:
+        """Number of links = number of generalised coordinates psi."""
+        return len(self._links)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(link.name for link in self._links)
+
+    @property
+    def parents(self) -> tuple[int, ...]:
+        """Parent index of each link, -1 for the root."""
+        return self._parents
+
+    @property
+    def children(self) -> tuple[tuple[int, ...], ...]:
+        """Child indices of each link."""
+        return self._children
+
+    def index(self, name: str) -> int:
+        """Position of the link called ``name``."""
+        if name not in self._index:
+            raise DefinitionError(f"`name`: no link called {name!r}; known links: {list(self.names)}")
+        return self._index[name]
+
+    def ancestors(self, i: int) -> tuple[int, ...]:
+        """Strict ancestors of link i, root first."""
+        chain = []
+        p = self._parents[i]
+        while p >= 0:
+            chain.append(p)
+            p = self._parents[p]
+        return tuple(reversed(chain))
+
+    def subtree(self, i: int) -> tuple[int, ...]:
+        """Link i and all its descendants, in link order."""
+        return tuple(k for k in range(self.n) if k == i or i in self.ancestors(k))
+
+    def origin_in_parent(self, i: int) -> complex:
+        """Start hinge of link i in its parent's frame, m (root: world position of H0)."""
+        link = self._links[i]
+        if link.origin is not None:
+            return link.origin
+        p = self._parents[i]
+        return 0j if p < 0 else complex(self._links[p].length)
+
+    @property
+    def is_paper_form(self) -> bool:
+        """True when every link has the paper's form (see :attr:`Link.is_paper_link`)."""
+        return all(link.is_paper_link for link in self._links)
+
+    def parameters(self) -> dict:
+        """Plain-data description (for metadata in exported files)."""
+        return {
+            "gravity": self._gravity,
+            "links": [
+                {
+                    "name": link.name,
+                    "parent": link.parent,
+                    "length": link.length,
+                    "mass": link.mass,
+                    "com": link.com,
+                    "inertia": link.inertia,
+                    "com_lateral": link.com_lateral,
+                    "origin": None if link.origin is None else [link.origin.real, link.origin.imag],
+                    "merged": list(link.merged),
+                }
+                for link in self._links
+            ],
+        }
+
+    # ---- sub-scenes ---------------------------------------------------------------------
+    def drop(self, *names: str) -> Linkage:
+        """A new Linkage without the named links and their whole subtrees.
+
+        The masses of dropped links vanish from the model (use :meth:`lock` to keep them).
+        """
+        if not names:
+            raise DefinitionError("`names`: give at least one link name to drop")
+        removed: set[int] = set()
+        for name in names:
+            i = self.index(name)
+            if self._parents[i] < 0:
+                raise DefinitionError(
+                    f"`names`: {name!r} is the root; dropping it leaves nothing. Drop its children"
+                )
+            removed.update(self.subtree(i))
+        kept = [link for k, link in enumerate(self._links) if k not in removed]
+        return Linkage(kept, gravity=self._gravity)
+
+    def lock(self, name: str, angle: float = 0.0) -> Linkage:
+        """A new Linkage with link ``name`` welded to its parent at a relative angle.
+
+        psi_name = psi_parent + angle (rad) for all time. Mass, centre of mass and inertia
+        merge exactly into the parent; the locked link's children stay on their true hinge
+        (their ``origin`` moves into the parent's frame), and their angles stay absolute.
+        """
+        angle = check_real("angle", angle)
+        c = self.index(name)
+        p = self._parents[c]
+        if p < 0:
+            raise DefinitionError(
+                f"`name`: {name!r} is the root; it has no parent link to lock to. "
+                "Lock one of its children instead"
+            )
+        parent, child = self._links[p], self._links[c]
+        turn = cmath.exp(1j * angle)  # child frame -> parent frame
+        start = self.origin_in_parent(c)
+        com_p = parent.com_offset
+        com_c = start + child.com_offset * turn
+        mass = parent.mass + child.mass
+        com = (parent.mass * com_p + child.mass * com_c) / mass
+        inertia = (
+            parent.inertia
+            + parent.mass * abs(com_p - com) ** 2
+            + child.inertia
+            + child.mass * abs(com_c - com) ** 2
+        )
+        merged_parent = replace(
+            parent,
+            mass=mass,
+            com=com.real / parent.length,
+            com_lateral=com.imag / parent.length,
+            inertia=inertia,
+            merged=(*parent.merged, child.name, *child.merged),
+        )
+        new_links = []
+        for k, link in enumerate(self._links):
+            if k == c:
+                continue
+            if k == p:
+                new_links.append(merged_parent)
+            elif self._parents[k] == c:
+                hinge = start + self.origin_in_parent(k) * turn
+                new_links.append(replace(link, parent=parent.name, origin=hinge))
+            else:
+                new_links.append(link)
+        return Linkage(new_links, gravity=self._gravity)
+
+    # ---- dunder -------------------------------------------------------------------------
+    def __eq__(self, other: object) -> bool:
+        return (
+            isinstance(other, Linkage)
+            and self._links == other._links
+            and self._gravity == other._gravity
+        )
+
+    def __hash__(self) -> int:
+        return hash((self._links, self._gravity))
+
+    def __repr__(self) -> str:
+        rows = ", ".join(
+            f"{link.name}<-{link.parent or 'ground'}" for link in self._links
+        )
+        return f"Linkage({self.n} links: {rows}; g={self._gravity})"
+
+    def dynamics(self):
+        """The complex-variable Lagrange model of this tree (functions built on demand)."""
+        from model.dynamics import Dynamics
+
+        return Dynamics(self)
+
+
+def total_mass(linkage: Linkage) -> float:
+    """Sum of the link masses, kg."""
+    return math.fsum(link.mass for link in linkage.links)

@@ -1,0 +1,113 @@
+"""Ready linkages: the paper's six-link anthropoid and relatives.
+
+``six_link_anthropoid`` is exactly the canonical scene of ``shared/scene.md`` (names,
+numbering, parameters): 1 stance shank (from H0), 2 stance thigh (to the hip H2), 3 swing
+thigh, 4 swing shank, 5 torso, 6 head, with J about each centre of mass.
+"""
+
+from __future__ import annotations
+
+from model.errors import DefinitionError, DefinitionTypeError, check_real
+from model.linkage import Link, Linkage
+
+#: The scene.md table: name, parent, l (m), m (kg), n, J (kg m^2).
+SIX_LINK_TABLE: tuple[tuple[str, str | None, float, float, float, float], ...] = (
+    ("stance_shank", None, 0.43, 3.3, 0.57, 0.05),
+    ("stance_thigh", "stance_shank", 0.43, 7.0, 0.57, 0.12),
+    ("swing_thigh", "stance_thigh", 0.43, 7.0, 0.43, 0.12),
+    ("swing_shank", "swing_thigh", 0.43, 3.3, 0.43, 0.05),
+    ("torso", "stance_thigh", 0.50, 34.0, 0.55, 0.90),
+    ("head", "torso", 0.25, 5.3, 0.50, 0.03),
+)
+
+_FIELDS = ("length", "mass", "com", "inertia")
+
+
+def six_link_anthropoid(gravity: float = 9.81, **overrides) -> Linkage:
+    """The paper's six-link branched mechanism with the scene.md parameters.
+
+    Overrides change one parameter of one link: ``six_link_anthropoid(torso_mass=40.0,
+    head_com=0.6)``; the key is ``<link name>_<length|mass|com|inertia>``.
+    """
+    values = {
+        name: {"length": l, "mass": m, "com": n, "inertia": j}
+        for name, _, l, m, n, j in SIX_LINK_TABLE
+    }
+    for key, value in overrides.items():
+        for name in values:
+            prefix = name + "_"
+            if key.startswith(prefix) and key[len(prefix):] in _FIELDS:
+                values[name][key[len(prefix):]] = value
+                break
+        else:
+            raise DefinitionError(
+                f"`{key}`: unknown override; use <link>_<field> with link in "
+                f"{[row[0] for row in SIX_LINK_TABLE]} and field in {list(_FIELDS)}"
+            )
+    links = [Link(name, parent, **values[name]) for name, parent, *_ in SIX_LINK_TABLE]
+    return Linkage(links, gravity=gravity)
+
+
+def five_link_biped(gravity: float = 9.81) -> Linkage:
+    """The six-link scene without the head: two legs and a torso meeting at the hip."""
+    return six_link_anthropoid(gravity=gravity).drop("head")
+
+
+def n_link_chain(
+    n: int,
+    length: float = 1.0,
+    mass: float = 1.0,
+    com: float = 0.5,
+    inertia: float | None = None,
+    gravity: float = 9.81,
+) -> Linkage:
+    """A serial chain of ``n`` identical links named link1..linkn (an n-link pendulum)."""
+    if isinstance(n, bool) or not isinstance(n, int):
+        raise DefinitionTypeError(f"`n`: must be an integer number of links, got {n!r}")
+    if n < 1:
+        raise DefinitionError(f"`n`: must be >= 1 link, got {n}")
+    check_real("length", length)
+    links = [
+        Link(f"link{i + 1}", None if i == 0 else f"link{i}", length, mass, com, inertia)
+        for i in range(n)
+    ]
+    return Linkage(links, gravity=gravity)
+
+
+def exoskeleton_leg(
+    body_mass: float = 75.0,
+    height: float = 1.75,
+    gravity: float = 9.81,
+) -> Linkage:
+    """A three-link exoskeleton leg hanging from a fixed hip: thigh, shank, foot.
+
+    The hip is H0 (the support frame of a test rig); segment lengths, masses, centre-of-mass
+    fractions and radii of gyration scale with body mass and height (Winter's anthropometric
+    table, Biomechanics and Motor Control of Human Movement, table 4.1): thigh 0.245 H,
+    0.100 M, n 0.433, radius of gyration 0.323 l; shank 0.246 H, 0.0465 M, n 0.433, 0.302 l;
+    foot (heel to toe) 0.152 H, 0.0145 M, n 0.50, 0.475 l.
+    """
+    body_mass = check_real("body_mass", body_mass)
+    height = check_real("height", height)
+    if body_mass <= 0:
+        raise DefinitionError(f"`body_mass`: must be > 0 kg, got {body_mass}")
+    if height <= 0:
+        raise DefinitionError(f"`height`: must be > 0 m, got {height}")
+    rows = (
+        ("thigh", None, 0.245, 0.100, 0.433, 0.323),
+        ("shank", "thigh", 0.246, 0.0465, 0.433, 0.302),
+        ("foot", "shank", 0.152, 0.0145, 0.50, 0.475),
+    )
+    links = []
+    for name, parent, length_ratio, mass_ratio, com, gyration in rows:
+        length = length_ratio * height
+        mass = mass_ratio * body_mass
+        links.append(Link(name, parent, length, mass, com, mass * (gyration * length) ** 2))
+    return Linkage(links, gravity=gravity)
+
+
+PRESETS = {
+    "six-link": six_link_anthropoid,
+    "five-link": five_link_biped,
+    "exoskeleton-leg": exoskeleton_leg,
+}
