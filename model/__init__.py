@@ -1,8 +1,8 @@
 """Complex-variable Lagrange models of planar link trees, generated as CasADi SX.
 
-    >>> from model import presets
-    >>> dyn = presets.six_link_anthropoid().dynamics()
-    >>> dyn.inverse_dynamics(psi, dpsi, ddpsi)        # hinge torques, N m
+>>> from model import presets
+>>> dyn = presets.six_link_anthropoid().dynamics()
+>>> dyn.inverse_dynamics(psi, dpsi, ddpsi)        # hinge torques, N m
 """
 
 from model import presets

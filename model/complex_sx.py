@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import casadi as ca
+import numpy as np
 
 Number = float | complex
 
@@ -77,6 +78,36 @@ def expj(angle: ca.SX) -> Cx:
 
 
 ZERO = Cx(0.0, 0.0)
+
+
+class Constants:
+    """A vector of complex constants held as CasADi DM parts, converted once."""
+
+    def __init__(self, values) -> None:
+        c = np.asarray(values, dtype=complex).reshape(-1)
+        self.values = c
+        self.re = ca.DM(c.real)
+        self.im = ca.DM(c.imag)
+        self.is_real = not np.any(c.imag)
+
+    def conj(self) -> Constants:
+        return Constants(np.conj(self.values))
+
+
+def times_constants(z: Cx, constants: Constants) -> Cx:
+    """Elementwise z * c for a vector z and a vector of complex constants c.
+
+    Real constants (every paper link) cost two products per element, not four.
+    """
+    re, im = constants.re, constants.im
+    if constants.is_real:
+        return Cx(re * z.re, re * z.im)
+    return Cx(re * z.re - im * z.im, re * z.im + im * z.re)
+
+
+def apply(operator: ca.DM, z: Cx) -> Cx:
+    """A real constant matrix (a tree operator) applied to both parts of z."""
+    return Cx(ca.mtimes(operator, z.re), ca.mtimes(operator, z.im))
 
 
 def real_of_product(constant: complex, z: Cx) -> ca.SX:

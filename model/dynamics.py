@@ -31,7 +31,7 @@ from collections.abc import Callable
 import casadi as ca
 import numpy as np
 
-from model.complex_sx import ZERO, Cx, expj, imag_of_conj_product, real_of_product
+from model.complex_sx import Constants, Cx, apply, expj, imag_of_conj_product, times_constants
 from model.errors import DefinitionError, DefinitionTypeError
 from model.linkage import Linkage
 from model.numpy_tape import NumpyTape
@@ -72,13 +72,18 @@ class Dynamics:
     pass (no Python loop over states).
     """
 
-    def __init__(self, linkage: Linkage) -> None:
+    def __init__(self, linkage: Linkage, cse: bool | None = None) -> None:
         if not isinstance(linkage, Linkage):
             raise DefinitionTypeError(
                 f"`linkage`: must be a model.Linkage, got {type(linkage).__name__}"
             )
         self._linkage = linkage
         n = linkage.n
+        depth = max(len(linkage.ancestors(i)) for i in range(n))
+        # Common-subexpression elimination turns the path sums of deep trees back into
+        # running sums (O(n) instead of O(n d) instructions); on shallow trees it saves a few
+        # percent of instructions and costs more generation time than it saves.
+        self._cse = depth >= 5 if cse is None else bool(cse)
         self._psi = ca.SX.sym("psi", n)
         self._dpsi = ca.SX.sym("dpsi", n)
         self._ddpsi = ca.SX.sym("ddpsi", n)
@@ -98,6 +103,48 @@ class Dynamics:
         for i in reversed(range(n)):
             subtree_mass[i] = self._mass[i] + sum(subtree_mass[c] for c in linkage.children[i])
         self._subtree_mass = subtree_mass
+        # Constants converted to CasADi once (each conversion costs microseconds).
+        self._origin_vector = Constants(self._origin)
+        self._origin_conj = self._origin_vector.conj()
+        self._com_vector = Constants(self._com)
+        self._com_conj = self._com_vector.conj()
+        self._length_vector = Constants(self._length)
+        self._mass_dm = ca.DM(self._mass)
+        self._weight_dm = ca.DM(self._mass) * linkage.gravity
+        self._inertia_dm = ca.DM(self._inertia)
+        self._mass_coefficients, self._mass_pattern, self._mass_diagonal = self._mass_constants()
+
+    def _mass_constants(self) -> tuple[np.ndarray, ca.Sparsity, np.ndarray]:
+        """Constant parts of the mass matrix: D_km (lower triangle), its pattern, diagonal."""
+        linkage = self._linkage
+        n = self.n
+        first_moment = [
+            self._mass[m] * self._com[m]
+            + sum(self._origin[c] * self._subtree_mass[c] for c in linkage.children[m])
+            for m in range(n)
+        ]
+        coefficient = np.zeros((n, n), dtype=complex)
+        diagonal = np.zeros(n)
+        rows, cols = [], []
+        for m in range(n):
+            diagonal[m] = (
+                self._inertia[m]
+                + self._mass[m] * abs(self._com[m]) ** 2
+                + sum(
+                    abs(self._origin[c]) ** 2 * self._subtree_mass[c] for c in linkage.children[m]
+                )
+            )
+            rows.append(m)
+            cols.append(m)
+            below = m  # walking up from m; o_km is the origin of the link below k on the path
+            for k in reversed(linkage.ancestors(m)):
+                # entry (m, k), m > k: Re(conj(o_km) K_m conj(e_k) e_m)
+                coefficient[m, k] = np.conj(self._origin[below]) * first_moment[m]
+                rows.append(m)
+                cols.append(k)
+                below = k
+        pattern = ca.Sparsity.triplet(n, n, rows, cols)
+        return coefficient, pattern, diagonal
 
     # ---- catalogue ----------------------------------------------------------------------
     @property
@@ -128,7 +175,9 @@ class Dynamics:
             inputs, outputs, _ = FUNCTIONS[name]
             expressions = getattr(self, "_build_" + name)()
             symbols = [self._symbol(k) for k in inputs]
-            self._functions[name] = ca.Function(name, symbols, expressions, inputs, outputs)
+            self._functions[name] = ca.Function(
+                name, symbols, expressions, inputs, outputs, {"cse": self._cse}
+            )
             self.generation_seconds[name] = time.perf_counter() - start
             logger.debug("generated %s in %.3f ms", name, 1e3 * self.generation_seconds[name])
         return self._functions[name]
@@ -138,9 +187,49 @@ class Dynamics:
             return ca.vertcat(self._psi, self._dpsi)
         if name == "u":
             return self._torque
-        return {"psi": self._psi, "dpsi": self._dpsi, "ddpsi": self._ddpsi, "M": self._torque}[
-            name
-        ]
+        return {"psi": self._psi, "dpsi": self._dpsi, "ddpsi": self._ddpsi, "M": self._torque}[name]
+
+    # ---- tree operators (constant 0/1 matrices) ---------------------------------------
+    def _operators(self) -> dict[str, ca.DM]:
+        """Sparse constant matrices that walk the tree in one wide operation each.
+
+        ``path``: path[i, m] = 1 when m lies on the path from the root to i (m ancestor of i,
+        or i itself). ``subtree``: subtree[k, i] = 1 when i is k or a descendant of k.
+        ``parent``: parent[k, p(k)] = 1 (zero row for the root). ``children``: its transpose.
+
+        Sums through ``path`` and ``subtree`` share their partial sums after CasADi's common
+        subexpression elimination, so they cost O(n) instructions, like a recursion, while
+        generation needs O(1) Python calls instead of O(n).
+        """
+
+        def build():
+            linkage = self._linkage
+            n = self.n
+            path = np.zeros((n, n))
+            parent = np.zeros((n, n))
+            for i in range(n):
+                path[i, i] = 1.0
+                for m in linkage.ancestors(i):
+                    path[i, m] = 1.0
+                if linkage.parents[i] >= 0:
+                    parent[i, linkage.parents[i]] = 1.0
+            # Subtree sums run from the highest index down, so that a child's subtree sum is
+            # a prefix of its parent's (CasADi accumulates a sparse product column by column).
+            flip = np.eye(n)[::-1]
+            return {
+                "path": ca.sparsify(ca.DM(path)),
+                "subtree_flipped": ca.sparsify(ca.DM(flip @ path.T @ flip)),
+                "flip": ca.sparsify(ca.DM(flip)),
+                "parent": ca.sparsify(ca.DM(parent)),
+                "children": ca.sparsify(ca.DM(parent.T)),
+            }
+
+        return self._memo("operators", build)
+
+    def _subtree_sum(self, v: ca.SX) -> ca.SX:
+        """(subtree @ v): for each link, the sum of v over the link and its descendants."""
+        ops = self._operators()
+        return ca.mtimes(ops["flip"], ca.mtimes(ops["subtree_flipped"], ca.mtimes(ops["flip"], v)))
 
     # ---- shared symbolic building blocks (each built once) -----------------------------
     def _memo(self, key: str, build: Callable[[], object]):
@@ -148,133 +237,101 @@ class Dynamics:
             self._cache[key] = build()
         return self._cache[key]
 
-    def _frames(self) -> list[Cx]:
-        """e^{j psi_k} for every link: the only transcendental functions of the model."""
-        return self._memo("frames", lambda: [expj(self._psi[k]) for k in range(self.n)])
+    def _frames(self) -> Cx:
+        """e^{j psi_k} for every link (vector): the only transcendental functions."""
+        return self._memo("frames", lambda: expj(self._psi))
 
-    def _propagate(self, per_link: list[Cx]) -> tuple[list[Cx], list[Cx]]:
-        """Start hinges and centres of mass from per-link phasor terms.
+    def _propagate(self, phasor: Cx) -> tuple[Cx, Cx]:
+        """Start hinges and centres of mass from per-link phasor terms (paper (1)-(12)).
 
-        ``per_link[k]`` is e^{j psi_k} (positions), its first or its second time derivative
-        (velocities, accelerations): the same sums of exponentials serve all three.
-        Returns (start hinge of each link, centre of mass of each link).
+        ``phasor`` is e^{j psi} (positions), its first or its second time derivative
+        (velocities, accelerations): the same sums of exponentials serve all three. Each start
+        hinge is the sum, along the path from the root, of o_m e^{j psi_parent(m)}.
+        Returns (start hinges, centres of mass), complex vectors relative to H0.
         """
-        parents = self._linkage.parents
-        start: list[Cx] = []
-        com: list[Cx] = []
-        for k in range(self.n):
-            p = parents[k]
-            base = ZERO if p < 0 else start[p] + self._origin[k] * per_link[p]
-            start.append(base)
-            com.append(base + self._com[k] * per_link[k])
-        return start, com
+        ops = self._operators()
+        lever = times_constants(apply(ops["parent"], phasor), self._origin_vector)
+        start = apply(ops["path"], lever)
+        return start, start + times_constants(phasor, self._com_vector)
 
-    def _positions(self) -> tuple[list[Cx], list[Cx]]:
+    def _positions(self) -> tuple[Cx, Cx]:
         def build():
             start, com = self._propagate(self._frames())
-            root = self._origin[0]  # the root's start is fixed in the world
-            return [s + root for s in start], [c + root for c in com]
+            root = self._origin[0]  # the root's start hinge is fixed in the world
+            return start + root, com + root
 
         return self._memo("positions", build)
 
-    def _velocities(self) -> tuple[list[Cx], list[Cx]]:
-        # d/dt e^{j psi} = j dpsi e^{j psi}  (paper (7)-(12))
-        def build():
-            rates = [e.times_j().scale(self._dpsi[k]) for k, e in enumerate(self._frames())]
-            return self._propagate(rates)
+    def _phasor_rates(self) -> Cx:
+        """d/dt e^{j psi} = j dpsi e^{j psi}  (paper (7)-(12))."""
+        return self._memo("rates", lambda: self._frames().times_j().scale(self._dpsi))
 
-        return self._memo("velocities", build)
+    def _velocities(self) -> tuple[Cx, Cx]:
+        return self._memo("velocities", lambda: self._propagate(self._phasor_rates()))
 
-    def _phasor_accelerations(self, ddpsi, static: bool = False) -> list[Cx]:
-        """d^2/dt^2 e^{j psi_k} = (j ddpsi_k - dpsi_k^2) e^{j psi_k} (zero when static)."""
-        if static:
-            return [ZERO] * self.n
-        out = []
-        for k, e in enumerate(self._frames()):
-            w2 = self._dpsi[k] * self._dpsi[k]
-            if ddpsi is None:  # bias terms only
-                out.append(e.scale(-w2))
-            else:
-                out.append(Cx(-w2 * e.re - ddpsi[k] * e.im, ddpsi[k] * e.re - w2 * e.im))
-        return out
+    def _phasor_accelerations(self, ddpsi) -> Cx:
+        """d^2/dt^2 e^{j psi} = (j ddpsi - dpsi^2) e^{j psi}; ``ddpsi=None``: bias part only."""
+        e = self._frames()
+        w2 = self._dpsi * self._dpsi
+        if ddpsi is None:
+            return e.scale(-w2)
+        return Cx(-w2 * e.re - ddpsi * e.im, ddpsi * e.re - w2 * e.im)
 
-    def _lagrange(self, ddpsi, static: bool = False) -> tuple[list[ca.SX], Cx]:
-        """Left-hand sides of Lagrange's equations, in hinge-torque form, and the ground force.
+    def _lagrange(self, ddpsi, static: bool = False) -> tuple[ca.SX, Cx]:
+        """Left-hand sides of Lagrange's equations in hinge-torque form, and the ground force.
 
-        Returns (M, F): hinge torques M_k (sum of the generalised forces Q over the subtree of
-        k) and F = sum_i m_i (d^2w_i/dt^2 + j g), the force the ground applies at H0.
-        ``ddpsi=None`` gives the bias (velocity and gravity) terms alone; ``static=True`` the
-        gravity terms alone (dpsi = ddpsi = 0).
+        With F_i = m_i (d^2w_i/dt^2 + j g) (d'Alembert force plus weight) and the lever
+        dw_i/dpsi_k = j o e^{j psi_k}, the equation of psi_k reads
+            Q_k = Im( conj(e^{j psi_k}) [conj(c_k) F_k + sum_children conj(o_c) S_c] )
+                  + J_k ddpsi_k,
+        S_c = sum of F over the subtree of c. Hinge torques: M_k = sum of Q over the subtree.
+        Returns (M (n,), ground force sum_i F_i). ``ddpsi=None``: velocity and gravity terms
+        alone; ``static=True``: gravity alone.
         """
-        linkage = self._linkage
-        n, g = self.n, linkage.gravity
-        children = linkage.children
-        _, acc = self._propagate(self._phasor_accelerations(ddpsi, static))
-        # d'Alembert force plus weight of each link: m_i (d^2 w_i/dt^2 + j g).
-        force = [acc[i] * self._mass[i] + 1j * (self._mass[i] * g) for i in range(n)]
-        subtree_force: list[Cx] = [ZERO] * n
-        for i in reversed(range(n)):
-            total = force[i]
-            for c in children[i]:
-                total = total + subtree_force[c]
-            subtree_force[i] = total
-        frames = self._frames()
-        generalized: list[ca.SX] = []
-        for k in range(n):
-            # sum over the subtree of conj(lever) * force, lever from link k's start hinge.
-            moment = force[k] * self._com[k].conjugate()
-            for c in children[k]:
-                moment = moment + subtree_force[c] * self._origin[c].conjugate()
-            # Re(conj(j lever e^{j psi_k}) F) = Im(conj(e^{j psi_k}) conj(lever) F)
-            q = imag_of_conj_product(frames[k], moment)
-            if ddpsi is not None and self._inertia[k] != 0.0:
-                q = q + self._inertia[k] * ddpsi[k]
-            generalized.append(q)
-        torque: list[ca.SX] = [None] * n  # type: ignore[list-item]
-        for k in reversed(range(n)):
-            total = generalized[k]
-            for c in children[k]:
-                total = total + torque[c]
-            torque[k] = total
-        return torque, subtree_force[0]
+        n = self.n
+        if static:
+            acc = Cx(ca.SX.zeros(n), ca.SX.zeros(n))
+        else:
+            _, acc = self._propagate(self._phasor_accelerations(ddpsi))
+        mass = self._mass_dm
+        force = Cx(mass * acc.re, mass * acc.im + self._weight_dm)
+        subtree_force = Cx(self._subtree_sum(force.re), self._subtree_sum(force.im))
+        ops = self._operators()
+        moment = times_constants(force, self._com_conj) + apply(
+            ops["children"], times_constants(subtree_force, self._origin_conj)
+        )
+        generalized = imag_of_conj_product(self._frames(), moment)
+        if ddpsi is not None and any(self._inertia):
+            generalized = generalized + self._inertia_dm * ddpsi
+        torque = self._subtree_sum(generalized)
+        ground = Cx(subtree_force.re[0], subtree_force.im[0])
+        return torque, ground
+
+    def _full_lagrange(self) -> tuple[ca.SX, Cx]:
+        return self._memo("lagrange", lambda: self._lagrange(self._ddpsi))
 
     def _mass_matrix_entries(self) -> ca.SX:
-        """M_km = Re( conj(o_km) K_m e^{j(psi_m - psi_k)} ) for k an ancestor of m.
+        """M_km = Re( D_km conj(e^{j psi_k}) e^{j psi_m} ), D_km = conj(o_km) K_m, k ancestor of m.
 
         o_km: the hinge on link k through which m's subtree hangs (k's frame);
         K_m = m_m c_m + sum_{children c} o_c mass(subtree c): the first moment of m's subtree
-        about m's start hinge. Unrelated links (different branches) couple with an exact zero,
-        which keeps the tree sparsity that the forward solve exploits.
+        about m's start hinge. Links on different branches couple with an exact (structural)
+        zero, which keeps the tree sparsity that the forward solve exploits. The diagonal is
+        J_m + m_m |c_m|^2 + sum_c |o_c|^2 mass(subtree c).
         """
 
         def build():
-            linkage = self._linkage
-            n = self.n
-            frames = self._frames()
-            first_moment = [
-                self._mass[m] * self._com[m]
-                + sum(self._origin[c] * self._subtree_mass[c] for c in linkage.children[m])
-                for m in range(n)
-            ]
-            entries = ca.SX(n, n)
-            for m in range(n):
-                second = self._inertia[m] + self._mass[m] * abs(self._com[m]) ** 2 + sum(
-                    abs(self._origin[c]) ** 2 * self._subtree_mass[c]
-                    for c in linkage.children[m]
-                )
-                entries[m, m] = second
-                below = m  # walk up from m: o_km is the origin of the link below k on the path
-                for k in reversed(linkage.ancestors(m)):
-                    coefficient = self._origin[below].conjugate() * first_moment[m]
-                    relative = Cx(
-                        frames[k].re * frames[m].re + frames[k].im * frames[m].im,
-                        frames[k].re * frames[m].im - frames[k].im * frames[m].re,
-                    )  # conj(e^{j psi_k}) e^{j psi_m}
-                    value = real_of_product(coefficient, relative)
-                    entries[k, m] = value
-                    entries[m, k] = value
-                    below = k
-            return entries
+            e = self._frames()
+            coefficient = self._mass_coefficients  # lower triangle (m > k), complex
+            # conj(e_k) e_m for all pairs: real part cos(psi_m - psi_k), imaginary sin(...)
+            cosine = ca.mtimes(e.re, e.re.T) + ca.mtimes(e.im, e.im.T)
+            lower = ca.DM(coefficient.real) * cosine
+            if np.any(coefficient.imag):
+                sine = ca.mtimes(e.im, e.re.T) - ca.mtimes(e.re, e.im.T)
+                lower = lower - ca.DM(coefficient.imag) * sine
+            return ca.tril2symm(
+                ca.project(lower, self._mass_pattern) + ca.diag(ca.DM(self._mass_diagonal))
+            )
 
         return self._memo("mass_matrix", build)
 
@@ -288,7 +345,11 @@ class Dynamics:
         parents = self._linkage.parents
         n = self.n
         entries = self._mass_matrix_entries()
-        h = {(i, j): entries[i, j] for i in range(n) for j in range(i + 1) if j == i or j in self._linkage.ancestors(i)}
+        h = {}
+        for i in range(n):
+            h[i, i] = entries[i, i]
+            for j in self._linkage.ancestors(i):
+                h[i, j] = entries[i, j]
         for k in reversed(range(n)):
             i = parents[k]
             while i >= 0:
@@ -313,88 +374,72 @@ class Dynamics:
                 j = parents[j]
         return x
 
-    def _generalized_from_torques(self, torque) -> list[ca.SX]:
+    def _generalized_from_torques(self, torque: ca.SX) -> ca.SX:
         """Q_k = M_k - sum_{children c} M_c."""
-        children = self._linkage.children
-        return [torque[k] - sum(torque[c] for c in children[k]) for k in range(self.n)]
+        return torque - ca.mtimes(self._operators()["children"], torque)
 
     # ---- Function bodies -----------------------------------------------------------------
     def _build_hinge_positions(self):
         start, _ = self._positions()
-        frames = self._frames()
-        ends = [start[k] + self._length[k] * frames[k] for k in range(self.n)]
-        root = start[0]
-        points = [root, *ends]
-        return [ca.vertcat(*[p.re for p in points]), ca.vertcat(*[p.im for p in points])]
+        ends = start + times_constants(self._frames(), self._length_vector)
+        root = self._origin[0]
+        return [ca.vertcat(root.real, ends.re), ca.vertcat(root.imag, ends.im)]
 
     def _build_hinge_velocities(self):
         start, _ = self._velocities()
-        frames = self._frames()
-        ends = [
-            start[k] + (self._length[k] * frames[k].times_j()).scale(self._dpsi[k])
-            for k in range(self.n)
-        ]
-        points = [ZERO, *ends]
-        return [ca.vertcat(*[p.re for p in points]), ca.vertcat(*[p.im for p in points])]
+        ends = start + times_constants(self._phasor_rates(), self._length_vector)
+        return [ca.vertcat(0, ends.re), ca.vertcat(0, ends.im)]
 
     def _build_com_positions(self):
         _, com = self._positions()
-        return [ca.vertcat(*[c.re for c in com]), ca.vertcat(*[c.im for c in com])]
+        return [com.re, com.im]
 
     def _build_com_velocities(self):
         _, com = self._velocities()
-        return [ca.vertcat(*[c.re for c in com]), ca.vertcat(*[c.im for c in com])]
+        return [com.re, com.im]
 
     def _build_energy(self):
-        _, com_velocity = self._velocities()
+        _, velocity = self._velocities()
         _, com = self._positions()
-        kinetic = 0.5 * sum(
-            self._mass[i] * com_velocity[i].abs2()
-            + self._inertia[i] * self._dpsi[i] * self._dpsi[i]
-            for i in range(self.n)
+        mass = self._mass_dm
+        kinetic = 0.5 * (
+            ca.dot(mass, velocity.abs2()) + ca.dot(self._inertia_dm, self._dpsi * self._dpsi)
         )
-        potential = self._linkage.gravity * sum(
-            self._mass[i] * com[i].im for i in range(self.n)
-        )
+        potential = self._linkage.gravity * ca.dot(mass, com.im)
         return [kinetic, potential]
 
     def _build_mass_matrix(self):
         return [self._mass_matrix_entries()]
 
-    def _full_lagrange(self) -> tuple[list[ca.SX], Cx]:
-        return self._memo("lagrange", lambda: self._lagrange(self._ddpsi))
-
     def _build_inverse_dynamics(self):
         torque, _ = self._full_lagrange()
-        return [ca.vertcat(*torque)]
+        return [torque]
 
     def _build_gravity_torques(self):
         torque, _ = self._lagrange(None, static=True)
-        return [ca.vertcat(*torque)]
+        return [torque]
 
     def _build_forward_dynamics(self):
-        return [ca.vertcat(*self._forward_expressions())]
+        return [self._forward_expression()]
 
-    def _forward_expressions(self) -> list[ca.SX]:
+    def _forward_expression(self) -> ca.SX:
         def build():
             bias, _ = self._lagrange(None)
-            bias_q = self._generalized_from_torques(bias)
-            applied_q = self._generalized_from_torques([self._torque[k] for k in range(self.n)])
-            rhs = [applied_q[k] - bias_q[k] for k in range(self.n)]
-            return self._solve_mass_matrix(rhs)
+            rhs = self._generalized_from_torques(self._torque - bias)
+            return ca.vertcat(*self._solve_mass_matrix(ca.vertsplit(rhs)))
 
         return self._memo("forward", build)
 
     def _build_dynamics_residual(self):
         torque, _ = self._full_lagrange()
-        return [ca.vertcat(*torque) - self._torque]
+        return [torque - self._torque]
 
     def _build_ground_reaction(self):
         _, force = self._full_lagrange()
         return [force.re, force.im]
 
     def _build_ode(self):
-        return [ca.vertcat(self._dpsi, *self._forward_expressions())]
+        return [ca.vertcat(self._dpsi, self._forward_expression())]
 
     # ---- numeric evaluation ---------------------------------------------------------------
     def _evaluate(self, name: str, *arrays: np.ndarray) -> list[np.ndarray]:
@@ -526,7 +571,11 @@ def _restore(values: np.ndarray, sparsity: ca.Sparsity, batch: int | None, dense
     k = 1 if batch is None else batch
     if dense_columns:
         # CasADi returns the (rows, cols * K) horizontal concatenation, dense.
-        out = values.reshape(rows, k, cols).transpose(1, 0, 2) if cols > 1 else values.reshape(rows, k).T
+        out = (
+            values.reshape(rows, k, cols).transpose(1, 0, 2)
+            if cols > 1
+            else values.reshape(rows, k).T
+        )
     else:
         # The tape returns (nnz, K); scatter into dense (K, rows, cols) in column-major order.
         dense = np.zeros((k, rows * cols))

@@ -173,8 +173,8 @@ class Linkage:
         for i, link in enumerate(links):
             if link.name in index:
                 raise DefinitionError(
-                    f"`links[{i}].name`: duplicate name {link.name!r} (also links[{index[link.name]}]); "
-                    "give every link a unique name"
+                    f"`links[{i}].name`: duplicate name {link.name!r} "
+                    f"(also links[{index[link.name]}]); give every link a unique name"
                 )
             index[link.name] = i
         names = [link.name for link in links]
@@ -247,7 +247,9 @@ class Linkage:
     def index(self, name: str) -> int:
         """Position of the link called ``name``."""
         if name not in self._index:
-            raise DefinitionError(f"`name`: no link called {name!r}; known links: {list(self.names)}")
+            raise DefinitionError(
+                f"`name`: no link called {name!r}; known links: {list(self.names)}"
+            )
         return self._index[name]
 
     def ancestors(self, i: int) -> tuple[int, ...]:
@@ -376,9 +378,7 @@ class Linkage:
         return hash((self._links, self._gravity))
 
     def __repr__(self) -> str:
-        rows = ", ".join(
-            f"{link.name}<-{link.parent or 'ground'}" for link in self._links
-        )
+        rows = ", ".join(f"{link.name}<-{link.parent or 'ground'}" for link in self._links)
         return f"Linkage({self.n} links: {rows}; g={self._gravity})"
 
     def dynamics(self):

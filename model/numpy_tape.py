@@ -87,7 +87,9 @@ class NumpyTape:
                 return None
         n_work = function.sz_w()
         n_in_nz = [function.nnz_in(i) for i in range(function.n_in())]
-        return cls(program, n_work, n_in_nz, [function.sparsity_out(i) for i in range(function.n_out())])
+        return cls(
+            program, n_work, n_in_nz, [function.sparsity_out(i) for i in range(function.n_out())]
+        )
 
     def __call__(self, columns: list[np.ndarray]) -> list[np.ndarray]:
         """Evaluate on dense input blocks of shape (nnz_in_i, K); returns (nnz_out_i, K)."""
@@ -95,7 +97,11 @@ class NumpyTape:
         outputs = [np.zeros((nnz, total)) for nnz in self._out_nnz]
         for start in range(0, total, self.CHUNK):
             stop = min(total, start + self.CHUNK)
-            self._run([c[:, start:stop] for c in columns], [o[:, start:stop] for o in outputs], stop - start)
+            self._run(
+                [c[:, start:stop] for c in columns],
+                [o[:, start:stop] for o in outputs],
+                stop - start,
+            )
         return outputs
 
     def _run(self, inputs, outputs, size) -> None:

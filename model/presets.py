@@ -36,8 +36,8 @@ def six_link_anthropoid(gravity: float = 9.81, **overrides) -> Linkage:
     for key, value in overrides.items():
         for name in values:
             prefix = name + "_"
-            if key.startswith(prefix) and key[len(prefix):] in _FIELDS:
-                values[name][key[len(prefix):]] = value
+            if key.startswith(prefix) and key[len(prefix) :] in _FIELDS:
+                values[name][key[len(prefix) :]] = value
                 break
         else:
             raise DefinitionError(
