@@ -59,6 +59,22 @@ FUNCTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], str]] = {
 }
 
 
+#: Outputs that are one number per state: returned as float (one state) or (K,) (a batch).
+#: Every other output keeps its shape, even when it is 1x1 (a one-link tree).
+_SCALAR_OUTPUTS = frozenset({"kinetic", "potential", "Fx", "Fy"})
+_MATRIX_OUTPUTS = frozenset({"mass_matrix"})
+
+
+def _output_shape(function: ca.Function, i: int) -> tuple[int, ...]:
+    """Per-state shape of output i as the numeric methods document it."""
+    name = function.name_out(i)
+    if name in _SCALAR_OUTPUTS:
+        return ()
+    if name in _MATRIX_OUTPUTS:
+        return (function.size1_out(i), function.size2_out(i))
+    return (function.size1_out(i),)
+
+
 class Dynamics:
     """Equations of motion of a :class:`model.Linkage`, generated lazily as CasADi SX.
 
@@ -335,44 +351,17 @@ class Dynamics:
 
         return self._memo("mass_matrix", build)
 
-    def _solve_mass_matrix(self, rhs: list[ca.SX]) -> list[ca.SX]:
-        """Solve M(psi) x = rhs by the sparse L^T D L factorisation of a tree's mass matrix.
+    def _solve_mass_matrix(self, rhs: ca.SX) -> ca.SX:
+        """Solve M(psi) x = rhs by a sparse symbolic L D L^T factorisation; no inverse formed.
 
-        (Featherstone, Rigid Body Dynamics Algorithms, sec. 6.3.) With parents numbered before
-        children the factorisation has no fill-in, needs no pivoting (M is SPD) and costs
-        O(n d^2) for depth d. No inverse is formed.
+        M is symmetric positive definite, so no pivoting is needed. The approximate minimum
+        degree ordering eliminates leaves before their parents, which on a tree's mass matrix
+        (non-zero only between a link and its ancestors) produces no fill-in: the same
+        O(sum of depth^2) factorisation as Featherstone's L^T D L (Rigid Body Dynamics
+        Algorithms, sec. 6.3), built by CasADi in C++.
         """
-        parents = self._linkage.parents
-        n = self.n
-        entries = self._mass_matrix_entries()
-        h = {}
-        for i in range(n):
-            h[i, i] = entries[i, i]
-            for j in self._linkage.ancestors(i):
-                h[i, j] = entries[i, j]
-        for k in reversed(range(n)):
-            i = parents[k]
-            while i >= 0:
-                a = h[k, i] / h[k, k]
-                j = i
-                while j >= 0:
-                    h[i, j] = h[i, j] - a * h[k, j]
-                    j = parents[j]
-                h[k, i] = a
-                i = parents[i]
-        x = list(rhs)
-        for i in reversed(range(n)):  # x <- L^{-T} x
-            j = parents[i]
-            while j >= 0:
-                x[j] = x[j] - h[i, j] * x[i]
-                j = parents[j]
-        x = [x[i] / h[i, i] for i in range(n)]  # x <- D^{-1} x
-        for i in range(n):  # x <- L^{-1} x
-            j = parents[i]
-            while j >= 0:
-                x[i] = x[i] - h[i, j] * x[j]
-                j = parents[j]
-        return x
+        diagonal, upper, order = ca.ldl(self._mass_matrix_entries(), True)
+        return ca.ldl_solve(rhs, diagonal, upper, order)
 
     def _generalized_from_torques(self, torque: ca.SX) -> ca.SX:
         """Q_k = M_k - sum_{children c} M_c."""
@@ -426,7 +415,7 @@ class Dynamics:
         def build():
             bias, _ = self._lagrange(None)
             rhs = self._generalized_from_torques(self._torque - bias)
-            return ca.vertcat(*self._solve_mass_matrix(ca.vertsplit(rhs)))
+            return self._solve_mass_matrix(rhs)
 
         return self._memo("forward", build)
 
@@ -447,14 +436,25 @@ class Dynamics:
         the batch as the leading axis (dropped again for a single state)."""
         function = self.function(name)
         batch, columns = _as_columns(function, arrays)
+        shapes = [_output_shape(function, i) for i in range(function.n_out())]
+        if batch == 0:  # an empty batch: CasADi would evaluate one state instead
+            return [
+                _restore(np.zeros((function.nnz_out(i), 0)), function.sparsity_out(i), 0, shapes[i])
+                for i in range(function.n_out())
+            ]
         if columns.__len__() and columns[0].shape[1] >= NumpyTape.MIN_BATCH:
             tape = self._tape(name)
             if tape is not None:
                 results = tape(columns)
-                return [_restore(r, function.sparsity_out(i), batch) for i, r in enumerate(results)]
+                return [
+                    _restore(r, function.sparsity_out(i), batch, shapes[i])
+                    for i, r in enumerate(results)
+                ]
         raw = function.call(columns)
         return [
-            _restore(np.asarray(raw[i]), function.sparsity_out(i), batch, dense_columns=True)
+            _restore(
+                np.asarray(raw[i]), function.sparsity_out(i), batch, shapes[i], dense_columns=True
+            )
             for i in range(function.n_out())
         ]
 
@@ -564,26 +564,31 @@ def _as_columns(function: ca.Function, arrays) -> tuple[int | None, list[np.ndar
     return batch, columns
 
 
-def _restore(values: np.ndarray, sparsity: ca.Sparsity, batch: int | None, dense_columns=False):
-    """Turn a Function output evaluated on K columns into an array with the batch leading."""
+def _restore(
+    values: np.ndarray,
+    sparsity: ca.Sparsity,
+    batch: int | None,
+    shape: tuple[int, ...],
+    dense_columns: bool = False,
+):
+    """Turn a Function output evaluated on K columns into an array with the batch leading.
+
+    ``shape`` is the per-state shape the method documents: () for a scalar, (rows,) for a
+    vector, (rows, cols) for a matrix; it comes from the catalogue, not from the size, so a
+    one-link tree's 1x1 mass matrix stays (1, 1).
+    """
     rows, cols = sparsity.size1(), sparsity.size2()
     values = np.asarray(values, dtype=float)
     k = 1 if batch is None else batch
     if dense_columns:
         # CasADi returns the (rows, cols * K) horizontal concatenation, dense.
-        out = (
-            values.reshape(rows, k, cols).transpose(1, 0, 2)
-            if cols > 1
-            else values.reshape(rows, k).T
-        )
+        out = values.reshape(rows, k, cols).transpose(1, 0, 2)
     else:
         # The tape returns (nnz, K); scatter into dense (K, rows, cols) in column-major order.
         dense = np.zeros((k, rows * cols))
         dense[:, np.asarray(sparsity.find(), dtype=int)] = values.T
         out = dense.reshape(k, cols, rows).transpose(0, 2, 1)
-        if cols == 1:
-            out = out[:, :, 0]
-    if cols == 1 and rows == 1:
-        out = out.reshape(k)
-        return float(out[0]) if batch is None else out
-    return out[0] if batch is None else out
+    out = out.reshape((k, *shape))
+    if batch is None:
+        return float(out[0]) if shape == () else out[0]
+    return out

@@ -196,17 +196,17 @@ class Linkage:
                     f"known links: {names}"
                 )
             p = index[link.parent]
-            if p >= i:
+            if p == i:
+                raise DefinitionError(
+                    f"`links[{i}].parent`: {link.name!r} names itself as its parent; "
+                    "name the link it hangs from, or None for the root"
+                )
+            if p > i:
                 raise DefinitionError(
                     f"`links[{i}].parent`: parent {link.parent!r} of {link.name!r} comes after it "
                     f"(links[{p}]); order the links so that each parent comes before its children"
                 )
             parents.append(p)
-        if root != 0:
-            raise DefinitionError(
-                "`links[0].parent`: the first link must be the root (parent None), "
-                f"got parent {links[0].parent!r}"
-            )
         self._links = links
         self._gravity = g
         self._index = index
@@ -214,6 +214,17 @@ class Linkage:
         self._children = tuple(
             tuple(c for c in range(len(links)) if parents[c] == i) for i in range(len(links))
         )
+        for i, link in enumerate(links):
+            # psi_i is absent from T when nothing of link i's subtree moves as it turns: the
+            # mass matrix is singular and forward dynamics undefined.
+            if link.inertia_about_start == 0.0 and all(
+                self.origin_in_parent(c) == 0 for c in self._children[i]
+            ):
+                raise DefinitionError(
+                    f"`links[{i}]`: {link.name!r} has no moment of inertia about its start "
+                    "hinge (inertia 0 and centre of mass on the hinge) and nothing hangs off "
+                    "that hinge, so its angle has no dynamics; give inertia > 0 or com > 0"
+                )
 
     # ---- read access -------------------------------------------------------------------
     @property
