@@ -1,0 +1,660 @@
+"""Command line: ``python -m problems`` (console script ``anthropoid-planner``).
+
+Subcommands
+-----------
+equations   print the equations of motion of a preset linkage, as text or LaTeX
+torques     first problem of dynamics: torques along a gait law, written to files and plots
+simulate    second problem of dynamics: integrate the motion under the torques of a file
+demo        the six-link equations of motion and the gait-law torque table (the README's job)
+
+This module is the project's output layer: it alone prints. Results go to stdout, progress and
+errors to stderr; a bad input gives one line "anthropoid-planner <command>: error: ..." and
+exit status 2, a failed computation exit status 1, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TextIO
+
+PROG = "anthropoid-planner"
+FORMATS = ("csv", "json", "npz")
+LAWS = ("paper22", "walking")
+
+
+class UsageError(Exception):
+    """Bad command-line input: reported as one line, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage dump) raised instead of exiting."""
+
+    def error(self, message: str):  # type: ignore[override]
+        raise UsageError(f"{message} (see {self.prog} --help)")
+
+
+class Reporter:
+    """Progress on stderr: lines tagged with the elapsed time, throttled, switchable."""
+
+    def __init__(self, stream: TextIO, enabled: bool = True) -> None:
+        self._stream = stream
+        self._enabled = enabled
+        self._start = time.perf_counter()
+        self._last = -math.inf
+
+    def step(self, message: str) -> None:
+        if self._enabled:
+            print(f"[{time.perf_counter() - self._start:6.2f} s] {message}", file=self._stream)
+            self._stream.flush()
+
+    def progress(self, fraction: float, message: str) -> None:
+        now = time.perf_counter()
+        if fraction >= 1.0 or now - self._last >= 0.5:
+            self._last = now
+            self.step(f"{message} ({100.0 * fraction:3.0f}%)")
+
+
+# ---- argument types (each raises a one-line message naming the unit) -----------------------
+def _positive(unit: str):
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number in {unit}, got {text!r}") from None
+        if not math.isfinite(value) or value <= 0:
+            raise argparse.ArgumentTypeError(f"must be a finite number > 0 {unit}, got {text!r}")
+        return value
+
+    return parse
+
+
+def _tolerance(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"must lie in (0, 1), got {text!r}")
+    return value
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
+    return value
+
+
+def _angles(text: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated numbers in rad, one per link, got {text!r}"
+        ) from None
+    if not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"must be finite numbers in rad, got {text!r}")
+    return values
+
+
+def _formats(text: str) -> tuple[str, ...]:
+    items = tuple(dict.fromkeys(f.strip().lower().lstrip(".") for f in text.split(",") if f))
+    unknown = [f for f in items if f not in FORMATS]
+    if unknown or not items:
+        raise argparse.ArgumentTypeError(
+            f"unknown format(s) {unknown or [text]}; choose from {', '.join(FORMATS)}"
+        )
+    return items
+
+
+def _preset_names() -> tuple[str, ...]:
+    from model.presets import PRESETS
+
+    return tuple(PRESETS)
+
+
+# ---- parser -------------------------------------------------------------------------------
+def build_parser() -> argparse.ArgumentParser:
+    """The command line's parser (every option documented with its unit)."""
+    presets = _preset_names()
+    parser = _Parser(
+        prog=PROG,
+        description=(
+            "Planar branched linkages with the complex-variable Lagrange model of the seed "
+            "paper: equations of motion, the first problem of dynamics (torques along a gait "
+            "law) and the second (motion under given torques). Angles in rad (absolute, from "
+            "+x counter-clockwise), torques in N m, time in s."
+        ),
+        epilog=f"Run '{PROG} <command> --help' for the options of a command.",
+    )
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
+    commands = parser.add_subparsers(dest="command", metavar="<command>", parser_class=_Parser)
+    commands.required = True
+
+    preset_help = f"linkage preset, one of: {', '.join(presets)} (default: six-link)"
+
+    equations = commands.add_parser(
+        "equations",
+        parents=[common],
+        help="print the equations of motion of a preset linkage",
+        description=(
+            "Print Lagrange's equations of a preset linkage in the paper's style (l_i in m, "
+            "m_i in kg, n_i the centre-of-mass fraction, I_i about the start hinge in kg m^2, "
+            "g in m/s^2, M_i in N m). For six-link this is the corrected (16)-(21)."
+        ),
+    )
+    equations.add_argument("--preset", default="six-link", metavar="NAME", help=preset_help)
+    equations.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
+    equations.add_argument(
+        "--output", metavar="FILE", help="write to FILE instead of stdout (overwritten)"
+    )
+
+    torques = commands.add_parser(
+        "torques",
+        parents=[common],
+        help="first problem: torques along a gait law, to files and plots",
+        description=(
+            "First problem of dynamics: the hinge torques M_i (N m) that make the linkage "
+            "follow the gait law psi_j(t) = center_j + zeta_j sin(varpi_j - (1 - cos(2 pi t/T)) "
+            "pi/2), by inverse dynamics, with the ground reaction Fx, Fy (N) at H0. Writes "
+            "torques.<format> and, unless --no-plots, torques.png and stick_figure.png."
+        ),
+    )
+    torques.add_argument(
+        "--law",
+        default="paper22",
+        metavar="NAME",
+        help=f"gait-law preset for six links, one of: {', '.join(LAWS)} (default: paper22; "
+        "walking = swing leg about -pi/2)",
+    )
+    torques.add_argument("--preset", default="six-link", metavar="NAME", help=preset_help)
+    torques.add_argument(
+        "--period-s",
+        type=_positive("s"),
+        metavar="T",
+        help="walking period T, s (default: the law's, 1 s)",
+    )
+    torques.add_argument(
+        "--zeta-rad", type=_angles, metavar="Z1,Z2,...", help="amplitudes zeta_j, rad, one per link"
+    )
+    torques.add_argument(
+        "--varpi-rad", type=_angles, metavar="W1,W2,...", help="phases varpi_j, rad, one per link"
+    )
+    torques.add_argument(
+        "--center-rad",
+        type=_angles,
+        metavar="C1,C2,...",
+        help="centre angles, rad, one per link (paper: pi/2 = 1.5708 for all); write "
+        "--center-rad=-1.57,... when the first value is negative",
+    )
+    torques.add_argument(
+        "--duration-s",
+        type=_positive("s"),
+        metavar="S",
+        help="length of the profile from t = 0, s (default: one period)",
+    )
+    torques.add_argument(
+        "--rate-hz",
+        type=_positive("Hz"),
+        default=1000.0,
+        metavar="HZ",
+        help="samples per second in the files, Hz (default: 1000; the samples are exact, "
+        "a simulation interpolates between them)",
+    )
+    torques.add_argument(
+        "--output-dir",
+        default="torques_out",
+        metavar="DIR",
+        help="output folder (created; default: torques_out)",
+    )
+    torques.add_argument(
+        "--formats",
+        type=_formats,
+        default=("csv", "json"),
+        metavar="LIST",
+        help="comma-separated file formats among csv, json, npz (default: csv,json)",
+    )
+    torques.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    torques.add_argument(
+        "--gif", action="store_true", help="also write an animation, animation.gif (slow)"
+    )
+
+    simulate = commands.add_parser(
+        "simulate",
+        parents=[common],
+        help="second problem: motion under the torques of a file",
+        description=(
+            "Second problem of dynamics: integrate the linkage under the hinge torques of a "
+            "file written by 'torques' (or a planner Solution export), from the file's first "
+            "state [psi (rad); dpsi (rad/s)], and compare the motion with the file's angles. "
+            "Writes simulated.<format> and, unless --no-plots, simulated.png."
+        ),
+    )
+    simulate.add_argument(
+        "torque_file", metavar="TORQUE_FILE", help="torque profile: .csv, .json or .npz"
+    )
+    simulate.add_argument("--preset", default="six-link", metavar="NAME", help=preset_help)
+    simulate.add_argument(
+        "--method",
+        default="cvodes",
+        metavar="NAME",
+        help="CasADi integrator: cvodes, idas (variable step, tolerances apply), rk "
+        "(Runge-Kutta 4), collocation (Radau); default: cvodes",
+    )
+    simulate.add_argument(
+        "--rtol",
+        type=_tolerance,
+        default=1e-10,
+        help="relative tolerance of cvodes/idas (default: 1e-10)",
+    )
+    simulate.add_argument(
+        "--atol",
+        type=_tolerance,
+        default=1e-10,
+        help="absolute tolerance of cvodes/idas, rad and rad/s (default: 1e-10)",
+    )
+    simulate.add_argument(
+        "--steps",
+        type=_count,
+        default=8,
+        help="finite elements per integration interval for rk/collocation; an interval "
+        "runs between consecutive file samples and output times, at most 10 ms (default: 8)",
+    )
+    simulate.add_argument(
+        "--t-end-s",
+        type=_positive("s"),
+        metavar="S",
+        help="end time, s (default: the end of the file's time range)",
+    )
+    simulate.add_argument(
+        "--rate-hz",
+        type=_positive("Hz"),
+        default=100.0,
+        metavar="HZ",
+        help="output samples per second, Hz (default: 100)",
+    )
+    simulate.add_argument(
+        "--interpolation",
+        default="cubic",
+        choices=("cubic", "linear"),
+        help="interpolation of the file's torques between samples (default: cubic)",
+    )
+    simulate.add_argument(
+        "--output-dir",
+        default="simulate_out",
+        metavar="DIR",
+        help="output folder (created; default: simulate_out)",
+    )
+    simulate.add_argument(
+        "--formats",
+        type=_formats,
+        default=("csv",),
+        metavar="LIST",
+        help="comma-separated file formats among csv, json, npz (default: csv)",
+    )
+    simulate.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+
+    demo = commands.add_parser(
+        "demo",
+        parents=[common],
+        help="six-link equations of motion and the gait-law torque table",
+        description=(
+            "Print the six-link equations of motion (corrected (16)-(21)) and the hinge "
+            "torques M_1..M_6 (N m) along the paper's gait law (22) ('paper22' of scene.md) "
+            "at evenly spaced times over one period, with max |M_i| over the period."
+        ),
+    )
+    demo.add_argument(
+        "--rows", type=_count, default=11, help="number of times in the table (default: 11)"
+    )
+    demo.add_argument("--no-equations", action="store_true", help="print the torque table only")
+    return parser
+
+
+# ---- helpers --------------------------------------------------------------------------------
+def _linkage(name: str):
+    from model.presets import PRESETS
+
+    if name not in PRESETS:
+        raise UsageError(f"unknown preset {name!r}; choose one of: {', '.join(PRESETS)}")
+    return PRESETS[name]()
+
+
+def _law(args, linkage):
+    from problems.gait_law import GaitLaw
+
+    for option, values in (
+        ("--zeta-rad", args.zeta_rad),
+        ("--varpi-rad", args.varpi_rad),
+        ("--center-rad", args.center_rad),
+    ):
+        if values is not None and len(values) != linkage.n:
+            raise UsageError(
+                f"{option}: expected {linkage.n} values (one per link of preset "
+                f"{args.preset!r}), got {len(values)}"
+            )
+
+    if args.law not in LAWS:
+        raise UsageError(f"unknown gait law {args.law!r}; choose one of: {', '.join(LAWS)}")
+    law = GaitLaw.preset(args.law)
+    changes = {
+        "period": args.period_s,
+        "zeta": args.zeta_rad,
+        "varpi": args.varpi_rad,
+        "center": args.center_rad,
+    }
+    if any(v is not None for v in changes.values()):
+        values = {
+            "period": law.period,
+            "zeta": law.zeta,
+            "varpi": law.varpi,
+            "center": law.center,
+        }
+        values.update({k: v for k, v in changes.items() if v is not None})
+        law = GaitLaw(**values, name=f"{law.name} (modified)")
+    return law
+
+
+def _equations(linkage, latex: bool) -> str:
+    try:
+        from model import equations
+    except ImportError as exc:
+        raise RuntimeError(
+            f"the equation printer model.equations is not available ({exc})"
+        ) from exc
+    return equations.equations_latex(linkage) if latex else equations.equations_text(linkage)
+
+
+def _write_plots(dynamics, trajectory, folder: Path, stem: str, strip: bool, gif: bool, report):
+    """PNG plots (and a GIF) of a trajectory; returns the paths written."""
+    os.environ.setdefault("MPLBACKEND", "Agg")  # files only: no window, no display needed
+    import matplotlib.pyplot as plt
+
+    from planner import plots
+
+    written = []
+    report.step(f"plotting {stem}.png")
+    figures = [(plots.plot_trajectory(trajectory, extras=True), folder / f"{stem}.png")]
+    if strip:
+        report.step("plotting stick_figure.png")
+        figures.append(
+            (plots.stick_figure_strip(dynamics, trajectory), folder / "stick_figure.png")
+        )
+    for figure, path in figures:
+        figure.savefig(path, dpi=100)
+        plt.close(figure)
+        written.append(path)
+    if gif:
+        report.step("writing animation.gif")
+        path = folder / "animation.gif"
+        plots.animate(dynamics, trajectory, path)
+        written.append(path)
+    return written
+
+
+def _save(trajectory, folder: Path, stem: str, formats) -> list[Path]:
+    paths = []
+    for fmt in formats:
+        path = folder / f"{stem}.{fmt}"
+        trajectory.save(path)
+        paths.append(path)
+    return paths
+
+
+def _output_folder(text: str) -> Path:
+    folder = Path(text)
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(f"--output-dir: {text!r} exists and is not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"--output-dir: cannot create {text!r}: {exc.strerror}") from exc
+    return folder
+
+
+def _torque_table(trajectory, names: Sequence[str], out: TextIO) -> None:
+    import numpy as np
+
+    width = 10
+    header = f"{'t (s)':>7}" + "".join(f"{'M_' + str(i + 1):>{width}}" for i in range(len(names)))
+    print(header, file=out)
+    for t, row in zip(trajectory.time, np.asarray(trajectory.torques), strict=True):
+        print(f"{t:7.3f}" + "".join(f"{v:{width}.2f}" for v in row), file=out)
+
+
+# ---- commands -------------------------------------------------------------------------------
+def _cmd_equations(args, out: TextIO, report: Reporter) -> int:
+    text = _equations(_linkage(args.preset), args.latex)
+    if args.output:
+        try:
+            Path(args.output).write_text(text + "\n")
+        except OSError as exc:
+            raise UsageError(f"--output: cannot write {args.output!r}: {exc.strerror}") from exc
+        print(f"wrote {args.output}", file=out)
+    else:
+        print(text, file=out)
+    return 0
+
+
+def _cmd_torques(args, out: TextIO, report: Reporter) -> int:
+    import numpy as np
+
+    from problems.dynamics_problems import torques_along
+
+    linkage = _linkage(args.preset)
+    law = _law(args, linkage)
+    dynamics = linkage.dynamics()
+    duration = law.period if args.duration_s is None else args.duration_s
+    count = max(2, math.ceil(duration * args.rate_hz - 1e-9) + 1)
+    if count > 2_000_000:
+        raise UsageError(
+            f"--rate-hz x --duration-s asks for {count} samples; keep it under 2,000,000"
+        )
+    if law.n != linkage.n:
+        raise UsageError(
+            f"gait law {law.name!r} drives {law.n} links but preset {args.preset!r} has "
+            f"{linkage.n}; give --zeta-rad, --varpi-rad and --center-rad with {linkage.n} values"
+        )
+    folder = _output_folder(args.output_dir)
+    report.step(f"torques along {law.name!r}: {count} samples over {duration:g} s")
+    trajectory = torques_along(dynamics, law, np.linspace(0.0, duration, count))
+    written = _save(trajectory, folder, "torques", args.formats)
+    if not args.no_plots:
+        written += _write_plots(dynamics, trajectory, folder, "torques", True, args.gif, report)
+    print(str(law), file=out)
+    peak = np.max(np.abs(np.asarray(trajectory.torques)), axis=0)
+    print(
+        "max |M_i| (N m): " + ", ".join(f"M_{i + 1} {v:.2f}" for i, v in enumerate(peak)), file=out
+    )
+    for path in written:
+        print(f"wrote {path}", file=out)
+    return 0
+
+
+def _load_profile(path_text: str):
+    from planner.trajectory import Trajectory
+
+    path = Path(path_text)
+    if not path.exists():
+        raise UsageError(f"torque file {path_text!r} does not exist")
+    if path.is_dir():
+        raise UsageError(f"torque file {path_text!r} is a folder, not a file")
+    if path.suffix.lower() not in tuple("." + f for f in FORMATS):
+        raise UsageError(
+            f"torque file {path_text!r}: unknown format {path.suffix!r}; use .csv, .json or .npz"
+        )
+    try:
+        return Trajectory.load(path)
+    except Exception as exc:
+        detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UsageError(f"torque file {path_text!r} is malformed: {detail}") from exc
+
+
+def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
+    import numpy as np
+
+    from problems.dynamics_problems import METHODS, fit_growth_rate, simulate
+
+    if args.method not in METHODS:
+        raise UsageError(f"unknown --method {args.method!r}; choose one of: {', '.join(METHODS)}")
+    linkage = _linkage(args.preset)
+    profile = _load_profile(args.torque_file)
+    try:
+        names = tuple(profile.link_names)
+    except Exception as exc:
+        raise UsageError(
+            f"torque file {args.torque_file!r} has no linkage columns (psi_*, dpsi_*, M_*): {exc}"
+        ) from exc
+    if not names:
+        raise UsageError(
+            f"torque file {args.torque_file!r} has no linkage columns (psi_*, dpsi_*, M_*)"
+        )
+    if names != linkage.names:
+        raise UsageError(
+            f"torque file {args.torque_file!r} is for links {list(names)}, but preset "
+            f"{args.preset!r} has {list(linkage.names)}; pass the matching --preset"
+        )
+    time_grid = np.asarray(profile.time, dtype=float)
+    t0, t_file_end = float(time_grid[0]), float(time_grid[-1])
+    t_end = t_file_end if args.t_end_s is None else args.t_end_s
+    if not t0 < t_end <= t_file_end + 1e-9 * max(1.0, t_file_end):
+        raise UsageError(
+            f"--t-end-s {t_end:g} s is outside the file's time range ({t0:g}, {t_file_end:g}] s"
+        )
+    t_end = min(t_end, t_file_end)
+    folder = _output_folder(args.output_dir)
+    dynamics = linkage.dynamics()
+    x0 = np.concatenate([np.asarray(profile.psi)[0], np.asarray(profile.dpsi)[0]])
+    report.step(f"simulate with {args.method} over [{t0:g}, {t_end:g}] s")
+    result = simulate(
+        dynamics,
+        profile,
+        x0,
+        (t0, t_end),
+        rate_hz=args.rate_hz,
+        method=args.method,
+        rtol=args.rtol,
+        atol=args.atol,
+        steps=args.steps,
+        interpolation=args.interpolation,
+        progress=report.progress,
+    )
+    written = _save(result, folder, "simulated", args.formats)
+    if not args.no_plots:
+        written += _write_plots(dynamics, result, folder, "simulated", False, False, report)
+    states, _ = profile.at(np.asarray(result.time))
+    reference = np.asarray(states)[:, : linkage.n]
+    deviation = np.max(np.abs(np.asarray(result.psi) - reference), axis=1)
+    above = np.nonzero(deviation > 1e-6)[0]
+    print(
+        f"simulated {linkage.n} links with {args.method} over [{t0:g}, {t_end:g}] s "
+        f"({result.time.size} samples) in {result.metadata.get('wall_seconds', math.nan):.2f} s",
+        file=out,
+    )
+    print(f"max |psi - psi_file| = {deviation.max():.3e} rad", file=out)
+    if above.size:
+        print(
+            "deviation from the file's angles exceeds 1e-6 rad at "
+            f"t = {result.time[above[0]]:.3f} s "
+            "(an open-loop replay of an unstable motion diverges)",
+            file=out,
+        )
+        rate = fit_growth_rate(result.time, deviation)
+        if math.isfinite(rate):
+            print(f"deviation grows ~exp({rate:.1f} t), rate fitted over 1e-9..1e-3 rad", file=out)
+    else:
+        print("deviation from the file's angles stays below 1e-6 rad", file=out)
+    for path in written:
+        print(f"wrote {path}", file=out)
+    return 0
+
+
+def _cmd_demo(args, out: TextIO, report: Reporter) -> int:
+    import numpy as np
+
+    from model.presets import six_link_anthropoid
+    from problems.dynamics_problems import torques_along
+    from problems.gait_law import GaitLaw
+
+    linkage = six_link_anthropoid()
+    dynamics = linkage.dynamics()
+    if not args.no_equations:
+        text = _equations(linkage, latex=False)  # before printing: a failure prints nothing
+        print("Equations of motion of the six-link anthropoid (corrected (16)-(21)):", file=out)
+        print(text, file=out)
+        print(file=out)
+    law = GaitLaw.preset("paper22")
+    table = torques_along(dynamics, law, np.linspace(0.0, law.period, args.rows))
+    fine = torques_along(dynamics, law, np.linspace(0.0, law.period, 1001))
+    print("First problem of dynamics along the gait law (22):", file=out)
+    print(str(law), file=out)
+    print(
+        "links: " + ", ".join(f"{i + 1} {name}" for i, name in enumerate(linkage.names)),
+        file=out,
+    )
+    print("hinge torques M_i (N m), inverse dynamics:", file=out)
+    _torque_table(table, linkage.names, out)
+    peak = np.max(np.abs(np.asarray(fine.torques)), axis=0)
+    print(
+        f"{'max|M|':>7}" + "".join(f"{v:10.2f}" for v in peak) + "   (over 1001 times in [0, T])",
+        file=out,
+    )
+    return 0
+
+
+COMMANDS = {
+    "equations": _cmd_equations,
+    "torques": _cmd_torques,
+    "simulate": _cmd_simulate,
+    "demo": _cmd_demo,
+}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line with ``argv`` (default: sys.argv[1:]); returns the exit status.
+
+    0 success, 1 a computation failed, 2 bad input (usage, file, parameter). Results go to
+    sys.stdout, progress and errors to sys.stderr (looked up at call time, so a caller can
+    redirect them).
+    """
+    out, err = sys.stdout, sys.stderr
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = next((a for a in argv if a in COMMANDS), None)
+    where = f"{PROG} {command}" if command else PROG
+    parser = build_parser()
+    try:
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # --help and --version exit through argparse
+            return int(exc.code or 0)
+        report = Reporter(err, enabled=not args.quiet)
+        return COMMANDS[args.command](args, out, report)
+    except BrokenPipeError:
+        # The reader went away (``... | head``): stop quietly, as Unix tools do.
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+        except (OSError, ValueError, AttributeError):  # stdout without a file descriptor
+            pass
+        return 1
+    except UsageError as exc:
+        print(f"{where}: error: {exc}", file=err)
+        return 2
+    except (ValueError, TypeError) as exc:
+        # The library's definition errors (DefinitionError is a ValueError) are bad input.
+        print(f"{where}: error: {exc}", file=err)
+        return 2
+    except Exception as exc:
+        text = str(exc).strip().splitlines()
+        print(f"{where}: error: {text[0] if text else type(exc).__name__}", file=err)
+        return 1

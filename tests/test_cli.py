@@ -1,0 +1,379 @@
+"""The command line, in process through problems.__main__.main(argv), plus one real subprocess."""
+
+import os
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from model import presets
+from planner.trajectory import Trajectory
+from problems import GaitLaw, torques_along
+from problems.__main__ import main
+
+PROG = "anthropoid-planner"
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.out + captured.err
+    return code, captured.out, captured.err
+
+
+def assert_one_line_error(capsys, message, *argv, code=2):
+    status, _out, err = run(capsys, *argv)
+    lines = err.strip().splitlines()
+    assert status == code, (status, err)
+    assert len(lines) == 1, err
+    assert lines[0].startswith(PROG), lines[0]
+    assert re.search(message, lines[0]), lines[0]
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def profile_files(tmp_path_factory):
+    """A 0.3 s, 1 kHz torque profile of "paper22" written by the `torques` command."""
+    folder = tmp_path_factory.mktemp("torques")
+    code = main(
+        [
+            "torques",
+            "-q",
+            "--duration-s",
+            "0.3",
+            "--rate-hz",
+            "1000",
+            "--output-dir",
+            str(folder),
+            "--no-plots",
+            "--formats",
+            "csv,json,npz",
+        ]
+    )
+    assert code == 0
+    return folder
+
+
+# ---- help -----------------------------------------------------------------------------------
+def test_help_lists_commands(capsys):
+    code, out, _ = run(capsys, "--help")
+    assert code == 0
+    for command in ("equations", "torques", "simulate", "demo"):
+        assert command in out
+
+
+@pytest.mark.parametrize(
+    ("command", "expected"),
+    [
+        ("equations", ["--preset", "--latex", "--output", "kg m^2", "N m"]),
+        (
+            "torques",
+            [
+                "--law",
+                "--period-s",
+                "--zeta-rad",
+                "--varpi-rad",
+                "--center-rad",
+                "--duration-s",
+                "--rate-hz",
+                "--output-dir",
+                "--formats",
+                "--no-plots",
+                "--gif",
+                "Hz",
+                "N m",
+            ],
+        ),
+        (
+            "simulate",
+            [
+                "TORQUE_FILE",
+                "--method",
+                "--rtol",
+                "--atol",
+                "--steps",
+                "--t-end-s",
+                "--rate-hz",
+                "--interpolation",
+                "--output-dir",
+                "--formats",
+                "rad/s",
+                "cvodes",
+                "collocation",
+            ],
+        ),
+        ("demo", ["--rows", "--no-equations", "N m"]),
+    ],
+)
+def test_every_subcommand_explains_its_options(capsys, command, expected):
+    code, out, _ = run(capsys, command, "--help")
+    assert code == 0
+    text = " ".join(out.split())  # argparse wraps lines
+    for item in [*expected, "--quiet"]:
+        assert item in text, item
+
+
+def test_python_dash_m_help_in_a_subprocess():
+    env = dict(os.environ, MPLBACKEND="Agg")
+    result = subprocess.run(
+        [sys.executable, "-m", "problems", "--help"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=env,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "simulate" in result.stdout and "usage: anthropoid-planner" in result.stdout
+
+
+# ---- equations and demo ----------------------------------------------------------------------
+def _equations_available():
+    return pytest.importorskip("model.equations", reason="model/equations.py not written yet")
+
+
+def test_equations_text_latex_and_file(capsys, tmp_path):
+    equations = _equations_available()
+    linkage = presets.six_link_anthropoid()
+    code, out, _ = run(capsys, "equations")
+    assert code == 0 and out.strip() == equations.equations_text(linkage).strip()
+    code, out, _ = run(capsys, "equations", "--latex", "--preset", "six-link")
+    assert code == 0 and out.strip() == equations.equations_latex(linkage).strip()
+    target = tmp_path / "eq.tex"
+    code, out, _ = run(capsys, "equations", "--latex", "--output", target)
+    assert code == 0 and target.read_text().strip() == equations.equations_latex(linkage).strip()
+    code, out, _ = run(capsys, "equations", "--preset", "exoskeleton-leg")
+    assert code == 0
+    assert out.strip() == equations.equations_text(presets.exoskeleton_leg()).strip()
+
+
+def test_demo_prints_equations_and_the_torque_table(capsys):
+    equations = _equations_available()
+    code, out, _ = run(capsys, "demo")
+    assert code == 0
+    assert equations.equations_text(presets.six_link_anthropoid()).strip() in out
+    rows = [line.split() for line in out.splitlines() if re.match(r"^\s+\d\.\d{3}\s", line)]
+    assert len(rows) == 11
+    law = GaitLaw.preset("paper22")
+    dynamics = presets.six_link_anthropoid().dynamics()
+    expected = torques_along(dynamics, law, np.linspace(0.0, 1.0, 11)).torques
+    np.testing.assert_allclose(np.array(rows, dtype=float)[:, 1:], expected, atol=0.006)
+    peak = next(line for line in out.splitlines() if line.strip().startswith("max|M|"))
+    fine = torques_along(dynamics, law, np.linspace(0.0, 1.0, 1001)).torques
+    values = np.array(peak.split()[1:7], dtype=float)
+    np.testing.assert_allclose(values, np.max(np.abs(fine), axis=0), atol=0.006)
+
+
+def test_demo_table_only(capsys):
+    code, out, _ = run(capsys, "demo", "--no-equations", "--rows", "3")
+    assert code == 0
+    assert len([line for line in out.splitlines() if re.match(r"^\s+\d\.\d{3}\s", line)]) == 3
+
+
+# ---- torques and simulate --------------------------------------------------------------------
+def test_torques_writes_profiles_that_read_back(profile_files):
+    law = GaitLaw.preset("paper22")
+    dynamics = presets.six_link_anthropoid().dynamics()
+    t = np.linspace(0.0, 0.3, 301)
+    expected = torques_along(dynamics, law, t)
+    for suffix in ("csv", "json", "npz"):
+        profile = Trajectory.load(profile_files / f"torques.{suffix}")
+        np.testing.assert_allclose(profile.time, t, rtol=0, atol=1e-15)
+        np.testing.assert_array_equal(profile.torques, expected.torques)  # full precision
+        np.testing.assert_array_equal(profile.psi, expected.psi)
+
+
+def test_torques_with_plots_and_modified_law(capsys, tmp_path):
+    code, out, err = run(
+        capsys,
+        "torques",
+        "--law",
+        "walking",
+        "--period-s",
+        "1.2",
+        "--zeta-rad",
+        "0.1,0.2,0.3,0.2,0.1,0.05",
+        "--duration-s",
+        "0.6",
+        "--rate-hz",
+        "50",
+        "--output-dir",
+        tmp_path,
+    )
+    assert code == 0, err
+    for name in ("torques.csv", "torques.json", "torques.png", "stick_figure.png"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    assert "max |M_i| (N m)" in out and "T = 1.2 s" in out
+    assert "plotting" in err  # progress on stderr
+    profile = Trajectory.load(tmp_path / "torques.csv")
+    assert profile.time.size == 31
+    law = GaitLaw(
+        1.2,
+        [0.1, 0.2, 0.3, 0.2, 0.1, 0.05],
+        GaitLaw.preset("walking").varpi,
+        GaitLaw.preset("walking").center,
+    )
+    np.testing.assert_allclose(profile.psi, law.psi(profile.time), atol=1e-15)
+
+
+def test_round_trip_torques_then_simulate_reproduces_the_law(capsys, tmp_path, profile_files):
+    # Stated tolerance: 1e-6 rad over 0.2 s. Measured 2.1e-7 rad (1 kHz cubic-spline torques;
+    # the deviation grows ~exp(25 t) from the upright instability).
+    code, out, err = run(
+        capsys,
+        "simulate",
+        profile_files / "torques.csv",
+        "--t-end-s",
+        "0.2",
+        "--rate-hz",
+        "200",
+        "--rtol",
+        "1e-12",
+        "--atol",
+        "1e-12",
+        "--output-dir",
+        tmp_path,
+        "--formats",
+        "csv,json",
+    )
+    assert code == 0, err
+    assert "simulate with cvodes" in err
+    motion = Trajectory.load(tmp_path / "simulated.csv")
+    law = GaitLaw.preset("paper22")
+    assert motion.time[-1] == pytest.approx(0.2)
+    deviation = np.max(np.abs(motion.psi - law.psi(motion.time)))
+    assert deviation < 1e-6
+    assert "max |psi - psi_file|" in out and "stays below 1e-6 rad" in out
+    assert (tmp_path / "simulated.png").exists() and (tmp_path / "simulated.json").exists()
+    # the same from the JSON export, quietly, without plots, with another integrator
+    code, out, err = run(
+        capsys,
+        "simulate",
+        "-q",
+        profile_files / "torques.json",
+        "--t-end-s",
+        "0.2",
+        "--method",
+        "collocation",
+        "--output-dir",
+        tmp_path / "json",
+        "--no-plots",
+    )
+    assert code == 0 and err == ""
+    again = Trajectory.load(tmp_path / "json" / "simulated.csv")
+    assert np.max(np.abs(again.psi - law.psi(again.time))) < 1e-6
+
+
+# ---- bad input ------------------------------------------------------------------------------
+def test_simulate_bad_files(capsys, tmp_path, profile_files):
+    out_dir = ["--output-dir", tmp_path / "out"]
+    assert_one_line_error(
+        capsys, r"torque file '.*nope\.csv' does not exist", "simulate", tmp_path / "nope.csv"
+    )
+    garbage = tmp_path / "garbage.csv"
+    garbage.write_text("hello,world\n1,2\nnot a number,\x00\n")
+    assert_one_line_error(capsys, r"torque file '.*garbage\.csv' is malformed", "simulate", garbage)
+    columns = tmp_path / "columns.csv"
+    columns.write_text("t [s],a [m],b [m]\n0,1,2\n1,2,3\n")
+    assert_one_line_error(
+        capsys,
+        r"torque file '.*columns\.csv' (is malformed|has no linkage columns)",
+        "simulate",
+        columns,
+    )
+    text = tmp_path / "torques.txt"
+    text.write_text("0 1 2\n")
+    assert_one_line_error(capsys, r"unknown format '\.txt'", "simulate", text)
+    assert_one_line_error(capsys, r"is a folder", "simulate", tmp_path)
+    good = profile_files / "torques.csv"
+    assert_one_line_error(
+        capsys, r"is for links .* preset 'five-link' has", "simulate", good, "--preset", "five-link"
+    )
+    assert_one_line_error(
+        capsys,
+        r"unknown --method 'euler'; choose one of: cvodes, idas, rk, collocation",
+        "simulate",
+        good,
+        "--method",
+        "euler",
+        *out_dir,
+    )
+    assert_one_line_error(capsys, r"--rtol: must lie in \(0, 1\)", "simulate", good, "--rtol", "2")
+    assert_one_line_error(
+        capsys,
+        r"--t-end-s 5 s is outside the file's time range \(0, 0.3\] s",
+        "simulate",
+        good,
+        "--t-end-s",
+        "5",
+        *out_dir,
+    )
+    assert_one_line_error(capsys, r"--steps: must be >= 1", "simulate", good, "--steps", "0")
+    assert_one_line_error(
+        capsys, r"unknown preset 'nope'", "simulate", good, "--preset", "nope", *out_dir
+    )
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--preset", "nope"], r"unknown preset 'nope'; choose one of: six-link"),
+        (["--law", "paper23"], r"unknown gait law 'paper23'; choose one of: paper22, walking"),
+        (["--period-s", "-1"], r"--period-s: must be a finite number > 0 s, got '-1'"),
+        (["--duration-s", "abc"], r"--duration-s: expected a number in s, got 'abc'"),
+        (["--rate-hz", "0"], r"--rate-hz: must be a finite number > 0 Hz"),
+        (
+            ["--zeta-rad", "0.1,0.2"],
+            r"--zeta-rad: expected 6 values \(one per link of preset 'six-link'\), got 2",
+        ),
+        (["--zeta-rad", "a,b"], r"--zeta-rad: expected comma-separated numbers in rad"),
+        (["--zeta-rad=-0.1,0,0,0,0,0"], r"`GaitLaw.zeta\[0\]`: amplitude must be >= 0 rad"),
+        (["--center-rad", "nan,0,0,0,0,0"], r"--center-rad: must be finite numbers in rad"),
+        (["--formats", "csv,xls"], r"--formats: unknown format\(s\) \['xls'\]"),
+        (
+            ["--preset", "five-link"],
+            r"gait law 'paper22' drives 6 links but preset 'five-link' has 5",
+        ),
+        (["--rate-hz", "1e9", "--duration-s", "10"], r"keep it under 2,000,000"),
+        (["--bogus"], r"unrecognized arguments: --bogus"),
+    ],
+)
+def test_torques_bad_input(capsys, tmp_path, argv, message):
+    assert_one_line_error(capsys, message, "torques", "--output-dir", tmp_path, "--no-plots", *argv)
+
+
+def test_other_bad_input(capsys, tmp_path):
+    assert_one_line_error(capsys, r"unknown preset 'nope'", "equations", "--preset", "nope")
+    assert_one_line_error(capsys, r"required: <command>")
+    assert_one_line_error(capsys, r"invalid choice: 'fly'", "fly")
+    assert_one_line_error(capsys, r"--rows: must be >= 1", "demo", "--rows", "0")
+    a_file = tmp_path / "file"
+    a_file.write_text("x")
+    assert_one_line_error(
+        capsys,
+        r"--output-dir: '.*file' exists and is not a folder",
+        "torques",
+        "--output-dir",
+        a_file,
+    )
+
+
+def test_torques_gif_and_npz(capsys, tmp_path):
+    code, _out, err = run(
+        capsys,
+        "torques",
+        "--duration-s",
+        "0.1",
+        "--rate-hz",
+        "50",
+        "--gif",
+        "--formats",
+        "npz",
+        "--output-dir",
+        tmp_path,
+    )
+    assert code == 0, err
+    assert (tmp_path / "animation.gif").read_bytes()[:6] in (b"GIF89a", b"GIF87a")
+    assert Trajectory.load(tmp_path / "torques.npz").time.size == 6
+    assert "writing animation.gif" in err

@@ -1,0 +1,374 @@
+"""First and second problems of dynamics against independent references.
+
+References: the Newton-Euler oracle of tests/reference (no complex numbers, no CasADi), the
+paper's printed equations (tests/reference/paper_equations.py), the energy balance
+E(t) - E(0) = integral of sum_i M_i (dpsi_i - dpsi_parent(i)) dt computed here with Simpson's
+rule, and the law itself for replays.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from reference.newton_euler import ground_reaction as oracle_ground_reaction
+from reference.newton_euler import inverse_dynamics as oracle_inverse_dynamics
+from reference.newton_euler import random_tree
+from scipy.integrate import cumulative_simpson
+
+from model import presets
+from model.errors import DefinitionError, DefinitionTypeError
+from planner.trajectory import Trajectory
+from problems import (
+    GaitLaw,
+    fit_growth_rate,
+    law_torque_function,
+    replay_law,
+    simulate,
+    torques_along,
+    upright_instability_rate,
+)
+
+HALF_PI = math.pi / 2
+
+
+@pytest.fixture(scope="module")
+def six():
+    return presets.six_link_anthropoid().dynamics()
+
+
+@pytest.fixture(scope="module")
+def paper22():
+    return GaitLaw.preset("paper22")
+
+
+def _relative_error(a, b):
+    return np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300)
+
+
+# ---- first problem --------------------------------------------------------------------------
+@pytest.mark.parametrize("law_name", ["paper22", "walking"])
+def test_law_torques_match_newton_euler(six, law_name):
+    law = GaitLaw.preset(law_name)
+    t = np.linspace(0.0, 2.0 * law.period, 401)
+    profile = torques_along(six, law, t)
+    psi, dpsi, ddpsi = law(t)
+    linkage = six.linkage
+    assert (
+        _relative_error(profile.torques, oracle_inverse_dynamics(linkage, psi, dpsi, ddpsi)) < 1e-10
+    )
+    ground = oracle_ground_reaction(linkage, psi, dpsi, ddpsi)
+    fx, fy = profile.extras["Fx"][0], profile.extras["Fy"][0]
+    assert _relative_error(fx + 1j * fy, ground) < 1e-10
+    np.testing.assert_array_equal(profile.psi, psi)
+    np.testing.assert_array_equal(profile.dpsi, dpsi)
+    np.testing.assert_array_equal(profile.ddpsi, ddpsi)
+
+
+def test_law_torques_on_random_trees_match_newton_euler():
+    rng = np.random.default_rng(4)
+    checked = 0
+    for n_links in (2, 5, 9):
+        linkage = random_tree(rng, n_links, span=(0.1, 10.0))
+        law = GaitLaw(
+            period=rng.uniform(0.5, 2.0),
+            zeta=rng.uniform(0, 0.5, n_links),
+            varpi=rng.uniform(-3, 3, n_links),
+            center=rng.uniform(-3, 3, n_links),
+        )
+        t = np.linspace(0.0, law.period, 51)
+        torques = torques_along(linkage, law, t).torques
+        assert _relative_error(torques, oracle_inverse_dynamics(linkage, *law(t))) < 1e-10
+        checked += torques.size
+    assert checked == 51 * (2 + 5 + 9)
+
+
+def test_static_instants_need_gravity_torques_only(six):
+    # varpi_j = +-pi/2: every t = k T/2 is static (GaitLaw.static_times derives it).
+    law = GaitLaw(
+        period=0.8,
+        zeta=[0.2, 0.3, 0.4, 0.3, 0.1, 0.05],
+        varpi=[HALF_PI, -HALF_PI, HALF_PI, HALF_PI, -HALF_PI, HALF_PI],
+        center=[HALF_PI, 1.4, -HALF_PI, -1.7, 1.6, HALF_PI],
+    )
+    times = law.static_times(t_end=1.6)
+    assert times.size == 5
+    profile = torques_along(six, law, times)
+    psi = law.psi(times)
+    gravity = six.gravity_torques(psi)
+    assert _relative_error(profile.torques, gravity) < 1e-12
+    zero = np.zeros_like(psi)
+    assert _relative_error(gravity, oracle_inverse_dynamics(six.linkage, psi, zero, zero)) < 1e-10
+    # and at a non-static instant the dynamic part is large
+    moving = torques_along(six, law, np.array([0.2, 0.3])).torques
+    assert np.max(np.abs(moving - six.gravity_torques(law.psi(np.array([0.2, 0.3]))))) > 10.0
+
+
+def test_paper22_has_no_static_instant_but_rests_at_t0(six, paper22):
+    # dpsi(0) = 0 but ddpsi(0) != 0: the torque at t = 0 is gravity plus inertia, not gravity.
+    psi, dpsi, ddpsi = paper22(0.0)
+    assert np.max(np.abs(dpsi)) == 0.0 and np.max(np.abs(ddpsi)) > 1.0
+    torque = torques_along(six, paper22, [0.0, 0.5]).torques[0]
+    inertial = oracle_inverse_dynamics(six.linkage, psi, dpsi, ddpsi) - oracle_inverse_dynamics(
+        six.linkage, psi, dpsi, np.zeros(6)
+    )
+    assert _relative_error(torque - six.gravity_torques(psi), inertial) < 1e-10
+
+
+def test_profile_metadata_and_channels(six, paper22):
+    profile = torques_along(six, paper22, np.linspace(0, 1, 5), metadata={"note": "x"})
+    meta = profile.metadata
+    assert meta["law"]["zeta"] == list(paper22.zeta)
+    assert meta["law"]["name"] == "paper22"
+    assert meta["model"] == six.linkage.parameters()
+    assert {"casadi", "numpy", "anthropoid-planner"} <= set(meta["versions"])
+    assert meta["note"] == "x"
+    assert profile.control_names == tuple("M_" + name for name in six.names)
+    assert {"Fx", "Fy"} <= set(profile.extras)
+    assert profile.extras["Fy"][1] == "N"
+
+
+def test_paper_errata_change_m1_and_m2_only(six, paper22):
+    paper = pytest.importorskip(
+        "reference.paper_equations", reason="tests/reference/paper_equations.py not written yet"
+    )
+    t = np.linspace(0.0, paper22.period, 2001)
+    psi, dpsi, ddpsi = paper22(t)
+    literal = paper.paper_literal_torques(six.linkage, psi, dpsi, ddpsi)
+    corrected = paper.corrected_torques(six.linkage, psi, dpsi, ddpsi)
+    ours = torques_along(six, paper22, t).torques
+    assert _relative_error(corrected, ours) < 1e-10
+    difference = np.max(np.abs(literal - ours), axis=0)
+    # Measured on 2001 times: 4.802 and 1.392 N m (errata.md: "up to 4.8", "1.4").
+    np.testing.assert_allclose(difference[:2], [4.802, 1.392], atol=0.005)
+    assert np.all(difference[2:] < 1e-9)
+
+
+def test_first_problem_validation(six, paper22):
+    with pytest.raises(DefinitionError, match=r"`law`: drives 6 links but the linkage has 5"):
+        torques_along(presets.five_link_biped(), paper22, [0.0, 0.1])
+    with pytest.raises(DefinitionTypeError, match=r"`law`: must be a problems.GaitLaw"):
+        torques_along(six, lambda t: t, [0.0, 1.0])
+    with pytest.raises(DefinitionError, match=r"`t`: must be a 1-D array of at least 2 time"):
+        torques_along(six, paper22, [0.0])
+    with pytest.raises(DefinitionError, match=r"`t`: times must increase strictly"):
+        torques_along(six, paper22, [0.0, 0.2, 0.1])
+    with pytest.raises(DefinitionTypeError, match=r"`dynamics`: must be a model.Dynamics"):
+        torques_along("six-link", paper22, [0.0, 1.0])
+
+
+# ---- second problem -------------------------------------------------------------------------
+def _power(six, dpsi, torques):
+    parents = six.linkage.parents
+    relative = dpsi.copy()
+    for i, p in enumerate(parents):
+        if p >= 0:
+            relative[:, i] -= dpsi[:, p]
+    return np.sum(torques * relative, axis=1)
+
+
+@pytest.mark.parametrize(
+    ("method", "options", "tolerance"),
+    [
+        # relative errors measured: cvodes 3.5e-9, idas 1.1e-9, rk 2.5e-13 of 425 J of change
+        ("cvodes", {"rtol": 1e-11, "atol": 1e-11}, 1e-8),
+        ("idas", {"rtol": 1e-11, "atol": 1e-11}, 1e-8),
+        ("rk", {"steps": 8}, 1e-9),
+        ("collocation", {"steps": 4}, 1e-9),  # measured 5e-12
+    ],
+)
+def test_energy_balance_with_torques(six, paper22, method, options, tolerance):
+    law_torque = law_torque_function(six, paper22)
+
+    def torque(t):
+        t = np.atleast_1d(t)
+        wobble = 20.0 * np.sin(9.0 * t[:, None] + np.arange(6)[None, :])
+        return law_torque(t) + wobble
+
+    t = np.linspace(0.0, 0.4, 801)
+    result = simulate(six, torque, paper22.state(0.0), (0.0, 0.4), t, method=method, **options)
+    kinetic, potential = six.energy(result.psi, result.dpsi)
+    energy_change = kinetic + potential - (kinetic[0] + potential[0])
+    work_quadrature = result.extras["work"][0]
+    work_simpson = cumulative_simpson(_power(six, result.dpsi, result.torques), x=t, initial=0.0)
+    scale = np.max(np.abs(energy_change))
+    assert scale > 50.0  # the torques do real work
+    assert np.max(np.abs(energy_change - work_quadrature)) < tolerance * scale
+    # Simpson's rule on the 2 kHz output: its own error ~1e-6 J (measured 1.2e-6 to 2.1e-6 J)
+    assert np.max(np.abs(work_simpson - work_quadrature)) < 2e-8 * scale
+    np.testing.assert_allclose(result.torques, torque(t), rtol=1e-13, atol=1e-10)
+
+
+def test_passive_motion_conserves_energy(six):
+    x0 = np.concatenate([np.full(6, HALF_PI) + 0.1 * np.arange(6), np.zeros(6)])
+    result = simulate(
+        six, lambda t: np.zeros((np.size(t), 6)), x0, (0.0, 1.0), rtol=1e-12, atol=1e-12
+    )
+    energy = np.sum(six.energy(result.psi, result.dpsi), axis=0)
+    assert np.max(np.abs(energy - energy[0])) / abs(energy[0]) < 1e-8
+    assert np.max(np.abs(result.extras["work"][0])) == 0.0
+    assert np.max(np.abs(result.psi[-1] - x0[:6])) > 0.1  # it did fall
+
+
+def test_methods_agree_and_sources_are_equivalent(six, paper22):
+    profile = torques_along(six, paper22, np.linspace(0.0, 0.3, 301))
+    reference = simulate(six, profile, None, (0.0, 0.2), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(reference.psi[0], paper22.psi(0.0), atol=0)  # x0 from the file
+    for method in ("idas", "rk", "collocation"):
+        other = simulate(six, profile, None, (0.0, 0.2), method=method, rtol=1e-12, atol=1e-12)
+        assert np.max(np.abs(other.psi - reference.psi)) < 1e-8, method
+
+    class Solution:  # anything with to_trajectory(), like planner.Solution
+        def to_trajectory(self):
+            return profile
+
+    via_solution = simulate(six, Solution(), None, (0.0, 0.2), rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(via_solution.states, reference.states)
+    exact = law_torque_function(six, paper22)
+
+    def scalar_only(t):  # not vectorised: simulate must call it per time
+        return exact(np.array([float(t)]))[0]
+
+    via_vector = simulate(six, exact, paper22.state(0.0), (0.0, 0.2), rtol=1e-12, atol=1e-12)
+    via_callable = simulate(
+        six, scalar_only, paper22.state(0.0), (0.0, 0.2), rtol=1e-12, atol=1e-12
+    )
+    np.testing.assert_array_equal(via_callable.states, via_vector.states)
+    # exact torques vs a 1 kHz cubic spline of them: close over this short span
+    assert np.max(np.abs(via_vector.psi - reference.psi)) < 1e-6
+    assert via_callable.metadata["method"] == "cvodes"
+    assert reference.metadata["torques"]["source_metadata"]["law"]["name"] == "paper22"
+
+
+def test_replay_of_the_law_follows_it_then_diverges(six, paper22):
+    report = replay_law(six, paper22, 1.2, rtol=1e-12, atol=1e-12)
+    assert report.deviation[0] == 0.0
+    # measured: 0.62 s below 1e-6 rad, growth rate 25 1/s (cvodes); the upright pose's
+    # linearisation gives 30 1/s.
+    assert report.horizon >= 0.5
+    assert 15.0 < report.growth_rate < 40.0
+    assert report.deviation[-1] > 1e-3  # an open-loop replay of an unstable gait diverges
+    linear = upright_instability_rate(six, np.full(6, HALF_PI))
+    assert 0.5 < report.growth_rate / linear < 1.5
+    other = replay_law(six, paper22, 1.0, method="collocation", steps=8)
+    assert abs(other.growth_rate / report.growth_rate - 1) < 0.15
+    rows = report.table(5)
+    assert rows[0] == (0.0, 0.0) and len(rows) == 5
+
+
+def test_replay_of_a_sampled_profile(six, paper22):
+    profile = torques_along(six, paper22, np.linspace(0.0, 0.5, 501))  # 1 kHz
+    report = replay_law(six, paper22, 0.4, torques=profile, rtol=1e-12, atol=1e-12)
+    assert report.horizon >= 0.2  # measured 0.27 s: natural-spline end error ~1e-3 N m
+
+
+def test_second_problem_validation(six, paper22):
+    profile = torques_along(six, paper22, np.linspace(0.0, 0.5, 51))
+    x0 = paper22.state(0.0)
+    cases = [
+        ({"method": "euler"}, DefinitionError, r"`method`: unknown integrator 'euler'"),
+        ({"t_span": (0.0, 0.6)}, DefinitionError, r"`t_span`: \(0, 0.6\) s leaves the torque"),
+        ({"t_span": (0.3, 0.1)}, DefinitionError, r"`t_span`: needs finite t0 < tf"),
+        ({"x0": np.zeros(5)}, DefinitionError, r"`x0`: must have 2n = 12 entries"),
+        ({"x0": np.full(12, np.nan)}, DefinitionError, r"`x0`: contains NaN"),
+        ({"rtol": 0.0}, DefinitionError, r"`rtol`: must lie in \(0, 1\)"),
+        ({"steps": 0}, DefinitionError, r"`steps`: must be an integer >= 1"),
+        ({"t_eval": [0.0, 0.7]}, DefinitionError, r"`t_eval`: must lie within t_span"),
+        ({"rate_hz": -1.0}, DefinitionError, r"`rate_hz`: must be > 0 Hz"),
+        ({"interpolation": "quintic"}, DefinitionError, r"`interpolation`: must be 'cubic'"),
+    ]
+    for changes, error, message in cases:
+        arguments = {"x0": x0, "t_span": (0.0, 0.5)}
+        arguments.update(changes)
+        with pytest.raises(error, match=message):
+            simulate(six, profile, **arguments)
+    with pytest.raises(DefinitionError, match=r"`t_span`: required when `torques` is a callable"):
+        simulate(six, lambda t: np.zeros(6), x0)
+    with pytest.raises(DefinitionError, match=r"`x0`: required when `torques` is a callable"):
+        simulate(six, lambda t: np.zeros(6), None, (0.0, 1.0))
+    with pytest.raises(DefinitionTypeError, match=r"`torques`: must be a Trajectory"):
+        simulate(six, 3.0, x0, (0.0, 1.0))
+    with pytest.raises(DefinitionError, match=r"the callable must return 6 torques"):
+        simulate(six, lambda t: np.zeros(4), x0, (0.0, 0.1))
+    with pytest.raises(DefinitionError, match=r"`torques`: the profile gives NaN or inf torques"):
+        simulate(six, lambda t: np.full((np.size(t), 6), np.inf), x0, (0.0, 0.1))
+    five = presets.five_link_biped().dynamics()
+    with pytest.raises(
+        DefinitionError, match=r"profile has 6 torque channels but the linkage has 5"
+    ):
+        simulate(five, profile, np.zeros(10), (0.0, 0.1))
+    renamed = Trajectory.from_linkage(
+        profile.time, profile.psi, profile.dpsi, profile.torques, [f"L{i}" for i in range(6)]
+    )
+    with pytest.raises(DefinitionError, match=r"the profile is for links \['L0'"):
+        simulate(six, renamed, x0, (0.0, 0.1))
+
+
+def test_profile_and_its_control_function_give_the_same_motion():
+    # Output times that miss the profile's knots by an ulp (0.05 vs 50 * 0.001) must still be
+    # reported at the right instant: the Trajectory path against the callable path.
+    chain = presets.n_link_chain(2).dynamics()
+    t = np.linspace(0.0, 1.0, 1001)
+    torques = np.column_stack([np.sin(7 * t), np.cos(5 * t)])
+    profile = Trajectory.from_linkage(
+        t, np.zeros((1001, 2)), np.zeros((1001, 2)), torques, chain.names
+    )
+    spline = profile.control_function("cubic")
+    x0 = np.array([-1.5, -1.5, 0.0, 0.0])
+    out = np.linspace(0.0, 1.0, 21)
+    a = simulate(chain, profile, x0, (0.0, 1.0), out, rtol=1e-12, atol=1e-12)
+    b = simulate(chain, spline, x0, (0.0, 1.0), out, rtol=1e-12, atol=1e-12, max_interval=1e-3)
+    np.testing.assert_array_equal(a.time, out)
+    assert np.max(np.abs(a.states - b.states)) < 1e-10  # measured 6e-14
+    exact = simulate(
+        chain,
+        lambda s: np.column_stack([np.sin(7 * s), np.cos(5 * s)]),
+        x0,
+        (0.0, 1.0),
+        out,
+        rtol=1e-12,
+        atol=1e-12,
+    )
+    assert np.max(np.abs(a.states - exact.states)) < 1e-7  # 1 kHz spline error, measured 1.3e-8
+
+
+def test_a_planner_solution_replays_like_its_own_replay():
+    import casadi as ca
+
+    from planner import OCP
+
+    chain = presets.n_link_chain(2).dynamics()
+    solution = (
+        OCP(chain, T=1.0, N=20)
+        .bound("M", -50, 50)
+        .initial(psi=[-HALF_PI, -HALF_PI], dpsi=[0.0, 0.0])
+        .final(psi=[-HALF_PI + 0.5, -HALF_PI + 0.5], dpsi=[0.0, 0.0])
+        .minimize(integral=lambda p: ca.sumsqr(p.M))
+        .solve()
+    )
+    replay = solution.replay(rtol=1e-12, atol=1e-12)  # the planner's own integration
+    x0 = np.asarray(solution.state(0.0)).reshape(-1)
+    exact = simulate(
+        chain,
+        solution.control,
+        x0,
+        (0.0, 1.0),
+        replay.time,
+        rtol=1e-12,
+        atol=1e-12,
+        max_interval=1.0 / 160,
+    )
+    assert np.max(np.abs(exact.states - replay.states)) < 1e-6  # measured 2.6e-8
+    sampled = simulate(chain, solution, None, None, replay.time, rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(sampled.states - replay.states)) < 1e-3  # 1 kHz samples: 8.9e-5
+
+
+def test_growth_rate_fit_on_a_closed_form():
+    t = np.linspace(0.0, 2.0, 401)
+    deviation = 1e-12 * np.exp(20.0 * t) * (1.0 + 0.5 * np.sin(40.0 * t) ** 2)
+    # the running max follows the envelope 1e-12 e^{20 t} (1 + ...) within a factor 1.5
+    assert fit_growth_rate(t, deviation) == pytest.approx(20.0, rel=0.02)
+    assert math.isnan(fit_growth_rate(t, np.full(t.size, 1e-12)))
+    with pytest.raises(DefinitionError, match=r"`window`: needs 0 < low < high"):
+        fit_growth_rate(t, deviation, (1e-3, 1e-9))
+    with pytest.raises(DefinitionError, match=r"`deviation`: shape \(3,\) differs"):
+        fit_growth_rate(t, np.ones(3))

@@ -1,0 +1,748 @@
+"""Trajectory: validation, interpolation (against scipy and convergence orders), files.
+
+Independent checks: the natural spline against scipy's CubicSpline(bc_type="natural"); the
+interpolation orders as fitted slopes of the error over h on smooth functions; file round
+trips compared bit for bit with what was saved and with the interpolant at the export times.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import os
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.interpolate import CubicSpline
+
+from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from planner import interpolation
+from planner import trajectory as trajectory_module
+from planner.trajectory import (
+    FORMAT_NAME,
+    Trajectory,
+    TrajectoryError,
+    TrajectoryFileError,
+    TrajectoryFileNotFoundError,
+)
+
+LINKS = ("shank", "thigh", "torso")
+
+
+def linkage_trajectory(k: int = 41, duration: float = 1.3, extras: bool = True) -> Trajectory:
+    """A smooth three-link motion with exact derivatives; awkward floats in every column."""
+    t = np.linspace(0.0, duration, k)
+    omega = np.array([1.7, 2.3, 0.9])
+    phase = np.array([0.1, 0.7, 1.3])
+    psi = np.pi / 2 + 0.3 * np.sin(omega * t[:, None] + phase)
+    dpsi = 0.3 * omega * np.cos(omega * t[:, None] + phase)
+    ddpsi = -0.3 * omega**2 * np.sin(omega * t[:, None] + phase)
+    torques = np.exp(t)[:, None] * np.array([1.0 / 3.0, -2.0 / 7.0, 1e-17])
+    force = (np.cos(t) / 3.0) + 1j * (700.0 + np.sin(t))
+    return Trajectory.from_linkage(
+        t,
+        psi,
+        dpsi,
+        torques,
+        LINKS,
+        ddpsi=ddpsi if extras else None,
+        ground_reaction=force if extras else None,
+        metadata={"source": "test", "N": np.int64(40), "cost": np.float64(0.1), "v": (1, 2)},
+    )
+
+
+def generic_trajectory() -> Trajectory:
+    t = np.array([0.0, 0.25, 0.6, 1.0])
+    return Trajectory(
+        t,
+        np.column_stack([t**2, np.sin(t)]),
+        np.column_stack([np.cos(t)]),
+        ("x", "y"),
+        ("m", "m"),
+        ("u",),
+        ("N",),
+    )
+
+
+def bits(array: np.ndarray) -> bytes:
+    return np.ascontiguousarray(array, dtype=np.float64).tobytes()
+
+
+def assert_identical(a: Trajectory, b: Trajectory) -> None:
+    """Equal to 0 ulp (compared as bytes, so -0.0 and 0.0 differ too)."""
+    assert a.columns == b.columns
+    for name, _, _ in a.columns:
+        assert bits(a.column(name)) == bits(b.column(name)), name
+    assert a.metadata == b.metadata
+    assert a == b
+
+
+# ---- construction and the linkage convention -----------------------------------------------
+def test_from_linkage_builds_the_convention():
+    traj = linkage_trajectory()
+    n = len(LINKS)
+    assert traj.state_names == tuple(f"psi_{v}" for v in LINKS) + tuple(f"dpsi_{v}" for v in LINKS)
+    assert traj.state_units == ("rad",) * n + ("rad/s",) * n
+    assert traj.control_names == tuple(f"M_{v}" for v in LINKS)
+    assert traj.control_units == ("N m",) * n
+    assert [(name, unit) for name, (_, unit) in traj.extras.items()] == [
+        *((f"ddpsi_{v}", "rad/s^2") for v in LINKS),
+        ("Fx", "N"),
+        ("Fy", "N"),
+    ]
+    assert traj.is_linkage and traj.link_names == LINKS
+    assert traj.psi.shape == traj.dpsi.shape == traj.torques.shape == traj.ddpsi.shape == (41, n)
+    np.testing.assert_array_equal(traj.dpsi, traj.states[:, n:])
+    assert traj.ground_reaction.dtype.kind == "c"
+    np.testing.assert_array_equal(traj.ground_reaction.imag, traj.extras["Fy"][0])
+    # numpy scalars and tuples in the metadata become JSON types on the way in
+    assert traj.metadata == {"source": "test", "N": 40, "cost": 0.1, "v": [1, 2]}
+    assert type(traj.metadata["N"]) is int
+    assert traj.hermite_states == traj.state_names
+    assert "41 samples" in repr(traj)
+
+
+def test_ground_reaction_as_real_columns_and_arrays_read_only():
+    t = np.linspace(0.0, 1.0, 5)
+    one = np.ones((5, 1))
+    traj = Trajectory.from_linkage(t, one, one, one, ["a"], ground_reaction=np.c_[t, 2 * t])
+    np.testing.assert_array_equal(traj.ground_reaction, t + 2j * t)
+    with pytest.raises(ValueError, match="read-only"):
+        traj.states[0, 0] = 1.0
+    with pytest.raises(AttributeError):
+        traj.time = t  # frozen
+    assert not traj.time.flags.writeable and not traj.extras["Fx"][0].flags.writeable
+
+
+def test_copies_are_independent_of_the_inputs():
+    t = np.linspace(0.0, 1.0, 4)
+    states = np.zeros((4, 1))
+    traj = Trajectory(t, states, np.zeros((4, 0)), ("x",), ("m",), (), ())
+    states[0, 0] = 5.0
+    assert traj.states[0, 0] == 0.0
+    assert traj.controls.shape == (4, 0)
+
+
+def test_none_means_empty_and_replace_revalidates():
+    traj = Trajectory(**{**GOOD, "extras": None, "metadata": None})
+    assert dict(traj.extras) == {} and traj.metadata == {}
+    with pytest.raises(TypeError):
+        traj.extras["a"] = (T4, "m")  # read-only mapping
+    moved = dataclasses.replace(traj, time=T4 + 1.0)
+    assert moved.t0 == 1.0 and moved.duration == 1.0
+    with pytest.raises(DefinitionError, match=r"`time`: must be strictly increasing"):
+        dataclasses.replace(traj, time=T4[::-1])
+
+
+def test_linkage_properties_refuse_a_generic_trajectory():
+    traj = generic_trajectory()
+    assert not traj.is_linkage
+    for name in ("psi", "dpsi", "torques", "ddpsi", "link_names", "ground_reaction"):
+        with pytest.raises(TrajectoryError, match=rf"`{name}`: this trajectory does not follow"):
+            getattr(traj, name)
+
+
+def test_missing_linkage_extras_are_named():
+    traj = linkage_trajectory(extras=False)
+    with pytest.raises(TrajectoryError, match=r"`ddpsi`: .*missing extras \['ddpsi_shank'"):
+        _ = traj.ddpsi
+    with pytest.raises(TrajectoryError, match=r"`ground_reaction`: .*pass ground_reaction="):
+        _ = traj.ground_reaction
+    renamed = Trajectory(
+        traj.time,
+        traj.states,
+        traj.controls,
+        traj.state_names,
+        traj.state_units,
+        ("T1", "T2", "T3"),
+        ("N m",) * 3,
+    )
+    assert renamed.link_names == LINKS
+    with pytest.raises(TrajectoryError, match=r"`torques`: the controls must be \['M_shank'"):
+        _ = renamed.torques
+
+
+def test_column_and_with_metadata():
+    traj = generic_trajectory()
+    np.testing.assert_array_equal(traj.column("t"), traj.time)
+    np.testing.assert_array_equal(traj.column("u"), traj.controls[:, 0])
+    with pytest.raises(TrajectoryError, match=r"no channel named 'z'; the channels are \['t'"):
+        traj.column("z")
+    tagged = traj.with_metadata(note="x")
+    assert tagged.metadata == {"note": "x"} and traj.metadata == {}
+    assert tagged != traj and generic_trajectory() == traj
+
+
+T4 = np.linspace(0.0, 1.0, 4)
+GOOD = {
+    "time": T4,
+    "states": np.zeros((4, 2)),
+    "controls": np.zeros((4, 1)),
+    "state_names": ("x", "v"),
+    "state_units": ("m", "m/s"),
+    "control_names": ("u",),
+    "control_units": ("N",),
+}
+
+
+@pytest.mark.parametrize(
+    ("change", "error", "match"),
+    [
+        ({"time": [0.0]}, DefinitionError, r"`time`: a trajectory needs at least 2 samples"),
+        (
+            {"time": [0.0, 0.5, 0.5, 1.0]},
+            DefinitionError,
+            r"`time`: must be strictly increasing, got time\[2\] = 0.5 s after time\[1\] = 0.5",
+        ),
+        ({"time": [0.0, np.nan, 0.6, 1.0]}, DefinitionError, r"`time`: must be finite, got nan"),
+        ({"time": np.zeros((4, 1))}, DefinitionError, r"`time`: must be a 1-D array"),
+        ({"time": "0 1 2 3"}, DefinitionTypeError, r"`time`: must be an array of real numbers"),
+        ({"time": T4 + 0j}, DefinitionTypeError, r"`time`: must hold real numbers, .*complex"),
+        ({"states": np.zeros((3, 2))}, DefinitionError, r"`states`: must have one row per"),
+        ({"states": np.zeros(4)}, DefinitionError, r"`states`: must be a 2-D .*reshape\(-1, 1\)"),
+        (
+            {"states": [[0.0, 0.0], [0.0], [0.0, 0.0], [0.0, 0.0]]},
+            DefinitionError,
+            r"`states`: cannot be read as an array",
+        ),
+        (
+            {"states": np.array([[0, 0], [0, np.inf], [0, 0], [0, 0]])},
+            DefinitionError,
+            r"`states`: must be finite, got inf at sample 1, column 1 \(`v`\)",
+        ),
+        ({"controls": np.ones((4, 1), bool)}, DefinitionTypeError, r"`controls`: .*booleans"),
+        ({"state_names": ("x",)}, DefinitionError, r"`state_names`: must have one name per col"),
+        ({"state_names": "xv"}, DefinitionTypeError, r"`state_names`: must be a tuple of 2"),
+        ({"state_names": ("x", 3)}, DefinitionTypeError, r"`state_names\[1\]`: must be a string"),
+        ({"state_names": ("x", " v")}, DefinitionError, r"`state_names\[1\]`: .*leading"),
+        ({"state_names": ("x", "v,w")}, DefinitionError, r"`state_names\[1\]`: name 'v,w' cont"),
+        ({"state_units": ("m", "")}, DefinitionError, r"`state_units\[1\]`: .*use '1' for"),
+        ({"control_units": ("[N]",)}, DefinitionError, r"`control_units\[0\]`: unit '\[N\]'"),
+        ({"state_names": ("x", "x")}, DefinitionError, r"`state_names`: name 'x' is used twice"),
+        ({"control_names": ("x",)}, DefinitionError, r"`control_names`: name 'x' is used twice"),
+        ({"control_names": ("t",)}, DefinitionError, r"name 't' is used twice \(already the t"),
+        ({"extras": [1]}, DefinitionTypeError, r"`extras`: must be a dict name -> \(values"),
+        ({"extras": {"a": np.ones(4)}}, DefinitionTypeError, r"`extras\['a'\]`: must be a pair"),
+        ({"extras": {"a": (np.ones(3), "N")}}, DefinitionError, r"`extras\['a'\]`: must have one"),
+        ({"extras": {"a": (np.ones(4), 1)}}, DefinitionTypeError, r"`extras\['a'\] unit`"),
+        ({"extras": {"u": (np.ones(4), "N")}}, DefinitionError, r"`extras`: name 'u' is used tw"),
+        ({"metadata": [1]}, DefinitionTypeError, r"`metadata`: must be a dict"),
+        ({"metadata": {1: 2}}, DefinitionTypeError, r"`metadata`: keys must be strings"),
+        (
+            {"metadata": {"a": {"b": Path("x")}}},
+            DefinitionTypeError,
+            r"`metadata\['a'\]\['b'\]`: must be JSON-serialisable",
+        ),
+    ],
+)
+def test_validation(change, error, match):
+    with pytest.raises(error, match=match):
+        Trajectory(**{**GOOD, **change})
+    assert issubclass(error, AnthropoidError)
+
+
+@pytest.mark.parametrize(
+    ("change", "error", "match"),
+    [
+        ({"names": "abc"}, DefinitionTypeError, r"`names`: must be a sequence of link names"),
+        ({"names": []}, DefinitionError, r"`names`: a linkage trajectory needs at least one"),
+        ({"psi": np.zeros((4, 3))}, DefinitionError, r"`psi`: must have shape \(K, n\) = \(4, 2\)"),
+        ({"torques": np.zeros((5, 2))}, DefinitionError, r"`torques`: must have shape \(K, n\)"),
+        ({"ddpsi": np.zeros((4, 1))}, DefinitionError, r"`ddpsi`: must have shape"),
+        (
+            {"dpsi": np.array([[0, 0], [0, 0], [np.nan, 0], [0, 0]])},
+            DefinitionError,
+            r"`dpsi`: must be finite, got nan at sample 2, column 0 \(`a`\)",
+        ),
+        ({"ground_reaction": np.zeros(4, complex)[:3]}, DefinitionError, r"complex Fx \+ j Fy"),
+        ({"ground_reaction": np.zeros((4, 3))}, DefinitionError, r"`ground_reaction`: must be"),
+        ({"metadata": {"f": lambda: 0}}, DefinitionTypeError, r"`metadata\['f'\]`"),
+    ],
+)
+def test_from_linkage_validation(change, error, match):
+    arguments = {
+        "time": T4,
+        "psi": np.zeros((4, 2)),
+        "dpsi": np.zeros((4, 2)),
+        "torques": np.zeros((4, 2)),
+        "names": ("a", "b"),
+    }
+    with pytest.raises(error, match=match):
+        Trajectory.from_linkage(**{**arguments, **change})
+
+
+# ---- interpolation ----------------------------------------------------------------------------
+def test_interpolants_reproduce_the_knots_bit_for_bit():
+    traj = linkage_trajectory()
+    states, controls = traj.at(traj.time)
+    assert bits(states) == bits(traj.states) and bits(controls) == bits(traj.controls)
+    for kind in ("cubic", "linear"):
+        function = traj.control_function(kind)
+        assert bits(function(traj.time)) == bits(traj.controls)
+        assert all(
+            bits(function(t)) == bits(row) for t, row in zip(traj.time, traj.controls, strict=True)
+        )
+    extras = traj.extras_at(traj.time)
+    assert all(bits(extras[name]) == bits(values) for name, (values, _) in traj.extras.items())
+    single_states, single_controls = traj.at(traj.time[7])
+    assert single_states.shape == (6,) and single_controls.shape == (3,)
+    assert bits(single_states) == bits(traj.states[7])
+
+
+def test_natural_spline_matches_scipy():
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.05, 0.3, 25))
+    y = rng.normal(size=(25, 3))
+    slopes = interpolation.natural_spline_slopes(t, y)
+    oracle = CubicSpline(t, y, bc_type="natural")
+    np.testing.assert_allclose(slopes, oracle(t, 1), rtol=1e-12, atol=1e-12)
+    query = np.sort(rng.uniform(t[0], t[-1], 200))
+    np.testing.assert_allclose(
+        interpolation.hermite(t, y, slopes, query), oracle(query), rtol=1e-12, atol=1e-12
+    )
+    # two knots: the straight line
+    line = interpolation.natural_spline_slopes(t[:2], y[:2])
+    np.testing.assert_allclose(line, np.tile((y[1] - y[0]) / (t[1] - t[0]), (2, 1)), rtol=1e-14)
+
+
+def fitted_order(errors: list[float], steps: list[float]) -> float:
+    return float(np.polyfit(np.log(steps), np.log(errors), 1)[0])
+
+
+def test_hermite_with_derivative_channels_converges_at_fourth_order():
+    errors, steps = [], []
+    query = np.linspace(0.0, 2.0, 2001)
+    for k in (9, 17, 33, 65, 129):
+        t = np.linspace(0.0, 2.0, k)
+        traj = Trajectory.from_linkage(
+            t, np.sin(3 * t)[:, None], 3 * np.cos(3 * t)[:, None], np.zeros((k, 1)), ["a"]
+        )
+        states, _ = traj.at(query)
+        errors.append(np.max(np.abs(states[:, 0] - np.sin(3 * query))))
+        steps.append(t[1] - t[0])
+    order = fitted_order(errors, steps)
+    assert order >= 4 - 0.3, (order, errors)
+
+
+def test_natural_spline_converges_at_fourth_order_in_the_interior():
+    errors, steps = [], []
+    query = np.linspace(0.35, 0.65, 301)  # away from the ends, where y'' = 0 is not exact
+    for k in (11, 21, 41, 81, 161):
+        t = np.linspace(0.0, 1.0, k)
+        traj = Trajectory(
+            t, np.exp(t)[:, None], np.cos(4 * t)[:, None], ("x",), ("m",), ("u",), ("N",)
+        )
+        states, controls = traj.at(query)
+        errors.append(
+            max(
+                np.max(np.abs(states[:, 0] - np.exp(query))),
+                np.max(np.abs(controls[:, 0] - np.cos(4 * query))),
+            )
+        )
+        steps.append(t[1] - t[0])
+    order = fitted_order(errors, steps)
+    assert order >= 4 - 0.3, (order, errors)
+
+
+def test_hermite_uses_derivative_channels_exactly_on_cubics():
+    # x = t^3 with dx = 3t^2: Hermite is exact; without dx the natural spline is not
+    t = np.array([0.0, 0.3, 0.5, 1.1, 1.2, 2.0])
+    query = np.linspace(0.0, 2.0, 97)
+    with_derivative = Trajectory(
+        t, np.c_[t**3, 3 * t**2], np.zeros((6, 0)), ("x", "dx"), ("m", "m/s"), (), ()
+    )
+    without = Trajectory(t, np.c_[t**3], np.zeros((6, 0)), ("x",), ("m",), (), ())
+    assert with_derivative.hermite_states == ("x",)
+    np.testing.assert_allclose(with_derivative.at(query)[0][:, 0], query**3, atol=1e-13)
+    assert np.max(np.abs(without.at(query)[0][:, 0] - query**3)) > 1e-3
+    # a "dx" with the wrong unit is not taken for the derivative
+    wrong = Trajectory(t, np.c_[t**3, 3 * t**2], np.zeros((6, 0)), ("x", "dx"), ("m", "N"), (), ())
+    assert wrong.hermite_states == ()
+
+
+def test_dpsi_uses_ddpsi_when_stored():
+    full = linkage_trajectory(k=9)
+    bare = linkage_trajectory(k=9, extras=False)
+    query = np.linspace(0.0, 1.3, 301)
+    omega, phase = np.array([1.7, 2.3, 0.9]), np.array([0.1, 0.7, 1.3])
+    exact = 0.3 * omega * np.cos(omega * query[:, None] + phase)
+    error_full = np.max(np.abs(full.at(query)[0][:, 3:] - exact))
+    error_bare = np.max(np.abs(bare.at(query)[0][:, 3:] - exact))
+    assert error_full < error_bare / 5, (error_full, error_bare)
+
+
+def test_queries_outside_the_range_raise_and_the_ends_are_clamped():
+    traj = linkage_trajectory()
+    with pytest.raises(
+        TrajectoryError,
+        match=r"`t`: 1.5 s is outside the trajectory's time "
+        r"range \[0.0, 1.3\] s \(1 of 2 queries\).*does not extrapolate",
+    ):
+        traj.at(np.array([0.2, 1.5]))
+    with pytest.raises(TrajectoryError, match=r"-0.001 s is outside"):
+        traj.control_function()(-0.001)
+    with pytest.raises(TrajectoryError, match=r"outside"):
+        traj.control_function("linear")(np.array([1.31]))
+    with pytest.raises(DefinitionError, match=r"`t`: times must be finite, got nan"):
+        traj.control_function()(float("nan"))
+    with pytest.raises(DefinitionError, match=r"`t`: must be a real number or a 1-D array"):
+        traj.at(np.zeros((2, 2)))
+    with pytest.raises(DefinitionError, match=r"`kind`: must be 'cubic' or 'linear'"):
+        traj.control_function("spline")
+    end = traj.tf * (1 + 4e-16)
+    assert end > traj.tf
+    assert bits(traj.control_function()(end)) == bits(traj.controls[-1])
+    assert bits(traj.at(np.array([-1e-13]))[0][0]) == bits(traj.states[0])
+
+
+def test_control_function_shapes_and_kinds():
+    traj = linkage_trajectory()
+    cubic, linear = traj.control_function(), traj.control_function("linear")
+    query = np.linspace(0.0, 1.3, 57)
+    assert cubic(0.4).shape == (3,) and cubic(query).shape == (57, 3)
+    assert cubic(np.float32(0.4)).shape == (3,) and cubic(1).shape == (3,)
+    assert bits(cubic(query)) == bits(traj.at(query)[1])
+    # scalar fast path = vectorised path, bit for bit
+    assert bits(np.array([cubic(float(q)) for q in query])) == bits(cubic(query))
+    assert bits(np.array([linear(float(q)) for q in query])) == bits(linear(query))
+    # linear interpolation of samples of a straight line is the line
+    t = traj.time
+    line = Trajectory(t, np.c_[t], np.c_[2 * t - 1], ("x",), ("m",), ("u",), ("N",))
+    np.testing.assert_allclose(
+        line.control_function("linear")(query)[:, 0], 2 * query - 1, atol=1e-15
+    )
+    assert "cubic" in repr(cubic)
+
+
+# ---- resampling ---------------------------------------------------------------------------
+def test_resample_at_a_rate_includes_the_end_and_equals_the_interpolant():
+    traj = linkage_trajectory()
+    resampled = traj.resample(rate_hz=20.0)
+    expected = np.append(np.arange(26) / 20.0, 1.3)
+    np.testing.assert_allclose(resampled.time, expected, rtol=0, atol=1e-15)
+    assert resampled.time[-1] == traj.tf
+    states, controls = traj.at(resampled.time)
+    assert bits(resampled.states) == bits(states) and bits(resampled.controls) == bits(controls)
+    extras = traj.extras_at(resampled.time)
+    assert all(bits(resampled.extras[n][0]) == bits(extras[n]) for n in traj.extras)
+    assert resampled.metadata["resampled"] == {"rate_hz": 20.0, "source_samples": 41}
+    # a duration that is a whole number of periods gives a uniform grid
+    assert traj.resample(rate_hz=10.0).n_samples == 14
+    assert traj.resample(rate_hz=0.1).time.tolist() == [0.0, 1.3]
+
+
+def test_resample_at_given_times_and_errors():
+    traj = linkage_trajectory()
+    times = np.array([0.1, 0.2, 1.3])
+    resampled = traj.resample(times=times)
+    assert bits(resampled.states) == bits(traj.at(times)[0])
+    assert resampled.metadata["resampled"]["rate_hz"] is None
+    with pytest.raises(DefinitionError, match="give exactly one of rate_hz"):
+        traj.resample()
+    with pytest.raises(DefinitionError, match="give exactly one of rate_hz"):
+        traj.resample(rate_hz=10, times=times)
+    with pytest.raises(DefinitionError, match=r"`rate_hz`: must be a finite number > 0"):
+        traj.resample(rate_hz=-1)
+    with pytest.raises(DefinitionTypeError, match=r"`rate_hz`: must be a real number"):
+        traj.resample(rate_hz="10")
+    with pytest.raises(DefinitionError, match=r"`times`: must be at least 2 strictly"):
+        traj.resample(times=[0.2, 0.1])
+    with pytest.raises(TrajectoryError, match=r"`times`: 2.0 s is outside"):
+        traj.resample(times=[0.2, 2.0])
+
+
+# ---- files --------------------------------------------------------------------------------
+FORMATS = (".csv", ".json", ".npz")
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_round_trip_at_the_samples_is_bit_for_bit(tmp_path, suffix):
+    traj = linkage_trajectory()
+    path = traj.save(tmp_path / f"motion{suffix}")
+    assert path == tmp_path / f"motion{suffix}"
+    assert_identical(Trajectory.load(path), traj)
+    generic = generic_trajectory().with_metadata(cost=float("nan"), nested={"a": [1.5, None]})
+    generic.save(tmp_path / f"generic{suffix}")
+    back = Trajectory.load(tmp_path / f"generic{suffix}")
+    assert back.columns == generic.columns and np.isnan(back.metadata["cost"])
+    assert bits(back.states) == bits(generic.states)
+    assert back.controls.shape == (4, 1) and not back.extras
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_round_trip_at_a_rate_equals_the_interpolant(tmp_path, suffix):
+    traj = linkage_trajectory()
+    path = traj.save(str(tmp_path / f"motion{suffix}"), rate_hz=37.0)
+    back = Trajectory.load(path)
+    assert back.time[0] == 0.0 and back.time[-1] == traj.tf and back.n_samples == 50
+    states, controls = traj.at(back.time)
+    assert bits(back.states) == bits(states)
+    assert bits(back.controls) == bits(controls)
+    extras = traj.extras_at(back.time)
+    for name in traj.extras:
+        assert bits(back.extras[name][0]) == bits(extras[name])
+    assert back.metadata["resampled"] == {"rate_hz": 37.0, "source_samples": 41}
+    assert back.link_names == LINKS
+
+
+def test_csv_layout_is_readable_by_spreadsheets(tmp_path):
+    traj = linkage_trajectory(k=3)
+    path = traj.save(tmp_path / "m.csv")
+    lines = path.read_text().splitlines()
+    comments = [line for line in lines if line.startswith("#")]
+    assert lines[: len(comments)] == comments  # comments lead, then the header
+    header = lines[len(comments)]
+    assert header.startswith("t [s],psi_shank [rad],psi_thigh [rad],psi_torso [rad],dpsi_shank")
+    assert "M_torso [N m],ddpsi_shank [rad/s^2]" in header and header.endswith("Fx [N],Fy [N]")
+    assert json.loads(comments[0].split(":", 1)[1]) == FORMAT_NAME
+    meta = [c for c in comments if c.startswith("# metadata: ")]
+    assert json.loads(meta[0][len("# metadata: ") :]) == traj.metadata
+    table = np.loadtxt(path, delimiter=",", comments="#", skiprows=len(comments) + 1)
+    assert table.shape == (3, 1 + 6 + 3 + 5)
+    assert bits(table[:, 1:7]) == bits(traj.states)
+
+
+def test_hand_made_csv_infers_groups(tmp_path):
+    path = tmp_path / "hand.csv"
+    path.write_text(
+        "\ufeff# written by hand\r\n"
+        't [s], psi_a [rad],dpsi_a [rad/s],"M_a [N m]",Fx [N]\r\n'
+        "0,1,2,3,4\r\n\r\n0.5,1.5,2.5,3.5,4.5\r\n"
+    )
+    traj = Trajectory.load(path)
+    assert traj.state_names == ("psi_a", "dpsi_a") and traj.control_names == ("M_a",)
+    assert list(traj.extras) == ["Fx"] and traj.metadata == {}
+    np.testing.assert_array_equal(traj.torques[:, 0], [3.0, 3.5])
+
+
+def test_a_file_reordered_in_a_spreadsheet_reads_back_in_group_order(tmp_path):
+    traj = generic_trajectory()
+    path = traj.save(tmp_path / "g.csv")
+    lines = path.read_text().splitlines()
+    swapped = [
+        ",".join(np.array(line.split(","))[[0, 3, 2, 1]]) if not line.startswith("#") else line
+        for line in lines
+    ]
+    path.write_text("\n".join(swapped) + "\n")
+    assert_identical(Trajectory.load(path), traj)
+
+
+def test_a_file_saved_again_by_a_spreadsheet_reads_back(tmp_path):
+    # spreadsheets pad every row to the widest one and quote cells holding commas or quotes
+    traj = linkage_trajectory(k=5)
+    path = traj.save(tmp_path / "m.csv")
+    rows = [next(csv.reader([line])) for line in path.read_text().splitlines()]
+    width = max(len(row) for row in rows)
+    with open(tmp_path / "resaved.csv", "w", newline="") as handle:
+        writer = csv.writer(handle, lineterminator="\r\n")
+        for row in rows:
+            writer.writerow(row + [""] * (width - len(row)))
+    assert (tmp_path / "resaved.csv").read_text().startswith('"# format: ""anthropoid')
+    assert_identical(Trajectory.load(tmp_path / "resaved.csv"), traj)
+
+
+def test_save_errors(tmp_path):
+    traj = generic_trajectory()
+    with pytest.raises(
+        TrajectoryFileError,
+        match=r"unknown trajectory format '.txt'; the "
+        r"formats are .csv, .json, .npz",
+    ):
+        traj.save(tmp_path / "x.txt")
+    with pytest.raises(TrajectoryFileError, match=r"'\(no suffix\)'"):
+        traj.save(tmp_path / "x")
+    with pytest.raises(
+        TrajectoryFileNotFoundError,
+        match=r"the folder .*missing' does not "
+        r"exist; create it first",
+    ):
+        traj.save(tmp_path / "missing" / "x.csv")
+    (tmp_path / "dir.csv").mkdir()
+    with pytest.raises(TrajectoryFileError, match=r"this is a folder"):
+        traj.save(tmp_path / "dir.csv")
+    with pytest.raises(DefinitionTypeError, match=r"`path`: must be a file path"):
+        traj.save(3)
+    assert issubclass(TrajectoryFileNotFoundError, FileNotFoundError)
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_atomic_write_leaves_nothing_when_the_rename_fails(tmp_path, monkeypatch, suffix):
+    def refuse(source, target):
+        raise OSError("disk on fire")
+
+    monkeypatch.setattr(trajectory_module.os, "replace", refuse)
+    with pytest.raises(OSError, match="disk on fire"):
+        generic_trajectory().save(tmp_path / f"x{suffix}")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_atomic_write_keeps_the_old_file_when_the_writer_fails(tmp_path, monkeypatch, suffix):
+    path = linkage_trajectory().save(tmp_path / f"x{suffix}")
+    before = path.read_bytes()
+
+    def broken(trajectory, handle):
+        handle.write(b"partial" if suffix == ".npz" else "partial")
+        raise RuntimeError("writer broke")
+
+    monkeypatch.setitem(trajectory_module._WRITERS, suffix, (broken, suffix == ".npz"))
+    with pytest.raises(RuntimeError, match="writer broke"):
+        generic_trajectory().save(path)
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+
+
+def test_saved_file_gets_ordinary_permissions(tmp_path):
+    path = generic_trajectory().save(tmp_path / "p.csv")
+    umask = os.umask(0)
+    os.umask(umask)
+    assert path.stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+def test_load_missing_file_and_unknown_suffix(tmp_path):
+    with pytest.raises(TrajectoryFileNotFoundError, match=r"nope.csv: no such file"):
+        Trajectory.load(tmp_path / "nope.csv")
+    with pytest.raises(FileNotFoundError):
+        Trajectory.load(tmp_path / "nope.json")
+    with pytest.raises(TrajectoryFileError, match=r"unknown trajectory format '.xlsx'"):
+        Trajectory.load(tmp_path / "a.xlsx")
+    (tmp_path / "d.npz").mkdir()
+    with pytest.raises(TrajectoryFileError, match=r"is a folder"):
+        Trajectory.load(tmp_path / "d.npz")
+
+
+HEADER = "t [s],x [m],u [N]\n"
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        (HEADER + "0,1,2\n0.5,1\n", r"line 3: 2 cells, but the header on line 1 has 3 columns"),
+        (HEADER + "0,1,2\n0.5,abc,2\n", r"line 3, column 2 \(`x`\): 'abc' is not a number"),
+        (HEADER + "0,1,2\n0.5,nan,2\n", r"line 3, column 2 \(`x`\): must be finite, got 'nan'"),
+        (HEADER + "0,1,2\n0,1,2\n", r"line 3: time 0.0 s does not come after 0.0 s on line 2"),
+        (HEADER + "0,1,2\n", r"1 data row\(s\) after the header on line 1; .*at least 2"),
+        ("# only comments\n", r"no header row; the first line that is not a # comment"),
+        ("time [s],x [m]\n0,1\n1,2\n", r"line 1, column 1: the first column must be `t \[s\]`"),
+        ("t [s],x\n0,1\n1,2\n", r"line 1, column 2: header cell 'x' must read `name \[unit\]`"),
+        ("t [s],x [m],x [m]\n0,1,1\n1,2,2\n", r"line 1: the header names \['x'\] more than once"),
+        ("# groups: {oops\n" + HEADER, r"line 1: the `# groups:` comment is not valid JSON"),
+        (
+            '# groups: {"state": ["x", "y"], "control": ["u"]}\n' + HEADER + "0,1,2\n1,2,3\n",
+            r"the columns \['y'\] listed in the groups are missing from the data",
+        ),
+        (
+            '# groups: {"state": [], "control": ["u"]}\n' + HEADER + "0,1,2\n1,2,3\n",
+            r"the columns \['x'\] are not listed in the groups",
+        ),
+        (
+            '# groups: {"states": ["x"]}\n' + HEADER + "0,1,2\n1,2,3\n",
+            r"groups must be an object",
+        ),
+        ('# format: "something else"\n' + HEADER, r"format is 'something else', expected"),
+        (
+            f'# format: "{FORMAT_NAME}"\n# version: 9\n' + HEADER,
+            r"format version 9 is newer than this library reads \(1\); upgrade",
+        ),
+        ("t [s],x [m],u [N,m]\n0,1,2\n1,2,3\n", r"line 1, column 3: header cell 'u \[N'"),
+    ],
+)
+def test_csv_load_errors_name_the_line_and_the_fix(tmp_path, text, match):
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(TrajectoryFileError, match=match) as caught:
+        Trajectory.load(path)
+    assert str(path) in str(caught.value)
+
+
+def test_csv_constructor_errors_are_prefixed_with_the_file(tmp_path):
+    path = tmp_path / "bad.csv"
+    path.write_text("t [s],x [m],x2 [m#]\n0,1,2\n1,2,3\n")
+    with pytest.raises(TrajectoryFileError, match=rf"{path}: `state_units\[1\]`: unit 'm#'"):
+        Trajectory.load(path)
+    path.write_bytes(b"t [s]\xff\n")
+    with pytest.raises(TrajectoryFileError, match=r"not a UTF-8 text file"):
+        Trajectory.load(path)
+
+
+def json_document(tmp_path) -> dict:
+    path = generic_trajectory().save(tmp_path / "good.json")
+    return json.loads(path.read_text())
+
+
+@pytest.mark.parametrize(
+    ("edit", "match"),
+    [
+        (lambda d: "[1, 2", r"line 1, column 6: not valid JSON"),
+        (lambda d: [1], r"the top level must be an object"),
+        (lambda d: {k: v for k, v in d.items() if k != "data"}, r"missing key\(s\) \['data'\]"),
+        (lambda d: {**d, "format": "csv"}, r"format is 'csv', expected"),
+        (lambda d: {**d, "version": 2}, r"format version 2 is newer"),
+        (lambda d: {**d, "version": "1"}, r"version must be an integer"),
+        (lambda d: {**d, "columns": {}}, r"`columns` must be a list"),
+        (lambda d: {**d, "columns": d["columns"][1:]}, r"columns\[0\] must be \{'name': 't'"),
+        (
+            lambda d: {**d, "columns": [*d["columns"], {"name": "z", "unit": "m"}]},
+            r"columns\[4\] must be \{'name': str",
+        ),
+        (
+            lambda d: {**d, "columns": [*d["columns"], d["columns"][1]]},
+            r"`columns` names a column twice",
+        ),
+        (
+            lambda d: {**d, "data": {k: v for k, v in d["data"].items() if k != "y"}},
+            r"data\['y'\] is missing",
+        ),
+        (lambda d: {**d, "data": {**d["data"], "y": [0, 1, 2]}}, r"data\['y'\] has 3 values but"),
+        (lambda d: {**d, "data": {**d["data"], "y": [0, "1", 2, 3]}}, r"data\['y'\]\[1\] is '1'"),
+        (lambda d: {**d, "data": {**d["data"], "y": 5}}, r"data\['y'\] must be a list"),
+        (
+            lambda d: {**d, "data": {**d["data"], "y": [0, float("inf"), 2, 3]}},
+            r"data\['y'\]\[1\] must be finite",
+        ),
+        (lambda d: {**d, "data": {**d["data"], "w": [1, 2, 3, 4]}}, r"data holds \['w'\] that"),
+        (
+            lambda d: {**d, "data": {**d["data"], "t": [0, 1, 1, 2]}},
+            r"`time`: must be strictly increasing",
+        ),
+    ],
+)
+def test_json_load_errors(tmp_path, edit, match):
+    result = edit(json_document(tmp_path))
+    path = tmp_path / "bad.json"
+    path.write_text(result if isinstance(result, str) else json.dumps(result))
+    with pytest.raises(TrajectoryFileError, match=match) as caught:
+        Trajectory.load(path)
+    assert str(path) in str(caught.value)
+
+
+def test_npz_load_errors(tmp_path):
+    path = tmp_path / "bad.npz"
+    path.write_bytes(b"not a zip")
+    with pytest.raises(TrajectoryFileError, match=r"bad.npz: not a readable .npz archive"):
+        Trajectory.load(path)
+    good = generic_trajectory().save(tmp_path / "good.npz")
+    with np.load(good) as archive:
+        arrays = {k: archive[k] for k in archive.files}
+    np.savez(path.with_suffix(""), **{k: v for k, v in arrays.items() if k != "states"})
+    with pytest.raises(TrajectoryFileError, match=r"missing array\(s\) \['states'\]"):
+        Trajectory.load(path)
+    np.savez(path.with_suffix(""), **{**arrays, "metadata": np.array("{no")})
+    with pytest.raises(TrajectoryFileError, match=r"array 'metadata' is not valid JSON"):
+        Trajectory.load(path)
+    np.savez(path.with_suffix(""), **{**arrays, "format": np.array("other")})
+    with pytest.raises(TrajectoryFileError, match=r"format is 'other'"):
+        Trajectory.load(path)
+    np.savez(path.with_suffix(""), **{**arrays, "state_names": np.array([1.0, 2.0])})
+    with pytest.raises(TrajectoryFileError, match=r"'state_names' must be a 1-D array of str"):
+        Trajectory.load(path)
+    np.savez(path.with_suffix(""), **{**arrays, "extras": np.zeros((4, 2))})
+    with pytest.raises(TrajectoryFileError, match=r"array 'extras' must have shape \(K, 0\)"):
+        Trajectory.load(path)
+    np.savez(path.with_suffix(""), **{**arrays, "states": np.zeros((3, 2))})
+    with pytest.raises(TrajectoryFileError, match=r"bad.npz: `states`: must have one row per"):
+        Trajectory.load(path)
+    assert zipfile.is_zipfile(good)
