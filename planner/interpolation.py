@@ -4,8 +4,11 @@ Every interpolant here is a cubic Hermite polynomial per interval, defined by th
 the slopes at the knots; only the slopes differ:
 
 * ``hermite``: the slopes are known (a derivative channel such as dpsi for psi);
-* natural cubic spline: the slopes solve the C2-continuity conditions with zero second
-  derivative at both ends (``natural_spline_slopes``), then the same Hermite evaluation.
+* cubic spline (``spline_slopes``): the slopes solve the C2-continuity conditions, closed by
+  the not-a-knot end conditions (the default: third derivative continuous at the second and
+  second-to-last knots, O(h^4) up to the ends) or, on request, the natural ones (zero second
+  derivative at both ends, only O(h^2) near the ends unless the function's curvature
+  vanishes there); then the same Hermite evaluation.
 
 Evaluation is written in the Hermite basis in the local coordinate tau in [0, 1],
 
@@ -20,14 +23,25 @@ from __future__ import annotations
 
 import numpy as np
 
+SPLINE_ENDS = ("not-a-knot", "natural")
 
-def natural_spline_slopes(knots: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """Slopes at the knots of the natural cubic spline through ``values``.
+
+def spline_slopes(knots: np.ndarray, values: np.ndarray, end: str = "not-a-knot") -> np.ndarray:
+    """Slopes at the knots of the cubic spline through ``values``.
 
     Parameters
     ----------
     knots : (K,) float, strictly increasing, K >= 2.
     values : (K,) or (K, c) float, one column per channel.
+    end : ``"not-a-knot"`` (default) or ``"natural"``, the end conditions:
+
+        * ``"not-a-knot"``: the third derivative is continuous at the second and the
+          second-to-last knots (MATLAB's ``spline``, scipy's ``CubicSpline`` default). The
+          error is O(h^4) up to the ends for a smooth function. K = 3 gives the parabola
+          through the three points, K = 2 the straight line.
+        * ``"natural"``: zero second derivative at both ends. A function whose curvature at
+          the ends is not zero (a torque profile) is then only O(h^2) accurate in the end
+          intervals, the error decaying by about 0.27 per knot inward. K = 2 gives the line.
 
     Returns
     -------
@@ -35,13 +49,31 @@ def natural_spline_slopes(knots: np.ndarray, values: np.ndarray) -> np.ndarray:
 
     Notes
     -----
-    C2 continuity at the interior knot i of two Hermite cubics gives (h_i = t_{i+1} - t_i,
-    d_i = (y_{i+1} - y_i) / h_i)
-        h_i m_{i-1} + 2 (h_{i-1} + h_i) m_i + h_{i-1} m_{i+1} = 3 (h_i d_{i-1} + h_{i-1} d_i),
-    and a zero second derivative at the ends gives 2 m_0 + m_1 = 3 d_0 and
-    m_{K-2} + 2 m_{K-1} = 3 d_{K-2}. The system is strictly diagonally dominant, so the
-    Thomas algorithm (no pivoting) is stable. With K = 2 the spline is the straight line.
+    With h_i = t_{i+1} - t_i and d_i = (y_{i+1} - y_i) / h_i, C2 continuity at the interior
+    knot i of two Hermite cubics gives the interior rows
+        h_i m_{i-1} + 2 (h_{i-1} + h_i) m_i + h_{i-1} m_{i+1} = 3 (h_i d_{i-1} + h_{i-1} d_i).
+    End rows, natural: 2 m_0 + m_1 = 3 d_0 and m_{K-2} + 2 m_{K-1} = 3 d_{K-2}. End rows,
+    not-a-knot (K >= 4; de Boor, A Practical Guide to Splines, CUBSPL), with
+    S = h_0 + h_1 and D = h_{K-3} + h_{K-2}:
+        h_1 m_0 + S m_1 = ((h_0 + 2 S) h_1 d_0 + h_0^2 d_1) / S,
+        D m_{K-2} + h_{K-3} m_{K-1} = (h_{K-2}^2 d_{K-3} + (2 D + h_{K-2}) h_{K-3} d_{K-2}) / D.
+
+    The tridiagonal system is solved by the Thomas algorithm (Gaussian elimination without
+    pivoting), as de Boor's CUBSPL does. The natural system is strictly diagonally dominant.
+    The not-a-knot first row is not (h_1 < S), yet the pivots p_i stay positive for any
+    strictly increasing knots, and the ratios r_i = upper_i / p_i below 1 from row 1 on:
+        p_0 = h_1;  p_1 = 2 S - (h_1 / p_0) S = S,  r_1 = h_0 / S < 1;
+        interior i >= 2: p_i = 2 (h_{i-1} + h_i) - h_i r_{i-1} > 2 h_{i-1} + h_i,
+            so r_i = h_{i-1} / p_i < 1/2;
+        last (K >= 4): p_{K-1} = h_{K-3} (p_{K-2} - D) / p_{K-2} with
+            p_{K-2} - D = h_{K-3} + h_{K-2} (1 - r_{K-3}) > 0.
+    For K >= 5 (r_{K-3} < 1/2), p_{K-2} - D > D / 2, so p_{K-1} > h_{K-3} / 3: forming it
+    cancels at most a factor 3. The one ratio above 1, r_0 = S / h_1 (m_0 from m_1 in the
+    back substitution), is the problem's own sensitivity: the first cubic moves its slope
+    at t_0 by h_0 / h_1 per unit change of its slope at t_2.
     """
+    if end not in SPLINE_ENDS:
+        raise ValueError(f"`end`: must be 'not-a-knot' or 'natural', got {end!r}")
     t = np.asarray(knots, dtype=float)
     y = np.asarray(values, dtype=float)
     column = y.ndim == 1
@@ -50,18 +82,36 @@ def natural_spline_slopes(knots: np.ndarray, values: np.ndarray) -> np.ndarray:
     k = t.shape[0]
     h = np.diff(t)
     d = np.diff(y, axis=0) / h[:, None]
+    if end == "not-a-knot" and k <= 3:
+        slopes = np.empty_like(y)
+        if k == 2:  # the straight line
+            slopes[:] = d[0]
+        else:  # the parabola through the three points
+            s = h[0] + h[1]
+            slopes[0] = ((2.0 * h[0] + h[1]) * d[0] - h[0] * d[1]) / s
+            slopes[1] = (h[1] * d[0] + h[0] * d[1]) / s
+            slopes[2] = ((2.0 * h[1] + h[0]) * d[1] - h[1] * d[0]) / s
+        return slopes[:, 0] if column else slopes
     lower = np.empty(k)  # coefficient of m_{i-1} in row i
     diag = np.empty(k)
     upper = np.empty(k)  # coefficient of m_{i+1} in row i
     rhs = np.empty_like(y)
-    lower[0], diag[0], upper[0] = 0.0, 2.0, 1.0
-    rhs[0] = 3.0 * d[0]
     lower[1:-1] = h[1:]
     diag[1:-1] = 2.0 * (h[:-1] + h[1:])
     upper[1:-1] = h[:-1]
     rhs[1:-1] = 3.0 * (h[1:, None] * d[:-1] + h[:-1, None] * d[1:])
-    lower[-1], diag[-1], upper[-1] = 1.0, 2.0, 0.0
-    rhs[-1] = 3.0 * d[-1]
+    if end == "natural":
+        lower[0], diag[0], upper[0] = 0.0, 2.0, 1.0
+        rhs[0] = 3.0 * d[0]
+        lower[-1], diag[-1], upper[-1] = 1.0, 2.0, 0.0
+        rhs[-1] = 3.0 * d[-1]
+    else:
+        s = h[0] + h[1]
+        lower[0], diag[0], upper[0] = 0.0, h[1], s
+        rhs[0] = ((h[0] + 2.0 * s) * h[1] * d[0] + h[0] ** 2 * d[1]) / s
+        big_d = h[-2] + h[-1]
+        lower[-1], diag[-1], upper[-1] = big_d, h[-2], 0.0
+        rhs[-1] = (h[-1] ** 2 * d[-2] + (2.0 * big_d + h[-1]) * h[-2] * d[-1]) / big_d
     # Thomas algorithm: the scalar forward sweep on the matrix runs in plain floats (it does
     # not depend on the data); only the right-hand side sweep touches the (k, c) arrays.
     factor = np.empty(k)
@@ -77,6 +127,11 @@ def natural_spline_slopes(knots: np.ndarray, values: np.ndarray) -> np.ndarray:
     for i in range(k - 2, -1, -1):
         slopes[i] = (rhs[i] - upper[i] * slopes[i + 1]) / pivot[i]
     return slopes[:, 0] if column else slopes
+
+
+def natural_spline_slopes(knots: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Slopes of the natural cubic spline: ``spline_slopes(knots, values, end="natural")``."""
+    return spline_slopes(knots, values, end="natural")
 
 
 def locate(knots: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

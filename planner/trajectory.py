@@ -23,8 +23,8 @@ Linkage naming convention (used by planner for a model.Dynamics and by problems)
                             ground_reaction=None, metadata=None)   -> Trajectory
     .psi, .dpsi, .torques, .ddpsi (K, n) and .link_names   (raise if not a linkage trajectory)
     .at(t) -> (states (len(t), nx), controls (len(t), nu))   piecewise-cubic interpolation
-            (states: cubic Hermite using the derivative channels when present, else natural
-            cubic spline; controls: natural cubic spline), numpy only
+            (states: cubic Hermite using the derivative channels when present, else not-a-knot
+            cubic spline; controls: not-a-knot cubic spline), numpy only
     .control_function(kind="cubic"|"linear") -> callable t -> (nu,) or (K, nu)
     .resample(rate_hz=None, times=None) -> Trajectory
     .save(path, rate_hz=None)   format by suffix: .csv, .json, .npz; full precision; atomic
@@ -38,7 +38,10 @@ Implementation notes
 * Derivative channels: the state ``X`` [u] is interpolated by cubic Hermite when a state or
   extra named ``dX`` with unit ``u/s`` (or ``v/s^2`` when u = ``v/s``) exists: psi_<link> uses
   dpsi_<link>, and dpsi_<link> uses ddpsi_<link> when that extra is stored. Every other state,
-  every control and every extra uses the natural cubic spline through the samples.
+  every control and every extra uses the not-a-knot cubic spline through the samples (third
+  derivative continuous at the second and second-to-last samples, as MATLAB's ``spline`` and
+  scipy's ``CubicSpline``): O(h^4) up to the ends, where a natural spline's zero end curvature
+  would be wrong for a torque profile (``interpolation.spline_slopes``).
 * Queries outside [time[0], time[-1]] raise :class:`TrajectoryError`; a query within
   ``range_tolerance`` of an end (1e-9 of the duration, at least a few ulp) is clamped to it,
   because integrators and grids built by arithmetic land a rounding error past the end.
@@ -624,8 +627,8 @@ class Trajectory:
 
     @cached_property
     def _state_slopes(self) -> np.ndarray:
-        """(K, nx) dx/dt at the samples: derivative channels where present, else the natural
-        spline's slopes."""
+        """(K, nx) dx/dt at the samples: derivative channels where present, else the
+        not-a-knot spline's slopes."""
         if not self.state_names:
             return np.zeros_like(self.states)
         channels = {
@@ -633,7 +636,7 @@ class Trajectory:
             for j, (name, unit) in enumerate(zip(self.state_names, self.state_units, strict=True))
         }
         channels.update(self.extras)
-        slopes = interpolation.natural_spline_slopes(self.time, self.states)
+        slopes = interpolation.spline_slopes(self.time, self.states)
         for j, (name, unit) in enumerate(zip(self.state_names, self.state_units, strict=True)):
             derivative = channels.get(f"d{name}")
             if derivative is not None and derivative[1] in _derivative_unit(unit):
@@ -645,7 +648,7 @@ class Trajectory:
     def _control_slopes(self) -> np.ndarray:
         if not self.control_names:
             return np.zeros_like(self.controls)
-        return interpolation.natural_spline_slopes(self.time, self.controls)
+        return interpolation.spline_slopes(self.time, self.controls)
 
     @cached_property
     def _extra_values(self) -> np.ndarray:
@@ -657,12 +660,12 @@ class Trajectory:
     def _extra_slopes(self) -> np.ndarray:
         if not self.extras:
             return self._extra_values
-        return interpolation.natural_spline_slopes(self.time, self._extra_values)
+        return interpolation.spline_slopes(self.time, self._extra_values)
 
     @property
     def hermite_states(self) -> tuple[str, ...]:
         """Names of the states interpolated with a derivative channel (the others use the
-        natural cubic spline)."""
+        not-a-knot cubic spline)."""
         channels = dict(zip(self.state_names, self.state_units, strict=True))
         channels.update({name: unit for name, (_, unit) in self.extras.items()})
         return tuple(
@@ -676,8 +679,9 @@ class Trajectory:
 
         Returns ``(states, controls)``: (q, nx) and (q, nu) for a 1-D ``t`` of q times, (nx,)
         and (nu,) for a scalar. States: cubic Hermite with the derivative channels where
-        present (see ``hermite_states``), natural cubic spline otherwise; controls: natural
-        cubic spline. Exact at the samples; raises :class:`TrajectoryError` outside the range.
+        present (see ``hermite_states``), not-a-knot cubic spline otherwise; controls:
+        not-a-knot cubic spline. Exact at the samples; raises :class:`TrajectoryError` outside
+        the range.
         """
         times, scalar = self._query(t)
         states = interpolation.hermite(self.time, self.states, self._state_slopes, times)
@@ -687,7 +691,7 @@ class Trajectory:
         return states, controls
 
     def extras_at(self, t) -> dict[str, np.ndarray]:
-        """Extras at time(s) ``t`` by natural cubic spline: name -> (q,) or scalar float."""
+        """Extras at time(s) ``t`` by not-a-knot cubic spline: name -> (q,) or scalar float."""
         times, scalar = self._query(t)
         values = interpolation.hermite(self.time, self._extra_values, self._extra_slopes, times)
         return {
@@ -697,7 +701,7 @@ class Trajectory:
     def control_function(self, kind: str = "cubic") -> ControlFunction:
         """The controls as a callable of time, for replaying torques in a simulation.
 
-        ``kind="cubic"``: the natural cubic spline of ``at``; ``kind="linear"``: piecewise
+        ``kind="cubic"``: the not-a-knot cubic spline of ``at``; ``kind="linear"``: piecewise
         linear. The callable maps a scalar t (s) to (nu,) and a (q,) array to (q, nu),
         vectorised (one searchsorted per call); it raises outside the time range.
         """
@@ -711,7 +715,7 @@ class Trajectory:
         Give exactly one of ``rate_hz`` (samples at t0 + k / rate_hz, k = 0, 1, ..., plus tf
         itself, which replaces the last one when it falls within the range tolerance of it) or
         ``times`` ((q,) s, strictly increasing, inside the range). States and controls come
-        from ``at``, extras from their natural cubic spline. The metadata gains
+        from ``at``, extras from their not-a-knot cubic spline. The metadata gains
         ``resampled``: {"rate_hz", "source_samples"}.
         """
         if (rate_hz is None) == (times is None):
@@ -842,7 +846,7 @@ class ControlFunction:
     """Controls of a :class:`Trajectory` as a fast callable of time.
 
     ``f(t)`` -> (nu,) for a scalar t (s), (q, nu) for a (q,) array; N m for hinge torques.
-    ``kind`` is ``"cubic"`` (natural cubic spline, the same as ``Trajectory.at``) or
+    ``kind`` is ``"cubic"`` (not-a-knot cubic spline, the same as ``Trajectory.at``) or
     ``"linear"``. ``names`` and ``units`` describe the columns.
     """
 

@@ -1,8 +1,9 @@
 """Trajectory: validation, interpolation (against scipy and convergence orders), files.
 
-Independent checks: the natural spline against scipy's CubicSpline(bc_type="natural"); the
-interpolation orders as fitted slopes of the error over h on smooth functions; file round
-trips compared bit for bit with what was saved and with the interpolant at the export times.
+Independent checks: the cubic splines against scipy's CubicSpline (bc_type="not-a-knot", the
+default, and "natural"); the interpolation orders as fitted slopes of the error over h on
+smooth functions, over the whole range including the end intervals; file round trips compared
+bit for bit with what was saved and with the interpolant at the export times.
 """
 
 from __future__ import annotations
@@ -292,20 +293,96 @@ def test_interpolants_reproduce_the_knots_bit_for_bit():
     assert bits(single_states) == bits(traj.states[7])
 
 
-def test_natural_spline_matches_scipy():
-    rng = np.random.default_rng(3)
-    t = np.cumsum(rng.uniform(0.05, 0.3, 25))
-    y = rng.normal(size=(25, 3))
-    slopes = interpolation.natural_spline_slopes(t, y)
-    oracle = CubicSpline(t, y, bc_type="natural")
-    np.testing.assert_allclose(slopes, oracle(t, 1), rtol=1e-12, atol=1e-12)
+def random_knots(rng: np.random.Generator, k: int) -> np.ndarray:
+    """Strictly increasing, non-uniform knots: neighbouring steps differ by up to 10x."""
+    return 0.3 + np.cumsum(np.r_[0.0, rng.uniform(0.02, 0.2, k - 1)])
+
+
+@pytest.mark.parametrize("end", ["not-a-knot", "natural"])
+@pytest.mark.parametrize("k", [2, 3, 4, 5, 25])
+def test_spline_matches_scipy(end, k):
+    rng = np.random.default_rng(3 + k)
+    t = random_knots(rng, k)
+    y = rng.normal(size=(k, 3))
+    slopes = interpolation.spline_slopes(t, y, end=end)
+    oracle = CubicSpline(t, y, bc_type=end)
+    scale = np.max(np.abs(oracle(t, 1)))
+    np.testing.assert_allclose(slopes, oracle(t, 1), rtol=1e-12, atol=1e-12 * scale)
     query = np.sort(rng.uniform(t[0], t[-1], 200))
     np.testing.assert_allclose(
         interpolation.hermite(t, y, slopes, query), oracle(query), rtol=1e-12, atol=1e-12
     )
-    # two knots: the straight line
-    line = interpolation.natural_spline_slopes(t[:2], y[:2])
-    np.testing.assert_allclose(line, np.tile((y[1] - y[0]) / (t[1] - t[0]), (2, 1)), rtol=1e-14)
+    # one channel as a 1-D array: the same numbers, a 1-D result
+    single = interpolation.spline_slopes(t, y[:, 1], end=end)
+    assert single.shape == (k,) and bits(single) == bits(slopes[:, 1])
+
+
+def test_spline_at_1khz_matches_scipy_and_the_default_is_not_a_knot():
+    # the grid of an exported torque file: 1 kHz over 0.5 s
+    t = np.linspace(0.0, 0.5, 501)
+    y = np.column_stack([np.exp(3 * t), np.cos(20 * t) + t**2])
+    slopes = interpolation.spline_slopes(t, y)
+    assert bits(slopes) == bits(interpolation.spline_slopes(t, y, end="not-a-knot"))
+    np.testing.assert_allclose(slopes, CubicSpline(t, y)(t, 1), rtol=1e-12, atol=1e-12)
+    natural = interpolation.natural_spline_slopes(t, y)
+    assert bits(natural) == bits(interpolation.spline_slopes(t, y, end="natural"))
+    np.testing.assert_allclose(
+        natural, CubicSpline(t, y, bc_type="natural")(t, 1), rtol=1e-12, atol=1e-12
+    )
+    with pytest.raises(ValueError, match=r"`end`: must be 'not-a-knot' or 'natural'"):
+        interpolation.spline_slopes(t, y, end="clamped")
+
+
+def test_spline_edge_cases_two_three_and_four_knots():
+    t = np.array([0.1, 0.25, 0.9, 1.0])  # non-uniform
+    line = np.c_[2.0 - 3.0 * t]
+    parabola = np.c_[1.0 - 2.0 * t + 5.0 * t**2]
+    cubic = np.c_[0.5 + t - 4.0 * t**2 + 7.0 * t**3]
+    query = np.linspace(t[0], t[-1], 101)
+    # two knots: the straight line, whatever the end conditions
+    for end in ("not-a-knot", "natural"):
+        slopes = interpolation.spline_slopes(t[:2], line[:2], end=end)
+        np.testing.assert_allclose(slopes, [[-3.0], [-3.0]], rtol=1e-14)
+    # three knots: not-a-knot is the parabola through them (exact on a parabola); the
+    # natural spline is not
+    slopes = interpolation.spline_slopes(t[:3], parabola[:3])
+    np.testing.assert_allclose(slopes[:, 0], -2.0 + 10.0 * t[:3], rtol=1e-13)
+    inside = query[query <= t[2]]
+    np.testing.assert_allclose(
+        interpolation.hermite(t[:3], parabola[:3], slopes, inside)[:, 0],
+        1.0 - 2.0 * inside + 5.0 * inside**2,
+        rtol=1e-13,
+    )
+    natural = interpolation.spline_slopes(t[:3], parabola[:3], end="natural")
+    assert np.max(np.abs(natural[:, 0] - (-2.0 + 10.0 * t[:3]))) > 0.1
+    # four knots: not-a-knot is the cubic through them (exact on a cubic)
+    slopes = interpolation.spline_slopes(t, cubic)
+    np.testing.assert_allclose(slopes[:, 0], 1.0 - 8.0 * t + 21.0 * t**2, rtol=1e-12)
+    np.testing.assert_allclose(
+        interpolation.hermite(t, cubic, slopes, query)[:, 0],
+        0.5 + query - 4.0 * query**2 + 7.0 * query**3,
+        rtol=1e-13,
+    )
+    # and through a Trajectory with those few samples
+    for k in (2, 3, 4):
+        traj = Trajectory(t[:k], cubic[:k], cubic[:k], ("x",), ("m",), ("u",), ("N",))
+        oracle = CubicSpline(t[:k], cubic[:k, 0])
+        states, controls = traj.at(query[query <= t[k - 1]])
+        np.testing.assert_allclose(controls[:, 0], oracle(query[query <= t[k - 1]]), rtol=1e-13)
+        assert bits(states) == bits(controls)
+
+
+def test_thomas_sweep_is_stable_on_very_non_uniform_knots():
+    # the not-a-knot first row is not diagonally dominant; steps spanning four decades must
+    # still give scipy's slopes (scipy solves with partial pivoting)
+    rng = np.random.default_rng(11)
+    for k in (4, 5, 6, 9, 30):
+        for _ in range(20):
+            t = np.cumsum(np.r_[0.0, 10.0 ** rng.uniform(-2, 2, k - 1)])
+            y = np.sin(3 * t / t[-1]) + 0.1 * rng.normal(size=k)
+            slopes = interpolation.spline_slopes(t, y)
+            oracle = CubicSpline(t, y)(t, 1)
+            assert np.max(np.abs(slopes - oracle)) <= 1e-9 * np.max(np.abs(oracle)), (k, t)
 
 
 def fitted_order(errors: list[float], steps: list[float]) -> float:
@@ -327,37 +404,83 @@ def test_hermite_with_derivative_channels_converges_at_fourth_order():
     assert order >= 4 - 0.3, (order, errors)
 
 
-def test_natural_spline_converges_at_fourth_order_in_the_interior():
-    errors, steps = [], []
-    query = np.linspace(0.35, 0.65, 301)  # away from the ends, where y'' = 0 is not exact
-    for k in (11, 21, 41, 81, 161):
-        t = np.linspace(0.0, 1.0, k)
-        traj = Trajectory(
-            t, np.exp(t)[:, None], np.cos(4 * t)[:, None], ("x",), ("m",), ("u",), ("N",)
-        )
-        states, controls = traj.at(query)
-        errors.append(
-            max(
-                np.max(np.abs(states[:, 0] - np.exp(query))),
-                np.max(np.abs(controls[:, 0] - np.cos(4 * query))),
-            )
-        )
-        steps.append(t[1] - t[0])
-    order = fitted_order(errors, steps)
-    assert order >= 4 - 0.3, (order, errors)
+def spline_errors(grid, end=None, steps_per_unit=(10, 20, 40, 80, 160)):
+    """Max errors of a cubic spline on exp(t) and cos(4 t) over [0, 1], whose curvature is not
+    zero at the ends: with ``end=None`` the Trajectory's own (a state without derivative
+    channel and a control), else ``interpolation.spline_slopes(..., end=end)``.
+
+    ``grid`` maps s in [0, 1] to the knots. Returns (whole range, end intervals only,
+    largest step h) per resolution.
+    """
+    whole, ends, steps = [], [], []
+    for k in steps_per_unit:
+        t = grid(np.linspace(0.0, 1.0, k + 1))
+        t[0], t[-1] = 0.0, 1.0
+        query = np.linspace(0.0, 1.0, 40 * k + 1)  # every interval, the end ones included
+        exact = np.column_stack([np.exp(query), np.cos(4 * query)])
+        values = np.column_stack([np.exp(t), np.cos(4 * t)])
+        if end is None:
+            traj = Trajectory(t, values[:, :1], values[:, 1:], ("x",), ("m",), ("u",), ("N",))
+            got = np.hstack(traj.at(query))
+        else:
+            slopes = interpolation.spline_slopes(t, values, end=end)
+            got = interpolation.hermite(t, values, slopes, query)
+        error = np.max(np.abs(got - exact), axis=1)
+        whole.append(float(np.max(error)))
+        end_intervals = (query <= t[1]) | (query >= t[-2])
+        ends.append(float(np.max(error[end_intervals])))
+        steps.append(float(np.max(np.diff(t))))
+    return whole, ends, steps
+
+
+@pytest.mark.parametrize(
+    "grid",
+    [lambda s: s, lambda s: s + 0.15 * np.sin(np.pi * s)],  # uniform, then smoothly non-uniform
+    ids=["uniform", "non-uniform"],
+)
+def test_not_a_knot_spline_converges_at_fourth_order_up_to_the_ends(grid):
+    whole, ends, steps = spline_errors(grid)
+    order = fitted_order(whole, steps)
+    assert order >= 3.7, (order, whole)
+    assert fitted_order(ends, steps) >= 3.7, ends
+
+
+def test_natural_spline_is_second_order_at_the_ends():
+    # the same measurement with the natural spline: y'' = 0 is wrong at the ends, so the
+    # whole-range error is O(h^2), set by the end intervals; the fourth-order test above
+    # tells the two apart.
+    whole, ends, steps = spline_errors(lambda s: s, end="natural")
+    assert 1.7 <= fitted_order(whole, steps) <= 2.3, whole
+    assert 1.7 <= fitted_order(ends, steps) <= 2.3, ends
+    assert whole == ends  # the worst error is in an end interval
+    fourth, _, _ = spline_errors(lambda s: s, end="not-a-knot")
+    assert fourth == spline_errors(lambda s: s)[0]  # the Trajectory's default
+    assert fourth[-1] < whole[-1] / 100, (fourth, whole)
 
 
 def test_hermite_uses_derivative_channels_exactly_on_cubics():
-    # x = t^3 with dx = 3t^2: Hermite is exact; without dx the natural spline is not
+    # x = t^3 with dx = 3t^2: Hermite is exact, and so is the not-a-knot spline without dx
+    # (it reproduces cubics); the natural spline is not
     t = np.array([0.0, 0.3, 0.5, 1.1, 1.2, 2.0])
     query = np.linspace(0.0, 2.0, 97)
     with_derivative = Trajectory(
         t, np.c_[t**3, 3 * t**2], np.zeros((6, 0)), ("x", "dx"), ("m", "m/s"), (), ()
     )
     without = Trajectory(t, np.c_[t**3], np.zeros((6, 0)), ("x",), ("m",), (), ())
-    assert with_derivative.hermite_states == ("x",)
+    assert with_derivative.hermite_states == ("x",) and without.hermite_states == ()
     np.testing.assert_allclose(with_derivative.at(query)[0][:, 0], query**3, atol=1e-13)
-    assert np.max(np.abs(without.at(query)[0][:, 0] - query**3)) > 1e-3
+    np.testing.assert_allclose(without.at(query)[0][:, 0], query**3, atol=1e-13)
+    natural = interpolation.hermite(
+        t, t[:, None] ** 3, interpolation.natural_spline_slopes(t, t**3)[:, None], query
+    )
+    assert np.max(np.abs(natural[:, 0] - query**3)) > 1e-3
+    # the derivative channel is what sets the slopes: a wrong one shows
+    skewed = Trajectory(
+        t, np.c_[t**3, 3 * t**2 + 1.0], np.zeros((6, 0)), ("x", "dx"), ("m", "m/s"), (), ()
+    )
+    expected = interpolation.hermite(t, t[:, None] ** 3, (3 * t**2 + 1.0)[:, None], query)
+    assert bits(skewed.at(query)[0][:, :1]) == bits(expected)
+    assert np.max(np.abs(expected[:, 0] - query**3)) > 1e-2
     # a "dx" with the wrong unit is not taken for the derivative
     wrong = Trajectory(t, np.c_[t**3, 3 * t**2], np.zeros((6, 0)), ("x", "dx"), ("m", "N"), (), ())
     assert wrong.hermite_states == ()
