@@ -1,0 +1,30 @@
+"""Direct-collocation optimal control of planar linkages (and any CasADi ODE) on IPOPT.
+
+``planner.plots`` (matplotlib) is imported on demand: ``from planner import plots``.
+
+>>> from planner import OCP
+>>> solution = OCP(dynamics, T=1.0, N=50).bound("M", -100, 100).periodic().minimize(
+...     integral=lambda p: ca.sumsqr(p.M)).solve()
+"""
+
+from planner.ocp import OCP, TRANSCRIPTIONS, Point, System
+from planner.solution import IntegrationError, Replay, Solution
+from planner.solve import SolverError, solve
+from planner.trajectory import Trajectory
+from planner.transcription import Scheme, Transcription, make_scheme
+
+__all__ = [
+    "OCP",
+    "TRANSCRIPTIONS",
+    "IntegrationError",
+    "Point",
+    "Replay",
+    "Scheme",
+    "Solution",
+    "SolverError",
+    "System",
+    "Trajectory",
+    "Transcription",
+    "make_scheme",
+    "solve",
+]

@@ -1,0 +1,200 @@
+"""Planner benchmark: build and solve times of every transcription on a six-link periodic gait.
+
+The problem (defined here so that the benchmark stands alone; problems/ may reuse it):
+the six-link scene of shared/scene.md, period T = 1 s fixed, periodicity x(0) = x(T),
+minimise the integral of sum_i M_i^2, every absolute angle within +-0.1 rad of the "paper22"
+gait law (22)
+
+    psi_j(t) = pi/2 + zeta_j sin(varpi_j - (1 - cos(2 pi t / T)) pi/2),
+    zeta = [0.20, 0.30, 0.40, 0.30, 0.10, 0.05], varpi = [0.00, 0.50, 1.00, 1.50, 0.20, 0.40],
+
+initial guess: the law, its derivatives, and the torques of inverse dynamics along it.
+
+Printed: per transcription and N, the NLP size, build time (transcription + IPOPT setup,
+including the derivative functions), solve time, iterations, ms per iteration, time in NLP
+function evaluations, cost; medians over ``--repeat`` runs. Then the headline case
+(Hermite-Simpson, N = 50): implicit vs explicit dynamics, and the MX (default) vs SX-expanded
+NLP, with ratios measured in the same run.
+
+    python examples/benchmarks/planner_bench.py            # N = 10, 20, 40, 80, 160
+    python examples/benchmarks/planner_bench.py --quick    # smoke run (N = 10, 20; once)
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import statistics
+import sys
+
+import casadi as ca
+import numpy as np
+
+from model import presets
+from planner import OCP
+
+logger = logging.getLogger("planner_bench")
+
+ZETA = np.array([0.20, 0.30, 0.40, 0.30, 0.10, 0.05])
+VARPI = np.array([0.00, 0.50, 1.00, 1.50, 0.20, 0.40])
+PERIOD = 1.0
+BAND = 0.1  # rad: allowed distance of every angle from the law
+
+
+def paper22(t, period: float = PERIOD):
+    """Law (22), "paper22" parameters: (psi, dpsi, ddpsi), each (K, 6), rad, rad/s, rad/s^2."""
+    t = np.asarray(t, dtype=float)[:, None]
+    w = 2 * np.pi / period
+    phase = VARPI - (1 - np.cos(w * t)) * np.pi / 2
+    dphase = -(np.pi / 2) * w * np.sin(w * t)
+    ddphase = -(np.pi / 2) * w * w * np.cos(w * t)
+    psi = np.pi / 2 + ZETA * np.sin(phase)
+    dpsi = ZETA * np.cos(phase) * dphase
+    ddpsi = ZETA * (np.cos(phase) * ddphase - np.sin(phase) * dphase**2)
+    return psi, dpsi, ddpsi
+
+
+def paper22_sx(t, period: float = PERIOD):
+    """The law's angles as a CasADi expression of the symbolic time t, (6, 1)."""
+    phase = ca.DM(VARPI) - (1 - ca.cos(2 * np.pi * t / period)) * np.pi / 2
+    return np.pi / 2 + ca.DM(ZETA) * ca.sin(phase)
+
+
+def paper22_gait(
+    N: int = 50,
+    transcription: str = "hermite-simpson",
+    degree: int | None = None,
+    formulation: str = "implicit",
+    dynamics=None,
+) -> OCP:
+    """The six-link periodic gait OCP of this benchmark."""
+    dynamics = dynamics or presets.six_link_anthropoid().dynamics()
+    return (
+        OCP(
+            dynamics,
+            T=PERIOD,
+            N=N,
+            transcription=transcription,
+            degree=degree,
+            formulation=formulation,
+        )
+        .constrain("near_law", lambda p: p.psi - paper22_sx(p.t), lower=-BAND, upper=BAND)
+        .periodic()
+        .minimize(integral=lambda p: ca.sumsqr(p.M))
+        .guess(paper22)
+    )
+
+
+def measure(ocp: OCP, repeat: int, expand: bool | None = None) -> dict:
+    """Median build/solve times (s), iterations, function time of ``repeat`` fresh solves."""
+    runs = []
+    for _ in range(repeat):
+        solution = ocp.solve(progress=False, expand=expand, raise_on_failure=False)
+        stats = solution.stats
+        runs.append(
+            (
+                stats["build_seconds"],
+                stats["solve_seconds"],
+                stats["iterations"],
+                stats["function_seconds"],
+            )
+        )
+    build, solve, iterations, functions = (
+        statistics.median(column) for column in zip(*runs, strict=True)
+    )
+    return {
+        "build": build,
+        "solve": solve,
+        "iterations": iterations,
+        "functions": functions,
+        "n_w": solution.stats["n_variables"],
+        "cost": solution.cost,
+        "status": solution.status,
+    }
+
+
+def row(label: str, N: int, m: dict) -> str:
+    per_iteration = 1e3 * m["solve"] / max(m["iterations"], 1)
+    status = "" if m["status"] == "Solve_Succeeded" else f"  {m['status']}"
+    return (
+        f"{label:<17} {N:>4} {m['n_w']:>6} {1e3 * m['build']:>9.1f} {1e3 * m['solve']:>9.1f} "
+        f"{m['iterations']:>6.0f} {per_iteration:>8.2f} {1e3 * m['functions']:>9.1f} "
+        f"{m['cost']:>12.2f}{status}"
+    )
+
+
+HEADER = (
+    f"{'transcription':<17} {'N':>4} {'vars':>6} {'build ms':>9} {'solve ms':>9} "
+    f"{'iters':>6} {'ms/iter':>8} {'f-eval ms':>9} {'cost':>12}"
+)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="smoke run: N = 10, 20, once")
+    parser.add_argument("--repeat", type=int, default=3, help="runs per case (median)")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stdout)
+    Ns = (10, 20) if args.quick else (10, 20, 40, 80, 160)
+    repeat = 1 if args.quick else max(1, args.repeat)
+    dynamics = presets.six_link_anthropoid().dynamics()
+    schemes = (
+        ("trapezoid", None),
+        ("hermite-simpson", None),
+        ("radau", 3),
+        ("legendre", 3),
+    )
+    out = [
+        f"six-link periodic gait (paper22 law +-{BAND} rad, min int sum M^2), implicit dynamics, "
+        f"exact Hessian, MX + mapped SX functions; medians of {repeat} run(s)",
+        HEADER,
+    ]
+    for name, degree in schemes:
+        label = name + (f"({degree})" if degree else "")
+        for N in Ns:
+            ocp = paper22_gait(N, name, degree, dynamics=dynamics)
+            out.append(row(label, N, measure(ocp, repeat)))
+    logger.info("\n".join(out))
+
+    N = 20 if args.quick else 50
+    headline = [
+        f"\nheadline: hermite-simpson N={N} (target here: build ~500 ms, solve ~750 ms)",
+        f"{'case':<17} {'N':>4} {'vars':>6} {'build ms':>9} {'solve ms':>9} {'iters':>6} "
+        f"{'ms/iter':>8} {'f-eval ms':>9} {'cost':>12}",
+    ]
+    cases = {}
+    for label, formulation, expand in (
+        ("implicit MX", "implicit", False),
+        ("explicit MX", "explicit", False),
+        ("implicit SX", "implicit", True),
+        ("explicit SX", "explicit", True),
+    ):
+        ocp = paper22_gait(N, "hermite-simpson", None, formulation, dynamics=dynamics)
+        cases[label] = measure(ocp, 1 if args.quick else max(repeat, 5), expand)
+        headline.append(row(label, N, cases[label]))
+
+    def total(m):
+        return m["build"] + m["solve"]
+
+    implicit, explicit = cases["implicit MX"], cases["explicit MX"]
+    headline.append(
+        f"explicit / implicit (MX): build {explicit['build'] / implicit['build']:.2f}x, "
+        f"solve {explicit['solve'] / implicit['solve']:.2f}x, "
+        f"build+solve {total(explicit) / total(implicit):.2f}x"
+    )
+    implicit_sx, explicit_sx = cases["implicit SX"], cases["explicit SX"]
+    headline.append(
+        f"explicit / implicit (SX): build {explicit_sx['build'] / implicit_sx['build']:.2f}x, "
+        f"solve {explicit_sx['solve'] / implicit_sx['solve']:.2f}x"
+    )
+    headline.append(
+        f"SX / MX (implicit): build {implicit_sx['build'] / implicit['build']:.2f}x, "
+        f"solve {implicit_sx['solve'] / implicit['solve']:.2f}x, "
+        f"build+solve {total(implicit_sx) / total(implicit):.2f}x"
+    )
+    logger.info("\n".join(headline))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,942 @@
+"""The optimal control problem as a value: dynamics, horizon, mesh, bounds, constraints, cost.
+
+An :class:`OCP` is a frozen dataclass. Builder methods (``bound``, ``constrain``,
+``boundary``, ``initial``, ``final``, ``periodic``, ``minimize``, ``scale``, ``guess``) return a
+new OCP and never change the old one, so a definition can be printed, copied
+(``dataclasses.replace``, ``copy.copy``), refined (``ocp.refine(N=80)``) and solved any number
+of times. Every argument is validated when it is given: a mistake raises
+:class:`model.errors.DefinitionError` (or ``DefinitionTypeError``) naming the field, the value
+and the fix, never a CasADi stack trace at solve time.
+
+>>> ocp = (OCP(dynamics, T=1.0, N=50)                   # model.Dynamics: psi, dpsi; M
+...        .bound("M", -150, 150)                        # a group, or one name: "M_torso"
+...        .periodic()                                   # x(0) = x(T)
+...        .minimize(integral=lambda p: ca.sumsqr(p.M))  # p: a Point, see below
+...        .guess(gait_law))                             # t -> (psi, dpsi, ddpsi)
+>>> solution = ocp.solve()
+
+Expressions (path and boundary constraints, objective terms) are Python callables of a
+:class:`Point`, or CasADi Functions whose input names pick the Point's fields (``x``, ``u``,
+``z``, ``t``, ``T``, a group such as ``psi`` or ``M``, or a variable name).
+
+Variables. A system has states x (nx,), controls u (nu,) and, in the implicit formulation,
+auxiliary variables z (nz,) that stand for the state derivatives the residual needs. For a
+``model.Dynamics`` (linkage naming convention of ``planner.trajectory``): x = [psi; dpsi]
+(states ``psi_<link>`` rad, ``dpsi_<link>`` rad/s), u = M (``M_<link>``, N m) and, implicit
+only, z = ddpsi (``ddpsi_<link>``, rad/s^2); groups ``psi``, ``dpsi``, ``ddpsi``, ``M``.
+For a CasADi ODE Function f(x, u[, t]) -> xdot: groups ``x`` and ``u``; with
+``formulation="implicit"`` the Function is a residual r(x, xdot, u[, t]) (nx,) and z = xdot.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from model.dynamics import Dynamics
+from model.errors import DefinitionError, DefinitionTypeError
+
+TRANSCRIPTIONS = ("trapezoid", "hermite-simpson", "radau", "legendre")
+FORMULATIONS = ("implicit", "explicit")
+DEFAULT_DEGREE = 3
+
+
+# ---- the system: what the transcription needs from any dynamics ------------------------------
+@dataclass(frozen=True, eq=False)
+class System:
+    """Dynamics in the planner's form: xdot = rate(x, z, u, t) and 0 = residual(x, z, u, t).
+
+    ``rate`` and ``residual`` are SX Functions with inputs (x (nx,), z (nz,), u (nu,), t (1,));
+    ``residual`` is None (nz = 0) for explicit dynamics. ``ode`` (x, u, t) -> xdot, when known,
+    serves re-simulation. ``groups`` maps group names (``psi``, ``M``, ``x``, ...) to variable
+    names; ``residual_scale_group`` names the group whose nominal scales scale the residual
+    rows (torques for a linkage: the residual is in N m).
+    """
+
+    rate: ca.Function
+    residual: ca.Function | None
+    ode: ca.Function | None
+    state_names: tuple[str, ...]
+    state_units: tuple[str, ...]
+    control_names: tuple[str, ...]
+    control_units: tuple[str, ...]
+    aux_names: tuple[str, ...]
+    aux_units: tuple[str, ...]
+    groups: tuple[tuple[str, tuple[str, ...]], ...]
+    residual_scale_group: str
+    formulation: str
+    dynamics: Dynamics | None = None
+
+    @property
+    def nx(self) -> int:
+        return len(self.state_names)
+
+    @property
+    def nu(self) -> int:
+        return len(self.control_names)
+
+    @property
+    def nz(self) -> int:
+        return len(self.aux_names)
+
+    @property
+    def is_linkage(self) -> bool:
+        return self.dynamics is not None
+
+    @property
+    def variable_names(self) -> tuple[str, ...]:
+        return self.state_names + self.control_names + self.aux_names
+
+    def unit(self, name: str) -> str:
+        names = self.variable_names
+        units = self.state_units + self.control_units + self.aux_units
+        return units[names.index(name)]
+
+    def group(self, name: str) -> tuple[str, ...] | None:
+        for key, members in self.groups:
+            if key == name:
+                return members
+        return None
+
+    @staticmethod
+    def from_dynamics(dynamics: Dynamics, formulation: str = "implicit") -> System:
+        """The linkage system: x = [psi; dpsi], u = M, z = ddpsi (implicit only)."""
+        n = dynamics.n
+        links = dynamics.names
+        psi, dpsi = (f"psi_{k}" for k in links), (f"dpsi_{k}" for k in links)
+        states = (*psi, *dpsi)
+        controls = tuple(f"M_{k}" for k in links)
+        x = ca.SX.sym("x", 2 * n)
+        u = ca.SX.sym("u", n)
+        t = ca.SX.sym("t")
+        ode = dynamics.function("ode")
+        ode_t = ca.Function("ode", [x, u, t], [ode(x, u)], ["x", "u", "t"], ["xdot"])
+        if formulation == "implicit":
+            z = ca.SX.sym("z", n)
+            residual_f = dynamics.function("dynamics_residual")
+            rate = ca.vertcat(x[n:], z)
+            residual = ca.Function(
+                "residual",
+                [x, z, u, t],
+                [residual_f(x[:n], x[n:], z, u)],
+                ["x", "z", "u", "t"],
+                ["residual"],
+            )
+            aux = tuple(f"ddpsi_{k}" for k in links)
+        else:
+            z = ca.SX.sym("z", 0)
+            rate = ode(x, u)
+            residual = None
+            aux = ()
+        rate_f = ca.Function("rate", [x, z, u, t], [rate], ["x", "z", "u", "t"], ["xdot"])
+        groups = (
+            ("psi", states[:n]),
+            ("dpsi", states[n:]),
+            ("M", controls),
+            ("x", states),
+            ("u", controls),
+        )
+        if aux:
+            groups = (*groups, ("ddpsi", aux), ("z", aux))
+        return System(
+            rate=rate_f,
+            residual=residual,
+            ode=ode_t,
+            state_names=states,
+            state_units=("rad",) * n + ("rad/s",) * n,
+            control_names=controls,
+            control_units=("N m",) * n,
+            aux_names=aux,
+            aux_units=("rad/s^2",) * len(aux),
+            groups=groups,
+            residual_scale_group="M",
+            formulation=formulation,
+            dynamics=dynamics,
+        )
+
+    @staticmethod
+    def from_function(
+        function: ca.Function,
+        formulation: str,
+        state_names: Sequence[str] | None,
+        control_names: Sequence[str] | None,
+        state_units: Sequence[str] | None,
+        control_units: Sequence[str] | None,
+    ) -> System:
+        """A system from an ODE f(x, u[, t]) -> xdot or an implicit r(x, xdot, u[, t]) -> (nx,)."""
+        implicit = formulation == "implicit"
+        n_in = function.n_in()
+        expected = "r(x, xdot, u[, t])" if implicit else "f(x, u[, t])"
+        if n_in not in ((3, 4) if implicit else (2, 3)) or function.n_out() != 1:
+            raise DefinitionError(
+                f"`dynamics`: a {formulation} dynamics Function must be {expected} with one "
+                f"output; got {function.n_in()} inputs {function.name_in()} and "
+                f"{function.n_out()} outputs"
+            )
+        for i in range(n_in):
+            if function.size2_in(i) != 1:
+                raise DefinitionError(
+                    f"`dynamics`: input {function.name_in(i)!r} must be a column vector, got "
+                    f"shape {function.size_in(i)}"
+                )
+        nx = function.size1_in(0)
+        nu = function.size1_in(2 if implicit else 1)
+        if implicit and function.size1_in(1) != nx:
+            raise DefinitionError(
+                f"`dynamics`: the xdot input must have nx = {nx} rows, got {function.size1_in(1)}"
+            )
+        if function.size_out(0) != (nx, 1):
+            raise DefinitionError(
+                f"`dynamics`: the output must have shape ({nx}, 1) like x, "
+                f"got {function.size_out(0)}"
+            )
+        if n_in == (4 if implicit else 3) and function.size_in(n_in - 1) != (1, 1):
+            raise DefinitionError(
+                f"`dynamics`: the time input must be scalar, got {function.size_in(n_in - 1)}"
+            )
+        states = _names("state_names", state_names, nx, "x")
+        controls = _names("control_names", control_names, nu, "u")
+        s_units = _names("state_units", state_units, nx, None) if state_units else ("-",) * nx
+        c_units = _names("control_units", control_units, nu, None) if control_units else ("-",) * nu
+        x = ca.SX.sym("x", nx)
+        u = ca.SX.sym("u", nu)
+        t = ca.SX.sym("t")
+        if implicit:
+            z = ca.SX.sym("z", nx)
+            args = [x, z, u] + ([t] if n_in == 4 else [])
+            residual = ca.Function(
+                "residual", [x, z, u, t], [function(*args)], ["x", "z", "u", "t"], ["residual"]
+            )
+            rate = z
+            ode = None
+            aux = tuple(f"d{name}" for name in states)
+        else:
+            z = ca.SX.sym("z", 0)
+            args = [x, u] + ([t] if n_in == 3 else [])
+            rate = function(*args)
+            ode = ca.Function("ode", [x, u, t], [rate], ["x", "u", "t"], ["xdot"])
+            residual = None
+            aux = ()
+        rate_f = ca.Function("rate", [x, z, u, t], [rate], ["x", "z", "u", "t"], ["xdot"])
+        groups = (("x", states), ("u", controls)) + ((("z", aux),) if aux else ())
+        return System(
+            rate=rate_f,
+            residual=residual,
+            ode=ode,
+            state_names=states,
+            state_units=s_units,
+            control_names=controls,
+            control_units=c_units,
+            aux_names=aux,
+            aux_units=tuple(f"{unit}/s" for unit in s_units) if aux else (),
+            groups=groups,
+            residual_scale_group="x",
+            formulation=formulation,
+        )
+
+
+def _names(field_name: str, names, size: int, prefix: str | None) -> tuple[str, ...]:
+    if names is None:
+        return tuple(f"{prefix}_{i}" for i in range(size))
+    if isinstance(names, str) or not all(isinstance(n, str) for n in names):
+        raise DefinitionTypeError(f"`{field_name}`: must be a sequence of strings, got {names!r}")
+    names = tuple(names)
+    if len(names) != size:
+        raise DefinitionError(
+            f"`{field_name}`: the dynamics has {size} of them, got {len(names)} names {names}"
+        )
+    if prefix is not None and len(set(names)) != size:
+        raise DefinitionError(f"`{field_name}`: names must be unique, got {names}")
+    return names
+
+
+# ---- the Point: what expressions see -----------------------------------------------------
+class Point:
+    """Symbolic values at one point of the horizon, handed to user expressions.
+
+    Fields: ``x`` (nx,), ``u`` (nu,), ``z`` (nz,), ``t`` (time, s), ``T`` (duration, s), every
+    group (``p.psi``, ``p.M``, ...) as a column and every variable by name (``p.psi_torso``
+    or ``p["psi_torso"]``), all CasADi SX, in physical units (scaling is the planner's).
+    At a boundary (``boundary``, ``terminal``), ``x`` is the state at t0 or tf and ``x0``,
+    ``xf`` both ends.
+    """
+
+    def __init__(self, system: System, x, u, z, t, T, extra: Mapping[str, Any] | None = None):
+        values: dict[str, Any] = {"x": x, "u": u, "z": z, "t": t, "T": T}
+        for i, name in enumerate(system.state_names):
+            values[name] = x[i]
+        for i, name in enumerate(system.control_names):
+            values[name] = u[i]
+        for i, name in enumerate(system.aux_names):
+            values[name] = z[i]
+        for group, members in system.groups:
+            if group not in values:
+                values[group] = ca.vertcat(*[values[m] for m in members])
+        values.update(extra or {})
+        object.__setattr__(self, "_values", values)
+
+    def __getattr__(self, name: str):
+        values = object.__getattribute__(self, "_values")
+        if name in values:
+            return values[name]
+        raise AttributeError(f"Point has no field {name!r}; fields: {sorted(values)}")
+
+    def __getitem__(self, name: str):
+        try:
+            return self._values[name]
+        except KeyError:
+            raise KeyError(f"Point has no field {name!r}; fields: {sorted(self._values)}") from None
+
+    def __setattr__(self, name, value):
+        raise AttributeError("Point is read-only")
+
+    @property
+    def fields(self) -> tuple[str, ...]:
+        return tuple(self._values)
+
+
+def evaluate_expression(label: str, expression, point: Point) -> ca.SX:
+    """Evaluate a user expression (callable of a Point, or CasADi Function) to an SX column."""
+    if isinstance(expression, ca.Function):
+        args = []
+        for name in expression.name_in():
+            if name not in point.fields:
+                raise DefinitionError(
+                    f"`{label}`: Function input {name!r} is not a field of the point; "
+                    f"name the inputs after fields such as {sorted(point.fields)[:12]}"
+                )
+            args.append(point[name])
+        try:
+            result = expression(*args)
+        except RuntimeError as exc:
+            raise DefinitionError(f"`{label}`: calling the Function failed: {exc}") from exc
+        if expression.n_out() != 1:
+            raise DefinitionError(f"`{label}`: the Function must have one output")
+    elif callable(expression):
+        try:
+            result = expression(point)
+        except (AttributeError, KeyError) as exc:
+            raise DefinitionError(f"`{label}`: {exc}") from exc
+    else:
+        raise DefinitionTypeError(
+            f"`{label}`: must be a callable of a Point or a casadi.Function, "
+            f"got {type(expression).__name__}"
+        )
+    if isinstance(result, list | tuple):
+        result = ca.vertcat(*result)
+    if isinstance(result, int | float | np.ndarray | np.floating | ca.DM):
+        result = ca.SX(ca.DM(result))
+    if isinstance(result, ca.MX):
+        raise DefinitionTypeError(
+            f"`{label}`: returned an MX expression; build expressions from the Point's SX "
+            "fields (use SX Functions)"
+        )
+    if not isinstance(result, ca.SX):
+        raise DefinitionTypeError(
+            f"`{label}`: must return a CasADi SX expression or numbers, got {type(result).__name__}"
+        )
+    if result.size2() != 1:
+        if result.size1() == 1:
+            result = result.T
+        else:
+            raise DefinitionError(f"`{label}`: must return a column vector, got {result.shape}")
+    return result
+
+
+# ---- validated pieces of a definition ---------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Constraint:
+    """A named constraint lower <= g <= upper; ``where`` is "path", "start" or "end"."""
+
+    name: str
+    expression: Any
+    lower: np.ndarray
+    upper: np.ndarray
+    where: str
+    scale: np.ndarray | None = None
+
+    @property
+    def size(self) -> int:
+        return self.lower.size
+
+    def __repr__(self) -> str:
+        bounds = _format_interval(self.lower, self.upper)
+        return f"{self.where}[{self.name}] in {bounds}"
+
+
+@dataclass(frozen=True, eq=False)
+class GuessLayer:
+    """One source of initial guesses; later layers override earlier ones variable by variable.
+
+    kind: "constant" (values: name -> float or array over a group), "grid" (times (K,) s and
+    values: name -> (K,) or (K, group size)), "callable" (source: t (K,) -> dict or tuple),
+    "solution" (source: a Solution or Trajectory re-gridded in normalised time).
+    """
+
+    kind: str
+    values: Mapping[str, np.ndarray] = field(default_factory=dict)
+    times: np.ndarray | None = None
+    source: Any = None
+
+    def __repr__(self) -> str:
+        if self.kind in ("constant", "grid"):
+            return f"{self.kind}({', '.join(self.values)})"
+        return f"{self.kind}({type(self.source).__name__})"
+
+
+def _format_interval(lower, upper) -> str:
+    lo, hi = np.atleast_1d(lower), np.atleast_1d(upper)
+    if lo.size == 1:
+        return f"[{lo[0]:g}, {hi[0]:g}]"
+    return f"[{lo.size} rows]"
+
+
+def _as_bounds(label: str, lower, upper, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Validate and broadcast bounds to (size,) arrays; None means unbounded."""
+    out = []
+    for side, value, default in (("lower", lower, -np.inf), ("upper", upper, np.inf)):
+        if value is None:
+            out.append(np.full(size, default))
+            continue
+        try:
+            array = np.asarray(value, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise DefinitionTypeError(
+                f"`{label}`: {side} bound must be numeric, got {value!r}"
+            ) from exc
+        if array.ndim == 0:
+            array = np.full(size, float(array))
+        array = array.reshape(-1) if array.ndim == 2 and 1 in array.shape else array
+        if array.shape != (size,):
+            raise DefinitionError(
+                f"`{label}`: {side} bound has shape {np.shape(value)}, expected a scalar or "
+                f"({size},)"
+            )
+        if np.any(np.isnan(array)):
+            raise DefinitionError(f"`{label}`: {side} bound contains NaN; use +-inf for none")
+        out.append(array.astype(float))
+    lo, hi = out
+    bad = np.flatnonzero(lo > hi)
+    if bad.size:
+        i = int(bad[0])
+        raise DefinitionError(
+            f"`{label}`: lower bound {lo[i]:g} > upper bound {hi[i]:g}"
+            + (f" (row {i})" if size > 1 else "")
+            + "; swap them or widen the interval"
+        )
+    if np.any(lo == np.inf) or np.any(hi == -np.inf):
+        raise DefinitionError(f"`{label}`: a lower bound of +inf or upper of -inf is infeasible")
+    return lo, hi
+
+
+def default_scale(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Nominal magnitude from bounds: the largest finite |bound|, or 1 when there is none."""
+    stacked = np.abs(np.vstack([lower, upper]))
+    stacked[~np.isfinite(stacked)] = 0.0
+    scale = stacked.max(axis=0)
+    scale[scale == 0.0] = 1.0
+    return scale
+
+
+def _positive_int(name: str, value, minimum: int = 1) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise DefinitionTypeError(f"`{name}`: must be an integer, got {value!r}")
+    if value < minimum:
+        raise DefinitionError(f"`{name}`: must be >= {minimum}, got {value}")
+    return int(value)
+
+
+# ---- the OCP ------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class OCP:
+    """An optimal control problem on a fixed or free horizon [0, T], transcribed on N intervals.
+
+    Parameters
+    ----------
+    dynamics : model.Dynamics, or a casadi.Function f(x, u[, t]) -> xdot (``formulation``
+        "explicit", the default for Functions) or r(x, xdot, u[, t]) -> (nx,) ("implicit").
+    T : duration, s: a number (fixed) or a pair (lower, upper) (free; guess with ``guess(T=)``).
+    N : number of mesh intervals (uniform, h = T / N), >= 1.
+    transcription : "trapezoid", "hermite-simpson" (separated form, midpoint controls are
+        variables), "radau" or "legendre" (orthogonal collocation of ``degree`` 1..9,
+        default 3; controls and, implicit, ddpsi at the collocation points).
+    formulation : "implicit" (default for a Dynamics: ddpsi are variables, dynamics_residual = 0
+        at every dynamics point, no mass-matrix solve) or "explicit" (forward dynamics).
+    state_names, control_names, state_units, control_units : for a Function only.
+
+    The remaining fields are filled by the builder methods; treat them as read-only.
+    """
+
+    dynamics: Any
+    T: float | tuple[float, float]
+    N: int
+    transcription: str = "hermite-simpson"
+    degree: int | None = None
+    formulation: str | None = None
+    state_names: tuple[str, ...] | None = None
+    control_names: tuple[str, ...] | None = None
+    state_units: tuple[str, ...] | None = None
+    control_units: tuple[str, ...] | None = None
+    bounds: tuple[tuple[str, float, float], ...] = ()
+    constraints: tuple[Constraint, ...] = ()
+    periodicity: tuple[Any, ...] | None = None  # (mapping or None,) when periodic
+    integral: Any = None
+    terminal: Any = None
+    scales: tuple[tuple[str, float], ...] = ()
+    guesses: tuple[GuessLayer, ...] = ()
+    T_guess: float | None = None
+
+    def __post_init__(self) -> None:
+        dynamics = self.dynamics
+        formulation = self.formulation
+        if isinstance(dynamics, Dynamics):
+            formulation = formulation or "implicit"
+            if formulation not in FORMULATIONS:
+                raise DefinitionError(
+                    f"`formulation`: unknown {formulation!r}; use one of {FORMULATIONS}"
+                )
+            for name in ("state_names", "control_names", "state_units", "control_units"):
+                if getattr(self, name) is not None:
+                    raise DefinitionError(
+                        f"`{name}`: a model.Dynamics names its own variables (psi_<link>, ...); "
+                        "give names only with a casadi.Function"
+                    )
+            system = System.from_dynamics(dynamics, formulation)
+        elif isinstance(dynamics, ca.Function):
+            formulation = formulation or "explicit"
+            if formulation not in FORMULATIONS:
+                raise DefinitionError(
+                    f"`formulation`: unknown {formulation!r}; use one of {FORMULATIONS}"
+                )
+            system = System.from_function(
+                dynamics,
+                formulation,
+                self.state_names,
+                self.control_names,
+                self.state_units,
+                self.control_units,
+            )
+        else:
+            raise DefinitionTypeError(
+                "`dynamics`: must be a model.Dynamics or a casadi.Function f(x, u[, t]) -> xdot, "
+                f"got {type(dynamics).__name__}"
+            )
+        object.__setattr__(self, "formulation", formulation)
+        object.__setattr__(self, "system", system)
+        object.__setattr__(self, "N", _positive_int("N", self.N))
+        if self.transcription not in TRANSCRIPTIONS:
+            raise DefinitionError(
+                f"`transcription`: unknown {self.transcription!r}; use one of {TRANSCRIPTIONS}"
+            )
+        if self.transcription in ("radau", "legendre"):
+            degree = DEFAULT_DEGREE if self.degree is None else self.degree
+            if isinstance(degree, bool) or not isinstance(degree, int | np.integer):
+                raise DefinitionTypeError(f"`degree`: must be an integer in 1..9, got {degree!r}")
+            if not 1 <= degree <= 9:
+                raise DefinitionError(
+                    f"`degree`: must be in 1..9 for {self.transcription} collocation, got {degree}"
+                )
+            object.__setattr__(self, "degree", int(degree))
+        elif self.degree is not None:
+            raise DefinitionError(
+                f"`degree`: applies to 'radau' and 'legendre' only; {self.transcription!r} has "
+                "a fixed polynomial degree, leave degree=None"
+            )
+        T = self.T
+        if isinstance(T, tuple | list):
+            if len(T) != 2:
+                raise DefinitionError(f"`T`: a free duration is a pair (lower, upper), got {T!r}")
+            lo, hi = _as_bounds("T", T[0], T[1], 1)
+            if not (np.isfinite(lo[0]) and np.isfinite(hi[0])) or lo[0] <= 0:
+                raise DefinitionError(
+                    f"`T`: free duration bounds must be finite and > 0 s, got {tuple(T)}"
+                )
+            object.__setattr__(self, "T", (float(lo[0]), float(hi[0])))
+            if self.T_guess is not None and not lo[0] <= self.T_guess <= hi[0]:
+                raise DefinitionError(f"`T` guess {self.T_guess} outside the bounds {tuple(T)}")
+        else:
+            if isinstance(T, bool) or not isinstance(T, int | float | np.number):
+                raise DefinitionTypeError(
+                    f"`T`: must be a duration in s or a pair (lower, upper), got {T!r}"
+                )
+            if not math.isfinite(T) or T <= 0:
+                raise DefinitionError(f"`T`: must be a finite duration > 0 s, got {T}")
+            object.__setattr__(self, "T", float(T))
+
+    # ---- naming ------------------------------------------------------------------------
+    @property
+    def free_time(self) -> bool:
+        return isinstance(self.T, tuple)
+
+    @property
+    def duration_guess(self) -> float:
+        """The duration used for guesses: T if fixed, the guess or the middle of its bounds."""
+        if not self.free_time:
+            return self.T
+        return self.T_guess if self.T_guess is not None else 0.5 * (self.T[0] + self.T[1])
+
+    def resolve(self, name: str, what: str = "variable") -> tuple[str, ...]:
+        """Variable names behind ``name``: itself, or the members of a group (``psi``, ``M``)."""
+        if not isinstance(name, str):
+            raise DefinitionTypeError(f"`{what}`: names are strings, got {name!r}")
+        system = self.system
+        if name in system.variable_names:
+            return (name,)
+        group = system.group(name)
+        if group is not None:
+            return group
+        groups = [g for g, _ in system.groups]
+        raise DefinitionError(
+            f"`{what}`: unknown name {name!r}; use a variable ({', '.join(system.variable_names)})"
+            f" or a group ({', '.join(groups)})"
+        )
+
+    def _constraint_names(self) -> tuple[str, ...]:
+        return tuple(c.name for c in self.constraints)
+
+    def _point(self, where: str = "path") -> Point:
+        s = self.system
+        x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
+        t, T = ca.SX.sym("t"), ca.SX.sym("T")
+        extra = None
+        if where != "path":
+            extra = {"x0": ca.SX.sym("x0", s.nx), "xf": ca.SX.sym("xf", s.nx)}
+        return Point(s, x, u, z, t, T, extra)
+
+    # ---- builders ----------------------------------------------------------------------
+    def bound(self, name: str, lower=None, upper=None) -> OCP:
+        """Bounds lower <= v <= upper on a variable or group at every point where it lives.
+
+        ``name``: a variable (``"M_torso"``), a group (``"M"``, ``"psi"``) or ``"T"`` is not
+        allowed (give ``T=(lo, hi)``). Bounds: scalars or arrays over the group; None = none.
+        A later bound on the same variable replaces the earlier one.
+        """
+        names = self.resolve(name, "bound")
+        lo, hi = _as_bounds(f"bound[{name}]", lower, upper, len(names))
+        kept = tuple(b for b in self.bounds if b[0] not in names)
+        added = tuple((n, float(lo[i]), float(hi[i])) for i, n in enumerate(names))
+        return dataclasses.replace(self, bounds=kept + added)
+
+    def variable_bounds(self, name: str) -> tuple[float, float]:
+        for n, lo, hi in self.bounds:
+            if n == name:
+                return lo, hi
+        return -np.inf, np.inf
+
+    def _add_constraint(self, name, expression, lower, upper, where, scale) -> OCP:
+        if not isinstance(name, str) or not name:
+            raise DefinitionTypeError(f"`name`: a constraint needs a non-empty name, got {name!r}")
+        if name in self._constraint_names():
+            raise DefinitionError(
+                f"`name`: a constraint named {name!r} exists already; names must be unique"
+            )
+        label = f"{where}[{name}]" if where != "path" else f"path[{name}]"
+        value = evaluate_expression(label, expression, self._point(where))
+        if lower is None and upper is None:
+            raise DefinitionError(f"`{label}`: give lower and/or upper (equal: lower=upper)")
+        lo, hi = _as_bounds(label, lower, upper, value.size1())
+        scale_array = None
+        if scale is not None:
+            scale_array = _positive_array(f"{label} scale", scale, value.size1())
+        constraint = Constraint(name, expression, lo, hi, where, scale_array)
+        return dataclasses.replace(self, constraints=(*self.constraints, constraint))
+
+    def constrain(self, name: str, expression, lower=None, upper=None, scale=None) -> OCP:
+        """A path constraint lower <= g(point) <= upper at every dynamics point.
+
+        Dynamics points: the nodes (trapezoid), nodes and midpoints (Hermite-Simpson), the
+        collocation points (radau, legendre). ``expression``: callable of a :class:`Point` or a
+        Function of Point fields, scalar or vector; ``scale``: nominal magnitude (default from
+        the finite bounds, else 1).
+        """
+        return self._add_constraint(name, expression, lower, upper, "path", scale)
+
+    def boundary(self, name: str, expression, at: str, lower=None, upper=None, scale=None) -> OCP:
+        """A boundary constraint lower <= g(point) <= upper at ``at`` = "start" or "end".
+
+        The point's ``x`` is the state there (``x0`` and ``xf`` give both ends), ``u`` the
+        control (the interpolant's value for collocation), ``T`` the duration.
+        """
+        if at not in ("start", "end"):
+            raise DefinitionError(f"`at`: must be 'start' or 'end', got {at!r}")
+        return self._add_constraint(name, expression, lower, upper, at, scale)
+
+    def initial(self, **values) -> OCP:
+        """Fix states (or groups) at t = 0: ``initial(q=0.0, v=0.0)`` or ``initial(psi=[...])``."""
+        return self._fix("start", "initial", values)
+
+    def final(self, **values) -> OCP:
+        """Fix states (or groups) at t = T: ``final(q=1.0)``."""
+        return self._fix("end", "final", values)
+
+    def _fix(self, at: str, prefix: str, values: Mapping[str, Any]) -> OCP:
+        if not values:
+            raise DefinitionError(f"`{prefix}`: give at least one state=value")
+        ocp = self
+        for key, value in values.items():
+            names = self.resolve(key, prefix)
+            for n in names:
+                if n not in self.system.state_names:
+                    raise DefinitionError(
+                        f"`{prefix}`: {n!r} is not a state; boundary values fix states "
+                        f"({', '.join(self.system.state_names)})"
+                    )
+            idx = [self.system.state_names.index(n) for n in names]
+
+            def select(p, idx=tuple(idx)):
+                return ca.vertcat(*[p.x[i] for i in idx])
+
+            ocp = ocp._add_constraint(f"{prefix} {key}", select, value, value, at, None)
+        return ocp
+
+    def periodic(self, mapping=None) -> OCP:
+        """Periodicity x(0) = mapping(x(T)); identity by default.
+
+        ``mapping``: a callable of the SX state (nx,) returning (nx,), or a casadi.Function
+        (nx,) -> (nx,): an impact map and a relabelling of legs enter here.
+        """
+        if mapping is not None:
+            x = ca.SX.sym("x", self.system.nx)
+            try:
+                value = mapping(x)
+            except Exception as exc:  # a user's callable may fail in any way; say where
+                raise DefinitionError(f"`periodic`: calling the mapping failed: {exc}") from exc
+            if isinstance(value, list | tuple):
+                value = ca.vertcat(*value)
+            if not isinstance(value, ca.SX | ca.MX) or value.shape != (self.system.nx, 1):
+                shape = getattr(value, "shape", type(value).__name__)
+                raise DefinitionError(
+                    f"`periodic`: the mapping must return a ({self.system.nx}, 1) state, "
+                    f"got {shape}"
+                )
+        return dataclasses.replace(self, periodicity=(mapping,))
+
+    def minimize(self, integral=None, terminal=None) -> OCP:
+        """Objective = integral of ``integral(p)`` over [0, T] (the transcription's quadrature)
+        + ``terminal(p)`` at t = T (``p.x`` = x(T), ``p.x0``, ``p.T``). Replaces any earlier
+        objective; both are scalar expressions of a :class:`Point`."""
+        if integral is None and terminal is None:
+            raise DefinitionError("`minimize`: give an integral and/or a terminal term")
+        for label, term, where in (("integral", integral, "path"), ("terminal", terminal, "end")):
+            if term is not None:
+                value = evaluate_expression(label, term, self._point(where))
+                if value.shape != (1, 1):
+                    raise DefinitionError(f"`{label}`: must be scalar, got shape {value.shape}")
+        return dataclasses.replace(self, integral=integral, terminal=terminal)
+
+    def scale(self, **scales) -> OCP:
+        """Nominal magnitudes of variables, groups or constraints: ``scale(M=100, clearance=0.05)``.
+
+        The NLP works with v / scale; defects are divided by their state's scale and the
+        dynamics residual by the scale of the torques (states for a generic implicit DAE).
+        """
+        items = list(self.scales)
+        constraint_names = self._constraint_names()
+        for key, value in scales.items():
+            if key in constraint_names:
+                size = next(c.size for c in self.constraints if c.name == key)
+                _positive_array(f"scale[{key}]", value, size)
+                items.append((key, value))
+                continue
+            names = self.resolve(key, "scale")
+            array = _positive_array(f"scale[{key}]", value, len(names))
+            items.extend((n, float(array[i])) for i, n in enumerate(names))
+        return dataclasses.replace(self, scales=tuple(items))
+
+    def variable_scale(self, name: str) -> float:
+        value = None
+        for key, v in self.scales:
+            if key == name:
+                value = v
+        if value is not None:
+            return float(value)
+        lo, hi = self.variable_bounds(name)
+        return float(default_scale(np.array([lo]), np.array([hi]))[0])
+
+    def constraint_scale(self, constraint: Constraint) -> np.ndarray:
+        for key, v in reversed(self.scales):
+            if key == constraint.name:
+                return _positive_array(key, v, constraint.size)
+        if constraint.scale is not None:
+            return constraint.scale
+        return default_scale(constraint.lower, constraint.upper)
+
+    def guess(self, source=None, *, t=None, T=None, **values) -> OCP:
+        """Add an initial guess; later guesses override earlier ones variable by variable.
+
+        ``source``: a callable of time t (K,) s returning a dict (names or groups -> (K,) or
+        (K, size)) or a tuple ((psi, dpsi[, ddpsi[, M]]) for a linkage, (x[, u[, z]])
+        otherwise), or an earlier Solution (or planner Trajectory), re-gridded through its
+        interpolant in normalised time t / T (coarse-to-fine warm start).
+        ``values``: constants (``M=0``, ``psi=[...]``) or, with ``t`` (K,), arrays (K,) /
+        (K, size) interpolated linearly onto the mesh. ``T``: guess of a free duration.
+        For a linkage, torques that no guess gives are computed by inverse dynamics from the
+        guessed psi, dpsi, ddpsi.
+        """
+        layers = list(self.guesses)
+        T_guess = self.T_guess
+        if T is not None:
+            if not self.free_time:
+                raise DefinitionError("`T`: the duration is fixed; a T guess needs T=(lo, hi)")
+            T_val = float(T)
+            if not self.T[0] <= T_val <= self.T[1]:
+                raise DefinitionError(f"`T`: guess {T_val} outside the bounds {self.T}")
+            T_guess = T_val
+        if source is not None:
+            layers.append(self._guess_source(source))
+        if values:
+            layers.append(self._guess_values(values, t))
+        elif t is not None:
+            raise DefinitionError("`t`: a time grid needs arrays, e.g. guess(t=times, psi=...)")
+        if source is None and not values and T is None:
+            raise DefinitionError("`guess`: give a source, values or T")
+        return dataclasses.replace(self, guesses=tuple(layers), T_guess=T_guess)
+
+    def _guess_source(self, source) -> GuessLayer:
+        if hasattr(source, "interpolate_guess"):
+            return GuessLayer("solution", source=source)
+        if hasattr(source, "at") and hasattr(source, "state_names"):
+            return GuessLayer("solution", source=source)
+        if callable(source):
+            layer = GuessLayer("callable", source=source)
+            # Evaluate once now so that a wrong shape or NaN fails at definition time.
+            probe = np.linspace(0.0, self.duration_guess, 5)
+            from planner.transcription import evaluate_guess_layer
+
+            evaluate_guess_layer(self, layer, probe)
+            return layer
+        if isinstance(source, Mapping):
+            return self._guess_values(dict(source), None)
+        raise DefinitionTypeError(
+            "`guess`: source must be a callable of t, a Solution, a Trajectory or a dict, got "
+            f"{type(source).__name__}"
+        )
+
+    def _guess_values(self, values: Mapping[str, Any], t) -> GuessLayer:
+        times = None
+        if t is not None:
+            times = np.asarray(t, dtype=float).reshape(-1)
+            if times.size < 1 or not np.all(np.isfinite(times)):
+                raise DefinitionError("`t`: the guess time grid must be finite and non-empty")
+            if times.size > 1 and np.any(np.diff(times) <= 0):
+                raise DefinitionError("`t`: the guess time grid must be strictly increasing")
+        resolved: dict[str, np.ndarray] = {}
+        for key, value in values.items():
+            names = self.resolve(key, "guess")
+            try:
+                array = np.asarray(value, dtype=float)
+            except (TypeError, ValueError) as exc:
+                raise DefinitionTypeError(
+                    f"`guess[{key}]`: must be numeric, got {value!r}"
+                ) from exc
+            if not np.all(np.isfinite(array)):
+                raise DefinitionError(f"`guess[{key}]`: contains NaN or inf; give finite values")
+            m = len(names)
+            if times is None:
+                if array.ndim == 0:
+                    array = np.full(m, float(array))
+                if array.shape != (m,):
+                    raise DefinitionError(
+                        f"`guess[{key}]`: constant guess has shape {array.shape}, expected a "
+                        f"scalar or ({m},); for arrays over time pass t=..."
+                    )
+                for i, n in enumerate(names):
+                    resolved[n] = np.array(array[i])
+            else:
+                K = times.size
+                if array.ndim == 0:
+                    array = np.full((K, m), float(array))
+                elif array.ndim == 1 and m == 1 and array.size == K:
+                    array = array[:, None]
+                elif array.ndim == 1 and array.size == m:
+                    array = np.tile(array, (K, 1))
+                if array.shape != (K, m):
+                    raise DefinitionError(
+                        f"`guess[{key}]`: expected shape ({K}, {m}) on the {K}-point grid t, "
+                        f"got {np.shape(value)}"
+                    )
+                for i, n in enumerate(names):
+                    resolved[n] = array[:, i].copy()
+        return GuessLayer("grid" if times is not None else "constant", resolved, times)
+
+    # ---- mesh, solving ------------------------------------------------------------------
+    def refine(self, N: int | None = None, transcription: str | None = None, degree=None) -> OCP:
+        """The same problem on another mesh (N, transcription, degree)."""
+        changes: dict[str, Any] = {}
+        if N is not None:
+            changes["N"] = N
+        if transcription is not None:
+            changes["transcription"] = transcription
+            if transcription not in ("radau", "legendre") and degree is None:
+                changes["degree"] = None
+        if degree is not None:
+            changes["degree"] = degree
+        return dataclasses.replace(self, **changes)
+
+    def transcribe(self, expand: bool | None = None):
+        """The NLP of this OCP (:class:`planner.transcription.Transcription`), built now."""
+        from planner.transcription import Transcription
+
+        return Transcription(self, expand=expand)
+
+    def solve(self, **kwargs):
+        """Transcribe and solve; see :func:`planner.solve.solve` for the keyword arguments."""
+        from planner.solve import solve
+
+        return solve(self, **kwargs)
+
+    # ---- printing ----------------------------------------------------------------------
+    def __str__(self) -> str:
+        s = self.system
+        T = f"T in [{self.T[0]:g}, {self.T[1]:g}] s" if self.free_time else f"T = {self.T:g} s"
+        mesh = self.transcription + (f"(degree {self.degree})" if self.degree else "")
+        lines = [
+            f"OCP: {s.formulation} dynamics, nx={s.nx} nu={s.nu} nz={s.nz}, {T}, N={self.N}, "
+            f"{mesh}",
+            f"  states:   {', '.join(s.state_names)}",
+            f"  controls: {', '.join(s.control_names)}",
+        ]
+        if self.bounds:
+            lines.append(
+                "  bounds:   " + ", ".join(f"{n} in [{lo:g}, {hi:g}]" for n, lo, hi in self.bounds)
+            )
+        for c in self.constraints:
+            lines.append(f"  {c!r}")
+        if self.periodicity is not None:
+            mapping = self.periodicity[0]
+            lines.append("  periodic: x(0) = " + ("x(T)" if mapping is None else "Delta(x(T))"))
+        objective = [
+            label
+            for label, term in (("integral", self.integral), ("terminal", self.terminal))
+            if term is not None
+        ]
+        lines.append(f"  minimize: {' + '.join(objective) or 'nothing (feasibility)'}")
+        if self.guesses:
+            lines.append(f"  guesses:  {', '.join(repr(g) for g in self.guesses)}")
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        return str(self)
+
+
+def _positive_array(label: str, value, size: int) -> np.ndarray:
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise DefinitionTypeError(f"`{label}`: must be numeric, got {value!r}") from exc
+    if array.ndim == 0:
+        array = np.full(size, float(array))
+    if array.shape != (size,):
+        raise DefinitionError(f"`{label}`: expected a scalar or ({size},), got {array.shape}")
+    if not np.all(np.isfinite(array)) or np.any(array <= 0):
+        raise DefinitionError(f"`{label}`: scales must be finite and > 0, got {array}")
+    return array
+
+
+__all__ = ["FORMULATIONS", "OCP", "TRANSCRIPTIONS", "Constraint", "Point", "System"]

@@ -1,0 +1,483 @@
+"""The result of a solve: grids, interpolants, torques, accuracy estimates, export.
+
+A :class:`Solution` keeps the NLP's values where they live (states at the state points,
+controls, ddpsi and rates at the dynamics points) and interpolates with exactly the
+polynomials of its transcription (:class:`planner.transcription.Scheme`): trapezoid, linear
+controls and quadratic states; Hermite-Simpson, quadratic controls and cubic states;
+collocation, the Lagrange polynomials of each interval. Between intervals the interpolant is
+right-continuous (the last interval is closed at T); controls of a collocation scheme may
+jump at the nodes.
+
+Accuracy estimates (all in the states' physical units):
+
+* :meth:`Solution.integration_error`: each interval re-integrated from its start node with the
+  interpolated controls at tight tolerance (CVODES), compared with its end node;
+* :meth:`Solution.residual_error`: the integral over each interval of |f(x, u, t) - dx/dt|
+  along the interpolant (the error OptimTraj reports);
+* :meth:`Solution.replay`: the whole horizon integrated open loop from x(0). This is a
+  stability probe, not an accuracy measure: an unstable motion (a six-link gait has a
+  one-period sensitivity near 1e9) diverges whatever the transcription's accuracy.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from model.errors import DefinitionError
+
+#: Gauss-Legendre points per interval for residual_error (exact for polynomial integrands of
+#: degree 2 * 12 - 1; the residual of a smooth motion is resolved far below its size).
+RESIDUAL_QUADRATURE_POINTS = 12
+
+
+@dataclass(frozen=True)
+class IntegrationError:
+    """Per-interval error estimates.
+
+    per_interval : (N, nx) absolute error of each state on each interval, state units.
+    max : the largest entry; worst_interval, worst_state: where it is.
+    """
+
+    per_interval: np.ndarray
+    state_names: tuple[str, ...]
+
+    @property
+    def max(self) -> float:
+        return float(np.max(self.per_interval)) if self.per_interval.size else 0.0
+
+    @property
+    def per_state(self) -> np.ndarray:
+        """(nx,) worst over intervals."""
+        return np.max(self.per_interval, axis=0)
+
+    @property
+    def worst_interval(self) -> int:
+        return int(np.unravel_index(np.argmax(self.per_interval), self.per_interval.shape)[0])
+
+    @property
+    def worst_state(self) -> str:
+        index = np.unravel_index(np.argmax(self.per_interval), self.per_interval.shape)[1]
+        return self.state_names[int(index)]
+
+    def __repr__(self) -> str:
+        return (
+            f"IntegrationError(max={self.max:.3e} in {self.worst_state} on interval "
+            f"{self.worst_interval})"
+        )
+
+
+@dataclass(frozen=True)
+class Replay:
+    """Open-loop replay of the horizon from x(0): a stability probe, not an accuracy measure.
+
+    time (N+1,) s; states (N+1, nx) integrated; deviation (N+1, nx) = integrated - solution.
+    """
+
+    time: np.ndarray
+    states: np.ndarray
+    deviation: np.ndarray
+
+    @property
+    def max_deviation(self) -> float:
+        return float(np.max(np.abs(self.deviation)))
+
+
+class Solution:
+    """Values, interpolants, status and stats of a solved (or failed) transcription.
+
+    Attributes
+    ----------
+    cost : objective value (physical units of the objective).
+    status : IPOPT's return status; success : whether it counts as converged.
+    stats : timings and counts (see :func:`planner.solve.solve`).
+    T : duration, s. N : intervals. transcription_name, degree, formulation.
+    time, states, controls, ddpsi : values at the N+1 mesh nodes (see properties).
+    state_time, state_values : every state point (nX,), (nX, nx).
+    point_time, control_values, aux_values, rate_values : every dynamics point (nC,), ...
+    """
+
+    def __init__(
+        self,
+        transcription,
+        w: np.ndarray,
+        cost: float,
+        status: str,
+        success: bool,
+        stats: dict[str, Any],
+        lam_g: np.ndarray | None = None,
+        lam_x: np.ndarray | None = None,
+    ) -> None:
+        self.transcription = transcription
+        self.ocp = transcription.ocp
+        self.system = transcription.system
+        self.scheme = transcription.scheme
+        self.mesh = transcription.mesh
+        self.w = np.asarray(w, dtype=float).copy()
+        self.cost = float(cost)
+        self.status = status
+        self.success = bool(success)
+        self.stats = stats
+        self.lam_g = lam_g
+        self.lam_x = lam_x
+        values = transcription.unpack(self.w)
+        self.T = float(values["T"])
+        self.state_values = values["X"]
+        self.control_values = values["U"]
+        self.aux_values = values["Z"]
+        self.state_time = self.mesh.s_state * self.T
+        self.point_time = self.mesh.s_dyn * self.T
+        self.rate_values = self._rates()
+
+    # ---- basic views -----------------------------------------------------------------
+    @property
+    def N(self) -> int:
+        return self.ocp.N
+
+    @property
+    def h(self) -> float:
+        return self.T / self.N
+
+    @property
+    def iterations(self) -> int:
+        return int(self.stats.get("iterations", 0))
+
+    @property
+    def transcription_name(self) -> str:
+        return self.scheme.name
+
+    @property
+    def degree(self) -> int | None:
+        return self.scheme.degree
+
+    @property
+    def formulation(self) -> str:
+        return self.system.formulation
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return self.system.state_names
+
+    @property
+    def control_names(self) -> tuple[str, ...]:
+        return self.system.control_names
+
+    @property
+    def time(self) -> np.ndarray:
+        """(N+1,) node times, s."""
+        return np.arange(self.N + 1) * self.h
+
+    @property
+    def states(self) -> np.ndarray:
+        """(N+1, nx) states at the nodes (NLP variables)."""
+        return self.state_values[self.mesh.node_state_cols]
+
+    @property
+    def controls(self) -> np.ndarray:
+        """(N+1, nu) controls at the nodes, from the interpolant (right-continuous)."""
+        return self.control(self.time)
+
+    @property
+    def torques(self) -> np.ndarray:
+        """(N+1, n) hinge torques at the nodes, N m (a linkage's controls)."""
+        self._require_linkage("torques")
+        return self.controls
+
+    @property
+    def ddpsi(self) -> np.ndarray | None:
+        """(N+1, n) angular accelerations at the nodes, rad/s^2 (a linkage only)."""
+        if not self.system.is_linkage:
+            return None
+        return self.acceleration(self.time)
+
+    def _require_linkage(self, what: str) -> None:
+        if not self.system.is_linkage:
+            raise DefinitionError(f"`{what}`: defined for a model.Dynamics problem only")
+
+    def _rates(self) -> np.ndarray:
+        """(nC, nx) f(x, z, u, t) at the dynamics points, through the NLP's own point Function."""
+        t = self.transcription
+        mapped = t.point_function.map(self.mesh.n_dyn_points)
+        xs = (self.state_values[self.mesh.dyn_state_cols] / t.state_scale).T
+        us = (self.control_values / t.control_scale).T
+        zs = (self.aux_values / t.aux_scale).T if self.system.nz else np.zeros((0, xs.shape[1]))
+        times = self.point_time[None, :]
+        rate = mapped(xs, us, zs, times, np.full_like(times, self.T))[0]
+        return np.asarray(rate).T * t.state_scale
+
+    # ---- interpolation ---------------------------------------------------------------
+    def _locate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        if np.any(~np.isfinite(t)):
+            raise DefinitionError("`t`: must be finite times in s")
+        span = 1e-9 * max(self.T, 1.0)
+        if np.any(t < -span) or np.any(t > self.T + span):
+            raise DefinitionError(
+                f"`t`: times must lie in [0, T] = [0, {self.T:g}] s, got [{t.min():g}, {t.max():g}]"
+            )
+        k, tau = self.mesh.locate(np.clip(t / self.T, 0.0, 1.0))
+        return t, k, tau
+
+    def state(self, t, derivative: int = 0) -> np.ndarray:
+        """States (or their ``derivative``-th time derivative) at times t: (K, nx).
+
+        Uses exactly the transcription's state polynomial of the interval containing t.
+        """
+        _, k, tau = self._locate(t)
+        scheme, mesh = self.scheme, self.mesh
+        out = np.zeros((k.size, self.system.nx))
+        h = self.h
+        for kk in np.unique(k):
+            sel = k == kk
+            wx, wf = scheme.state_weights(tau[sel], derivative)
+            xk = self.state_values[mesh.state_cols[kk]]
+            fk = self.rate_values[mesh.dyn_cols[kk]]
+            out[sel] = (wx @ xk + h * (wf @ fk)) / h**derivative
+        return out
+
+    def _point_values(self, values: np.ndarray, t, derivative: int = 0) -> np.ndarray:
+        _, k, tau = self._locate(t)
+        out = np.zeros((k.size, values.shape[1]))
+        for kk in np.unique(k):
+            sel = k == kk
+            weights = self.scheme.control_weights(tau[sel], derivative)
+            out[sel] = weights @ values[self.mesh.dyn_cols[kk]] / self.h**derivative
+        return out
+
+    def control(self, t) -> np.ndarray:
+        """Controls at times t, (K, nu): the transcription's control polynomial."""
+        return self._point_values(self.control_values, t)
+
+    def aux(self, t) -> np.ndarray:
+        """Auxiliary variables z (implicit: ddpsi) at times t, (K, nz)."""
+        return self._point_values(self.aux_values, t)
+
+    def acceleration(self, t) -> np.ndarray:
+        """ddpsi at times t, (K, n), rad/s^2 (a linkage): the NLP's ddpsi polynomial
+        (implicit), or forward dynamics of the interpolated state and torques (explicit)."""
+        self._require_linkage("acceleration")
+        if self.system.nz:
+            return self.aux(t)
+        n = self.system.dynamics.n
+        x = self.state(t)
+        result = self.system.dynamics.forward_dynamics(x[:, :n], x[:, n:], self.control(t))
+        return np.atleast_2d(result)
+
+    def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """(states (K, nx), controls (K, nu)) at times t through the transcription's polynomials."""
+        return self.state(t), self.control(t)
+
+    def value(self, name: str, t) -> np.ndarray:
+        """One variable by name at times t, (K,)."""
+        s = self.system
+        if name in s.state_names:
+            return self.state(t)[:, s.state_names.index(name)]
+        if name in s.control_names:
+            return self.control(t)[:, s.control_names.index(name)]
+        if name in s.aux_names:
+            return self.aux(t)[:, s.aux_names.index(name)]
+        raise DefinitionError(f"`name`: unknown variable {name!r}; known: {s.variable_names}")
+
+    def interpolate_guess(self, s: np.ndarray) -> dict[str, np.ndarray]:
+        """Every variable at normalised times s = t / T (a warm start for another mesh)."""
+        t = np.asarray(s, dtype=float) * self.T
+        out = {}
+        states, controls = self(t)
+        out.update({n: states[:, i] for i, n in enumerate(self.system.state_names)})
+        out.update({n: controls[:, i] for i, n in enumerate(self.system.control_names)})
+        if self.system.is_linkage:
+            accelerations = self.acceleration(t)
+            for i, link in enumerate(self.system.dynamics.names):
+                out[f"ddpsi_{link}"] = accelerations[:, i]
+        elif self.system.nz:
+            aux = self.aux(t)
+            out.update({n: aux[:, i] for i, n in enumerate(self.system.aux_names)})
+        return out
+
+    # ---- accuracy ----------------------------------------------------------------------
+    def _ode(self) -> ca.Function:
+        if self.system.ode is None:
+            raise DefinitionError(
+                "`integration_error`: the dynamics were given as an implicit residual only; "
+                "re-integration needs an explicit ODE (give the OCP an ODE Function)"
+            )
+        return self.system.ode
+
+    def _interval_integrator(self, rtol: float, atol: float) -> ca.Function:
+        """CVODES over one interval in tau: dx/dtau = h f(x, u(tau), t_k + h tau).
+
+        The control polynomial enters as parameters: the interval's dynamics-point controls,
+        combined with the monomial coefficients of the scheme's Lagrange basis.
+        """
+        from planner.collocation import lagrange_coefficients
+
+        s = self.system
+        ndc = self.scheme.ndc
+        coefficients = lagrange_coefficients(self.scheme.interval_dyn_tau)  # (ndc, ndc)
+        x = ca.SX.sym("x", s.nx)
+        tau = ca.SX.sym("tau")
+        uk = ca.SX.sym("uk", s.nu, ndc)
+        t0 = ca.SX.sym("t0")
+        h = ca.SX.sym("h")
+        monomials = ca.vertcat(*[tau**p for p in range(ndc)])
+        u = ca.mtimes(ca.mtimes(uk, ca.DM(coefficients)), monomials)
+        rhs = h * self._ode()(x, u, t0 + h * tau)
+        p = ca.vertcat(ca.vec(uk), t0, h)
+        dae = {"x": x, "p": p, "t": tau, "ode": rhs}
+        options = {"abstol": atol, "reltol": rtol, "max_num_steps": 100000}
+        return ca.integrator("interval", "cvodes", dae, 0.0, 1.0, options)
+
+    def _interval_parameters(self) -> np.ndarray:
+        mesh = self.mesh
+        uk = self.control_values[mesh.dyn_cols]  # (N, ndc, nu)
+        # ca.vec is column-major over (nu, ndc): entry (i, c) at c * nu + i.
+        vec_u = uk.reshape(self.N, -1)
+        t0 = self.time[:-1, None]
+        h = np.full((self.N, 1), self.h)
+        return np.hstack([vec_u, t0, h]).T  # (np, N)
+
+    def integration_error(self, rtol: float = 1e-12, atol: float = 1e-12) -> IntegrationError:
+        """Re-integrate every interval from its start node with the interpolated controls.
+
+        Returns the (N, nx) absolute difference from the end nodes (state units).
+        """
+        integrator = self._interval_integrator(rtol, atol).map(self.N)
+        nodes = self.states
+        result = integrator(x0=nodes[:-1].T, p=self._interval_parameters())
+        end = np.asarray(result["xf"]).T
+        return IntegrationError(np.abs(end - nodes[1:]), self.system.state_names)
+
+    def residual_error(self, points: int = RESIDUAL_QUADRATURE_POINTS) -> IntegrationError:
+        """Integral over each interval of |f(x(t), u(t), t) - dx/dt(t)| along the interpolant.
+
+        (N, nx), state units; Gauss-Legendre quadrature with ``points`` points per interval.
+        """
+        from planner.collocation import gauss_legendre
+
+        tau, weights = gauss_legendre(points)
+        t = (np.arange(self.N)[:, None] + tau[None, :]).reshape(-1) * self.h
+        # Points never hit a node, so the interval of each is unambiguous.
+        x = self.state(t)
+        dx = self.state(t, derivative=1)
+        u = self.control(t)
+        ode = self._ode().map(t.size)
+        f = np.asarray(ode(x.T, u.T, t[None, :])).T
+        gap = np.abs(f - dx).reshape(self.N, points, -1)
+        return IntegrationError(
+            self.h * np.einsum("p,kpn->kn", weights, gap), self.system.state_names
+        )
+
+    def replay(self, rtol: float = 1e-10, atol: float = 1e-10) -> Replay:
+        """Integrate the whole horizon open loop from x(0) with the interpolated controls.
+
+        A stability probe, not an accuracy measure: the deviation grows with the motion's
+        own instability (for an unstable gait it is large however accurate the solution).
+        """
+        integrator = self._interval_integrator(rtol, atol)
+        parameters = self._interval_parameters()
+        x = self.states[0].copy()
+        out = [x]
+        for k in range(self.N):
+            x = np.asarray(integrator(x0=x, p=parameters[:, k])["xf"]).reshape(-1)
+            out.append(x)
+        states = np.array(out)
+        return Replay(self.time, states, states - self.states)
+
+    # ---- export ------------------------------------------------------------------------
+    @property
+    def metadata(self) -> dict[str, Any]:
+        """JSON-serialisable description: model, mesh, status, cost, package versions."""
+
+        def version(package: str) -> str:
+            try:
+                return importlib.metadata.version(package)
+            except importlib.metadata.PackageNotFoundError:
+                return "unknown"
+
+        system = self.system
+        return {
+            "source": "planner",
+            "model": system.dynamics.linkage.parameters() if system.is_linkage else None,
+            "transcription": self.scheme.name,
+            "degree": self.scheme.degree,
+            "N": self.N,
+            "T": self.T,
+            "formulation": system.formulation,
+            "status": self.status,
+            "success": self.success,
+            "cost": self.cost,
+            "iterations": self.iterations,
+            "versions": {
+                "casadi": ca.__version__,
+                "numpy": np.__version__,
+                "anthropoid-planner": version("anthropoid-planner"),
+            },
+        }
+
+    def sample_times(self, rate_hz: float | None = None) -> np.ndarray:
+        """The nodes (rate_hz None) or a uniform grid 0, 1/rate, ... with T appended."""
+        if rate_hz is None:
+            return self.time
+        rate = float(rate_hz)
+        if not np.isfinite(rate) or rate <= 0:
+            raise DefinitionError(f"`rate_hz`: must be a finite rate > 0 Hz, got {rate_hz!r}")
+        count = int(np.floor(self.T * rate + 1e-9))
+        times = np.arange(count + 1) / rate
+        if self.T - times[-1] > 1e-9 * self.T:
+            times = np.append(times, self.T)
+        return times
+
+    def to_trajectory(self, rate_hz: float | None = None):
+        """The solution as a :class:`planner.trajectory.Trajectory`.
+
+        At the nodes (``rate_hz`` None) or resampled at ``rate_hz`` through this solution's
+        own interpolant. A linkage uses the naming convention psi_, dpsi_, M_, ddpsi_.
+        """
+        from planner.trajectory import Trajectory
+
+        times = self.sample_times(rate_hz)
+        states, controls = self(times)
+        system = self.system
+        if system.is_linkage:
+            n = system.dynamics.n
+            return Trajectory.from_linkage(
+                times,
+                states[:, :n],
+                states[:, n:],
+                controls,
+                system.dynamics.names,
+                ddpsi=self.acceleration(times),
+                metadata=self.metadata,
+            )
+        extras = {}
+        if system.nz:
+            aux = self.aux(times)
+            extras = {n: (aux[:, i], system.aux_units[i]) for i, n in enumerate(system.aux_names)}
+        return Trajectory(
+            times,
+            states,
+            controls,
+            system.state_names,
+            system.state_units,
+            system.control_names,
+            system.control_units,
+            extras,
+            self.metadata,
+        )
+
+    def save(self, path, rate_hz: float | None = None):
+        """``to_trajectory(rate_hz).save(path)``: format by suffix (.csv, .json, .npz).
+
+        Returns the path written."""
+        return self.to_trajectory(rate_hz).save(path)
+
+    def __repr__(self) -> str:
+        mesh = self.scheme.name + (f"({self.scheme.degree})" if self.scheme.degree else "")
+        return (
+            f"Solution({mesh}, N={self.N}, T={self.T:g} s, {self.system.formulation}, "
+            f"status={self.status}, cost={self.cost:.6g}, iterations={self.iterations})"
+        )

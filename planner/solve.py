@@ -1,0 +1,324 @@
+"""Solving a transcribed OCP with IPOPT through ``casadi.nlpsol``; status, progress, stats.
+
+``casadi.nlpsol`` does not raise when IPOPT fails: :func:`solve` reads
+``solver.stats()["success"]`` and ``["return_status"]`` every time. A failure raises
+:class:`SolverError` with IPOPT's status, the iteration count, the worst violated constraints
+by name and the last iterate as a :class:`planner.solution.Solution`; with
+``raise_on_failure=False`` it returns that Solution, ``success == False``.
+"Solved_To_Acceptable_Level" counts as success only with ``accept_acceptable=True``.
+
+Progress (iteration, objective, primal infeasibility) goes through one switchable reporter:
+the logger ``planner.progress`` at INFO level (``progress=True``, the default; shown when the
+application configures logging), a callable of a dict per iteration, or nothing
+(``progress=False``). The library never prints.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from planner.ocp import OCP
+from planner.solution import Solution
+from planner.transcription import Transcription
+
+logger = logging.getLogger(__name__)
+progress_logger = logging.getLogger("planner.progress")
+
+#: IPOPT defaults of the planner; anything in ``options`` overrides them.
+DEFAULT_IPOPT = {
+    "print_level": 0,
+    "sb": "yes",
+    "hessian_approximation": "exact",
+    "tol": 1e-8,
+    "max_iter": 3000,
+    # The NLP is already scaled by nominal magnitudes; MUMPS's own scaling analysis cost ~30%
+    # of the solve time on the six-link gait (examples/benchmarks/planner_bench.py).
+    "mumps_permuting_scaling": 0,
+    "mumps_scaling": 0,
+}
+SUCCESS = ("Solve_Succeeded",)
+ACCEPTABLE = "Solved_To_Acceptable_Level"
+#: Stats keys of the oracle functions whose wall time is "time in function evaluations".
+FUNCTION_STATS = ("nlp_f", "nlp_g", "nlp_grad", "nlp_grad_f", "nlp_jac_g", "nlp_hess_l")
+
+
+class SolverError(AnthropoidError):
+    """IPOPT did not converge (or converged only to an acceptable level, not accepted).
+
+    Attributes
+    ----------
+    status : IPOPT's return status, e.g. "Maximum_Iterations_Exceeded".
+    iterations : IPOPT iterations done.
+    violations : list of (constraint name, violation) at the last iterate, worst first, in
+        the constraint's physical units (defects in the state's units).
+    solution : the last iterate as a :class:`Solution` (``success == False``).
+    """
+
+    def __init__(self, message, status, iterations, violations, solution) -> None:
+        super().__init__(message)
+        self.status = status
+        self.iterations = iterations
+        self.violations = violations
+        self.solution = solution
+
+
+class _Progress(ca.Callback):
+    """IPOPT iteration callback: reports iteration, objective and max constraint violation."""
+
+    def __init__(self, n_w: int, n_g: int, lbg, ubg, report: Callable[[dict], None]) -> None:
+        ca.Callback.__init__(self)
+        self._n_w, self._n_g = n_w, n_g
+        self._lbg, self._ubg = np.asarray(lbg), np.asarray(ubg)
+        self._report = report
+        self.iteration = -1
+        self.construct("progress", {})
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        name = ca.nlpsol_out(i)
+        if name == "f":
+            return ca.Sparsity.scalar()
+        if name in ("x", "lam_x"):
+            return ca.Sparsity.dense(self._n_w)
+        if name in ("g", "lam_g"):
+            return ca.Sparsity.dense(self._n_g)
+        return ca.Sparsity(0, 0)
+
+    def eval(self, arg):
+        self.iteration += 1
+        g = np.asarray(arg[ca.nlpsol_out().index("g")]).reshape(-1)
+        infeasibility = (
+            float(np.max(np.maximum(self._lbg - g, g - self._ubg), initial=0.0)) if g.size else 0.0
+        )
+        self._report(
+            {
+                "iteration": self.iteration,
+                "objective": float(arg[ca.nlpsol_out().index("f")]),
+                "infeasibility": infeasibility,
+            }
+        )
+        return [0]
+
+
+def _log_progress(row: Mapping[str, Any]) -> None:
+    progress_logger.info(
+        "iter %4d  objective %.8e  inf_pr %.2e",
+        row["iteration"],
+        row["objective"],
+        row["infeasibility"],
+    )
+
+
+def violations(transcription: Transcription, w: np.ndarray, g: np.ndarray, count: int = 5):
+    """The ``count`` worst violated constraints and bounds at (w, g), by name, worst first.
+
+    Violations are in physical units (scaled row times its nominal scale).
+    """
+    w = np.asarray(w, dtype=float).reshape(-1)
+    g = np.asarray(g, dtype=float).reshape(-1)
+    rows = []
+    if g.size:
+        excess = np.maximum(transcription.lbg - g, g - transcription.ubg)
+        excess = np.maximum(excess, 0.0) * transcription.g_scale
+        rows.extend((transcription.g_names[i], float(excess[i])) for i in np.flatnonzero(excess))
+    excess = np.maximum(np.maximum(transcription.lbx - w, w - transcription.ubx), 0.0)
+    excess = excess * transcription.w_scale
+    rows.extend((transcription.w_names[i], float(excess[i])) for i in np.flatnonzero(excess))
+    rows.sort(key=lambda item: -item[1])
+    return rows[:count]
+
+
+#: Iteration callbacks of live solvers, by id(solver); dropped when solve() returns.
+_CALLBACKS: dict[int, Any] = {}
+
+
+def nlp_solver(
+    transcription: Transcription,
+    options: Mapping[str, Any] | None = None,
+    report: Callable[[dict], None] | None = None,
+) -> ca.Function:
+    """The ``casadi.nlpsol`` IPOPT solver of a transcription (planner defaults + ``options``).
+
+    Its oracle functions (``solver.get_function("nlp_jac_g")``, ``"nlp_hess_l"``) are the
+    derivatives IPOPT uses. ``report`` receives a dict per iteration (see :func:`solve`).
+    """
+    ipopt = dict(DEFAULT_IPOPT)
+    if options is not None:
+        if not isinstance(options, Mapping):
+            raise DefinitionTypeError(
+                f"`options`: must be a dict of IPOPT options, got {options!r}"
+            )
+        ipopt.update(options)
+    solver_options: dict[str, Any] = {"ipopt": ipopt, "print_time": False}
+    if report is not None:
+        solver_options["iteration_callback"] = _Progress(
+            transcription.n_w, transcription.n_g, transcription.lbg, transcription.ubg, report
+        )
+    problem = transcription.nlp
+    if isinstance(problem["x"], ca.MX):
+        # Reverse mode for the MX Jacobian: 14 adjoint instead of 21 forward colours on the
+        # six-link gait, 25% less time in nlp_jac_g (planner_bench.py, Hermite-Simpson N=50).
+        problem = ca.Function(
+            "nlp",
+            [problem["x"], ca.MX.sym("p", 0)],
+            [problem["f"], problem["g"]],
+            ["x", "p"],
+            ["f", "g"],
+            {"ad_weight": 1.0},
+        )
+    try:
+        solver = ca.nlpsol("planner", "ipopt", problem, solver_options)
+    except RuntimeError as exc:
+        # IPOPT rejects unknown or ill-typed options while the solver is built.
+        raise DefinitionError(f"`options`: IPOPT refused the options {ipopt}: {exc}") from exc
+    # The Python callback must outlive the solver (CasADi holds only a reference): keep it.
+    if "iteration_callback" in solver_options:
+        _CALLBACKS[id(solver)] = solver_options["iteration_callback"]
+    return solver
+
+
+def solve(
+    problem: OCP | Transcription,
+    *,
+    options: Mapping[str, Any] | None = None,
+    accept_acceptable: bool = False,
+    raise_on_failure: bool = True,
+    progress: bool | Callable[[dict], None] = True,
+    expand: bool | None = None,
+    guess: np.ndarray | None = None,
+) -> Solution:
+    """Solve an OCP (or an already built Transcription) with IPOPT.
+
+    Parameters
+    ----------
+    problem : the OCP, transcribed here, or a :class:`Transcription` to reuse.
+    options : IPOPT options (``{"max_iter": 50, "tol": 1e-10}``), over the planner defaults
+        (exact Hessian, ``tol`` 1e-8, quiet). Keys are IPOPT's own names.
+    accept_acceptable : count "Solved_To_Acceptable_Level" as success.
+    raise_on_failure : raise :class:`SolverError` on failure (default); otherwise return the
+        last iterate with ``success == False``.
+    progress : True logs every iteration on the ``planner.progress`` logger (INFO), a callable
+        receives {"iteration", "objective", "infeasibility"} dicts, False reports nothing.
+    expand : build the NLP fully in SX (True: fastest evaluation) or in MX with the SX point
+        Function mapped over the mesh (False, default: fastest construction). Only for an OCP.
+    guess : a scaled decision vector to start from (default: the OCP's guesses).
+
+    Returns
+    -------
+    Solution, with ``stats``: transcription_seconds, solver_setup_seconds, build_seconds,
+    solve_seconds, iterations, function_seconds (wall time in NLP function evaluations),
+    ipopt (the raw ``solver.stats()``).
+    """
+    if isinstance(problem, OCP):
+        transcription = Transcription(problem, expand=expand)
+    elif isinstance(problem, Transcription):
+        if expand is not None:
+            raise DefinitionError("`expand`: applies when solving an OCP, not a Transcription")
+        transcription = problem
+    else:
+        raise DefinitionTypeError(
+            f"`problem`: must be a planner.OCP or a Transcription, got {type(problem).__name__}"
+        )
+    if progress is True:
+        report = _log_progress
+    elif progress is False or progress is None:
+        report = None
+    elif callable(progress):
+        report = progress
+    else:
+        raise DefinitionTypeError(f"`progress`: must be a bool or a callable, got {progress!r}")
+
+    start = time.perf_counter()
+    solver = nlp_solver(transcription, options, report)
+    setup_seconds = time.perf_counter() - start
+    w0 = transcription.initial_guess() if guess is None else np.asarray(guess, dtype=float)
+    if w0.shape != (transcription.n_w,):
+        raise DefinitionError(
+            f"`guess`: expected a decision vector of shape ({transcription.n_w},), got {w0.shape}"
+        )
+    start = time.perf_counter()
+    result = solver(
+        x0=w0,
+        lbx=transcription.lbx,
+        ubx=transcription.ubx,
+        lbg=transcription.lbg,
+        ubg=transcription.ubg,
+    )
+    solve_seconds = time.perf_counter() - start
+    _CALLBACKS.pop(id(solver), None)
+    stats = solver.stats()
+    status = str(stats.get("return_status", "unknown"))
+    if status == "Invalid_Option":
+        # IPOPT checks some option values only when it starts (e.g. a linear solver that is
+        # not installed): a definition error, not a failed solve.
+        raise DefinitionError(
+            f"`options`: IPOPT refused the options {dict(options or {})} (status Invalid_Option)"
+        )
+    success = bool(stats.get("success", False)) and status in SUCCESS
+    if status == ACCEPTABLE and accept_acceptable:
+        success = True
+    function_seconds = sum(float(stats.get(f"t_wall_{name}", 0.0)) for name in FUNCTION_STATS)
+    iterations = int(stats.get("iter_count", 0))
+    summary = {
+        "transcription_seconds": transcription.build_seconds,
+        "solver_setup_seconds": setup_seconds,
+        "build_seconds": transcription.build_seconds + setup_seconds,
+        "solve_seconds": solve_seconds,
+        "iterations": iterations,
+        "function_seconds": function_seconds,
+        "n_variables": transcription.n_w,
+        "n_constraints": transcription.n_g,
+        "ipopt": stats,
+    }
+    w = np.asarray(result["x"]).reshape(-1)
+    g = np.asarray(result["g"]).reshape(-1)
+    solution = Solution(
+        transcription,
+        w,
+        cost=float(result["f"]),
+        status=status,
+        success=success,
+        stats=summary,
+        lam_g=np.asarray(result["lam_g"]).reshape(-1),
+        lam_x=np.asarray(result["lam_x"]).reshape(-1),
+    )
+    logger.debug(
+        "%s N=%d: %s in %d iterations, build %.3f s, solve %.3f s",
+        transcription.scheme.name,
+        transcription.ocp.N,
+        status,
+        iterations,
+        summary["build_seconds"],
+        solve_seconds,
+    )
+    if not success and raise_on_failure:
+        worst = violations(transcription, w, g)
+        listed = "; ".join(f"{name}: {value:.3g}" for name, value in worst) or "none"
+        hint = " (pass accept_acceptable=True to accept it)" if status == ACCEPTABLE else ""
+        raise SolverError(
+            f"IPOPT failed with status {status}{hint} after {iterations} iterations; "
+            f"worst violations: {listed}",
+            status,
+            iterations,
+            worst,
+            solution,
+        )
+    return solution

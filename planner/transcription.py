@@ -1,0 +1,750 @@
+"""Transcription of an :class:`planner.ocp.OCP` into a nonlinear program (NLP).
+
+The horizon [0, T] is cut into N intervals of length h = T / N; in each, tau = (t - t_k) / h.
+A :class:`Scheme` fixes, for one interval,
+
+* where the state variables live (``state_tau``; the interval's last state is the next
+  interval's first), and where the dynamics are enforced (``dyn_tau``, the "dynamics points":
+  controls, and for implicit dynamics the auxiliary variables z = ddpsi, live there too);
+* the defects, linear in the states X_k of the interval and the rates F_k = f(x, z, u, t) at
+  its dynamics points:  X_k A^T - h F_k B^T = 0  (one row of A, B per defect);
+* the quadrature weights q of the integral objective (integral ~= h sum_c q_c L_c);
+* the interpolant, exactly the polynomials the defects imply:
+  x(tau) = X_k Wx(tau)^T + h F_k Wf(tau)^T,   u(tau) = U_k Wu(tau)^T.
+
+| scheme          | states / interval   | dynamics points  | x(tau)            | u(tau)       |
+|-----------------|---------------------|------------------|-------------------|--------------|
+| trapezoid       | node                | nodes            | quadratic         | linear       |
+| hermite-simpson | node, midpoint      | nodes, midpoints | cubic Hermite     | quadratic    |
+| radau (d)       | node, tau_1..d-1    | tau_1..d (=1)    | Lagrange, deg d   | Lagrange d-1 |
+| legendre (d)    | node, tau_1..d      | tau_1..d         | Lagrange, deg d   | Lagrange d-1 |
+
+(Hermite-Simpson is the separated form: midpoint states and controls are variables; the
+Legendre scheme adds a continuity defect x_{k+1} = x(tau = 1).)
+
+The NLP is built from one SX Function per dynamics point (rate, residual, path constraints,
+integrand), mapped over all points with ``Function.map``, so that construction cost does not
+grow with the expression size times N; defects are sparse constant matrices applied to the
+stacked variables. Variables and constraints are scaled by their nominal magnitudes; every
+constraint row keeps a name ("defect[psi_torso] interval 12", "path[clearance] node 3").
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from model.errors import DefinitionError, DefinitionTypeError
+from planner.collocation import collocation_roots, integration_weights, lagrange_matrix
+from planner.ocp import OCP, Point, evaluate_expression
+
+logger = logging.getLogger(__name__)
+
+
+# ---- schemes ------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Scheme:
+    """The polynomial structure of one mesh interval (see the module docstring).
+
+    Attributes
+    ----------
+    state_tau : (ms,) state points owned by an interval, starting at 0.
+    dyn_tau : (mc,) dynamics points owned by an interval.
+    shares_end : the interval also uses the next interval's first dynamics point (the node
+        at tau = 1): trapezoid and Hermite-Simpson, whose dynamics points include the nodes.
+    A : (r, ms + 1) defect weights on the interval's states (tau in state_tau + [1]).
+    B : (r, ndc) defect weights on the interval's rates, ndc = mc + shares_end.
+    quadrature : (ndc,) weights of the integral on the interval's dynamics points.
+    order : expected order of convergence of the cost.
+    """
+
+    name: str
+    degree: int | None
+    state_tau: np.ndarray
+    dyn_tau: np.ndarray
+    shares_end: bool
+    A: np.ndarray
+    B: np.ndarray
+    defect_labels: tuple[str, ...]
+    quadrature: np.ndarray
+    order: int
+
+    @property
+    def ms(self) -> int:
+        return self.state_tau.size
+
+    @property
+    def mc(self) -> int:
+        return self.dyn_tau.size
+
+    @property
+    def ndc(self) -> int:
+        return self.mc + int(self.shares_end)
+
+    @property
+    def interval_state_tau(self) -> np.ndarray:
+        return np.append(self.state_tau, 1.0)
+
+    @property
+    def interval_dyn_tau(self) -> np.ndarray:
+        return np.append(self.dyn_tau, 1.0) if self.shares_end else self.dyn_tau
+
+    def state_weights(self, tau, derivative: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """(Wx (K, ms+1), Wf (K, ndc)): d^r x/dtau^r = X_k Wx^T + h F_k Wf^T at ``tau``."""
+        tau = np.atleast_1d(np.asarray(tau, dtype=float))
+        if self.name == "trapezoid":
+            # x = x0 + h (f0 tau + (f1 - f0) tau^2 / 2): the integral of the linear rate.
+            poly = [
+                (np.ones_like(tau), tau - tau**2 / 2, tau**2 / 2),
+                (np.zeros_like(tau), 1 - tau, tau),
+                (np.zeros_like(tau), -np.ones_like(tau), np.ones_like(tau)),
+            ]
+            if derivative > 2:
+                return np.zeros((tau.size, 2)), np.zeros((tau.size, 2))
+            one, f0, f1 = poly[derivative]
+            wx = np.column_stack([one, np.zeros_like(tau)])
+            return wx, np.column_stack([f0, f1])
+        if self.name == "hermite-simpson":
+            # Cubic Hermite through x0, x1 with slopes h f0, h f1 (its midpoint value and slope
+            # are the two Hermite-Simpson defects, so it passes through x_m with slope f_m).
+            basis = {
+                0: (
+                    2 * tau**3 - 3 * tau**2 + 1,
+                    tau**3 - 2 * tau**2 + tau,
+                    -2 * tau**3 + 3 * tau**2,
+                    tau**3 - tau**2,
+                ),
+                1: (
+                    6 * tau**2 - 6 * tau,
+                    3 * tau**2 - 4 * tau + 1,
+                    -6 * tau**2 + 6 * tau,
+                    3 * tau**2 - 2 * tau,
+                ),
+                2: (12 * tau - 6, 6 * tau - 4, -12 * tau + 6, 6 * tau - 2),
+                3: (12 + 0 * tau, 6 + 0 * tau, -12 + 0 * tau, 6 + 0 * tau),
+            }
+            if derivative > 3:
+                return np.zeros((tau.size, 3)), np.zeros((tau.size, 3))
+            h00, h10, h01, h11 = basis[derivative]
+            zero = np.zeros_like(tau)
+            return np.column_stack([h00, zero, h01]), np.column_stack([h10, zero, h11])
+        # Orthogonal collocation: the Lagrange polynomial through the node and the points.
+        points = np.append(0.0, self.dyn_tau)
+        w = lagrange_matrix(points, tau, derivative)
+        wx = np.zeros((tau.size, self.ms + 1))
+        wx[:, : points.size] = w
+        return wx, np.zeros((tau.size, self.ndc))
+
+    def control_weights(self, tau, derivative: int = 0) -> np.ndarray:
+        """Wu (K, ndc): u(tau) = U_k Wu^T, the polynomial through the dynamics points."""
+        return lagrange_matrix(self.interval_dyn_tau, tau, derivative)
+
+
+def make_scheme(name: str, degree: int | None = None) -> Scheme:
+    """The :class:`Scheme` of a transcription name (and degree for collocation)."""
+    if name == "trapezoid":
+        return Scheme(
+            name,
+            None,
+            np.array([0.0]),
+            np.array([0.0]),
+            True,
+            A=np.array([[-1.0, 1.0]]),
+            B=np.array([[0.5, 0.5]]),
+            defect_labels=("",),
+            quadrature=np.array([0.5, 0.5]),
+            order=2,
+        )
+    if name == "hermite-simpson":
+        return Scheme(
+            name,
+            None,
+            np.array([0.0, 0.5]),
+            np.array([0.0, 0.5]),
+            True,
+            # x_m = (x0 + x1)/2 + h (f0 - f1)/8 ;  x1 = x0 + h (f0 + 4 f_m + f1)/6
+            A=np.array([[-0.5, 1.0, -0.5], [-1.0, 0.0, 1.0]]),
+            B=np.array([[1 / 8, 0.0, -1 / 8], [1 / 6, 4 / 6, 1 / 6]]),
+            defect_labels=(" (midpoint)", " (end)"),
+            quadrature=np.array([1 / 6, 4 / 6, 1 / 6]),
+            order=4,
+        )
+    if name in ("radau", "legendre"):
+        if degree is None:
+            raise DefinitionError(f"`degree`: {name} collocation needs a degree in 1..9")
+        roots = collocation_roots(name, degree)
+        d = roots.size
+        points = np.append(0.0, roots)  # the basis of the state polynomial
+        derivative = lagrange_matrix(points, roots, 1)  # (d, d+1): slope at each root
+        labels = tuple(f" (point {r + 1})" for r in range(d))
+        if name == "radau":
+            A, B = derivative, np.eye(d)
+            state_tau = points[:-1]  # the last root is tau = 1, the next node
+            order = 2 * d - 1
+        else:
+            end = lagrange_matrix(points, [1.0])[0]  # x(1) from the node and the roots
+            A = np.zeros((d + 1, d + 2))
+            A[:d, : d + 1] = derivative
+            A[d, : d + 1] = -end
+            A[d, d + 1] = 1.0
+            B = np.vstack([np.eye(d), np.zeros((1, d))])
+            labels = (*labels, " (continuity)")
+            state_tau = points
+            order = 2 * d
+        return Scheme(
+            name,
+            d,
+            state_tau,
+            roots,
+            False,
+            A=A,
+            B=B,
+            defect_labels=labels,
+            quadrature=integration_weights(roots),
+            order=order,
+        )
+    raise DefinitionError(f"`transcription`: unknown {name!r}")
+
+
+# ---- the mesh -----------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """Index bookkeeping of a scheme on N uniform intervals (times normalised by T)."""
+
+    scheme: Scheme
+    N: int
+
+    @cached_property
+    def n_state_points(self) -> int:
+        return self.N * self.scheme.ms + 1
+
+    @cached_property
+    def n_dyn_points(self) -> int:
+        return self.N * self.scheme.mc + int(self.scheme.shares_end)
+
+    @cached_property
+    def state_cols(self) -> np.ndarray:
+        """(N, ms+1) state-point columns of each interval."""
+        ms = self.scheme.ms
+        return np.arange(self.N)[:, None] * ms + np.arange(ms + 1)[None, :]
+
+    @cached_property
+    def dyn_cols(self) -> np.ndarray:
+        """(N, ndc) dynamics-point columns of each interval."""
+        mc = self.scheme.mc
+        return np.arange(self.N)[:, None] * mc + np.arange(self.scheme.ndc)[None, :]
+
+    @cached_property
+    def node_state_cols(self) -> np.ndarray:
+        """(N+1,) state columns of the mesh nodes."""
+        return np.arange(self.N + 1) * self.scheme.ms
+
+    @cached_property
+    def s_state(self) -> np.ndarray:
+        """(n_state_points,) normalised times t / T of the state points."""
+        k = np.arange(self.N)[:, None]
+        s = ((k + self.scheme.state_tau[None, :]) / self.N).reshape(-1)
+        return np.append(s, 1.0)
+
+    @cached_property
+    def s_dyn(self) -> np.ndarray:
+        """(n_dyn_points,) normalised times of the dynamics points."""
+        k = np.arange(self.N)[:, None]
+        s = ((k + self.scheme.dyn_tau[None, :]) / self.N).reshape(-1)
+        return np.append(s, 1.0) if self.scheme.shares_end else s
+
+    @cached_property
+    def dyn_state_cols(self) -> np.ndarray:
+        """(n_dyn_points,) state column at each dynamics point (every one is a state point)."""
+        taus = self.scheme.interval_state_tau
+        local = [int(np.argmin(np.abs(taus - tau))) for tau in self.scheme.dyn_tau]
+        cols = (np.arange(self.N)[:, None] * self.scheme.ms + np.array(local)[None, :]).reshape(-1)
+        return np.append(cols, self.n_state_points - 1) if self.scheme.shares_end else cols
+
+    @cached_property
+    def quadrature(self) -> np.ndarray:
+        """(n_dyn_points,) weights q with integral ~= h sum q_c L_c."""
+        q = np.zeros(self.n_dyn_points)
+        np.add.at(q, self.dyn_cols.reshape(-1), np.tile(self.scheme.quadrature, self.N))
+        return q
+
+    def defect_matrices(self) -> tuple[ca.DM, ca.DM]:
+        """Sparse (n_state_points, N r) and (n_dyn_points, N r): D = X A_big - h F B_big."""
+        r = self.scheme.A.shape[0]
+        rows_a, cols_a, vals_a, rows_b, cols_b, vals_b = [], [], [], [], [], []
+        for k in range(self.N):
+            for j in range(r):
+                col = k * r + j
+                for i, value in enumerate(self.scheme.A[j]):
+                    if value != 0.0:
+                        rows_a.append(int(self.state_cols[k, i]))
+                        cols_a.append(col)
+                        vals_a.append(float(value))
+                for i, value in enumerate(self.scheme.B[j]):
+                    if value != 0.0:
+                        rows_b.append(int(self.dyn_cols[k, i]))
+                        cols_b.append(col)
+                        vals_b.append(float(value))
+        a = ca.DM(ca.Sparsity.triplet(self.n_state_points, self.N * r, rows_a, cols_a), vals_a)
+        b = ca.DM(ca.Sparsity.triplet(self.n_dyn_points, self.N * r, rows_b, cols_b), vals_b)
+        return a, b
+
+    def dyn_label(self, c: int) -> str:
+        """A readable place for dynamics point c: "node 3" or "interval 2 point 1"."""
+        if self.scheme.shares_end:
+            k, j = divmod(c, self.scheme.mc)
+            if j == 0:
+                return f"node {k}"
+            return f"interval {k} midpoint"
+        k, j = divmod(c, self.scheme.mc)
+        if j == self.scheme.mc - 1 and self.scheme.dyn_tau[-1] == 1.0:
+            return f"node {k + 1}"
+        return f"interval {k} point {j + 1}"
+
+    def state_label(self, col: int) -> str:
+        k, j = divmod(col, self.scheme.ms)
+        if j == 0:
+            return f"node {k}"
+        if self.scheme.name == "hermite-simpson":
+            return f"interval {k} midpoint"
+        return f"interval {k} point {j}"
+
+    def locate(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Interval index and tau of normalised times s = t / T.
+
+        Intervals are [t_k, t_k+1) (the last one closed), except for Radau, whose intervals
+        are (t_k, t_k+1] (the first one closed): a Radau interval owns the controls at its end
+        node, so that a node's value is an NLP variable, not an extrapolation.
+        """
+        s = np.asarray(s, dtype=float)
+        scaled = s * self.N
+        if self.scheme.name == "radau":
+            k = np.clip(np.ceil(scaled).astype(int) - 1, 0, self.N - 1)
+        else:
+            k = np.clip(np.floor(scaled).astype(int), 0, self.N - 1)
+        return k, scaled - k
+
+
+# ---- guesses ------------------------------------------------------------------------------
+def evaluate_guess_layer(ocp: OCP, layer, times: np.ndarray) -> dict[str, np.ndarray]:
+    """Values (name -> (K,)) that one guess layer gives at ``times`` (s)."""
+    system = ocp.system
+    K = times.size
+    if layer.kind == "constant":
+        return {name: np.full(K, float(v)) for name, v in layer.values.items()}
+    if layer.kind == "grid":
+        out = {}
+        for name, values in layer.values.items():
+            if layer.times.size == 1:
+                out[name] = np.full(K, float(values[0]))
+            else:
+                out[name] = np.interp(times, layer.times, values)
+        return out
+    if layer.kind == "solution":
+        source = layer.source
+        s = times / ocp.duration_guess
+        if hasattr(source, "interpolate_guess"):
+            return source.interpolate_guess(s)
+        t0, t1 = float(source.time[0]), float(source.time[-1])
+        states, controls = source.at(t0 + s * (t1 - t0))
+        out = {n: states[:, i] for i, n in enumerate(source.state_names)}
+        out.update({n: controls[:, i] for i, n in enumerate(source.control_names)})
+        extras = getattr(source, "extras", {}) or {}
+        for name, (values, _unit) in extras.items():
+            if name in system.aux_names:
+                out[name] = np.interp(t0 + s * (t1 - t0), np.asarray(source.time), values)
+        return {n: v for n, v in out.items() if n in system.variable_names}
+    # callable of t
+    try:
+        result = layer.source(times)
+    except Exception as exc:  # a user's law may fail in any way; say which guess failed
+        raise DefinitionError(f"`guess`: calling the guess function failed: {exc!r}") from exc
+    if isinstance(result, dict):
+        items = list(result.items())
+    elif isinstance(result, tuple | list):
+        order = ("psi", "dpsi", "ddpsi", "M") if system.is_linkage else ("x", "u", "z")
+        if len(result) > len(order):
+            raise DefinitionError(
+                f"`guess`: the function returned {len(result)} arrays; expected up to "
+                f"{len(order)}: {order}"
+            )
+        items = list(zip(order, result, strict=False))
+    else:
+        raise DefinitionTypeError(
+            "`guess`: the function must return a dict or a tuple "
+            f"({'(psi, dpsi[, ddpsi[, M]])' if system.is_linkage else '(x[, u[, z]])'}), "
+            f"got {type(result).__name__}"
+        )
+    out = {}
+    for key, value in items:
+        if key in ("ddpsi", "z") and system.group(key) is None:
+            if not system.is_linkage:
+                continue
+            # Explicit linkage: no ddpsi variables, but the accelerations still give the
+            # torque guess by inverse dynamics; keep them under their names.
+            names = tuple(f"ddpsi_{k}" for k in system.dynamics.names)
+        else:
+            names = ocp.resolve(key, "guess")
+        array = np.asarray(value, dtype=float)
+        m = len(names)
+        if array.ndim == 1 and m == 1 and array.size == K:
+            array = array[:, None]
+        elif array.ndim == 1 and K == 1 and array.size == m:
+            array = array[None, :]
+        if array.shape != (K, m):
+            raise DefinitionError(
+                f"`guess[{key}]`: the function returned shape {array.shape} for {K} times; "
+                f"expected ({K}, {m})"
+            )
+        if not np.all(np.isfinite(array)):
+            raise DefinitionError(f"`guess[{key}]`: the function returned NaN or inf")
+        for i, name in enumerate(names):
+            out[name] = array[:, i]
+    return out
+
+
+# ---- the NLP ------------------------------------------------------------------------------
+class Transcription:
+    """The NLP of an OCP: symbols, bounds, scaling, row names, guess; built on construction.
+
+    Decision vector (scaled, v / scale): [vec(Xs) (nx * nX); vec(Us) (nu * nC);
+    vec(Zs) (nz * nC); Ts (free T only)], with X at the nX state points and U, Z at the nC
+    dynamics points, columns in time order.
+
+    ``expand``: False (default) keeps MX with the SX point Function mapped over the mesh
+    (fastest construction); True builds the whole NLP in SX (fastest evaluation: pays when one
+    transcription is solved many times).
+    """
+
+    def __init__(self, ocp: OCP, expand: bool | None = None) -> None:
+        if not isinstance(ocp, OCP):
+            raise DefinitionTypeError(f"`ocp`: must be a planner.OCP, got {type(ocp).__name__}")
+        start = time.perf_counter()
+        self.ocp = ocp
+        self.system = system = ocp.system
+        self.scheme = make_scheme(ocp.transcription, ocp.degree)
+        self.mesh = Mesh(self.scheme, ocp.N)
+        # MX with mapped SX point functions builds ~5-10x faster than a fully expanded SX NLP
+        # and solves ~1.5x slower (planner_bench.py): the better total for a one-off solve.
+        self.expand = False if expand is None else bool(expand)
+        self.state_scale = np.array([ocp.variable_scale(n) for n in system.state_names])
+        self.control_scale = np.array([ocp.variable_scale(n) for n in system.control_names])
+        self.aux_scale = np.array([ocp.variable_scale(n) for n in system.aux_names])
+        if ocp.free_time:
+            self.T_scale = float(np.mean(ocp.T))
+        else:
+            self.T_scale = 1.0
+        self._build()
+        self.build_seconds = time.perf_counter() - start
+        logger.debug(
+            "transcribed %s N=%d: %d variables, %d constraints in %.3f s",
+            self.scheme.name,
+            ocp.N,
+            self.n_w,
+            self.n_g,
+            self.build_seconds,
+        )
+
+    # ---- sizes and layout ----------------------------------------------------------------
+    @property
+    def n_w(self) -> int:
+        return self._n_w
+
+    @property
+    def n_g(self) -> int:
+        return len(self.g_names)
+
+    def _layout(self) -> None:
+        s, mesh = self.system, self.mesh
+        nX, nC = mesh.n_state_points, mesh.n_dyn_points
+        self._slices = {}
+        offset = 0
+        for key, size in (("X", s.nx * nX), ("U", s.nu * nC), ("Z", s.nz * nC)):
+            self._slices[key] = slice(offset, offset + size)
+            offset += size
+        self._slices["T"] = slice(offset, offset + (1 if self.ocp.free_time else 0))
+        offset += 1 if self.ocp.free_time else 0
+        self._n_w = offset
+
+    # ---- symbolic construction --------------------------------------------------------
+    def _path_constraints(self):
+        return [c for c in self.ocp.constraints if c.where == "path"]
+
+    def _boundary_constraints(self):
+        return [c for c in self.ocp.constraints if c.where != "path"]
+
+    def _point_function(self) -> ca.Function:
+        """SX Function at one dynamics point, scaled in and out.
+
+        (xs, us, zs, t, T) -> (f / x_scale (nx,), residual / residual_scale (nz,),
+        path / path_scale (np,), integrand (1,)).
+        """
+        s, ocp = self.system, self.ocp
+        xs, us, zs = ca.SX.sym("xs", s.nx), ca.SX.sym("us", s.nu), ca.SX.sym("zs", s.nz)
+        t, T = ca.SX.sym("t"), ca.SX.sym("T")
+        x = xs * ca.DM(self.state_scale)
+        u = us * ca.DM(self.control_scale)
+        z = zs * ca.DM(self.aux_scale)
+        rate = s.rate(x, z, u, t) / ca.DM(self.state_scale)
+        if s.residual is not None:
+            residual = s.residual(x, z, u, t) / ca.DM(self.residual_scale)
+        else:
+            residual = ca.SX(0, 1)
+        point = Point(s, x, u, z, t, T)
+        paths = []
+        for c in self._path_constraints():
+            value = evaluate_expression(f"path[{c.name}]", c.expression, point)
+            paths.append(value / ca.DM(ocp.constraint_scale(c)))
+        path = ca.vertcat(*paths) if paths else ca.SX(0, 1)
+        if ocp.integral is not None:
+            integrand = evaluate_expression("integral", ocp.integral, point)
+        else:
+            integrand = ca.SX(0)
+        return ca.Function(
+            "point",
+            [xs, us, zs, t, T],
+            [rate, residual, path, integrand],
+            ["xs", "us", "zs", "t", "T"],
+            ["f", "residual", "path", "integrand"],
+        )
+
+    @property
+    def residual_scale(self) -> np.ndarray:
+        s = self.system
+        if s.residual_scale_group == "M":
+            return self.control_scale
+        return self.state_scale
+
+    def _boundary_function(self) -> ca.Function:
+        """(x0s, xfs, u0s, ufs, z0s, zfs, T) -> (boundary rows (scaled), periodic defect, Mayer)."""
+        s, ocp = self.system, self.ocp
+        sx, su, sz = ca.DM(self.state_scale), ca.DM(self.control_scale), ca.DM(self.aux_scale)
+        x0s, xfs = ca.SX.sym("x0s", s.nx), ca.SX.sym("xfs", s.nx)
+        u0s, ufs = ca.SX.sym("u0s", s.nu), ca.SX.sym("ufs", s.nu)
+        z0s, zfs = ca.SX.sym("z0s", s.nz), ca.SX.sym("zfs", s.nz)
+        T = ca.SX.sym("T")
+        x0, xf = x0s * sx, xfs * sx
+        extra = {"x0": x0, "xf": xf}
+        start = Point(s, x0, u0s * su, z0s * sz, ca.SX(0), T, extra)
+        end = Point(s, xf, ufs * su, zfs * sz, T, T, extra)
+        rows = []
+        for c in self._boundary_constraints():
+            point = start if c.where == "start" else end
+            value = evaluate_expression(f"{c.where}[{c.name}]", c.expression, point)
+            rows.append(value / ca.DM(ocp.constraint_scale(c)))
+        periodic = ca.SX(0, 1)
+        if ocp.periodicity is not None:
+            mapping = ocp.periodicity[0]
+            image = xf if mapping is None else mapping(xf)
+            if isinstance(image, list | tuple):
+                image = ca.vertcat(*image)
+            periodic = (x0 - image) / sx
+        mayer = ca.SX(0)
+        if ocp.terminal is not None:
+            mayer = evaluate_expression("terminal", ocp.terminal, end)
+        return ca.Function(
+            "boundary",
+            [x0s, xfs, u0s, ufs, z0s, zfs, T],
+            [ca.vertcat(*rows) if rows else ca.SX(0, 1), periodic, mayer],
+        )
+
+    def _build(self) -> None:
+        s, ocp, mesh, scheme = self.system, self.ocp, self.mesh, self.scheme
+        self._layout()
+        nX, nC, N = mesh.n_state_points, mesh.n_dyn_points, ocp.N
+        sym = ca.SX if self.expand else ca.MX
+        w = sym.sym("w", self.n_w)
+        Xs = ca.reshape(w[self._slices["X"]], s.nx, nX)
+        Us = ca.reshape(w[self._slices["U"]], s.nu, nC)
+        Zs = ca.reshape(w[self._slices["Z"]], s.nz, nC)
+        T = w[self._slices["T"]] * self.T_scale if ocp.free_time else sym(ocp.T)
+        h = T / N
+        point_f = self._point_function()
+        self.point_function = point_f
+        mapped = point_f.map(nC)
+        times = T * ca.DM(mesh.s_dyn).T
+        Xd = Xs[:, mesh.dyn_state_cols.tolist()]
+        Fs, Rs, Ps, Ls = mapped(Xd, Us, Zs, times, ca.repmat(T, 1, nC))
+        A_big, B_big = mesh.defect_matrices()
+        defects = ca.mtimes(Xs, A_big) - h * ca.mtimes(Fs, B_big)
+        # Boundary values of controls and aux come from the first/last interval's polynomial.
+        w0 = scheme.control_weights([0.0])[0]
+        w1 = scheme.control_weights([1.0])[0]
+        first, last = mesh.dyn_cols[0].tolist(), mesh.dyn_cols[-1].tolist()
+        u0 = ca.mtimes(Us[:, first], ca.DM(w0))
+        uf = ca.mtimes(Us[:, last], ca.DM(w1))
+        z0 = ca.mtimes(Zs[:, first], ca.DM(w0)) if s.nz else Zs[:, :0]
+        zf = ca.mtimes(Zs[:, last], ca.DM(w1)) if s.nz else Zs[:, :0]
+        boundary_f = self._boundary_function()
+        self.boundary_function = boundary_f
+        gb, gper, mayer = boundary_f(Xs[:, 0], Xs[:, -1], u0, uf, z0, zf, T)
+        objective = h * ca.mtimes(Ls, ca.DM(mesh.quadrature)) + mayer
+        g = ca.vertcat(ca.vec(defects), ca.vec(Rs), ca.vec(Ps), gb, gper)
+        self.nlp = {"x": w, "f": objective, "g": g}
+        self._bounds_and_names()
+
+    def _bounds_and_names(self) -> None:
+        s, ocp, mesh = self.system, self.ocp, self.mesh
+        nX, nC, N = mesh.n_state_points, mesh.n_dyn_points, ocp.N
+        # variable bounds (scaled) and names
+        lbx = np.full(self.n_w, -np.inf)
+        ubx = np.full(self.n_w, np.inf)
+        names: list[str] = []
+        for key, var_names, scale, count, label in (
+            ("X", s.state_names, self.state_scale, nX, mesh.state_label),
+            ("U", s.control_names, self.control_scale, nC, mesh.dyn_label),
+            ("Z", s.aux_names, self.aux_scale, nC, mesh.dyn_label),
+        ):
+            if not var_names:
+                continue
+            lo = np.array([ocp.variable_bounds(n)[0] for n in var_names]) / scale
+            hi = np.array([ocp.variable_bounds(n)[1] for n in var_names]) / scale
+            sl = self._slices[key]
+            lbx[sl] = np.tile(lo, count)
+            ubx[sl] = np.tile(hi, count)
+            names.extend(f"bound[{n}] {label(c)}" for c in range(count) for n in var_names)
+        if ocp.free_time:
+            lbx[-1] = ocp.T[0] / self.T_scale
+            ubx[-1] = ocp.T[1] / self.T_scale
+            names.append("bound[T]")
+        self.lbx, self.ubx, self.w_names = lbx, ubx, tuple(names)
+        w_scale = [
+            np.tile(sc, count)
+            for sc, count in (
+                (self.state_scale, nX),
+                (self.control_scale, nC),
+                (self.aux_scale, nC),
+            )
+        ]
+        self.w_scale = np.concatenate([*w_scale, [self.T_scale] if ocp.free_time else []])
+        # constraint rows
+        g_names: list[str] = []
+        lbg: list[np.ndarray] = []
+        ubg: list[np.ndarray] = []
+        r = self.scheme.A.shape[0]
+        for k in range(N):
+            for j in range(r):
+                suffix = self.scheme.defect_labels[j]
+                g_names.extend(f"defect[{n}] interval {k}{suffix}" for n in s.state_names)
+        n_defects = N * r * s.nx
+        lbg.append(np.zeros(n_defects))
+        ubg.append(np.zeros(n_defects))
+        g_scale = [np.tile(self.state_scale, N * r)]
+        if s.nz:
+            links = s.dynamics.names if s.is_linkage else s.state_names
+            for c in range(nC):
+                g_names.extend(f"dynamics[{n}] {mesh.dyn_label(c)}" for n in links)
+            lbg.append(np.zeros(s.nz * nC))
+            ubg.append(np.zeros(s.nz * nC))
+            g_scale.append(np.tile(self.residual_scale, nC))
+        paths = self._path_constraints()
+        if paths:
+            lo = np.concatenate([c.lower / ocp.constraint_scale(c) for c in paths])
+            hi = np.concatenate([c.upper / ocp.constraint_scale(c) for c in paths])
+            row_names = [
+                f"path[{c.name}]" + (f"[{i}]" if c.size > 1 else "")
+                for c in paths
+                for i in range(c.size)
+            ]
+            for col in range(nC):
+                g_names.extend(f"{n} {mesh.dyn_label(col)}" for n in row_names)
+            lbg.append(np.tile(lo, nC))
+            ubg.append(np.tile(hi, nC))
+            g_scale.append(np.tile(np.concatenate([ocp.constraint_scale(c) for c in paths]), nC))
+        for c in self._boundary_constraints():
+            scale = ocp.constraint_scale(c)
+            g_names.extend(
+                f"{c.where}[{c.name}]" + (f"[{i}]" if c.size > 1 else "") for i in range(c.size)
+            )
+            lbg.append(c.lower / scale)
+            ubg.append(c.upper / scale)
+            g_scale.append(scale)
+        if ocp.periodicity is not None:
+            g_names.extend(f"periodic[{n}]" for n in s.state_names)
+            lbg.append(np.zeros(s.nx))
+            ubg.append(np.zeros(s.nx))
+            g_scale.append(self.state_scale)
+        self.g_names = tuple(g_names)
+        self.g_scale = np.concatenate(g_scale)
+        self.lbg = np.concatenate(lbg) if lbg else np.zeros(0)
+        self.ubg = np.concatenate(ubg) if ubg else np.zeros(0)
+        if self.lbg.size != self.nlp["g"].size1():
+            raise RuntimeError(
+                f"internal: {self.lbg.size} constraint bounds for {self.nlp['g'].size1()} rows"
+            )
+
+    # ---- numeric helpers ----------------------------------------------------------------
+    def unpack(self, w: np.ndarray) -> dict[str, Any]:
+        """Physical values from a scaled decision vector.
+
+        Returns dict with X (nX, nx), U (nC, nu), Z (nC, nz), T (s).
+        """
+        s, mesh = self.system, self.mesh
+        w = np.asarray(w, dtype=float).reshape(-1)
+        X = w[self._slices["X"]].reshape(mesh.n_state_points, s.nx) * self.state_scale
+        U = w[self._slices["U"]].reshape(mesh.n_dyn_points, s.nu) * self.control_scale
+        Z = w[self._slices["Z"]].reshape(mesh.n_dyn_points, s.nz) * self.aux_scale
+        T = float(w[self._slices["T"]][0] * self.T_scale) if self.ocp.free_time else self.ocp.T
+        return {"X": X, "U": U, "Z": Z, "T": T}
+
+    def pack(self, X: np.ndarray, U: np.ndarray, Z: np.ndarray, T: float) -> np.ndarray:
+        """Scaled decision vector from physical X (nX, nx), U (nC, nu), Z (nC, nz), T."""
+        w = np.zeros(self.n_w)
+        w[self._slices["X"]] = (np.asarray(X) / self.state_scale).reshape(-1)
+        w[self._slices["U"]] = (np.asarray(U) / self.control_scale).reshape(-1)
+        w[self._slices["Z"]] = (np.asarray(Z) / self.aux_scale).reshape(-1)
+        if self.ocp.free_time:
+            w[-1] = T / self.T_scale
+        return w
+
+    def initial_guess(self) -> np.ndarray:
+        """The scaled decision vector of the OCP's guesses (defaults: bound midpoints, or 0)."""
+        ocp, s, mesh = self.ocp, self.system, self.mesh
+        T = ocp.duration_guess
+        t_state = mesh.s_state * T
+        t_dyn = mesh.s_dyn * T
+        at_state: dict[str, np.ndarray] = {}
+        at_dyn: dict[str, np.ndarray] = {}
+        for layer in ocp.guesses:
+            at_state.update(evaluate_guess_layer(ocp, layer, t_state))
+            at_dyn.update(evaluate_guess_layer(ocp, layer, t_dyn))
+
+        def default(name: str, count: int) -> np.ndarray:
+            lo, hi = ocp.variable_bounds(name)
+            if np.isfinite(lo) and np.isfinite(hi):
+                value = 0.5 * (lo + hi)
+            else:
+                value = float(np.clip(0.0, lo, hi))
+            return np.full(count, value)
+
+        nX, nC = mesh.n_state_points, mesh.n_dyn_points
+
+        def stack(names, source, count):
+            columns = [source.get(n, default(n, count)) for n in names]
+            return np.column_stack(columns) if columns else np.zeros((count, 0))
+
+        X = stack(s.state_names, at_state, nX)
+        Z = stack(s.aux_names, at_dyn, nC)
+        U = stack(s.control_names, at_dyn, nC)
+        missing = [n for n in s.control_names if n not in at_dyn]
+        if s.is_linkage and missing and ocp.guesses:
+            # Torques that no guess gives: inverse dynamics of the guessed motion, so that a
+            # gait law starts the solver on a dynamically consistent point.
+            n = s.dynamics.n
+            psi_names, dpsi_names = s.state_names[:n], s.state_names[n:]
+            ddpsi_names = tuple(f"ddpsi_{k}" for k in s.dynamics.names)
+            if all(k in at_dyn for k in psi_names + dpsi_names + ddpsi_names):
+                psi = np.column_stack([at_dyn[k] for k in psi_names])
+                dpsi = np.column_stack([at_dyn[k] for k in dpsi_names])
+                ddpsi = np.column_stack([at_dyn[k] for k in ddpsi_names])
+                torques = np.atleast_2d(s.dynamics.inverse_dynamics(psi, dpsi, ddpsi))
+                for i, name in enumerate(s.control_names):
+                    if name in missing:
+                        U[:, i] = torques[:, i]
+        return self.pack(X, U, Z, T)

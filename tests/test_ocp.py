@@ -1,0 +1,413 @@
+"""The OCP definition: a validated value (printable, copyable, immutable), names, points,
+guesses, scales, and a clear error for every definition mistake."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from model import AnthropoidError, DefinitionError, presets
+from model.errors import DefinitionTypeError
+from planner import OCP, Point, Transcription
+
+CHAIN = presets.n_link_chain(2).dynamics()
+
+
+def double_integrator():
+    x = ca.SX.sym("x", 2)
+    u = ca.SX.sym("u")
+    return ca.Function("f", [x, u], [ca.vertcat(x[1], u)], ["x", "u"], ["xdot"])
+
+
+def di(**kwargs):
+    options = {"T": 1.0, "N": 4, "state_names": ("q", "v"), "control_names": ("a",)}
+    options.update(kwargs)
+    return OCP(double_integrator(), **options)
+
+
+def chain(**kwargs):
+    options = {"T": 1.0, "N": 4}
+    options.update(kwargs)
+    return OCP(CHAIN, **options)
+
+
+# ---- value semantics ------------------------------------------------------------------
+
+
+def test_builders_return_new_values_and_leave_the_original_alone():
+    base = chain()
+    bounded = base.bound("M", -10, 10)
+    assert base.bounds == () and len(bounded.bounds) == 2
+    assert bounded is not base
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        bounded.N = 5  # type: ignore[misc]
+    copied = copy.copy(bounded)
+    assert copied.bounds == bounded.bounds
+    finer = dataclasses.replace(bounded, N=8)
+    assert finer.N == 8 and bounded.N == 4 and finer.bounds == bounded.bounds
+    assert bounded.refine(transcription="radau").degree == 3
+    assert bounded.refine(transcription="radau", degree=5).refine(N=2).degree == 5
+
+
+def test_ocp_prints_its_definition():
+    ocp = (
+        chain(transcription="radau", degree=4)
+        .bound("psi_link1", -2, 2)
+        .constrain("tilt", lambda p: p.psi_link1 - p.psi_link2, lower=-1, upper=1)
+        .periodic()
+        .minimize(integral=lambda p: ca.sumsqr(p.M))
+        .guess(M=0.0)
+    )
+    text = str(ocp)
+    for expected in (
+        "implicit dynamics",
+        "nx=4 nu=2 nz=2",
+        "T = 1 s",
+        "N=4",
+        "radau(degree 4)",
+        "psi_link1 in [-2, 2]",
+        "path[tilt] in [-1, 1]",
+        "periodic: x(0) = x(T)",
+        "minimize: integral",
+        "constant(M_link1, M_link2)",
+    ):
+        assert expected in text, expected
+    assert repr(ocp) == text
+
+
+def test_linkage_naming_and_groups():
+    ocp = chain()
+    system = ocp.system
+    assert system.state_names == ("psi_link1", "psi_link2", "dpsi_link1", "dpsi_link2")
+    assert system.control_names == ("M_link1", "M_link2")
+    assert system.aux_names == ("ddpsi_link1", "ddpsi_link2")
+    assert system.state_units == ("rad", "rad", "rad/s", "rad/s")
+    assert system.control_units == ("N m", "N m")
+    assert ocp.resolve("dpsi") == ("dpsi_link1", "dpsi_link2")
+    assert ocp.resolve("M_link2") == ("M_link2",)
+    assert chain(formulation="explicit").system.aux_names == ()
+
+
+def test_point_exposes_fields_by_name_and_group():
+    ocp = chain()
+    x, u, z = ca.SX.sym("x", 4), ca.SX.sym("u", 2), ca.SX.sym("z", 2)
+    point = Point(ocp.system, x, u, z, ca.SX.sym("t"), ca.SX.sym("T"))
+    assert ca.is_equal(point.psi_link2, x[1])
+    assert ca.is_equal(point["M_link1"], u[0])
+    assert point.dpsi.shape == (2, 1) and point.ddpsi.shape == (2, 1)
+    with pytest.raises(AttributeError, match="Point has no field 'foo'"):
+        _ = point.foo
+    with pytest.raises(AttributeError, match="read-only"):
+        point.x = x
+
+
+def test_function_expressions_pick_point_fields_by_input_name():
+    psi = ca.SX.sym("psi", 2)
+    t = ca.SX.sym("t")
+    height = ca.Function(
+        "height", [psi, t], [ca.sin(psi[0]) + ca.sin(psi[1]) + 0 * t], ["psi", "t"], ["y"]
+    )
+    ocp = chain().constrain("height", height, lower=-2.0)
+    assert Transcription(ocp).n_g > 0
+    bad = ca.Function("bad", [psi], [psi[0]], ["angles"], ["y"])
+    with pytest.raises(
+        DefinitionError, match=r"`path\[h\]`: Function input 'angles' is not a field"
+    ):
+        chain().constrain("h", bad, lower=0)
+
+
+def test_default_scales_come_from_bounds_and_can_be_overridden():
+    ocp = chain().bound("M", -50, 20).bound("psi_link1", 0.5, 1.5)
+    assert ocp.variable_scale("M_link1") == 50.0
+    assert ocp.variable_scale("psi_link1") == 1.5
+    assert ocp.variable_scale("dpsi_link1") == 1.0
+    assert ocp.scale(M=5.0).variable_scale("M_link2") == 5.0
+    constrained = ocp.constrain("tilt", lambda p: p.psi_link1, lower=-3, upper=0.5)
+    assert constrained.constraint_scale(constrained.constraints[0])[0] == 3.0
+    assert constrained.scale(tilt=0.1).constraint_scale(constrained.constraints[0])[0] == 0.1
+    # the NLP works with scaled variables and scaled defects
+    transcription = Transcription(ocp.scale(M=5.0))
+    assert transcription.control_scale.tolist() == [5.0, 5.0]
+    assert transcription.residual_scale.tolist() == [5.0, 5.0]
+
+
+# ---- guesses -------------------------------------------------------------------------------
+
+
+def guess_values(ocp):
+    transcription = Transcription(ocp)
+    return transcription, transcription.unpack(transcription.initial_guess())
+
+
+def test_guess_from_constants_grids_and_callables():
+    ocp = di(transcription="trapezoid").bound("a", -1.0, 3.0)
+    _, values = guess_values(ocp)
+    np.testing.assert_array_equal(values["U"], 1.0)  # the middle of the bounds
+    np.testing.assert_array_equal(values["X"], 0.0)  # unbounded: 0
+    _, values = guess_values(ocp.guess(q=0.5, a=2.0))
+    np.testing.assert_array_equal(values["X"][:, 0], 0.5)
+    np.testing.assert_array_equal(values["U"], 2.0)
+    _, values = guess_values(ocp.guess(t=[0.0, 1.0], q=[0.0, 2.0]))
+    np.testing.assert_allclose(values["X"][:, 0], 2.0 * np.linspace(0, 1, 5))
+    _, values = guess_values(ocp.guess(lambda t: {"q": t**2, "a": np.cos(t)}))
+    np.testing.assert_allclose(values["X"][:, 0], np.linspace(0, 1, 5) ** 2)
+    # later layers override earlier ones variable by variable
+    _, values = guess_values(ocp.guess(q=1.0, v=2.0).guess(v=3.0))
+    np.testing.assert_array_equal(values["X"], np.tile([1.0, 3.0], (5, 1)))
+
+
+def test_linkage_guess_torques_by_inverse_dynamics():
+    def law(t):
+        psi = np.column_stack([np.sin(t), np.cos(t)])
+        dpsi = np.column_stack([np.cos(t), -np.sin(t)])
+        ddpsi = np.column_stack([-np.sin(t), -np.cos(t)])
+        return psi, dpsi, ddpsi
+
+    for formulation in ("implicit", "explicit"):
+        transcription, values = guess_values(chain(formulation=formulation).guess(law))
+        t = transcription.mesh.s_dyn
+        psi, dpsi, ddpsi = law(t)
+        np.testing.assert_allclose(values["U"], CHAIN.inverse_dynamics(psi, dpsi, ddpsi))
+        if formulation == "implicit":
+            np.testing.assert_allclose(values["Z"], ddpsi)
+
+
+# ---- definition errors: every path, with its message ------------------------------------
+
+
+@pytest.mark.parametrize(
+    "kwargs,error,match",
+    [
+        ({"N": 0}, DefinitionError, r"`N`: must be >= 1, got 0"),
+        ({"N": 2.5}, DefinitionTypeError, r"`N`: must be an integer"),
+        ({"transcription": "euler"}, DefinitionError, r"`transcription`: unknown 'euler'"),
+        ({"transcription": "radau", "degree": 0}, DefinitionError, r"`degree`: must be in 1..9"),
+        ({"transcription": "legendre", "degree": 10}, DefinitionError, r"must be in 1..9.*10"),
+        ({"degree": 3}, DefinitionError, r"`degree`: applies to 'radau' and 'legendre' only"),
+        ({"T": 0.0}, DefinitionError, r"`T`: must be a finite duration > 0 s"),
+        ({"T": float("nan")}, DefinitionError, r"`T`: must be a finite duration"),
+        ({"T": (2.0, 1.0)}, DefinitionError, r"`T`: lower bound 2 > upper bound 1"),
+        ({"T": (0.0, 1.0)}, DefinitionError, r"`T`: free duration bounds must be finite and > 0"),
+        ({"T": "1"}, DefinitionTypeError, r"`T`: must be a duration"),
+        ({"formulation": "semi"}, DefinitionError, r"`formulation`: unknown 'semi'"),
+        (
+            {"state_names": ("a", "b", "c", "d")},
+            DefinitionError,
+            r"`state_names`: a model.Dynamics",
+        ),
+    ],
+)
+def test_constructor_errors(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        chain(**kwargs)
+
+
+def test_dynamics_type_and_signature_errors():
+    with pytest.raises(DefinitionTypeError, match=r"`dynamics`: must be a model.Dynamics"):
+        OCP("pendulum", T=1.0, N=3)
+    x = ca.SX.sym("x", 2)
+    u = ca.SX.sym("u")
+    wrong_out = ca.Function("f", [x, u], [x[0]])
+    with pytest.raises(DefinitionError, match=r"the output must have shape \(2, 1\) like x"):
+        OCP(wrong_out, T=1.0, N=3)
+    one_input = ca.Function("f", [x], [x])
+    with pytest.raises(DefinitionError, match=r"must be f\(x, u\[, t\]\) with one output"):
+        OCP(one_input, T=1.0, N=3)
+    with pytest.raises(DefinitionError, match=r"`state_names`: the dynamics has 2 of them, got 3"):
+        di(state_names=("a", "b", "c"))
+    with pytest.raises(DefinitionError, match=r"`control_names`: names must be unique"):
+        OCP(ca.Function("f", [x, ca.SX.sym("u", 2)], [x]), T=1, N=2, control_names=("a", "a"))
+
+
+def test_bound_errors():
+    ocp = chain()
+    with pytest.raises(DefinitionError, match=r"`bound`: unknown name 'M_knee'; use a variable"):
+        ocp.bound("M_knee", -1, 1)
+    with pytest.raises(DefinitionError, match=r"`bound\[M\]`: lower bound 1 > upper bound -1"):
+        ocp.bound("M", 1, -1)
+    with pytest.raises(DefinitionError, match=r"`bound\[psi\]`: lower bound contains NaN"):
+        ocp.bound("psi", np.nan, 1)
+    with pytest.raises(DefinitionError, match=r"`bound\[psi\]`: upper bound has shape \(3,\)"):
+        ocp.bound("psi", -1, [1, 2, 3])
+    with pytest.raises(DefinitionError, match=r"lower bound of \+inf or upper of -inf"):
+        ocp.bound("psi", np.inf, np.inf)
+
+
+def test_constraint_errors():
+    ocp = chain()
+    with pytest.raises(DefinitionError, match=r"`path\[c\]`: Point has no field 'psi_knee'"):
+        ocp.constrain("c", lambda p: p.psi_knee, lower=0)
+    with pytest.raises(DefinitionError, match=r"`path\[c\]`: give lower and/or upper"):
+        ocp.constrain("c", lambda p: p.psi_link1)
+    with pytest.raises(DefinitionError, match=r"`path\[c\]`: lower bound has shape \(3,\)"):
+        ocp.constrain("c", lambda p: p.psi, lower=[0, 0, 0])
+    with pytest.raises(DefinitionTypeError, match=r"`path\[c\]`: must be a callable of a Point"):
+        ocp.constrain("c", 3.0, lower=0)
+    with pytest.raises(DefinitionTypeError, match=r"`path\[c\]`: must return a CasADi SX"):
+        ocp.constrain("c", lambda p: "high", lower=0)
+    once = ocp.constrain("c", lambda p: p.psi_link1, lower=0)
+    with pytest.raises(DefinitionError, match=r"a constraint named 'c' exists already"):
+        once.constrain("c", lambda p: p.psi_link2, lower=0)
+    with pytest.raises(DefinitionError, match=r"`at`: must be 'start' or 'end', got 'middle'"):
+        ocp.boundary("b", lambda p: p.psi_link1, "middle", lower=0)
+    with pytest.raises(DefinitionError, match=r"`initial`: 'M_link1' is not a state"):
+        ocp.initial(M_link1=0.0)
+    with pytest.raises(DefinitionError, match=r"`initial`: give at least one state=value"):
+        ocp.initial()
+    with pytest.raises(DefinitionError, match=r"`start\[initial psi\]`: lower bound has shape"):
+        ocp.initial(psi=[0.0, 0.0, 0.0])
+
+
+def test_periodic_objective_and_scale_errors():
+    ocp = chain()
+    with pytest.raises(DefinitionError, match=r"`periodic`: the mapping must return a \(4, 1\)"):
+        ocp.periodic(lambda x: x[:2])
+    with pytest.raises(DefinitionError, match=r"`periodic`: calling the mapping failed"):
+        ocp.periodic(lambda x: x.no_such_method())
+    with pytest.raises(DefinitionError, match=r"`minimize`: give an integral and/or a terminal"):
+        ocp.minimize()
+    with pytest.raises(DefinitionError, match=r"`integral`: must be scalar, got shape \(2, 1\)"):
+        ocp.minimize(integral=lambda p: p.M)
+    with pytest.raises(DefinitionError, match=r"`scale\[M\]`: scales must be finite and > 0"):
+        ocp.scale(M=0.0)
+    with pytest.raises(DefinitionError, match=r"`scale`: unknown name 'torque'"):
+        ocp.scale(torque=1.0)
+
+
+def test_guess_errors():
+    ocp = chain()
+    with pytest.raises(DefinitionError, match=r"`guess\[psi\]`: contains NaN or inf"):
+        ocp.guess(psi=[np.nan, 0.0])
+    with pytest.raises(DefinitionError, match=r"`guess\[M\]`: constant guess has shape \(3,\)"):
+        ocp.guess(M=[1.0, 2.0, 3.0])
+    with pytest.raises(DefinitionError, match=r"`guess\[psi\]`: expected shape \(3, 2\)"):
+        ocp.guess(t=[0.0, 0.5, 1.0], psi=np.zeros((2, 2)))
+    with pytest.raises(DefinitionError, match=r"`t`: the guess time grid must be strictly"):
+        ocp.guess(t=[0.0, 0.0], psi=np.zeros((2, 2)))
+    with pytest.raises(DefinitionError, match=r"`t`: a time grid needs arrays"):
+        ocp.guess(t=[0.0, 1.0])
+    with pytest.raises(DefinitionError, match=r"`guess`: unknown name 'theta'"):
+        ocp.guess(theta=1.0)
+    with pytest.raises(DefinitionError, match=r"`guess\[psi\]`: the function returned shape"):
+        ocp.guess(lambda t: (np.zeros((t.size, 3)), np.zeros((t.size, 2))))
+    with pytest.raises(DefinitionError, match=r"`guess\[dpsi\]`: the function returned NaN"):
+        ocp.guess(lambda t: (np.zeros((t.size, 2)), np.full((t.size, 2), np.nan)))
+    with pytest.raises(DefinitionError, match=r"`guess`: calling the guess function failed"):
+        ocp.guess(lambda t: 1 / 0)
+    with pytest.raises(DefinitionTypeError, match=r"`guess`: source must be a callable of t"):
+        ocp.guess(42)
+    with pytest.raises(DefinitionError, match=r"`T`: the duration is fixed"):
+        ocp.guess(T=2.0)
+    with pytest.raises(DefinitionError, match=r"`T`: guess 9.0 outside the bounds"):
+        chain(T=(0.5, 2.0)).guess(T=9.0)
+    with pytest.raises(DefinitionError, match=r"`guess`: give a source, values or T"):
+        ocp.guess()
+
+
+def test_all_definition_errors_share_the_library_base():
+    with pytest.raises(AnthropoidError):
+        chain(N=-1)
+    with pytest.raises(ValueError):
+        chain().bound("M", 2, 1)
+
+
+def test_more_definition_errors():
+    x, u = ca.SX.sym("x", 2), ca.SX.sym("u")
+    row = ca.SX.sym("r", 1, 2)
+    with pytest.raises(DefinitionError, match=r"input 'i0' must be a column vector"):
+        OCP(ca.Function("f", [row, u], [row.T]), T=1, N=2)
+    xdot3 = ca.SX.sym("xdot", 3)
+    with pytest.raises(DefinitionError, match=r"the xdot input must have nx = 2 rows, got 3"):
+        OCP(ca.Function("r", [x, xdot3, u], [x]), T=1, N=2, formulation="implicit")
+    t2 = ca.SX.sym("t", 2)
+    with pytest.raises(DefinitionError, match=r"the time input must be scalar"):
+        OCP(ca.Function("f", [x, u, t2], [x]), T=1, N=2)
+    f = ca.Function("f", [x, u], [x])
+    with pytest.raises(DefinitionError, match=r"`formulation`: unknown 'semi'"):
+        OCP(f, T=1, N=2, formulation="semi")
+    with pytest.raises(DefinitionTypeError, match=r"`state_names`: must be a sequence of strings"):
+        OCP(f, T=1, N=2, state_names="qv")
+    with pytest.raises(DefinitionTypeError, match=r"`degree`: must be an integer in 1..9"):
+        OCP(f, T=1, N=2, transcription="radau", degree=2.0)
+    with pytest.raises(DefinitionError, match=r"`T`: a free duration is a pair"):
+        OCP(f, T=(1.0, 2.0, 3.0), N=2)
+    with pytest.raises(DefinitionError, match=r"`T` guess 5.0 outside the bounds"):
+        OCP(f, T=(1.0, 2.0), N=2, T_guess=5.0)
+
+
+def test_expression_errors():
+    ocp = chain()
+    psi = ca.SX.sym("psi", 2)
+    two_out = ca.Function("two", [psi], [psi[0], psi[1]], ["psi"], ["a", "b"])
+    with pytest.raises(DefinitionError, match=r"`path\[c\]`: the Function must have one output"):
+        ocp.constrain("c", two_out, lower=0)
+    wrong = ca.Function("wrong", [ca.SX.sym("psi", 3)], [0], ["psi"], ["a"])
+    with pytest.raises(DefinitionError, match=r"`path\[c\]`: calling the Function failed"):
+        ocp.constrain("c", wrong, lower=0)
+    mx = ca.MX.sym("m")
+    with pytest.raises(DefinitionTypeError, match=r"returned an MX expression"):
+        ocp.constrain("c", lambda p: mx, lower=0)
+    with pytest.raises(DefinitionError, match=r"must return a column vector, got \(2, 2\)"):
+        ocp.constrain("c", lambda p: ca.repmat(p.psi, 1, 2), lower=0)
+    with pytest.raises(DefinitionTypeError, match=r"`name`: a constraint needs a non-empty name"):
+        ocp.constrain("", lambda p: p.psi_link1, lower=0)
+    with pytest.raises(DefinitionTypeError, match=r"`bound\[M\]`: lower bound must be numeric"):
+        ocp.bound("M", "low", 1)
+    with pytest.raises(DefinitionTypeError, match=r"`bound`: names are strings, got 3"):
+        ocp.bound(3, 0, 1)
+    with pytest.raises(DefinitionTypeError, match=r"`scale\[M\]`: must be numeric"):
+        ocp.scale(M="big")
+    with pytest.raises(DefinitionError, match=r"`scale\[M\]`: expected a scalar or \(2,\)"):
+        ocp.scale(M=[1.0, 2.0, 3.0])
+    with pytest.raises(DefinitionError, match=r"`t`: the guess time grid must be finite"):
+        ocp.guess(t=[], psi=np.zeros((0, 2)))
+    with pytest.raises(DefinitionTypeError, match=r"`guess\[psi\]`: must be numeric"):
+        ocp.guess(psi="up")
+    with pytest.raises(DefinitionError, match=r"the function returned 5 arrays; expected up to 4"):
+        ocp.guess(lambda t: (0,) * 5)
+    with pytest.raises(DefinitionTypeError, match=r"must return a dict or a tuple"):
+        ocp.guess(lambda t: np.zeros((t.size, 2)))
+
+
+def test_solver_and_solution_argument_errors():
+    from planner import solve
+
+    ocp = di().initial(q=0.0, v=0.0).final(q=1.0, v=0.0).minimize(integral=lambda p: p.a**2)
+    with pytest.raises(DefinitionTypeError, match=r"`ocp`: must be a planner.OCP"):
+        Transcription("ocp")
+    transcription = Transcription(ocp)
+    with pytest.raises(DefinitionError, match=r"`expand`: applies when solving an OCP"):
+        solve(transcription, expand=True)
+    with pytest.raises(DefinitionError, match=r"`guess`: expected a decision vector of shape"):
+        solve(transcription, guess=np.zeros(3), progress=False)
+    solution = solve(transcription, progress=False)
+    with pytest.raises(DefinitionError, match=r"`torques`: defined for a model.Dynamics problem"):
+        _ = solution.torques
+    with pytest.raises(DefinitionError, match=r"`t`: must be finite times in s"):
+        solution.state([np.nan])
+    with pytest.raises(DefinitionError, match=r"`rate_hz`: must be a finite rate > 0 Hz"):
+        solution.to_trajectory(rate_hz=0.0)
+
+
+def test_collocation_argument_errors():
+    from planner.collocation import collocation_roots
+
+    with pytest.raises(DefinitionError, match=r"`family`: unknown collocation family 'lobatto'"):
+        collocation_roots("lobatto", 3)
+    with pytest.raises(DefinitionError, match=r"`degree`: must be an integer in 1..9"):
+        collocation_roots("radau", 2.5)
+    with pytest.raises(DefinitionError, match=r"`degree`: must be in 1..9 for radau"):
+        collocation_roots("radau", 12)
+    from planner import make_scheme
+
+    with pytest.raises(DefinitionError, match=r"`degree`: radau collocation needs a degree"):
+        make_scheme("radau")
+    with pytest.raises(DefinitionError, match=r"`transcription`: unknown 'euler'"):
+        make_scheme("euler")
+    point = chain()._point()
+    with pytest.raises(KeyError, match=r"Point has no field 'foo'"):
+        point["foo"]

@@ -1,0 +1,278 @@
+"""Solutions: interpolants against the variables and the dynamics (separate code paths),
+accuracy estimates against scipy, warm starts, export round trips."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from model import DefinitionError, presets
+from planner import OCP, Trajectory, Transcription
+from planner.collocation import collocation_roots
+
+CHAIN = presets.n_link_chain(2).dynamics()
+DOWN = -np.pi / 2
+TARGET = np.array([DOWN + 1.0, DOWN + 1.5])
+SCHEMES = [
+    ("trapezoid", None),
+    ("hermite-simpson", None),
+    ("radau", 1),
+    ("radau", 3),
+    ("legendre", 2),
+]
+
+
+def swing(N=6, transcription="hermite-simpson", degree=None, formulation="implicit"):
+    """Two-link chain from hanging at rest to a raised pose at rest in 1.5 s, min sum M^2."""
+    return (
+        OCP(CHAIN, T=1.5, N=N, transcription=transcription, degree=degree, formulation=formulation)
+        .initial(psi=[DOWN, DOWN], dpsi=0.0)
+        .final(psi=TARGET, dpsi=0.0)
+        .bound("M", -60, 60)
+        .minimize(integral=lambda p: ca.sumsqr(p.M))
+        .guess(
+            t=[0.0, 1.5],
+            psi=[[DOWN, DOWN], TARGET],
+        )
+    )
+
+
+_CACHE: dict = {}
+
+
+def solved(transcription, degree=None, N=6):
+    key = (transcription, degree, N)
+    if key not in _CACHE:
+        _CACHE[key] = swing(N, transcription, degree).solve(progress=False, options={"tol": 1e-11})
+    return _CACHE[key]
+
+
+def rate_numpy(states, controls):
+    """xdot = [dpsi; forward dynamics] by the model's numpy path, (K, 4)."""
+    psi, dpsi = states[:, :2], states[:, 2:]
+    return np.hstack([dpsi, np.atleast_2d(CHAIN.forward_dynamics(psi, dpsi, controls))])
+
+
+def product_basis_derivative(points, tau):
+    points = np.asarray(points, float)
+    m = points.size
+    out = np.zeros(m)
+    for j in range(m):
+        others = [i for i in range(m) if i != j]
+        total = 0.0
+        for skip in others:
+            total += np.prod([tau - points[i] for i in others if i != skip])
+        out[j] = total / np.prod([points[j] - points[i] for i in others])
+    return out
+
+
+# ---- the interpolant --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name,degree", SCHEMES)
+def test_interpolant_reproduces_the_variables_at_the_knots(name, degree):
+    solution = solved(name, degree)
+    assert solution.success
+    np.testing.assert_allclose(
+        solution.state(solution.state_time), solution.state_values, atol=1e-12, rtol=0
+    )
+    np.testing.assert_allclose(
+        solution.control(solution.point_time), solution.control_values, atol=1e-10, rtol=0
+    )
+    np.testing.assert_allclose(
+        solution.aux(solution.point_time), solution.aux_values, atol=1e-9, rtol=0
+    )
+    np.testing.assert_array_equal(solution.states, solution.state_values[:: solution.scheme.ms])
+    assert solution.time[-1] == pytest.approx(1.5)
+
+
+@pytest.mark.parametrize("name,degree", SCHEMES)
+def test_interpolant_satisfies_the_dynamics_at_the_collocation_points(name, degree):
+    solution = solved(name, degree)
+    h = solution.h
+    X = solution.state_values
+    t_points = solution.point_time
+    # the dynamics by the model's numpy path (forward dynamics), not the NLP's functions
+    f_points = rate_numpy(X[solution.mesh.dyn_state_cols], solution.control_values)
+    slope = solution.state(t_points, derivative=1)
+    np.testing.assert_allclose(slope, f_points, atol=1e-7 * np.abs(f_points).max())
+    # ... and the slope recomputed here from the state values alone, by textbook formulas
+    N = solution.N
+    if name == "hermite-simpson":
+        f_nodes = f_points[0::2]
+        for k in range(N):
+            x0, x1 = X[2 * k], X[2 * k + 2]
+            mid_slope = 1.5 / h * (x1 - x0) - (f_nodes[k] + f_nodes[k + 1]) / 4
+            np.testing.assert_allclose(mid_slope, f_points[2 * k + 1], atol=1e-6)
+            mid_value = (x0 + x1) / 2 + h / 8 * (f_nodes[k] - f_nodes[k + 1])
+            np.testing.assert_allclose(mid_value, X[2 * k + 1], atol=1e-9)
+    elif name == "trapezoid":
+        for k in range(N):
+            end = X[k] + h / 2 * (f_points[k] + f_points[k + 1])
+            np.testing.assert_allclose(end, X[k + 1], atol=1e-9)
+            # the quadratic of interval k reaches the next node from the left
+            left = solution.state([solution.time[k + 1] - 1e-13])[0]
+            np.testing.assert_allclose(left, X[k + 1], atol=1e-9)
+    else:
+        roots = collocation_roots(name, degree)
+        points = np.append(0.0, roots)
+        per = solution.scheme.ms
+        for k in range(N):
+            xs = X[k * per : k * per + degree + 1]
+            for r, tau in enumerate(roots):
+                own = product_basis_derivative(points, tau) @ xs / h
+                np.testing.assert_allclose(own, f_points[k * degree + r], atol=1e-6)
+
+
+def test_time_outside_the_horizon_raises():
+    solution = solved("hermite-simpson")
+    with pytest.raises(DefinitionError, match=r"`t`: times must lie in \[0, T\]"):
+        solution.state([1.6])
+    with pytest.raises(DefinitionError, match="unknown variable 'psi_foo'"):
+        solution.value("psi_foo", [0.1])
+
+
+def test_ddpsi_and_torques_views():
+    solution = solved("hermite-simpson")
+    expected = np.atleast_2d(
+        CHAIN.forward_dynamics(solution.states[:, :2], solution.states[:, 2:], solution.torques)
+    )
+    np.testing.assert_allclose(solution.ddpsi, expected, atol=1e-7 * np.abs(expected).max())
+    np.testing.assert_allclose(solution.value("M_link2", solution.time), solution.torques[:, 1])
+
+
+# ---- accuracy estimates -----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name,degree", [("hermite-simpson", None), ("radau", 3)])
+def test_integration_error_matches_scipy(name, degree):
+    solution = solved(name, degree)
+    estimate = solution.integration_error()
+    h = solution.h
+    expected = np.zeros((solution.N, 4))
+    for k in range(solution.N):
+        t0 = solution.time[k]
+
+        def rhs(t, x, t0=t0):
+            # stay inside interval k (the control polynomial of this interval)
+            u = solution.control([min(max(t, t0 + 1e-14), t0 + h - 1e-14)])
+            return rate_numpy(x[None, :], u)[0]
+
+        result = solve_ivp(rhs, (t0, t0 + h), solution.states[k], "DOP853", rtol=1e-12, atol=1e-12)
+        expected[k] = np.abs(result.y[:, -1] - solution.states[k + 1])
+    assert expected.max() > 1e-7  # a coarse mesh: a measurable error
+    np.testing.assert_allclose(estimate.per_interval, expected, atol=1e-9)
+    assert estimate.max == pytest.approx(expected.max(), abs=1e-9)
+    assert estimate.per_interval.shape == (solution.N, 4)
+
+
+def test_error_estimates_shrink_at_the_scheme_order():
+    Ns = np.array([24, 48, 96])
+    errors, residuals = [], []
+    for N in Ns:
+        solution = solved("hermite-simpson", None, int(N))
+        errors.append(solution.integration_error().max)
+        residuals.append(solution.residual_error().max)
+
+    def slope(values):
+        return -np.polyfit(np.log(Ns), np.log(values), 1)[0]
+
+    # Hermite-Simpson: local (one-interval) error O(h^5); the residual of the interpolant is
+    # O(h^3) (stage order 3), integrated over an interval O(h^4). Coarse meshes are still
+    # pre-asymptotic on this swing, hence the margins.
+    assert slope(errors) >= 4.0, errors
+    assert slope(residuals) >= 2.5, residuals
+
+
+def test_replay_is_the_chained_reintegration():
+    solution = solved("hermite-simpson")
+    replay = solution.replay(rtol=1e-12, atol=1e-12)
+    assert replay.states.shape == (solution.N + 1, 4)
+    np.testing.assert_array_equal(replay.deviation[0], 0.0)
+    first = solution.integration_error().per_interval[0]
+    np.testing.assert_allclose(np.abs(replay.deviation[1]), first, atol=1e-10)
+    assert replay.max_deviation >= first.max()
+
+
+# ---- warm starts ------------------------------------------------------------------------
+
+
+def test_warm_starts_regrid_through_the_interpolant():
+    coarse = solved("hermite-simpson", None, 6)
+    # same mesh: the guess is the solution itself (primal only: IPOPT restarts its barrier)
+    again = swing(6).guess(coarse).solve(progress=False, options={"tol": 1e-11})
+    assert again.iterations < coarse.iterations
+    assert again.cost == pytest.approx(coarse.cost, rel=1e-10)
+    # coarse to fine: the new mesh's variables are the coarse interpolant's values
+    fine = swing(24, "radau", 3).guess(coarse)
+    values = Transcription(fine).unpack(Transcription(fine).initial_guess())
+    mesh_times = Transcription(fine).mesh
+    np.testing.assert_allclose(values["X"], coarse.state(mesh_times.s_state * 1.5), atol=1e-12)
+    np.testing.assert_allclose(values["U"], coarse.control(mesh_times.s_dyn * 1.5), atol=1e-12)
+    np.testing.assert_allclose(values["Z"], coarse.aux(mesh_times.s_dyn * 1.5), atol=1e-12)
+    cold = swing(24, "radau", 3).solve(progress=False)
+    warm = fine.solve(progress=False)
+    assert warm.success and warm.iterations < cold.iterations
+    # a Trajectory (here the coarse solution exported) serves as a guess too
+    from_file = swing(24, "radau", 2).guess(coarse.to_trajectory(rate_hz=200.0))
+    assert from_file.solve(progress=False).success
+
+
+# ---- export -----------------------------------------------------------------------------
+
+
+def test_to_trajectory_at_nodes_and_resampled():
+    solution = solved("radau", 3)
+    nodes = solution.to_trajectory()
+    assert isinstance(nodes, Trajectory)
+    np.testing.assert_array_equal(nodes.time, solution.time)
+    np.testing.assert_array_equal(nodes.psi, solution.states[:, :2])
+    np.testing.assert_array_equal(nodes.torques, solution.torques)
+    np.testing.assert_array_equal(nodes.ddpsi, solution.ddpsi)
+    assert nodes.state_names == ("psi_link1", "psi_link2", "dpsi_link1", "dpsi_link2")
+    meta = nodes.metadata
+    assert meta["transcription"] == "radau" and meta["degree"] == 3 and meta["N"] == 6
+    assert meta["formulation"] == "implicit" and meta["status"] == "Solve_Succeeded"
+    assert meta["cost"] == solution.cost
+    assert meta["model"]["links"][0]["name"] == "link1"
+    assert set(meta["versions"]) == {"casadi", "numpy", "anthropoid-planner"}
+    resampled = solution.to_trajectory(rate_hz=40.0)
+    assert resampled.time[-1] == pytest.approx(1.5) and resampled.time[1] == pytest.approx(0.025)
+    states, controls = solution(resampled.time)
+    np.testing.assert_array_equal(resampled.states, states)
+    np.testing.assert_array_equal(resampled.controls, controls)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".json", ".npz"])
+def test_save_round_trip_equals_the_interpolant(tmp_path, suffix):
+    solution = solved("hermite-simpson")
+    path = tmp_path / f"swing{suffix}"
+    solution.save(path, rate_hz=33.0)
+    back = Trajectory.load(path)
+    states, controls = solution(back.time)
+    assert back.time[-1] == pytest.approx(solution.T, abs=1e-15)
+    np.testing.assert_allclose(back.states, states, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(back.controls, controls, rtol=0, atol=1e-13)
+    assert back.metadata["status"] == "Solve_Succeeded"
+
+
+def test_generic_ode_solution_exports_its_own_names():
+    x = ca.SX.sym("x", 2)
+    u = ca.SX.sym("u")
+    f = ca.Function("f", [x, u], [ca.vertcat(x[1], u)])
+    solution = (
+        OCP(f, T=1.0, N=4, state_names=("q", "v"), control_names=("a",), state_units=("m", "m/s"))
+        .initial(q=0.0, v=0.0)
+        .final(q=1.0, v=0.0)
+        .minimize(integral=lambda p: p.a**2)
+        .solve(progress=False)
+    )
+    trajectory = solution.to_trajectory(rate_hz=10)
+    assert trajectory.state_names == ("q", "v") and trajectory.state_units == ("m", "m/s")
+    assert trajectory.control_names == ("a",)
+    # Hermite-Simpson is exact here: the re-integration error is at round-off
+    assert solution.integration_error().max < 1e-9
+    assert solution.residual_error().max < 1e-9
+    assert solution.ddpsi is None

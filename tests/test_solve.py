@@ -1,0 +1,336 @@
+"""Solving: status handling and failure surfacing, progress, stats, formulations, free time,
+periodic maps."""
+
+from __future__ import annotations
+
+import logging
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from model import AnthropoidError, DefinitionError, presets
+from model.errors import DefinitionTypeError
+from planner import OCP, SolverError, Transcription, solve
+
+ZETA = np.array([0.20, 0.30, 0.40, 0.30, 0.10, 0.05])
+VARPI = np.array([0.00, 0.50, 1.00, 1.50, 0.20, 0.40])
+
+
+def law(t):
+    """The "paper22" law of scene.md (T = 1 s): (psi, dpsi, ddpsi), each (K, 6)."""
+    t = np.asarray(t, dtype=float)[:, None]
+    w = 2 * np.pi
+    phase = VARPI - (1 - np.cos(w * t)) * np.pi / 2
+    dphase = -np.sin(w * t) * w * np.pi / 2
+    ddphase = -np.cos(w * t) * w * w * np.pi / 2
+    psi = np.pi / 2 + ZETA * np.sin(phase)
+    dpsi = ZETA * np.cos(phase) * dphase
+    ddpsi = ZETA * (np.cos(phase) * ddphase - np.sin(phase) * dphase**2)
+    return psi, dpsi, ddpsi
+
+
+def law_sx(t):
+    return np.pi / 2 + ca.DM(ZETA) * ca.sin(ca.DM(VARPI) - (1 - ca.cos(2 * np.pi * t)) * np.pi / 2)
+
+
+SIX_LINK = presets.six_link_anthropoid().dynamics()
+
+
+def gait(N=10, formulation="implicit", transcription="hermite-simpson"):
+    return (
+        OCP(SIX_LINK, T=1.0, N=N, transcription=transcription, formulation=formulation)
+        .constrain("near_law", lambda p: p.psi - law_sx(p.t), lower=-0.1, upper=0.1)
+        .periodic()
+        .minimize(integral=lambda p: ca.sumsqr(p.M))
+        .guess(law)
+    )
+
+
+def double_integrator():
+    x = ca.SX.sym("x", 2)
+    u = ca.SX.sym("u")
+    return ca.Function("f", [x, u], [ca.vertcat(x[1], u)], ["x", "u"], ["xdot"])
+
+
+def rest_to_rest(N=5, T=1.0):
+    return (
+        OCP(double_integrator(), T=T, N=N, state_names=("q", "v"), control_names=("a",))
+        .initial(q=0.0, v=0.0)
+        .final(q=1.0, v=0.0)
+        .minimize(integral=lambda p: p.a**2)
+    )
+
+
+# ---- failure surfacing -------------------------------------------------------------------
+
+
+def test_max_iter_raises_solver_error_with_status_and_named_constraints():
+    with pytest.raises(
+        SolverError, match=r"Maximum_Iterations_Exceeded after 1 iterations"
+    ) as info:
+        gait(N=6).solve(options={"max_iter": 1}, progress=False)
+    error = info.value
+    assert isinstance(error, AnthropoidError)
+    assert error.status == "Maximum_Iterations_Exceeded"
+    assert error.iterations == 1
+    assert error.violations and error.violations[0][1] > 0
+    # the worst rows carry names that say what and where
+    assert error.violations[0][0].split("[")[0] in ("defect", "dynamics", "path", "periodic")
+    assert error.violations[0][0] in str(error)
+    assert error.solution.success is False
+    assert error.solution.status == "Maximum_Iterations_Exceeded"
+    assert error.solution.states.shape == (7, 12)
+
+
+def test_contradictory_constraints_raise_infeasible_naming_the_constraint():
+    # q(0) = 0 from initial(), and a start constraint q(0) >= 0.5: infeasible.
+    ocp = rest_to_rest().boundary("lifted", lambda p: p.q, "start", lower=0.5)
+    with pytest.raises(SolverError, match=r"Infeasible_Problem_Detected") as info:
+        ocp.solve(progress=False)
+    names = [name for name, _ in info.value.violations]
+    assert any(n in ("start[lifted]", "start[initial q]") for n in names), names
+    assert "start[" in str(info.value)
+
+
+def test_contradictory_bounds_raise_at_definition():
+    with pytest.raises(DefinitionError, match=r"`bound\[a\]`: lower bound 2 > upper bound 1"):
+        rest_to_rest().bound("a", 2.0, 1.0)
+
+
+def test_failure_returns_solution_when_asked():
+    solution = gait(N=6).solve(options={"max_iter": 2}, progress=False, raise_on_failure=False)
+    assert solution.success is False
+    assert solution.status == "Maximum_Iterations_Exceeded"
+    assert solution.iterations == 2
+
+
+def test_acceptable_level_counts_only_when_accepted():
+    # An unreachable tolerance with a loose acceptable level ends at "acceptable".
+    options = {"tol": 1e-30, "acceptable_tol": 1e-2, "acceptable_iter": 1, "max_iter": 50}
+    with pytest.raises(SolverError, match=r"Solved_To_Acceptable_Level \(pass accept_acceptable"):
+        gait(N=6).solve(options=options, progress=False)
+    solution = gait(N=6).solve(options=options, progress=False, accept_acceptable=True)
+    assert solution.success is True
+    assert solution.status == "Solved_To_Acceptable_Level"
+
+
+def test_unknown_ipopt_option_is_a_definition_error():
+    with pytest.raises(DefinitionError, match=r"`options`: IPOPT refused"):
+        rest_to_rest().solve(options={"no_such_option": 1}, progress=False)
+    with pytest.raises(DefinitionError, match=r"`options`: IPOPT refused .*no_such_solver"):
+        rest_to_rest().solve(options={"linear_solver": "no_such_solver"}, progress=False)
+    with pytest.raises(DefinitionTypeError, match=r"`options`: must be a dict of IPOPT options"):
+        rest_to_rest().solve(options=[("tol", 1e-3)], progress=False)
+    with pytest.raises(DefinitionTypeError, match=r"`progress`: must be a bool or a callable"):
+        rest_to_rest().solve(progress="verbose")
+    with pytest.raises(DefinitionTypeError, match=r"`problem`: must be a planner.OCP"):
+        solve("ocp")
+
+
+# ---- progress and stats ------------------------------------------------------------------
+
+
+def test_progress_callable_and_logger(caplog):
+    rows = []
+    solution = gait(N=6).solve(progress=rows.append)
+    assert [r["iteration"] for r in rows] == list(range(solution.iterations + 1))
+    assert rows[-1]["infeasibility"] < 1e-6
+    assert rows[-1]["objective"] == pytest.approx(solution.cost, rel=1e-12)
+    with caplog.at_level(logging.INFO, logger="planner.progress"):
+        rest_to_rest().solve(progress=True)
+    assert any("objective" in r.getMessage() for r in caplog.records)
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="planner.progress"):
+        rest_to_rest().solve(progress=False)
+    assert not caplog.records
+
+
+def test_stats_are_recorded():
+    stats = gait(N=6).solve(progress=False).stats
+    for key in ("build_seconds", "solve_seconds", "function_seconds", "transcription_seconds"):
+        assert stats[key] > 0, key
+    assert stats["function_seconds"] < stats["solve_seconds"]
+    assert stats["iterations"] == stats["ipopt"]["iter_count"] > 0
+    assert stats["n_variables"] == (12 + 6 + 6) * 13
+
+
+# ---- semantics -----------------------------------------------------------------------------
+
+
+def tracking(N, formulation):
+    """Six-link periodic motion tracking the law, with a small torque cost (smooth, unique)."""
+    return (
+        OCP(SIX_LINK, T=1.0, N=N, formulation=formulation)
+        .periodic()
+        .minimize(integral=lambda p: 1e-2 * ca.sumsqr(p.M) + 1e4 * ca.sumsqr(p.psi - law_sx(p.t)))
+        .guess(law)
+    )
+
+
+@pytest.mark.parametrize("transcription", ["hermite-simpson", "radau"])
+def test_implicit_and_explicit_reach_the_same_optimum(transcription):
+    implicit = tracking(10, "implicit").refine(transcription=transcription)
+    explicit = tracking(10, "explicit").refine(transcription=transcription)
+    a = implicit.solve(progress=False, options={"tol": 1e-10})
+    b = explicit.solve(progress=False, options={"tol": 1e-10})
+    assert a.formulation == "implicit" and b.formulation == "explicit"
+    assert a.cost == pytest.approx(b.cost, rel=1e-6)
+    np.testing.assert_allclose(a.states, b.states, atol=1e-6)
+    np.testing.assert_allclose(a.torques, b.torques, atol=1e-6 * np.abs(b.torques).max())
+    # ddpsi where the dynamics hold (a Radau node 0 is an extrapolation, different in each)
+    ddpsi_a, ddpsi_b = a.acceleration(a.point_time), b.acceleration(b.point_time)
+    np.testing.assert_allclose(ddpsi_a, ddpsi_b, atol=1e-6 * np.abs(ddpsi_b).max())
+
+
+def test_solving_twice_gives_the_same_result_and_the_ocp_is_unchanged():
+    ocp = gait(N=6)
+    text = str(ocp)
+    first = ocp.solve(progress=False)
+    second = ocp.solve(progress=False)
+    assert str(ocp) == text
+    assert first.cost == second.cost
+    np.testing.assert_array_equal(first.w, second.w)
+    # a built Transcription can be solved again too
+    transcription = Transcription(ocp)
+    third = solve(transcription, progress=False)
+    assert third.cost == pytest.approx(first.cost, rel=1e-12)
+
+
+def test_free_final_time_matches_closed_form():
+    # min integral (1 + a^2), rest to rest over a unit distance: J(T) = T + 12 / T^3,
+    # optimal T = 36^(1/4) = sqrt(6); Hermite-Simpson is exact for the cubic motion.
+    ocp = (
+        OCP(double_integrator(), T=(0.5, 5.0), N=6, state_names=("q", "v"), control_names=("a",))
+        .initial(q=0.0, v=0.0)
+        .final(q=1.0, v=0.0)
+        .minimize(integral=lambda p: 1 + p.a**2)
+        .guess(T=1.0)
+    )
+    solution = ocp.solve(progress=False, options={"tol": 1e-12})
+    assert solution.T == pytest.approx(np.sqrt(6.0), rel=1e-8)
+    assert solution.cost == pytest.approx(np.sqrt(6.0) + 12 / 6**1.5, rel=1e-10)
+
+
+def test_mayer_term_and_periodic_map():
+    # x(0) = Delta(x(T)) with Delta(q, v) = (-q, v): a symmetric swing. Minimise
+    # integral a^2 + (q(T) - 1)^2 with v(0) = 0; check the map at the solution.
+    ocp = (
+        OCP(double_integrator(), T=1.0, N=8, state_names=("q", "v"), control_names=("a",))
+        .periodic(lambda x: ca.vertcat(-x[0], x[1]))
+        .initial(v=0.0)
+        .minimize(integral=lambda p: p.a**2, terminal=lambda p: 100 * (p.q - 1) ** 2)
+    )
+    solution = ocp.solve(progress=False, options={"tol": 1e-12})
+    x0, xT = solution.states[0], solution.states[-1]
+    np.testing.assert_allclose(x0, [-xT[0], xT[1]], atol=1e-10)
+    # Closed form: with v(0) = v(T) = 0 a displacement d = q(T) - q(0) costs at least 12 d^2
+    # (minimum energy), and q(T) = -q(0) gives q(T) = d / 2: minimise
+    # 12 d^2 + 100 (d/2 - 1)^2, so d = 100 / 74.
+    d = 100 / (24 + 50)
+    assert xT[0] == pytest.approx(d / 2, rel=1e-8)
+    assert solution.cost == pytest.approx(12 * d**2 + 100 * (d / 2 - 1) ** 2, rel=1e-8)
+
+
+def test_benchmark_quick_run():
+    """The benchmark runs as a user runs it (a subprocess, --quick) and prints its tables."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "examples" / "benchmarks" / "planner_bench.py"
+    result = subprocess.run(
+        [sys.executable, str(script), "--quick"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=dict(os.environ, MPLBACKEND="Agg"),
+    )
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    for expected in (
+        "hermite-simpson",
+        "radau(3)",
+        "legendre(3)",
+        "trapezoid",
+        "explicit / implicit",
+    ):
+        assert expected in result.stdout, expected
+    assert "Maximum_Iterations" not in result.stdout
+
+
+# ---- generic dynamics: implicit residuals and time-dependent ODEs ----------------------------
+
+
+def test_generic_implicit_residual_reaches_the_explicit_optimum():
+    x = ca.SX.sym("x", 2)
+    xdot = ca.SX.sym("xdot", 2)
+    u = ca.SX.sym("u")
+    residual = ca.Function("r", [x, xdot, u], [xdot - ca.vertcat(x[1], u)])
+    ocp = (
+        OCP(
+            residual,
+            T=1.0,
+            N=4,
+            formulation="implicit",
+            state_names=("q", "v"),
+            control_names=("a",),
+        )
+        .initial(q=0.0, v=0.0)
+        .final(q=1.0, v=0.0)
+        .minimize(integral=lambda p: p.a**2)
+    )
+    assert ocp.system.aux_names == ("dq", "dv")
+    solution = ocp.solve(progress=False, options={"tol": 1e-12})
+    assert solution.cost == pytest.approx(12.0, rel=1e-10)  # Hermite-Simpson is exact here
+    np.testing.assert_allclose(solution.aux_values[:, 1], 6 - 12 * solution.point_time, atol=1e-8)
+    with pytest.raises(DefinitionError, match=r"re-integration needs an explicit ODE"):
+        solution.integration_error()
+
+
+def test_time_dependent_ode():
+    # x' = u + cos t, min integral (x - sin t)^2 + u^2 from x(0) = 0: u = 0, x = sin t, cost 0.
+    x = ca.SX.sym("x")
+    u = ca.SX.sym("u")
+    t = ca.SX.sym("t")
+    f = ca.Function("f", [x, u, t], [u + ca.cos(t)])
+    ocp = (
+        OCP(f, T=2.0, N=10, state_names=("y",), control_names=("w",))
+        .initial(y=0.0)
+        .minimize(integral=lambda p: (p.y - ca.sin(p.t)) ** 2 + p.w**2)
+    )
+    solution = ocp.solve(progress=False, options={"tol": 1e-12})
+    assert 0 <= solution.cost < 1e-10
+    np.testing.assert_allclose(solution.states[:, 0], np.sin(solution.time), atol=1e-5)
+    assert solution.integration_error().max < 1e-5
+
+
+# ---- slow reliability checks (pytest -m slow) ------------------------------------------------
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "transcription,degree",
+    [("trapezoid", None), ("hermite-simpson", None), ("radau", 3), ("legendre", 3)],
+)
+def test_six_link_gait_converges_on_every_transcription(transcription, degree):
+    # The N = 160 Hermite-Simpson optimum (measured in this session: 45642.27) is the
+    # reference; every scheme at N = 80 is within its discretisation error of it.
+    ocp = gait(80, transcription=transcription).refine(degree=degree)
+    solution = ocp.solve(progress=False)
+    assert solution.success
+    assert solution.cost == pytest.approx(45642.27, rel=2e-3)
+    # per-interval re-integration error: second order for the trapezoid, higher for the rest
+    assert solution.integration_error().max < (3e-2 if transcription == "trapezoid" else 5e-3)
+    np.testing.assert_allclose(solution.states[0], solution.states[-1], atol=1e-8)
+
+
+@pytest.mark.slow
+def test_coarse_to_fine_gait():
+    solution = gait(10).solve(progress=False)
+    for N in (20, 40, 80):
+        warm = gait(N).guess(solution).solve(progress=False)
+        assert warm.success
+        solution = warm
+    assert solution.cost == pytest.approx(45642.27, rel=2e-3)

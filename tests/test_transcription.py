@@ -1,0 +1,340 @@
+"""Transcriptions: bases and quadrature, defects on a separate code path, NLP derivatives
+against finite differences, and convergence orders on problems with known optima."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from model import presets
+from planner import OCP, Transcription, make_scheme
+from planner.collocation import (
+    collocation_roots,
+    integration_weights,
+    lagrange_matrix,
+)
+from planner.solve import nlp_solver
+
+# ---- independent helpers (numpy, product formulas; no planner code) -------------------------
+
+
+def product_basis(points, tau):
+    """l_j(tau) by the product formula, (K, m)."""
+    points = np.asarray(points, float)
+    tau = np.atleast_1d(tau)
+    out = np.ones((tau.size, points.size))
+    for j, pj in enumerate(points):
+        for i, pi in enumerate(points):
+            if i != j:
+                out[:, j] *= (tau - pi) / (pj - pi)
+    return out
+
+
+def product_basis_derivative(points, tau):
+    """dl_j/dtau by the product rule of the product formula, (K, m)."""
+    points = np.asarray(points, float)
+    tau = np.atleast_1d(tau)
+    m = points.size
+    out = np.zeros((tau.size, m))
+    for j in range(m):
+        others = [i for i in range(m) if i != j]
+        denominator = np.prod([points[j] - points[i] for i in others])
+        for skip in others:
+            term = np.ones(tau.size)
+            for i in others:
+                if i != skip:
+                    term *= tau - points[i]
+            out[:, j] += term
+        out[:, j] /= denominator
+    return out
+
+
+def double_integrator():
+    x = ca.SX.sym("x", 2)
+    u = ca.SX.sym("u")
+    return ca.Function("f", [x, u], [ca.vertcat(x[1], u)], ["x", "u"], ["xdot"])
+
+
+def scalar_integrator():
+    x = ca.SX.sym("x")
+    u = ca.SX.sym("u")
+    return ca.Function("f", [x, u], [u], ["x", "u"], ["xdot"])
+
+
+def min_energy(N, transcription, degree=None):
+    """Rest-to-rest q: 0 -> 1 in T = 1, min integral u^2: u = 6 - 12 t, cost 12."""
+    return (
+        OCP(
+            double_integrator(),
+            T=1.0,
+            N=N,
+            transcription=transcription,
+            degree=degree,
+            state_names=("q", "v"),
+            control_names=("a",),
+        )
+        .initial(q=0.0, v=0.0)
+        .final(q=1.0, v=0.0)
+        .minimize(integral=lambda p: p.a**2)
+    )
+
+
+LQ_T = 2.0
+
+
+def scalar_lq(N, transcription, degree=None):
+    """x' = u, x(0) = 1, min integral (x^2 + u^2) over [0, T]: Riccati P' = P^2 - 1,
+    P(T) = 0, so P(t) = tanh(T - t) and the optimal cost is P(0) x0^2 = tanh(T)."""
+    return (
+        OCP(
+            scalar_integrator(),
+            T=LQ_T,
+            N=N,
+            transcription=transcription,
+            degree=degree,
+            state_names=("y",),
+            control_names=("w",),
+        )
+        .initial(y=1.0)
+        .minimize(integral=lambda p: p.y**2 + p.w**2)
+    )
+
+
+TIGHT = {"tol": 1e-13}
+
+# ---- bases and quadrature ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("family", ["radau", "legendre"])
+@pytest.mark.parametrize("degree", range(1, 10))
+def test_lagrange_basis_matches_product_formula(family, degree):
+    roots = collocation_roots(family, degree)
+    points = np.append(0.0, roots)
+    tau = np.linspace(0.0, 1.0, 23)
+    np.testing.assert_allclose(
+        lagrange_matrix(points, tau), product_basis(points, tau), atol=1e-9, rtol=0
+    )
+    np.testing.assert_allclose(
+        lagrange_matrix(points, tau, 1),
+        product_basis_derivative(points, tau),
+        atol=1e-7 * max(1.0, np.abs(product_basis_derivative(points, tau)).max()),
+        rtol=0,
+    )
+
+
+@pytest.mark.parametrize("degree", range(1, 10))
+def test_collocation_roots_and_quadrature_exactness(degree):
+    radau = collocation_roots("radau", degree)
+    legendre = collocation_roots("legendre", degree)
+    assert radau[-1] == 1.0 and np.all(np.diff(radau) > 0) and radau[0] > 0
+    assert 0 < legendre[0] and legendre[-1] < 1
+    # Gauss: exact to degree 2d - 1; right Radau: exact to 2d - 2.
+    for roots, exact_to in ((legendre, 2 * degree - 1), (radau, 2 * degree - 2)):
+        weights = integration_weights(roots)
+        for power in range(exact_to + 1):
+            assert weights @ roots**power == pytest.approx(1.0 / (power + 1), abs=1e-10)
+
+
+def test_schemes_reproduce_classical_formulas():
+    hs = make_scheme("hermite-simpson")
+    np.testing.assert_allclose(hs.quadrature, [1 / 6, 4 / 6, 1 / 6])
+    radau1 = make_scheme("radau", 1)  # backward Euler: x1 - x0 - h f1 = 0
+    np.testing.assert_allclose(radau1.A, [[-1.0, 1.0]])
+    np.testing.assert_allclose(radau1.B, [[1.0]])
+    legendre1 = make_scheme("legendre", 1)  # implicit midpoint
+    np.testing.assert_allclose(legendre1.dyn_tau, [0.5])
+
+
+# ---- defects recomputed independently ---------------------------------------------------
+
+
+def numpy_defects(scheme_name, degree, X, U, h, N):
+    """Defects of the double integrator (f = [v, u]) by textbook formulas, (N, r, 2)."""
+
+    def f(x, u):
+        return np.array([x[1], u])
+
+    rows = []
+    if scheme_name == "trapezoid":
+        for k in range(N):
+            x0, x1 = X[k], X[k + 1]
+            rows.append([x1 - x0 - h / 2 * (f(x0, U[k]) + f(x1, U[k + 1]))])
+    elif scheme_name == "hermite-simpson":
+        for k in range(N):
+            x0, xm, x1 = X[2 * k], X[2 * k + 1], X[2 * k + 2]
+            f0, fm, f1 = f(x0, U[2 * k]), f(xm, U[2 * k + 1]), f(x1, U[2 * k + 2])
+            rows.append(
+                [xm - (x0 + x1) / 2 - h / 8 * (f0 - f1), x1 - x0 - h / 6 * (f0 + 4 * fm + f1)]
+            )
+    else:
+        roots = collocation_roots(scheme_name, degree)
+        points = np.append(0.0, roots)
+        slopes = product_basis_derivative(points, roots)  # (d, d+1)
+        d = degree
+        per = d if scheme_name == "radau" else d + 1
+        for k in range(N):
+            xs = X[k * per : k * per + d + 1]
+            us = U[k * d : (k + 1) * d]
+            interval = [slopes[r] @ xs - h * f(xs[r + 1], us[r]) for r in range(d)]
+            if scheme_name == "legendre":
+                end = product_basis(points, [1.0])[0] @ xs
+                interval.append(X[(k + 1) * per] - end)
+            rows.append(interval)
+    return np.array(rows)
+
+
+@pytest.mark.parametrize(
+    "name,degree",
+    [("trapezoid", None), ("hermite-simpson", None), ("radau", 1), ("radau", 3), ("legendre", 2)],
+)
+def test_defects_match_textbook_formulas_at_random_points(name, degree):
+    N = 4
+    transcription = Transcription(min_energy(N, name, degree))
+    g_function = ca.Function("g", [transcription.nlp["x"]], [transcription.nlp["g"]])
+    rng = np.random.default_rng(3)
+    w = rng.normal(size=transcription.n_w)
+    g = np.asarray(g_function(w)).reshape(-1)
+    values = transcription.unpack(w)
+    expected = numpy_defects(name, degree, values["X"], values["U"][:, 0], 1.0 / N, N)
+    rows = [i for i, row in enumerate(transcription.g_names) if row.startswith("defect[")]
+    got = g[rows] * transcription.g_scale[rows]
+    assert len(rows) == expected.size
+    np.testing.assert_allclose(got, expected.reshape(-1), atol=1e-12)
+
+
+def test_row_and_variable_names_are_complete_and_unique():
+    ocp = (
+        OCP(presets.n_link_chain(2).dynamics(), T=1.0, N=3)
+        .constrain("tilt", lambda p: p.psi_link1 - p.psi_link2, lower=-1, upper=1)
+        .periodic()
+        .minimize(integral=lambda p: ca.sumsqr(p.M))
+    )
+    transcription = Transcription(ocp)
+    assert len(transcription.g_names) == transcription.n_g == transcription.nlp["g"].size1()
+    assert len(set(transcription.g_names)) == transcription.n_g
+    assert len(set(transcription.w_names)) == transcription.n_w == transcription.nlp["x"].size1()
+    assert "defect[psi_link1] interval 2 (end)" in transcription.g_names
+    assert "dynamics[link2] interval 1 midpoint" in transcription.g_names
+    assert "path[tilt] node 3" in transcription.g_names
+    assert "periodic[dpsi_link2]" in transcription.g_names
+    assert "bound[M_link1] node 0" in transcription.w_names
+
+
+# ---- NLP derivatives against central finite differences ---------------------------------
+
+
+def fd_problem(expand):
+    chain = presets.n_link_chain(2).dynamics()
+    return Transcription(
+        OCP(chain, T=(0.5, 2.0), N=3, transcription="hermite-simpson")
+        .constrain("tilt", lambda p: ca.sin(p.psi_link1 - p.psi_link2) * p.dpsi_link1, upper=1)
+        .boundary("start", lambda p: ca.cos(p.psi_link1) + p.M_link2 * p.dpsi_link2, "start", 0, 0)
+        .periodic(lambda x: ca.vertcat(x[1], x[0], x[3], x[2]))
+        .minimize(
+            integral=lambda p: ca.sumsqr(p.M) + ca.sin(p.psi_link2) * p.t,
+            terminal=lambda p: p.T**2 + ca.sumsqr(p.x - p.x0),
+        ),
+        expand=expand,
+    )
+
+
+@pytest.mark.parametrize("expand", [True, False])
+def test_nlp_jacobian_and_hessian_match_central_differences(expand):
+    transcription = fd_problem(expand)
+    solver = nlp_solver(transcription)
+    g = solver.get_function("nlp_g")
+    jac_g = solver.get_function("nlp_jac_g")
+    grad_f = solver.get_function("nlp_grad_f")
+    hess_l = solver.get_function("nlp_hess_l")
+    rng = np.random.default_rng(7)
+    n, m = transcription.n_w, transcription.n_g
+    p = np.zeros(0)
+    checked = 0
+    for _ in range(2):
+        w = rng.uniform(-1.0, 1.0, n)
+        w[-1] = 1.0  # a positive duration
+        lam_g = rng.normal(size=m)
+        lam_f = 0.7
+        jacobian = np.asarray(ca.densify(jac_g(w, p)[1]))
+        hessian = np.asarray(ca.densify(hess_l(w, p, lam_f, lam_g)))
+        hessian = np.triu(hessian) + np.triu(hessian, 1).T  # IPOPT gets the upper triangle
+
+        def gradient_of_lagrangian(v, lam_g=lam_g, lam_f=lam_f):
+            gf = np.asarray(grad_f(v, p)[1]).reshape(-1)
+            jg = np.asarray(ca.densify(jac_g(v, p)[1]))
+            return lam_f * gf + jg.T @ lam_g
+
+        step = 1e-6
+        fd_jac = np.zeros((m, n))
+        fd_hess = np.zeros((n, n))
+        for i in range(n):
+            e = np.zeros(n)
+            e[i] = step
+            fd_jac[:, i] = (
+                np.asarray(g(w + e, p)).reshape(-1) - np.asarray(g(w - e, p)).reshape(-1)
+            ) / (2 * step)
+            fd_hess[:, i] = (gradient_of_lagrangian(w + e) - gradient_of_lagrangian(w - e)) / (
+                2 * step
+            )
+        np.testing.assert_allclose(jacobian, fd_jac, atol=1e-6 * max(1, np.abs(fd_jac).max()))
+        np.testing.assert_allclose(hessian, fd_hess, atol=1e-5 * max(1, np.abs(fd_hess).max()))
+        checked += np.count_nonzero(np.abs(fd_jac) > 1e-8) + np.count_nonzero(
+            np.abs(fd_hess) > 1e-8
+        )
+    # Guard: the comparison must have covered nonzero derivatives of every kind.
+    assert checked > 200
+
+
+def test_sx_and_mx_builds_give_the_same_nlp():
+    sx, mx = fd_problem(True), fd_problem(False)
+    w = np.random.default_rng(1).uniform(0.5, 1.0, sx.n_w)
+    for key in ("f", "g"):
+        a = ca.Function("a", [sx.nlp["x"]], [sx.nlp[key]])(w)
+        b = ca.Function("b", [mx.nlp["x"]], [mx.nlp[key]])(w)
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-13, atol=1e-13)
+
+
+# ---- convergence orders on problems with known optima ------------------------------------
+
+
+def fitted_order(Ns, errors):
+    return -np.polyfit(np.log(Ns), np.log(errors), 1)[0]
+
+
+@pytest.mark.parametrize(
+    "name,degree,Ns",
+    [
+        ("trapezoid", None, [4, 8, 16, 32]),
+        ("hermite-simpson", None, [2, 4, 8, 16]),
+        ("radau", 1, [4, 8, 16, 32]),
+        ("radau", 2, [2, 4, 8, 16]),
+        ("radau", 3, [2, 4, 8]),
+        ("legendre", 2, [2, 4, 8, 16]),
+        ("legendre", 3, [1, 2, 4]),
+    ],
+)
+def test_cost_converges_at_the_scheme_order_on_scalar_lq(name, degree, Ns):
+    exact = np.tanh(LQ_T)
+    errors = []
+    for N in Ns:
+        solution = scalar_lq(N, name, degree).solve(progress=False, options=TIGHT)
+        errors.append(abs(solution.cost - exact))
+    errors = np.array(errors)
+    order = make_scheme(name, degree).order
+    assert np.all(errors > 1e-11), f"error at round-off, the fit is meaningless: {errors}"
+    assert fitted_order(Ns, errors) >= order - 0.3, (errors, order)
+
+
+def test_min_energy_double_integrator_exact_or_second_order():
+    # u = 6 - 12 t is linear, x cubic: Hermite-Simpson and collocation of degree >= 2 are
+    # exact; the trapezoid rule converges at order 2.
+    for name, degree in (("hermite-simpson", None), ("radau", 2), ("legendre", 2)):
+        solution = min_energy(3, name, degree).solve(progress=False, options=TIGHT)
+        assert solution.cost == pytest.approx(12.0, abs=1e-9)
+        np.testing.assert_allclose(solution.controls[:, 0], 6 - 12 * solution.time, atol=1e-7)
+    Ns = [4, 8, 16, 32]
+    errors = [
+        abs(min_energy(N, "trapezoid").solve(progress=False, options=TIGHT).cost - 12.0) for N in Ns
+    ]
+    assert fitted_order(Ns, errors) >= 2 - 0.3
