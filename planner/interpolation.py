@@ -171,18 +171,28 @@ def hermite(knots: np.ndarray, values: np.ndarray, slopes: np.ndarray, t: np.nda
     (q, c) float. Exact at the knots; error O(h^4) for a smooth function with exact slopes.
     """
     index, tau, h = locate(knots, t)
-    tau = tau[:, None]
+    h00, h01, h10, h11 = hermite_basis(tau[:, None])
+    return (
+        values[index] * h00
+        + values[index + 1] * h01
+        + h[:, None] * (slopes[index] * h10 + slopes[index + 1] * h11)
+    )
+
+
+def hermite_basis(tau):
+    """The cubic Hermite basis at local coordinate(s) ``tau`` in [0, 1] (float or array).
+
+    Returns (H00, H01, H10, H11): weights of the left value, right value, left slope times h
+    and right slope times h. At tau = 0 and 1 the weights are exactly 0 or 1 in floating point.
+    One function for scalar and vector callers keeps their results identical bit for bit.
+    """
     tau2 = tau * tau
     tau3 = tau2 * tau
     h01 = 3.0 * tau2 - 2.0 * tau3
     h00 = 1.0 - h01
     h10 = tau3 - 2.0 * tau2 + tau
     h11 = tau3 - tau2
-    return (
-        values[index] * h00
-        + values[index + 1] * h01
-        + h[:, None] * (slopes[index] * h10 + slopes[index + 1] * h11)
-    )
+    return h00, h01, h10, h11
 
 
 def linear(knots: np.ndarray, values: np.ndarray, t: np.ndarray) -> np.ndarray:

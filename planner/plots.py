@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -25,11 +24,11 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from model.errors import DefinitionError, DefinitionTypeError
+from planner.files import atomic_path
 from planner.trajectory import (
     Trajectory,
     TrajectoryFileError,
     TrajectoryFileNotFoundError,
-    _file_mode,
 )
 
 if TYPE_CHECKING:
@@ -336,11 +335,7 @@ def animate(
     clock = ax.set_title("")
     ax.legend(loc="upper right", fontsize="x-small", frameon=False)
 
-    descriptor, temporary = tempfile.mkstemp(
-        dir=path.parent, prefix=f".{path.stem}.", suffix=".gif"
-    )
-    os.close(descriptor)
-    try:
+    with atomic_path(path, suffix=".gif") as temporary:
         writer = PillowWriter(fps=fps)
         with writer.saving(figure, temporary, dpi):
             for k, t in enumerate(times):
@@ -349,14 +344,6 @@ def animate(
                     line.set_data([start.real, end.real], [start.imag, end.imag])
                 clock.set_text(f"t = {t:.3f} s")
                 writer.grab_frame()
-        os.chmod(temporary, _file_mode())
-        os.replace(temporary, path)
-    except BaseException:
-        try:
-            os.unlink(temporary)
-        except FileNotFoundError:
-            pass
-        raise
     return path
 
 

@@ -69,7 +69,6 @@ import json
 import math
 import os
 import re
-import tempfile
 import zipfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -83,6 +82,7 @@ import numpy as np
 
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner import interpolation
+from planner.files import atomic_path
 
 if TYPE_CHECKING:  # matplotlib is imported lazily: the planner core must not pay for it
     from matplotlib.figure import Figure
@@ -510,6 +510,10 @@ class Trajectory:
         """A copy with ``items`` added to (or replacing keys of) the metadata."""
         return _replace(self, metadata={**self.metadata, **items})
 
+    def with_extra(self, name: str, values, unit: str) -> Trajectory:
+        """A copy with one derived channel ``name`` (values (K,), ``unit``) added or replaced."""
+        return _replace(self, extras={**self.extras, name: (values, unit)})
+
     # ---- the linkage convention -------------------------------------------------------------
     @cached_property
     def _links(self) -> tuple[str, ...] | None:
@@ -890,12 +894,7 @@ class ControlFunction:
         values = self._values
         if self._slopes is None:
             return (1.0 - tau) * values[i] + tau * values[i + 1]
-        tau2 = tau * tau
-        tau3 = tau2 * tau
-        h01 = 3.0 * tau2 - 2.0 * tau3
-        h00 = 1.0 - h01
-        h10 = tau3 - 2.0 * tau2 + tau
-        h11 = tau3 - tau2
+        h00, h01, h10, h11 = interpolation.hermite_basis(tau)
         slopes = self._slopes
         return values[i] * h00 + values[i + 1] * h01 + h * (slopes[i] * h10 + slopes[i + 1] * h11)
 
@@ -941,48 +940,16 @@ def _suffix(path: Path) -> str:
     return suffix
 
 
-_UMASK: list[int] = []
-
-
-def _file_mode() -> int:
-    """Permissions of a newly created file under the process umask (mkstemp uses 0600)."""
-    if not _UMASK:
-        # os.umask can only be read by setting it; done once, restored at once.
-        current = os.umask(0o022)
-        os.umask(current)
-        _UMASK.append(current)
-    return 0o666 & ~_UMASK[0]
-
-
 def _atomic_write(path: Path, write: Callable[[Any], None], binary: bool) -> None:
-    """Run ``write(handle)`` on a temporary file beside ``path``, then rename it over ``path``.
-
-    The temporary file sits in the same folder so that ``os.replace`` is an atomic rename on
-    the same file system; on any failure it is removed and the error propagates.
-    """
-    descriptor, temporary = tempfile.mkstemp(
-        dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"
-    )
-    try:
+    """Run ``write(handle)`` on a temporary file beside ``path``, then rename it over ``path``
+    (:func:`planner.files.atomic_path`); the data reach the disk before the rename."""
+    with atomic_path(path) as temporary:
         with (
-            os.fdopen(descriptor, "wb")
-            if binary
-            else os.fdopen(descriptor, "w", encoding="utf-8", newline="")
+            open(temporary, "wb") if binary else open(temporary, "w", encoding="utf-8", newline="")
         ) as handle:
             write(handle)
             handle.flush()
             os.fsync(handle.fileno())
-        if path.exists():
-            os.chmod(temporary, path.stat().st_mode & 0o7777)
-        else:
-            os.chmod(temporary, _file_mode())
-        os.replace(temporary, path)
-    except BaseException:
-        try:
-            os.unlink(temporary)
-        except FileNotFoundError:
-            pass
-        raise
 
 
 def _float_text(values: np.ndarray) -> list[str]:

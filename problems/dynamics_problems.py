@@ -625,24 +625,7 @@ def simulate(
         ground_reaction=ground,
         metadata=info,
     )
-    return _with_extra(trajectory, "work", cumulative[index], "J")
-
-
-def _with_extra(trajectory: Trajectory, name: str, values: np.ndarray, unit: str) -> Trajectory:
-    """The same trajectory with one more derived channel (Trajectory is a value)."""
-    extras = dict(trajectory.extras)
-    extras[name] = (np.asarray(values, dtype=float), unit)
-    return type(trajectory)(
-        time=trajectory.time,
-        states=trajectory.states,
-        controls=trajectory.controls,
-        state_names=trajectory.state_names,
-        state_units=trajectory.state_units,
-        control_names=trajectory.control_names,
-        control_units=trajectory.control_units,
-        extras=extras,
-        metadata=trajectory.metadata,
-    )
+    return trajectory.with_extra("work", cumulative[index], "J")
 
 
 # ---- replay of a law ------------------------------------------------------------------------

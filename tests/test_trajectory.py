@@ -177,6 +177,17 @@ def test_column_and_with_metadata():
     assert tagged != traj and generic_trajectory() == traj
 
 
+def test_with_extra_adds_a_validated_channel_and_leaves_the_original():
+    traj = generic_trajectory()
+    values = np.arange(traj.n_samples, dtype=float) ** 2
+    more = traj.with_extra("work", values, "J")
+    np.testing.assert_array_equal(more.column("work"), values)
+    assert more.extras["work"][1] == "J" and "work" not in traj.extras
+    np.testing.assert_array_equal(more.states, traj.states)
+    with pytest.raises(DefinitionError, match="work"):
+        traj.with_extra("work", values[:-1], "J")
+
+
 T4 = np.linspace(0.0, 1.0, 4)
 GOOD = {
     "time": T4,

@@ -1,0 +1,54 @@
+"""Writing files so that nothing is ever half-written on disk.
+
+Every file the planner writes (trajectory exports, GIF animations) goes through
+:func:`atomic_path`: the content is written to a temporary file in the destination folder and
+renamed over the destination only when complete. ``os.replace`` within one file system is
+atomic, so a reader sees either the old file or the new one, never a partial one; on any
+failure the temporary file is removed and the error propagates.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+_UMASK: list[int] = []
+
+
+def _new_file_mode() -> int:
+    """Permissions of a newly created file under the process umask (mkstemp uses 0600)."""
+    if not _UMASK:
+        # os.umask can only be read by setting it; done once, restored at once.
+        current = os.umask(0o022)
+        os.umask(current)
+        _UMASK.append(current)
+    return 0o666 & ~_UMASK[0]
+
+
+@contextmanager
+def atomic_path(path: Path, suffix: str = ".tmp") -> Iterator[str]:
+    """Yield a temporary path beside ``path``; on success rename it over ``path``.
+
+    The final file keeps the permissions of the file it replaces, or gets the usual
+    permissions of a new file. ``suffix`` lets writers that choose a format by extension
+    (matplotlib's) see the right one.
+    """
+    path = Path(path)
+    descriptor, temporary = tempfile.mkstemp(
+        dir=path.parent, prefix=f".{path.name}.", suffix=suffix
+    )
+    os.close(descriptor)
+    try:
+        yield temporary
+        mode = path.stat().st_mode & 0o7777 if path.exists() else _new_file_mode()
+        os.chmod(temporary, mode)
+        os.replace(temporary, path)
+    except BaseException:
+        try:
+            os.unlink(temporary)
+        except FileNotFoundError:
+            pass
+        raise
