@@ -1,10 +1,10 @@
 """A complex number carried as a pair of CasADi SX scalars.
 
 CasADi's SX has no complex type, and the seed paper's method lives on complex exponentials.
-``Cx`` keeps the paper's algebra readable in the generator (``l * expj(psi)``, ``z * j``,
-``conj(z) * w``) while emitting only real SX operations. Multiplication by a Python constant
-skips the products with exact zeros, so a paper link (real lengths) costs no more than the
-real-valued trigonometric form would.
+``Cx`` keeps the paper's algebra readable in the generator (``expj(psi)``, ``z.times_j()``,
+``times_constants(z, lengths)``) while emitting only real SX operations. Multiplication by
+real constants (every paper link) skips the products with exact zeros, so the complex form
+costs no more than the real-valued trigonometric form would.
 """
 
 from __future__ import annotations
@@ -14,58 +14,36 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-Number = float | complex
-
 
 @dataclass(frozen=True)
 class Cx:
-    """z = re + j im with SX (or float) parts."""
+    """z = re + j im with SX parts (scalars or vectors, elementwise)."""
 
-    re: ca.SX | float
-    im: ca.SX | float
+    re: ca.SX
+    im: ca.SX
 
-    def __add__(self, other: Cx | Number) -> Cx:
+    def __add__(self, other: Cx | complex) -> Cx:
         if isinstance(other, Cx):
             return Cx(self.re + other.re, self.im + other.im)
-        other = complex(other)
+        other = complex(other)  # a constant offset, e.g. the root's fixed start hinge
         return Cx(self.re + other.real, self.im + other.imag)
 
-    __radd__ = __add__
-
-    def __sub__(self, other: Cx | Number) -> Cx:
-        if isinstance(other, Cx):
-            return Cx(self.re - other.re, self.im - other.im)
-        other = complex(other)
-        return Cx(self.re - other.real, self.im - other.imag)
-
-    def __neg__(self) -> Cx:
-        return Cx(-self.re, -self.im)
-
-    def __mul__(self, other: Cx | Number) -> Cx:
-        if isinstance(other, Cx):
-            return Cx(
-                self.re * other.re - self.im * other.im,
-                self.re * other.im + self.im * other.re,
-            )
-        c = complex(other)
+    def __mul__(self, constant: complex) -> Cx:
+        """Multiply by a complex constant, skipping the products with exact zeros."""
+        c = complex(constant)
         if c.imag == 0.0:  # real constant: two products, not four
             return Cx(c.real * self.re, c.real * self.im)
         if c.real == 0.0:  # purely imaginary constant: j b (x + j y) = -b y + j b x
             return Cx(-c.imag * self.im, c.imag * self.re)
         return Cx(c.real * self.re - c.imag * self.im, c.real * self.im + c.imag * self.re)
 
-    __rmul__ = __mul__
-
-    def scale(self, real: ca.SX | float) -> Cx:
-        """Multiply by a real (possibly symbolic) scalar."""
+    def scale(self, real: ca.SX) -> Cx:
+        """Multiply by a real (possibly symbolic, elementwise) factor."""
         return Cx(real * self.re, real * self.im)
 
     def times_j(self) -> Cx:
         """Multiply by the imaginary unit j (a quarter turn): free, no operations."""
         return Cx(-self.im, self.re)
-
-    def conj(self) -> Cx:
-        return Cx(self.re, -self.im)
 
     def abs2(self) -> ca.SX:
         """|z|^2."""
@@ -75,9 +53,6 @@ class Cx:
 def expj(angle: ca.SX) -> Cx:
     """e^{j angle} = cos(angle) + j sin(angle)."""
     return Cx(ca.cos(angle), ca.sin(angle))
-
-
-ZERO = Cx(0.0, 0.0)
 
 
 class Constants:
@@ -108,14 +83,6 @@ def times_constants(z: Cx, constants: Constants) -> Cx:
 def apply(operator: ca.DM, z: Cx) -> Cx:
     """A real constant matrix (a tree operator) applied to both parts of z."""
     return Cx(ca.mtimes(operator, z.re), ca.mtimes(operator, z.im))
-
-
-def real_of_product(constant: complex, z: Cx) -> ca.SX:
-    """Re(constant * z) without forming the imaginary part."""
-    c = complex(constant)
-    if c.imag == 0.0:
-        return c.real * z.re
-    return c.real * z.re - c.imag * z.im
 
 
 def imag_of_conj_product(a: Cx, b: Cx) -> ca.SX:
