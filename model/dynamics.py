@@ -27,6 +27,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -106,6 +107,8 @@ class Dynamics:
         self._torque = ca.SX.sym("M", n)
         self._functions: dict[str, ca.Function] = {}
         self._tapes: dict[str, NumpyTape | None] = {}
+        self._buffers: dict[str, tuple] = {}
+        self._layouts: dict[str, list[_OutputLayout]] = {}
         self._cache: dict[str, object] = {}
         self.generation_seconds: dict[str, float] = {}
         links = linkage.links
@@ -436,27 +439,40 @@ class Dynamics:
         the batch as the leading axis (dropped again for a single state)."""
         function = self.function(name)
         batch, columns = _as_columns(function, arrays)
-        shapes = [_output_shape(function, i) for i in range(function.n_out())]
+        if name not in self._layouts:
+            self._layouts[name] = _OutputLayout.of(function)
+        layouts = self._layouts[name]
         if batch == 0:  # an empty batch: CasADi would evaluate one state instead
-            return [
-                _restore(np.zeros((function.nnz_out(i), 0)), function.sparsity_out(i), 0, shapes[i])
-                for i in range(function.n_out())
-            ]
-        if columns.__len__() and columns[0].shape[1] >= NumpyTape.MIN_BATCH:
+            return [_restore(np.zeros((lay.nonzeros.size, 0)), lay, 0) for lay in layouts]
+        if batch is None and hasattr(function, "buffer"):
+            return self._evaluate_one(name, function, columns, layouts)
+        if columns[0].shape[1] >= NumpyTape.MIN_BATCH:
             tape = self._tape(name)
             if tape is not None:
-                results = tape(columns)
                 return [
-                    _restore(r, function.sparsity_out(i), batch, shapes[i])
-                    for i, r in enumerate(results)
+                    _restore(r, lay, batch) for r, lay in zip(tape(columns), layouts, strict=True)
                 ]
         raw = function.call(columns)
         return [
-            _restore(
-                np.asarray(raw[i]), function.sparsity_out(i), batch, shapes[i], dense_columns=True
-            )
-            for i in range(function.n_out())
+            _restore(np.asarray(r), lay, batch, dense_columns=True)
+            for r, lay in zip(raw, layouts, strict=True)
         ]
+
+    def _evaluate_one(self, name, function, columns, layouts) -> list:
+        """One state through CasADi's evaluation buffer: the arguments are read in place from
+        the numpy arrays (no conversion to DM), ~3 us instead of ~30 us for a six-link call.
+        The buffer belongs to this Dynamics: numeric calls on one instance are not thread-safe.
+        """
+        if name not in self._buffers:
+            self._buffers[name] = function.buffer()
+        buffer, evaluate = self._buffers[name]
+        for i, column in enumerate(columns):
+            buffer.set_arg(i, memoryview(column))
+        results = [np.zeros((lay.nonzeros.size, 1)) for lay in layouts]
+        for i, result in enumerate(results):
+            buffer.set_res(i, memoryview(result))
+        evaluate()
+        return [_restore(r, lay, None) for r, lay in zip(results, layouts, strict=True)]
 
     def _tape(self, name: str) -> NumpyTape | None:
         if name not in self._tapes:
@@ -564,31 +580,55 @@ def _as_columns(function: ca.Function, arrays) -> tuple[int | None, list[np.ndar
     return batch, columns
 
 
+@dataclass(frozen=True)
+class _OutputLayout:
+    """How one output of a Function maps to a numpy array (read once per Function: each
+    CasADi query through SWIG costs microseconds)."""
+
+    rows: int
+    cols: int
+    nonzeros: np.ndarray  # column-major positions of the structural non-zeros
+    shape: tuple[int, ...]  # per-state shape the numeric methods document
+
+    @staticmethod
+    def of(function: ca.Function) -> list[_OutputLayout]:
+        return [
+            _OutputLayout(
+                function.size1_out(i),
+                function.size2_out(i),
+                np.asarray(function.sparsity_out(i).find(), dtype=int),
+                _output_shape(function, i),
+            )
+            for i in range(function.n_out())
+        ]
+
+
 def _restore(
     values: np.ndarray,
-    sparsity: ca.Sparsity,
+    layout: _OutputLayout,
     batch: int | None,
-    shape: tuple[int, ...],
     dense_columns: bool = False,
 ):
     """Turn a Function output evaluated on K columns into an array with the batch leading.
 
-    ``shape`` is the per-state shape the method documents: () for a scalar, (rows,) for a
-    vector, (rows, cols) for a matrix; it comes from the catalogue, not from the size, so a
-    one-link tree's 1x1 mass matrix stays (1, 1).
+    The per-state shape comes from the catalogue (``_output_shape``), not from the size, so a
+    one-link tree's 1x1 mass matrix stays (1, 1) and a scalar output becomes a float.
     """
-    rows, cols = sparsity.size1(), sparsity.size2()
+    rows, cols = layout.rows, layout.cols
     values = np.asarray(values, dtype=float)
     k = 1 if batch is None else batch
     if dense_columns:
         # CasADi returns the (rows, cols * K) horizontal concatenation, dense.
         out = values.reshape(rows, k, cols).transpose(1, 0, 2)
+    elif layout.nonzeros.size == rows * cols:
+        # Dense output (nnz, K): column-major entries.
+        out = values.T.reshape(k, cols, rows).transpose(0, 2, 1)
     else:
-        # The tape returns (nnz, K); scatter into dense (K, rows, cols) in column-major order.
+        # Sparse output (nnz, K): scatter into dense (K, rows, cols) in column-major order.
         dense = np.zeros((k, rows * cols))
-        dense[:, np.asarray(sparsity.find(), dtype=int)] = values.T
+        dense[:, layout.nonzeros] = values.T
         out = dense.reshape(k, cols, rows).transpose(0, 2, 1)
-    out = out.reshape((k, *shape))
+    out = out.reshape((k, *layout.shape))
     if batch is None:
-        return float(out[0]) if shape == () else out[0]
+        return float(out[0]) if layout.shape == () else out[0]
     return out
