@@ -324,6 +324,11 @@ class Mesh:
         """
         s = np.asarray(s, dtype=float)
         scaled = s * self.N
+        # A node time t_k = k h divided by T and multiplied by N can land a few ulps off the
+        # integer k; snap it, or the node would be assigned to the neighbouring interval and
+        # read from an extrapolated polynomial instead of its own NLP variable.
+        nearest = np.rint(scaled)
+        scaled = np.where(np.abs(scaled - nearest) <= 1e-9 * max(1, self.N), nearest, scaled)
         if self.scheme.name == "radau":
             k = np.clip(np.ceil(scaled).astype(int) - 1, 0, self.N - 1)
         else:

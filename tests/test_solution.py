@@ -276,3 +276,21 @@ def test_generic_ode_solution_exports_its_own_names():
     assert solution.integration_error().max < 1e-9
     assert solution.residual_error().max < 1e-9
     assert solution.ddpsi is None
+
+
+@pytest.mark.parametrize(("T", "N"), [(0.3, 7), (1.1, 50)])
+def test_radau_node_controls_are_the_nlp_variables_at_awkward_meshes(T, N):
+    # t_k / T * N lands a few ulps off k for these meshes; a node must still read its own NLP
+    # variable (the end point of the interval it closes), never an extrapolation.
+    dyn = presets.n_link_chain(2).dynamics()
+    solution = (
+        OCP(dyn, T=T, N=N, transcription="radau", degree=2)
+        .initial(psi=[-1.5, -1.5], dpsi=0)
+        .final(psi=[1.0, 1.0], dpsi=0)
+        .minimize(integral=lambda p: ca.sumsqr(p.M))
+        .solve(progress=False)
+    )
+    at_nodes = solution.control_values[solution.mesh.dyn_cols[:, -1]]
+    assert at_nodes.shape == (N, 2)
+    np.testing.assert_array_equal(solution.controls[1:], at_nodes)
+    np.testing.assert_array_equal(solution.to_trajectory().torques[1:], at_nodes)
