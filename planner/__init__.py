@@ -9,7 +9,7 @@
 
 from planner.ocp import OCP, TRANSCRIPTIONS, Point, System
 from planner.solution import IntegrationError, Replay, Solution
-from planner.solve import SolverError, solve
+from planner.solver import SolverError, solve
 from planner.trajectory import Trajectory
 from planner.transcription import Scheme, Transcription, make_scheme
 

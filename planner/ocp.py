@@ -323,6 +323,11 @@ def evaluate_expression(label: str, expression, point: Point) -> ca.SX:
             result = expression(point)
         except (AttributeError, KeyError) as exc:
             raise DefinitionError(f"`{label}`: {exc}") from exc
+        except Exception as exc:  # a user's callable may fail in any way; say where
+            raise DefinitionError(
+                f"`{label}`: evaluating the expression failed: {type(exc).__name__}: {exc}; "
+                "check shapes (p.x is (nx, 1)) and types of the Point's fields"
+            ) from exc
     else:
         raise DefinitionTypeError(
             f"`{label}`: must be a callable of a Point or a casadi.Function, "
@@ -346,7 +351,36 @@ def evaluate_expression(label: str, expression, point: Point) -> ca.SX:
             result = result.T
         else:
             raise DefinitionError(f"`{label}`: must return a column vector, got {result.shape}")
+    _check_symbols(label, result, point)
     return result
+
+
+def _check_symbols(label: str, result: ca.SX, point: Point) -> None:
+    """Reject free symbols (not the Point's) and NaN/inf constants in ``result``.
+
+    The NaN/inf check inspects the constants of the expression graph, not a value at some
+    test point, so an expression that is merely singular somewhere (1/x at x = 0) passes.
+    """
+    symbols = ca.symvar(result)
+    known: set[int] = set()
+    for value in point._values.values():
+        if isinstance(value, ca.SX):
+            known.update(s.element_hash() for s in ca.symvar(value))
+    free = sorted(str(s) for s in symbols if s.element_hash() not in known)
+    if free:
+        raise DefinitionError(
+            f"`{label}`: the expression uses free symbols {free} that are not fields of the "
+            "point; build it from the Point's fields only"
+        )
+    function = ca.Function("check", symbols, [result])
+    for k in range(function.n_instructions()):
+        if function.instruction_id(k) == ca.OP_CONST:
+            constant = function.instruction_constant(k)
+            if not math.isfinite(constant):
+                raise DefinitionError(
+                    f"`{label}`: the expression contains the constant {constant}; "
+                    "NaN or inf in an NLP expression makes IPOPT stop (Invalid_Number_Detected)"
+                )
 
 
 # ---- validated pieces of a definition ---------------------------------------------------
@@ -613,8 +647,9 @@ class OCP:
     def bound(self, name: str, lower=None, upper=None) -> OCP:
         """Bounds lower <= v <= upper on a variable or group at every point where it lives.
 
-        ``name``: a variable (``"M_torso"``), a group (``"M"``, ``"psi"``) or ``"T"`` is not
-        allowed (give ``T=(lo, hi)``). Bounds: scalars or arrays over the group; None = none.
+        ``name``: a variable (``"M_torso"``) or a group (``"M"``, ``"psi"``); the duration
+        ``"T"`` is not bounded here (give ``T=(lo, hi)`` to the OCP). Bounds: scalars or arrays
+        over the group; None = none.
         A later bound on the same variable replaces the earlier one.
         """
         names = self.resolve(name, "bound")
@@ -654,6 +689,11 @@ class OCP:
         collocation points (radau, legendre). ``expression``: callable of a :class:`Point` or a
         Function of Point fields, scalar or vector; ``scale``: nominal magnitude (default from
         the finite bounds, else 1).
+
+        Not enforced where no dynamics point lies: t = 0 for ``radau`` (its points are the
+        interval ends) and the mesh nodes for ``legendre`` (interior points only). Add a
+        ``boundary``/``initial`` constraint for t = 0, or use trapezoid/Hermite-Simpson when the
+        constraint must hold exactly at the nodes.
         """
         return self._add_constraint(name, expression, lower, upper, "path", scale)
 
@@ -709,6 +749,14 @@ class OCP:
                 raise DefinitionError(f"`periodic`: calling the mapping failed: {exc}") from exc
             if isinstance(value, list | tuple):
                 value = ca.vertcat(*value)
+            if isinstance(value, ca.SX):
+                known = {s.element_hash() for s in ca.symvar(x)}
+                free = sorted(str(s) for s in ca.symvar(value) if s.element_hash() not in known)
+                if free:
+                    raise DefinitionError(
+                        f"`periodic`: the mapping uses free symbols {free}; build it from the "
+                        "state argument only"
+                    )
             if not isinstance(value, ca.SX | ca.MX) or value.shape != (self.system.nx, 1):
                 shape = getattr(value, "shape", type(value).__name__)
                 raise DefinitionError(
@@ -886,8 +934,8 @@ class OCP:
         return Transcription(self, expand=expand)
 
     def solve(self, **kwargs):
-        """Transcribe and solve; see :func:`planner.solve.solve` for the keyword arguments."""
-        from planner.solve import solve
+        """Transcribe and solve; see :func:`planner.solver.solve` for the keyword arguments."""
+        from planner.solver import solve
 
         return solve(self, **kwargs)
 

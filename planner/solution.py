@@ -5,8 +5,9 @@ controls, ddpsi and rates at the dynamics points) and interpolates with exactly 
 polynomials of its transcription (:class:`planner.transcription.Scheme`): trapezoid, linear
 controls and quadratic states; Hermite-Simpson, quadratic controls and cubic states;
 collocation, the Lagrange polynomials of each interval. Between intervals the interpolant is
-right-continuous (the last interval is closed at T); controls of a collocation scheme may
-jump at the nodes.
+right-continuous (intervals [t_k, t_k+1), the last one closed at T), except for Radau, which
+is left-continuous (intervals (t_k, t_k+1], the first one closed at 0: a Radau interval owns
+the controls at its end node); controls of a collocation scheme may jump at the nodes.
 
 Accuracy estimates (all in the states' physical units):
 
@@ -30,8 +31,10 @@ import numpy as np
 
 from model.errors import DefinitionError
 
-#: Gauss-Legendre points per interval for residual_error (exact for polynomial integrands of
-#: degree 2 * 12 - 1; the residual of a smooth motion is resolved far below its size).
+#: Gauss-Legendre points per interval for residual_error. The integrand |f - dx/dt| has kinks
+#: where f - dx/dt changes sign, so the rule is not exact (its degree 2 * 12 - 1 exactness
+#: holds for smooth polynomials only); it is an estimate, accurate to a few per cent of the
+#: integral when the sign changes are few per interval.
 RESIDUAL_QUADRATURE_POINTS = 12
 
 
@@ -94,7 +97,7 @@ class Solution:
     ----------
     cost : objective value (physical units of the objective).
     status : IPOPT's return status; success : whether it counts as converged.
-    stats : timings and counts (see :func:`planner.solve.solve`).
+    stats : timings and counts (see :func:`planner.solver.solve`).
     T : duration, s. N : intervals. transcription_name, degree, formulation.
     time, states, controls, ddpsi : values at the N+1 mesh nodes (see properties).
     state_time, state_values : every state point (nX,), (nX, nx).
@@ -178,7 +181,8 @@ class Solution:
 
     @property
     def controls(self) -> np.ndarray:
-        """(N+1, nu) controls at the nodes, from the interpolant (right-continuous)."""
+        """(N+1, nu) controls at the nodes, from the interpolant (right-continuous; for Radau
+        left-continuous, so a node's control is the NLP variable of the interval ending there)."""
         return self.control(self.time)
 
     @property

@@ -328,7 +328,8 @@ class Mesh:
         # integer k; snap it, or the node would be assigned to the neighbouring interval and
         # read from an extrapolated polynomial instead of its own NLP variable.
         nearest = np.rint(scaled)
-        scaled = np.where(np.abs(scaled - nearest) <= 1e-9 * max(1, self.N), nearest, scaled)
+        tolerance = 16 * np.finfo(float).eps * max(1, self.N)  # a few ulps of the largest value
+        scaled = np.where(np.abs(scaled - nearest) <= tolerance, nearest, scaled)
         if self.scheme.name == "radau":
             k = np.clip(np.ceil(scaled).astype(int) - 1, 0, self.N - 1)
         else:

@@ -566,7 +566,8 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
         print(
             "deviation from the file's angles exceeds 1e-6 rad at "
             f"t = {result.time[above[0]]:.3f} s "
-            "(an open-loop replay of an unstable motion diverges)",
+            "(bounded by the integration error and, for an unstable motion, by its growth; "
+            "--method rk with more --steps or tighter --rtol/--atol move it)",
             file=out,
         )
         rate = fit_growth_rate(result.time, deviation)

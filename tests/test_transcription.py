@@ -14,7 +14,7 @@ from planner.collocation import (
     integration_weights,
     lagrange_matrix,
 )
-from planner.solve import nlp_solver
+from planner.solver import nlp_solver
 
 # ---- independent helpers (numpy, product formulas; no planner code) -------------------------
 

@@ -353,7 +353,7 @@ def solve_opty(build: OptyBuild) -> dict:
 # ---- our side ------------------------------------------------------------------------------
 def solve_ours(transcription: str = "hermite-simpson", hessian: str = "exact", N: int = 50):
     """Define (timed: the SX equations are generated here), transcribe and solve once."""
-    from planner.solve import solve
+    from planner.solver import solve
 
     start = time.perf_counter()
     ocp = planner_problem(N, transcription)

@@ -78,6 +78,8 @@ class _Progress(ca.Callback):
         self._lbg, self._ubg = np.asarray(lbg), np.asarray(ubg)
         self._report = report
         self.iteration = -1
+        #: An exception raised by ``report``; solve() re-raises it after stopping IPOPT.
+        self.error: BaseException | None = None
         self.construct("progress", {})
 
     def get_n_in(self):
@@ -108,19 +110,23 @@ class _Progress(ca.Callback):
         infeasibility = (
             float(np.max(np.maximum(self._lbg - g, g - self._ubg), initial=0.0)) if g.size else 0.0
         )
-        self._report(
-            {
-                "iteration": self.iteration,
-                "objective": float(arg[ca.nlpsol_out().index("f")]),
-                "infeasibility": infeasibility,
-            }
-        )
+        try:
+            self._report(
+                {
+                    "iteration": self.iteration,
+                    "objective": float(arg[ca.nlpsol_out().index("f")]),
+                    "infeasibility": infeasibility,
+                }
+            )
+        except Exception as exc:  # the user's callback: keep it, stop IPOPT, re-raise later
+            self.error = exc
+            return [1]
         return [0]
 
 
 def _log_progress(row: Mapping[str, Any]) -> None:
     progress_logger.info(
-        "iter %4d  objective %.8e  inf_pr %.2e",
+        "iter %4d  objective %.8e  max violation %.2e",
         row["iteration"],
         row["objective"],
         row["infeasibility"],
@@ -144,6 +150,30 @@ def violations(transcription: Transcription, w: np.ndarray, g: np.ndarray, count
     rows.extend((transcription.w_names[i], float(excess[i])) for i in np.flatnonzero(excess))
     rows.sort(key=lambda item: -item[1])
     return rows[:count]
+
+
+def _non_finite(transcription: Transcription, solver: ca.Function, w: np.ndarray) -> str:
+    """Where the NLP functions are NaN or inf at the scaled iterate ``w``, by name."""
+    places = []
+    try:
+        f, grad_f = solver.get_function("nlp_grad_f")(w, [])
+        g = solver.get_function("nlp_g")(w, [])
+    except RuntimeError:  # the oracle itself failed: nothing more to say
+        return "NaN or inf in the NLP functions"
+    if not np.isfinite(float(f)):
+        places.append("the objective")
+    grad_f = np.asarray(grad_f).reshape(-1)
+    bad = np.flatnonzero(~np.isfinite(grad_f))
+    if bad.size:
+        names = ", ".join(transcription.w_names[i] for i in bad[:5])
+        places.append(f"the objective's gradient w.r.t. {names}")
+    g = np.asarray(g).reshape(-1)
+    bad = np.flatnonzero(~np.isfinite(g))
+    if bad.size:
+        places.append("constraints " + ", ".join(transcription.g_names[i] for i in bad[:5]))
+    if not places:
+        return "NaN or inf in a derivative (Jacobian or Hessian) of the NLP"
+    return "NaN or inf in " + "; ".join(places)
 
 
 #: Iteration callbacks of live solvers, by id(solver); dropped when solve() returns.
@@ -263,7 +293,9 @@ def solve(
         ubg=transcription.ubg,
     )
     solve_seconds = time.perf_counter() - start
-    _CALLBACKS.pop(id(solver), None)
+    callback = _CALLBACKS.pop(id(solver), None)
+    if callback is not None and callback.error is not None:
+        raise callback.error
     stats = solver.stats()
     status = str(stats.get("return_status", "unknown"))
     if status == "Invalid_Option":
@@ -313,6 +345,8 @@ def solve(
         worst = violations(transcription, w, g)
         listed = "; ".join(f"{name}: {value:.3g}" for name, value in worst) or "none"
         hint = " (pass accept_acceptable=True to accept it)" if status == ACCEPTABLE else ""
+        if status == "Invalid_Number_Detected":
+            hint = f" ({_non_finite(transcription, solver, w)})"
         raise SolverError(
             f"IPOPT failed with status {status}{hint} after {iterations} iterations; "
             f"worst violations: {listed}",
