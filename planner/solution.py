@@ -33,8 +33,7 @@ from model.errors import DefinitionError
 
 #: Gauss-Legendre points per interval for residual_error. The integrand |f - dx/dt| has kinks
 #: where f - dx/dt changes sign, so the rule is not exact (its degree 2 * 12 - 1 exactness
-#: holds for smooth polynomials only); it is an estimate, accurate to a few per cent of the
-#: integral when the sign changes are few per interval.
+#: holds for smooth polynomials only): an estimate, whose error is not bounded by that degree.
 RESIDUAL_QUADRATURE_POINTS = 12
 
 

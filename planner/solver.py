@@ -7,7 +7,8 @@ by name and the last iterate as a :class:`planner.solution.Solution`; with
 ``raise_on_failure=False`` it returns that Solution, ``success == False``.
 "Solved_To_Acceptable_Level" counts as success only with ``accept_acceptable=True``.
 
-Progress (iteration, objective, primal infeasibility) goes through one switchable reporter:
+Progress (iteration, objective, and "infeasibility": the planner's largest violation of its
+scaled constraint rows lbg <= g <= ubg, not IPOPT's inf_pr) goes through one switchable reporter:
 the logger ``planner.progress`` at INFO level (``progress=True``, the default; shown when the
 application configures logging), a callable of a dict per iteration, or nothing
 (``progress=False``). The library never prints.
@@ -247,6 +248,7 @@ def solve(
         last iterate with ``success == False``.
     progress : True logs every iteration on the ``planner.progress`` logger (INFO), a callable
         receives {"iteration", "objective", "infeasibility"} dicts, False reports nothing.
+        An exception raised by the callable stops IPOPT and is re-raised from here.
     expand : build the NLP fully in SX (True: fastest evaluation) or in MX with the SX point
         Function mapped over the mesh (False, default: fastest construction). Only for an OCP.
     guess : a scaled decision vector to start from (default: the OCP's guesses).

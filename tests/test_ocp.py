@@ -411,3 +411,54 @@ def test_collocation_argument_errors():
     point = chain()._point()
     with pytest.raises(KeyError, match=r"Point has no field 'foo'"):
         point["foo"]
+
+
+# ---- user mistakes in expressions fail at definition, naming the expression --------------
+def _expression_ocp():
+    x = ca.SX.sym("x", 2)
+    u = ca.SX.sym("u")
+    f = ca.Function("f", [x, u], [ca.vertcat(x[1], u)], ["x", "u"], ["xdot"])
+    return OCP(f, T=1.0, N=4, state_names=("q", "v"), control_names=("a",))
+
+
+@pytest.mark.parametrize(
+    "expression,match",
+    [
+        (lambda p: p.x @ p.x, r"`path\[c\]`: evaluating the expression failed: RuntimeError"),
+        (
+            lambda p: p.x + ca.SX.sym("w", 3),
+            r"`path\[c\]`: evaluating the expression failed: RuntimeError.*[Dd]imension",
+        ),
+        (lambda p: p.q + "a", r"`path\[c\]`: evaluating the expression failed: TypeError"),
+        (lambda p: 1 / 0, r"`path\[c\]`: evaluating the expression failed: ZeroDivisionError"),
+        (lambda p: p.q + ca.SX.sym("k"), r"`path\[c\]`: .*free symbols \['k'\]"),
+        (lambda p: p.q * np.nan, r"`path\[c\]`: the expression contains the constant nan"),
+        (lambda p: p.q + np.inf, r"`path\[c\]`: the expression contains the constant inf"),
+    ],
+)
+def test_bad_path_expression_is_a_definition_error(expression, match):
+    with pytest.raises(DefinitionError, match=match) as info:
+        _expression_ocp().constrain("c", expression, upper=1.0)
+    if "failed" in match:
+        assert info.value.__cause__ is not None
+
+
+def test_bad_objective_and_boundary_expressions_are_definition_errors():
+    ocp = _expression_ocp()
+    k = ca.SX.sym("k")
+    with pytest.raises(DefinitionError, match=r"`integral`: .*free symbols \['k'\]"):
+        ocp.minimize(integral=lambda p: p.a**2 + k)
+    with pytest.raises(DefinitionError, match=r"`integral`: the expression contains the constant"):
+        ocp.minimize(integral=lambda p: ca.sumsqr(p.u) * np.nan)
+    with pytest.raises(DefinitionError, match=r"`terminal`: evaluating the expression failed"):
+        ocp.minimize(terminal=lambda p: 1 / 0)
+    with pytest.raises(DefinitionError, match=r"`end\[b\]`: .*free symbols \['k'\]"):
+        ocp.boundary("b", lambda p: p.q + k, at="end", upper=1.0)
+    with pytest.raises(DefinitionError, match=r"`periodic`: the mapping uses free symbols \['k'\]"):
+        ocp.periodic(lambda x: x + k)
+
+
+def test_singular_but_finite_expressions_are_accepted():
+    # 1/q is inf at q = 0, but it has no NaN/inf constant: it must not be rejected
+    ocp = _expression_ocp().constrain("c", lambda p: 1 / (1 + p.q**2) + p.a / p.v, upper=1.0)
+    assert ocp.constraints[-1].name == "c"

@@ -3,7 +3,9 @@ periodic maps."""
 
 from __future__ import annotations
 
+import functools
 import logging
+import math
 
 import casadi as ca
 import numpy as np
@@ -309,18 +311,43 @@ def test_time_dependent_ode():
 # ---- slow reliability checks (pytest -m slow) ------------------------------------------------
 
 
+@functools.cache
+def hermite_simpson_gait_cost(N: int) -> float:
+    solution = gait(N).solve(progress=False)
+    assert solution.success
+    return solution.cost
+
+
+def extrapolated_gait_cost() -> tuple[float, float]:
+    """Richardson extrapolation of the Hermite-Simpson costs at N = 40, 80, 160, and the
+    observed order log2((J40 - J80) / (J80 - J160))."""
+    j40, j80, j160 = (hermite_simpson_gait_cost(N) for N in (40, 80, 160))
+    order = math.log2(abs(j40 - j80) / abs(j80 - j160))
+    return j160 + (j160 - j80) / (2**order - 1), order
+
+
+@pytest.mark.slow
+def test_hermite_simpson_gait_cost_converges():
+    # The differences shrink on refinement, so the extrapolation below is meaningful. The
+    # observed order is below Hermite-Simpson's nominal 4 on this gait (about 2.6; cause not
+    # investigated, possibly active torque bounds), so only convergence is asserted.
+    _, order = extrapolated_gait_cost()
+    assert order >= 1.0
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "transcription,degree",
     [("trapezoid", None), ("hermite-simpson", None), ("radau", 3), ("legendre", 3)],
 )
 def test_six_link_gait_converges_on_every_transcription(transcription, degree):
-    # The N = 160 Hermite-Simpson optimum (measured in this session: 45642.27) is the
-    # reference; every scheme at N = 80 is within its discretisation error of it.
+    # The Richardson-extrapolated Hermite-Simpson optimum is the reference; every scheme at
+    # N = 80 is within its discretisation error of it.
+    reference, _ = extrapolated_gait_cost()
     ocp = gait(80, transcription=transcription).refine(degree=degree)
     solution = ocp.solve(progress=False)
     assert solution.success
-    assert solution.cost == pytest.approx(45642.27, rel=2e-3)
+    assert solution.cost == pytest.approx(reference, rel=2e-3)
     # per-interval re-integration error: second order for the trapezoid, higher for the rest
     assert solution.integration_error().max < (3e-2 if transcription == "trapezoid" else 5e-3)
     np.testing.assert_allclose(solution.states[0], solution.states[-1], atol=1e-8)
@@ -333,4 +360,27 @@ def test_coarse_to_fine_gait():
         warm = gait(N).guess(solution).solve(progress=False)
         assert warm.success
         solution = warm
-    assert solution.cost == pytest.approx(45642.27, rel=2e-3)
+    # the warm-started N = 80 solve reaches the cold-started N = 80 optimum
+    assert solution.cost == pytest.approx(hermite_simpson_gait_cost(80), rel=1e-6)
+
+
+def test_progress_callback_exception_is_re_raised():
+    def report(row):
+        raise ValueError("my progress callback broke")
+
+    with pytest.raises(ValueError, match="my progress callback broke"):
+        rest_to_rest().solve(progress=report)
+
+
+def test_invalid_number_names_where_the_nan_is():
+    # sqrt of a negative torque-dependent value: NaN at every iterate, with no NaN constant
+    ocp = rest_to_rest().constrain("root", lambda p: ca.sqrt(-1.0 - p.u[0] ** 2), upper=1.0)
+    with pytest.raises(SolverError, match=r"Invalid_Number_Detected \(NaN or inf in .*root"):
+        ocp.solve(progress=False)
+
+
+def test_solve_module_is_importable_under_its_own_name():
+    import planner.solver as solver_module
+
+    assert callable(solver_module.solve) and solver_module.SolverError is SolverError
+    assert solve is solver_module.solve
