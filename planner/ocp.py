@@ -424,6 +424,13 @@ class GuessLayer:
         return f"{self.kind}({type(self.source).__name__})"
 
 
+def _source_duration(source) -> float:
+    """Duration, s, of a Solution (``T``) or a Trajectory (its time span)."""
+    if hasattr(source, "interpolate_guess"):
+        return float(source.T)
+    return float(source.time[-1] - source.time[0])
+
+
 def _format_interval(lower, upper) -> str:
     lo, hi = np.atleast_1d(lower), np.atleast_1d(upper)
     if lo.size == 1:
@@ -821,9 +828,13 @@ class OCP:
         ``source``: a callable of time t (K,) s returning a dict (names or groups -> (K,) or
         (K, size)) or a tuple ((psi, dpsi[, ddpsi[, M]]) for a linkage, (x[, u[, z]])
         otherwise), or an earlier Solution (or planner Trajectory), re-gridded through its
-        interpolant in normalised time t / T (coarse-to-fine warm start).
+        interpolant in normalised time t / T (coarse-to-fine warm start). With a free
+        duration, a Solution's (Trajectory's) duration also becomes the guess of T, clipped
+        into the bounds; the re-gridding in normalised time keeps the guess on the new mesh
+        when the two durations differ.
         ``values``: constants (``M=0``, ``psi=[...]``) or, with ``t`` (K,), arrays (K,) /
-        (K, size) interpolated linearly onto the mesh. ``T``: guess of a free duration.
+        (K, size) interpolated linearly onto the mesh. ``T``: guess of a free duration (wins
+        over a source's duration given in the same call).
         For a linkage, torques that no guess gives are computed by inverse dynamics from the
         guessed psi, dpsi, ddpsi.
         """
@@ -837,7 +848,10 @@ class OCP:
                 raise DefinitionError(f"`T`: guess {T_val} outside the bounds {self.T}")
             T_guess = T_val
         if source is not None:
-            layers.append(self._guess_source(source))
+            layer = self._guess_source(source)
+            layers.append(layer)
+            if layer.kind == "solution" and self.free_time and T is None:
+                T_guess = float(np.clip(_source_duration(layer.source), *self.T))
         if values:
             layers.append(self._guess_values(values, t))
         elif t is not None:

@@ -220,6 +220,56 @@ def test_warm_starts_regrid_through_the_interpolant():
     assert from_file.solve(progress=False).success
 
 
+def free_time_swing(N, T=(0.5, 4.0), transcription="hermite-simpson", degree=None):
+    """The swing with a free duration: min integral (1 + M^2 / 100), optimum T ~ 0.85 s."""
+    return (
+        OCP(CHAIN, T=T, N=N, transcription=transcription, degree=degree)
+        .initial(psi=[DOWN, DOWN], dpsi=0.0)
+        .final(psi=TARGET, dpsi=0.0)
+        .bound("M", -60, 60)
+        .minimize(integral=lambda p: 1 + 0.01 * ca.sumsqr(p.M))
+    )
+
+
+def test_free_time_warm_start_takes_the_solution_duration():
+    coarse = free_time_swing(6).solve(progress=False, options={"tol": 1e-10})
+    assert coarse.success and 0.6 < coarse.T < 1.2  # far from the bounds' middle, 2.25 s
+    fine = free_time_swing(24).guess(coarse)
+    transcription = Transcription(fine)
+    x0 = transcription.initial_guess()
+    values = transcription.unpack(x0)
+    assert values["T"] == pytest.approx(coarse.T, rel=1e-15)
+    assert x0[-1] * transcription.T_scale == pytest.approx(coarse.T, rel=1e-15)
+    s = transcription.mesh.s_state
+    np.testing.assert_allclose(values["X"], coarse.state(s * coarse.T), atol=1e-12)
+    warm = fine.solve(progress=False, options={"tol": 1e-10})
+    cold = free_time_swing(24).solve(progress=False, options={"tol": 1e-10})
+    # (the cold start finds another local optimum, T ~ 0.87 s; the warm one stays near T)
+    assert warm.success and warm.T == pytest.approx(coarse.T, rel=0.01)
+    assert warm.iterations <= 7 and warm.iterations < cold.iterations
+    # An explicit T in the same call wins over the solution's duration.
+    told = Transcription(free_time_swing(24).guess(coarse, T=2.0))
+    assert told.unpack(told.initial_guess())["T"] == 2.0
+
+
+def test_free_time_warm_start_clips_the_duration_and_regrids_in_normalised_time():
+    coarse = free_time_swing(6).solve(progress=False, options={"tol": 1e-10})
+    for bounds, expected in (((0.5, 0.7), 0.7), ((1.0, 3.0), 1.0)):
+        transcription = Transcription(free_time_swing(12, bounds, "radau", 2).guess(coarse))
+        values = transcription.unpack(transcription.initial_guess())
+        assert values["T"] == pytest.approx(expected, rel=1e-15)  # through the T scaling
+        mesh = transcription.mesh
+        # the same fraction of the motion at the same fraction of the horizon
+        np.testing.assert_allclose(values["X"], coarse.state(mesh.s_state * coarse.T), atol=1e-12)
+        np.testing.assert_allclose(values["U"], coarse.control(mesh.s_dyn * coarse.T), atol=1e-12)
+    # a Trajectory's time span serves as the duration guess too
+    trajectory = coarse.to_trajectory(rate_hz=100.0)
+    transcription = Transcription(free_time_swing(12).guess(trajectory))
+    assert transcription.unpack(transcription.initial_guess())["T"] == pytest.approx(
+        coarse.T, rel=1e-12
+    )
+
+
 # ---- export -----------------------------------------------------------------------------
 
 
