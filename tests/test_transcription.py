@@ -224,10 +224,17 @@ def test_row_and_variable_names_are_complete_and_unique():
 # ---- NLP derivatives against central finite differences ---------------------------------
 
 
-def fd_problem(expand):
+def fd_problem(expand, transcription="hermite-simpson", degree=None, formulation="implicit"):
     chain = presets.n_link_chain(2).dynamics()
     return Transcription(
-        OCP(chain, T=(0.5, 2.0), N=3, transcription="hermite-simpson")
+        OCP(
+            chain,
+            T=(0.5, 2.0),
+            N=3,
+            transcription=transcription,
+            degree=degree,
+            formulation=formulation,
+        )
         .constrain("tilt", lambda p: ca.sin(p.psi_link1 - p.psi_link2) * p.dpsi_link1, upper=1)
         .boundary("start", lambda p: ca.cos(p.psi_link1) + p.M_link2 * p.dpsi_link2, "start", 0, 0)
         .periodic(lambda x: ca.vertcat(x[1], x[0], x[3], x[2]))
@@ -239,9 +246,21 @@ def fd_problem(expand):
     )
 
 
-@pytest.mark.parametrize("expand", [True, False])
-def test_nlp_jacobian_and_hessian_match_central_differences(expand):
-    transcription = fd_problem(expand)
+FD_CASES = [
+    pytest.param(scheme, degree, formulation, False, id=f"{scheme}{degree or ''}-{formulation}")
+    for scheme, degree in (
+        ("trapezoid", None),
+        ("hermite-simpson", None),
+        ("radau", 3),
+        ("legendre", 2),
+    )
+    for formulation in ("implicit", "explicit")
+] + [pytest.param("hermite-simpson", None, "implicit", True, id="hermite-simpson-implicit-sx")]
+
+
+@pytest.mark.parametrize("scheme,degree,formulation,expand", FD_CASES)
+def test_nlp_jacobian_and_hessian_match_central_differences(scheme, degree, formulation, expand):
+    transcription = fd_problem(expand, scheme, degree, formulation)
     solver = nlp_solver(transcription)
     g = solver.get_function("nlp_g")
     jac_g = solver.get_function("nlp_jac_g")
@@ -250,7 +269,10 @@ def test_nlp_jacobian_and_hessian_match_central_differences(expand):
     rng = np.random.default_rng(7)
     n, m = transcription.n_w, transcription.n_g
     p = np.zeros(0)
-    checked = 0
+    step = 1e-6
+    jacobian_checked = hessian_checked = 0
+    rows_seen, columns_seen = np.zeros(m, bool), np.zeros(n, bool)
+    hessian_rows_seen = np.zeros(n, bool)
     for _ in range(2):
         w = rng.uniform(-1.0, 1.0, n)
         w[-1] = 1.0  # a positive duration
@@ -265,7 +287,6 @@ def test_nlp_jacobian_and_hessian_match_central_differences(expand):
             jg = np.asarray(ca.densify(jac_g(v, p)[1]))
             return lam_f * gf + jg.T @ lam_g
 
-        step = 1e-6
         fd_jac = np.zeros((m, n))
         fd_hess = np.zeros((n, n))
         for i in range(n):
@@ -279,11 +300,27 @@ def test_nlp_jacobian_and_hessian_match_central_differences(expand):
             )
         np.testing.assert_allclose(jacobian, fd_jac, atol=1e-6 * max(1, np.abs(fd_jac).max()))
         np.testing.assert_allclose(hessian, fd_hess, atol=1e-5 * max(1, np.abs(fd_hess).max()))
-        checked += np.count_nonzero(np.abs(fd_jac) > 1e-8) + np.count_nonzero(
-            np.abs(fd_hess) > 1e-8
-        )
-    # Guard: the comparison must have covered nonzero derivatives of every kind.
-    assert checked > 200
+        jacobian_nonzero = np.abs(fd_jac) > 1e-8
+        hessian_nonzero = np.abs(fd_hess) > 1e-8
+        jacobian_checked += np.count_nonzero(jacobian_nonzero)
+        hessian_checked += np.count_nonzero(hessian_nonzero)
+        rows_seen |= jacobian_nonzero.any(axis=1)
+        columns_seen |= jacobian_nonzero.any(axis=0)
+        hessian_rows_seen |= hessian_nonzero.any(axis=1)
+    # Guards, one per derivative: the comparison covered nonzero entries of every constraint
+    # row and every variable of the Jacobian, and a second derivative of the state and the
+    # control at every dynamics point (the dynamics are nonlinear in psi, the cost in M).
+    assert rows_seen.all(), [transcription.g_names[i] for i in np.flatnonzero(~rows_seen)]
+    assert columns_seen.all(), [transcription.w_names[i] for i in np.flatnonzero(~columns_seen)]
+    assert jacobian_checked >= 2 * 2 * m, (jacobian_checked, m)
+    s = transcription.system
+    mesh = transcription.mesh
+    X = np.arange(transcription._slices["X"].start, transcription._slices["X"].stop)
+    U = np.arange(transcription._slices["U"].start, transcription._slices["U"].stop)
+    psi_at_points = X.reshape(mesh.n_state_points, s.nx)[mesh.dyn_state_cols, : s.nx // 2]
+    assert hessian_rows_seen[psi_at_points].all()
+    assert hessian_rows_seen[U].all()
+    assert hessian_checked >= 2 * (psi_at_points.size + U.size), hessian_checked
 
 
 def test_sx_and_mx_builds_give_the_same_nlp():
