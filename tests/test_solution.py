@@ -296,15 +296,42 @@ def test_to_trajectory_at_nodes_and_resampled():
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".json", ".npz"])
-def test_save_round_trip_equals_the_interpolant(tmp_path, suffix):
-    solution = solved("hermite-simpson")
+@pytest.mark.parametrize(
+    "transcription,degree,rate_hz,expected_grid",
+    [
+        # T * rate = 49.5: the samples k / 33 s for k = 0..49, then T = 1.5 s appended
+        ("hermite-simpson", None, 33.0, [k / 33.0 for k in range(50)] + [1.5]),
+        # T * rate = 30: the grid ends on T itself, nothing appended
+        ("radau", 3, 20.0, [k / 20.0 for k in range(31)]),
+    ],
+)
+def test_save_round_trip_equals_the_interpolant(
+    tmp_path, suffix, transcription, degree, rate_hz, expected_grid
+):
+    solution = solved(transcription, degree)
     path = tmp_path / f"swing{suffix}"
-    solution.save(path, rate_hz=33.0)
+    solution.save(path, rate_hz=rate_hz)
     back = Trajectory.load(path)
-    states, controls = solution(back.time)
-    assert back.time[-1] == pytest.approx(solution.T, abs=1e-15)
-    np.testing.assert_allclose(back.states, states, rtol=0, atol=1e-15)
-    np.testing.assert_allclose(back.controls, controls, rtol=0, atol=1e-13)
+    # the time grid read back is the export grid, bit for bit (full-precision files)
+    np.testing.assert_array_equal(back.time, np.array(expected_grid))
+    # every column is the solution's own interpolant at those times, bit for bit
+    names = [name for name, _, group in back.columns if group != "time"]
+    links = CHAIN.names
+    assert set(names) == {
+        *solution.state_names,
+        *solution.control_names,
+        *(f"ddpsi_{k}" for k in links),
+    }
+    acceleration = solution.acceleration(back.time)
+    np.testing.assert_array_equal(back.ddpsi, acceleration)
+    for name in names:
+        if name.startswith("ddpsi_"):
+            expected = acceleration[:, links.index(name.removeprefix("ddpsi_"))]
+        else:
+            expected = solution.value(name, back.time)
+        np.testing.assert_array_equal(back.column(name), expected, err_msg=name)
+    # implicit: the exported ddpsi is the NLP's ddpsi polynomial, independent of torques
+    np.testing.assert_array_equal(acceleration, solution.aux(back.time))
     assert back.metadata["status"] == "Solve_Succeeded"
 
 
