@@ -12,9 +12,11 @@ the controls at its end node); controls of a collocation scheme may jump at the 
 Accuracy estimates (all in the states' physical units):
 
 * :meth:`Solution.integration_error`: each interval re-integrated from its start node with the
-  interpolated controls at tight tolerance (CVODES), compared with its end node;
+  interpolated controls at tight tolerance (CVODES; IDAS on the DAE x' = z, r(x, z, u, t) = 0
+  for dynamics given as a generic implicit residual), compared with its end node;
 * :meth:`Solution.residual_error`: the integral over each interval of |f(x, u, t) - dx/dt|
-  along the interpolant (the error OptimTraj reports);
+  along the interpolant (the error OptimTraj reports; for a generic implicit residual, f is
+  the root of r(x, f, u, t) = 0 by Newton's method from dx/dt);
 * :meth:`Solution.replay`: the whole horizon integrated open loop from x(0). This is a
   stability probe, not an accuracy measure: an unstable motion (a six-link gait has a
   one-period sensitivity near 1e9) diverges whatever the transcription's accuracy.
@@ -29,7 +31,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError
+from model.errors import AnthropoidError, DefinitionError
 
 #: Gauss-Legendre points per interval for residual_error. The integrand |f - dx/dt| has kinks
 #: where f - dx/dt changes sign, so the rule is not exact (its degree 2 * 12 - 1 exactness
@@ -302,17 +304,34 @@ class Solution:
         return out
 
     # ---- accuracy ----------------------------------------------------------------------
-    def _ode(self) -> ca.Function:
-        if self.system.ode is None:
+    @property
+    def _implicit_only(self) -> bool:
+        """The dynamics are a residual r(x, xdot, u, t) = 0 with no explicit ODE (generic)."""
+        return self.system.ode is None
+
+    def _require_rate(self, what: str) -> None:
+        """A generic implicit residual must determine xdot: dr/dxdot structurally regular."""
+        if not self._implicit_only:
+            return
+        s = self.system
+        z = ca.SX.sym("z", s.nz)
+        x, u, t = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("t")
+        rank = ca.sprank(ca.jacobian(s.residual(x, z, u, t), z))
+        if rank < s.nz:
             raise DefinitionError(
-                "`integration_error`: the dynamics were given as an implicit residual only; "
-                "re-integration needs an explicit ODE (give the OCP an ODE Function)"
+                f"`{what}`: the implicit residual r(x, xdot, u, t) does not determine xdot "
+                f"(dr/dxdot has structural rank {rank} < {s.nz}), so the dynamics cannot be "
+                "re-integrated or solved for xdot; give an ODE f(x, u[, t]) or an index-1 "
+                "residual"
             )
-        return self.system.ode
 
-    def _interval_integrator(self, rtol: float, atol: float) -> ca.Function:
-        """CVODES over one interval in tau: dx/dtau = h f(x, u(tau), t_k + h tau).
+    def _interval_integrator(self, rtol: float, atol: float, what: str) -> ca.Function:
+        """One interval in tau: dx/dtau = h f(x, u(tau), t_k + h tau).
 
+        An explicit ODE integrates with CVODES. A generic implicit residual r(x, xdot, u, t)
+        integrates as the semi-explicit index-1 DAE dx/dtau = h z, 0 = r(x, z, u, t) with IDAS
+        (z = xdot algebraic, made consistent at tau = 0 from a guess); r must determine xdot
+        (dr/dxdot nonsingular), as it must for the OCP to be well posed.
         The control polynomial enters as parameters: the interval's dynamics-point controls,
         combined with the monomial coefficients of the scheme's Lagrange basis.
         """
@@ -328,11 +347,70 @@ class Solution:
         h = ca.SX.sym("h")
         monomials = ca.vertcat(*[tau**p for p in range(ndc)])
         u = ca.mtimes(ca.mtimes(uk, ca.DM(coefficients)), monomials)
-        rhs = h * self._ode()(x, u, t0 + h * tau)
         p = ca.vertcat(ca.vec(uk), t0, h)
-        dae = {"x": x, "p": p, "t": tau, "ode": rhs}
         options = {"abstol": atol, "reltol": rtol, "max_num_steps": 100000}
-        return ca.integrator("interval", "cvodes", dae, 0.0, 1.0, options)
+        if not self._implicit_only:
+            dae = {"x": x, "p": p, "t": tau, "ode": h * s.ode(x, u, t0 + h * tau)}
+            return ca.integrator("interval", "cvodes", dae, 0.0, 1.0, options)
+        self._require_rate(what)
+        z = ca.SX.sym("z", s.nz)
+        t = t0 + h * tau
+        dae = {
+            "x": x,
+            "z": z,
+            "p": p,
+            "t": tau,
+            "ode": h * s.rate(x, z, u, t),
+            "alg": s.residual(x, z, u, t),
+        }
+        return ca.integrator("interval", "idas", dae, 0.0, 1.0, options)
+
+    def _integrate(self, integrator: ca.Function, x0: np.ndarray, p: np.ndarray, z0=None):
+        """Call an interval integrator, (nx, K) x0 and (np, K) p; returns (xf, zf)."""
+        arguments = {"x0": x0, "p": p}
+        if self._implicit_only:
+            arguments["z0"] = z0
+        try:
+            result = integrator(**arguments)
+        except RuntimeError as exc:
+            if not self._implicit_only:
+                raise
+            raise AnthropoidError(
+                "re-integration of the implicit residual failed (IDAS): the residual "
+                "r(x, xdot, u, t) must determine xdot (dr/dxdot nonsingular along the "
+                f"solution); {exc}"
+            ) from exc
+        return np.asarray(result["xf"]), np.asarray(result["zf"])
+
+    def _interval_start_rates(self) -> np.ndarray:
+        """(nz, N) guesses of xdot at each interval's start: its own aux polynomial at tau = 0
+        (the DAE integrator makes them consistent)."""
+        weights = self.scheme.control_weights([0.0])[0]  # (ndc,)
+        return np.einsum("c,kcn->nk", weights, self.aux_values[self.mesh.dyn_cols])
+
+    def _rates_at(self, x: np.ndarray, u: np.ndarray, t: np.ndarray, guess: np.ndarray):
+        """(K, nx) xdot = f(x, u, t) at K points: the ODE, or for a generic implicit residual
+        the root of r(x, xdot, u, t) = 0 by Newton's method from ``guess`` (K, nx)."""
+        s = self.system
+        K = t.size
+        if not self._implicit_only:
+            return np.asarray(s.ode.map(K)(x.T, u.T, t[None, :])).T
+        self._require_rate("residual_error")
+        xs, us, ts = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("t")
+        z = ca.SX.sym("z", s.nz)
+        parameters = ca.vertcat(xs, us, ts)
+        residual = ca.Function("r", [z, parameters], [s.residual(xs, z, us, ts)])
+        try:
+            root = ca.rootfinder("xdot", "newton", residual, {"abstol": 1e-13, "max_iter": 100})
+            z_root = np.asarray(root.map(K)(guess.T, np.vstack([x.T, u.T, t[None, :]])))
+        except RuntimeError as exc:
+            raise AnthropoidError(
+                "solving the implicit residual r(x, xdot, u, t) = 0 for xdot failed (Newton "
+                "from the interpolant's slope): the residual must determine xdot (dr/dxdot "
+                f"nonsingular along the solution); {exc}"
+            ) from exc
+        rate = s.rate.map(K)(x.T, z_root, u.T, t[None, :])
+        return np.asarray(rate).T
 
     def _interval_parameters(self) -> np.ndarray:
         mesh = self.mesh
@@ -348,11 +426,11 @@ class Solution:
 
         Returns the (N, nx) absolute difference from the end nodes (state units).
         """
-        integrator = self._interval_integrator(rtol, atol).map(self.N)
+        integrator = self._interval_integrator(rtol, atol, "integration_error").map(self.N)
         nodes = self.states
-        result = integrator(x0=nodes[:-1].T, p=self._interval_parameters())
-        end = np.asarray(result["xf"]).T
-        return IntegrationError(np.abs(end - nodes[1:]), self.system.state_names)
+        z0 = self._interval_start_rates() if self._implicit_only else None
+        end, _ = self._integrate(integrator, nodes[:-1].T, self._interval_parameters(), z0)
+        return IntegrationError(np.abs(end.T - nodes[1:]), self.system.state_names)
 
     def residual_error(self, points: int = RESIDUAL_QUADRATURE_POINTS) -> IntegrationError:
         """Integral over each interval of |f(x(t), u(t), t) - dx/dt(t)| along the interpolant.
@@ -367,8 +445,7 @@ class Solution:
         x = self.state(t)
         dx = self.state(t, derivative=1)
         u = self.control(t)
-        ode = self._ode().map(t.size)
-        f = np.asarray(ode(x.T, u.T, t[None, :])).T
+        f = self._rates_at(x, u, t, dx)
         gap = np.abs(f - dx).reshape(self.N, points, -1)
         return IntegrationError(
             self.h * np.einsum("p,kpn->kn", weights, gap), self.system.state_names
@@ -380,12 +457,14 @@ class Solution:
         A stability probe, not an accuracy measure: the deviation grows with the motion's
         own instability (for an unstable gait it is large however accurate the solution).
         """
-        integrator = self._interval_integrator(rtol, atol)
+        integrator = self._interval_integrator(rtol, atol, "replay")
         parameters = self._interval_parameters()
         x = self.states[0].copy()
+        z = self._interval_start_rates()[:, 0] if self._implicit_only else None
         out = [x]
         for k in range(self.N):
-            x = np.asarray(integrator(x0=x, p=parameters[:, k])["xf"]).reshape(-1)
+            xf, zf = self._integrate(integrator, x, parameters[:, k], z)
+            x, z = xf.reshape(-1), zf.reshape(-1)
             out.append(x)
         states = np.array(out)
         return Replay(self.time, states, states - self.states)

@@ -186,6 +186,91 @@ def test_error_estimates_shrink_at_the_scheme_order():
     assert slope(residuals) >= 2.5, residuals
 
 
+def implicit_oscillator():
+    """A generic implicit residual, nonlinear in xdot and time dependent:
+    r = [q' - v, (1 + sin^2 q / 2) v' + v'^3 / 10 + sin q - a - 0.3 cos t]."""
+    x, xdot = ca.SX.sym("x", 2), ca.SX.sym("xdot", 2)
+    u, t = ca.SX.sym("u"), ca.SX.sym("t")
+    mass = 1 + 0.5 * ca.sin(x[0]) ** 2
+    force = ca.sin(x[0]) - u - 0.3 * ca.cos(t)
+    residual = ca.vertcat(xdot[0] - x[1], mass * xdot[1] + 0.1 * xdot[1] ** 3 + force)
+    return ca.Function("r", [x, xdot, u, t], [residual], ["x", "xdot", "u", "t"], ["r"])
+
+
+def oscillator_rate(t, x, a):
+    """xdot of the oscillator in numpy: v' is the one real root of the cubic
+    v'^3 / 10 + (1 + sin^2 q / 2) v' + (sin q - a - 0.3 cos t) = 0 (increasing in v')."""
+    roots = np.roots([0.1, 0.0, 1 + 0.5 * np.sin(x[0]) ** 2, np.sin(x[0]) - a - 0.3 * np.cos(t)])
+    real = roots[np.abs(roots.imag) < 1e-9].real
+    assert real.size == 1
+    return np.array([x[1], real[0]])
+
+
+@pytest.mark.parametrize("name,degree", [("hermite-simpson", None), ("radau", 3)])
+def test_accuracy_estimates_of_a_generic_implicit_residual(name, degree):
+    solution = (
+        OCP(
+            implicit_oscillator(),
+            T=2.0,
+            N=8,
+            transcription=name,
+            degree=degree,
+            formulation="implicit",
+            state_names=("q", "v"),
+            control_names=("a",),
+        )
+        .initial(q=0.0, v=0.0)
+        .final(q=1.0, v=0.0)
+        .minimize(integral=lambda p: p.a**2)
+        .solve(progress=False, options={"tol": 1e-12})
+    )
+    assert solution.system.ode is None  # no explicit ODE: the residual alone
+    h = solution.h
+    # re-integration, against scipy on the explicit form solved by hand
+    expected = np.zeros((solution.N, 2))
+    for k in range(solution.N):
+        t0 = solution.time[k]
+
+        def rhs(t, x, t0=t0):
+            a = solution.control([min(max(t, t0 + 1e-14), t0 + h - 1e-14)])[0, 0]
+            return oscillator_rate(t, x, a)
+
+        result = solve_ivp(rhs, (t0, t0 + h), solution.states[k], "DOP853", rtol=1e-12, atol=1e-12)
+        expected[k] = np.abs(result.y[:, -1] - solution.states[k + 1])
+    assert expected.max() > 1e-7  # a coarse mesh: a measurable error
+    estimate = solution.integration_error()
+    np.testing.assert_allclose(estimate.per_interval, expected, atol=1e-9)
+    # residual estimate: integral of |f - dx/dt| by Gauss-Legendre, f from the cubic's root
+    nodes, weights = np.polynomial.legendre.leggauss(12)
+    nodes, weights = (nodes + 1) / 2, weights / 2
+    gap = np.zeros((solution.N, 2))
+    for k in range(solution.N):
+        t = solution.time[k] + h * nodes
+        x, dx, a = solution.state(t), solution.state(t, derivative=1), solution.control(t)
+        f = np.array([oscillator_rate(t[i], x[i], a[i, 0]) for i in range(t.size)])
+        gap[k] = h * weights @ np.abs(f - dx)
+    assert gap.max() > 1e-7
+    np.testing.assert_allclose(solution.residual_error().per_interval, gap, rtol=1e-9, atol=1e-13)
+    # the replay's first interval is the first re-integration
+    replay = solution.replay(rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(np.abs(replay.deviation[1]), expected[0], atol=1e-9)
+
+
+def test_a_residual_that_does_not_determine_xdot_is_named():
+    # r = [q' - v, q' - v]: v' appears nowhere, so no integrator or Newton step can find it.
+    x, xdot, u = ca.SX.sym("x", 2), ca.SX.sym("xdot", 2), ca.SX.sym("u")
+    residual = ca.Function("r", [x, xdot, u], [ca.vertcat(xdot[0] - x[1], xdot[0] - x[1])])
+    solution = (
+        OCP(residual, T=1.0, N=4, formulation="implicit", state_names=("q", "v"))
+        .initial(q=0.0, v=0.0)
+        .minimize(integral=lambda p: p.u_0**2 + p.v**2)
+        .solve(progress=False, raise_on_failure=False)
+    )
+    for method in ("integration_error", "residual_error", "replay"):
+        with pytest.raises(DefinitionError, match=rf"`{method}`: .*structural rank 1 < 2"):
+            getattr(solution, method)()
+
+
 def test_replay_is_the_chained_reintegration():
     solution = solved("hermite-simpson")
     replay = solution.replay(rtol=1e-12, atol=1e-12)
