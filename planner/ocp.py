@@ -697,10 +697,12 @@ class OCP:
         Function of Point fields, scalar or vector; ``scale``: nominal magnitude (default from
         the finite bounds, else 1).
 
-        Not enforced where no dynamics point lies: t = 0 for ``radau`` (its points are the
-        interval ends) and the mesh nodes for ``legendre`` (interior points only). Add a
-        ``boundary``/``initial`` constraint for t = 0, or use trapezoid/Hermite-Simpson when the
-        constraint must hold exactly at the nodes.
+        A constraint of the state, ``t`` and ``T`` only (no control, no z) also holds where
+        no dynamics point lies: t = 0 for ``radau`` (its points are the interval ends) and the
+        mesh nodes for ``legendre`` (interior points only). A constraint that involves a
+        control or z is not enforced there (controls are no variables at those points): add a
+        ``boundary`` constraint for t = 0 or T, or use trapezoid/Hermite-Simpson when it must
+        hold exactly at the nodes.
         """
         return self._add_constraint(name, expression, lower, upper, "path", scale)
 

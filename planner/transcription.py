@@ -25,7 +25,9 @@ Legendre scheme adds a continuity defect x_{k+1} = x(tau = 1).)
 The NLP is built from one SX Function per dynamics point (rate, residual, path constraints,
 integrand), mapped over all points with ``Function.map``, so that construction cost does not
 grow with the expression size times N; defects are sparse constant matrices applied to the
-stacked variables. Variables and constraints are scaled by their nominal magnitudes; every
+stacked variables. Path constraints hold at the dynamics points; those of the state, t and T
+only hold also at the state points with no dynamics point (Radau: t = 0; Legendre: the
+nodes). Variables and constraints are scaled by their nominal magnitudes; every
 constraint row keeps a name ("defect[psi_torso] interval 12", "path[clearance] node 3").
 """
 
@@ -268,6 +270,12 @@ class Mesh:
         return np.append(cols, self.n_state_points - 1) if self.scheme.shares_end else cols
 
     @cached_property
+    def free_state_cols(self) -> np.ndarray:
+        """State columns where no dynamics point lies: t = 0 for Radau, every node for
+        Legendre, none for trapezoid and Hermite-Simpson."""
+        return np.setdiff1d(np.arange(self.n_state_points), self.dyn_state_cols)
+
+    @cached_property
     def quadrature(self) -> np.ndarray:
         """(n_dyn_points,) weights q with integral ~= h sum q_c L_c."""
         q = np.zeros(self.n_dyn_points)
@@ -485,6 +493,42 @@ class Transcription:
     def _boundary_constraints(self):
         return [c for c in self.ocp.constraints if c.where != "path"]
 
+    @cached_property
+    def state_paths(self) -> tuple:
+        """Path constraints that depend on the state, t and T only (no control, no z): they
+        are also enforced at the state points where no dynamics point lies
+        (``mesh.free_state_cols``), where controls are not variables."""
+        s = self.system
+        x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
+        point = Point(s, x, u, z, ca.SX.sym("t"), ca.SX.sym("T"))
+        others = ca.vertcat(u, z)
+        kept = []
+        for c in self._path_constraints():
+            value = evaluate_expression(f"path[{c.name}]", c.expression, point)
+            if others.numel() == 0 or not ca.depends_on(value, others):
+                kept.append(c)
+        return tuple(kept)
+
+    def _state_path_function(self) -> ca.Function:
+        """(xs, t, T) -> the state-only path constraints, scaled, at one state point."""
+        s, ocp = self.system, self.ocp
+        xs, t, T = ca.SX.sym("xs", s.nx), ca.SX.sym("t"), ca.SX.sym("T")
+        x = xs * ca.DM(self.state_scale)
+        # The constraints do not depend on u and z; zeros keep their shapes.
+        point = Point(s, x, ca.SX.zeros(s.nu), ca.SX.zeros(s.nz), t, T)
+        rows = [
+            evaluate_expression(f"path[{c.name}]", c.expression, point)
+            / ca.DM(ocp.constraint_scale(c))
+            for c in self.state_paths
+        ]
+        return ca.Function(
+            "state_path",
+            [xs, t, T],
+            [ca.vertcat(*rows) if rows else ca.SX(0, 1)],
+            ["xs", "t", "T"],
+            ["path"],
+        )
+
     def _point_function(self) -> ca.Function:
         """SX Function at one dynamics point, scaled in and out.
 
@@ -591,7 +635,17 @@ class Transcription:
         self.boundary_function = boundary_f
         gb, gper, mayer = boundary_f(Xs[:, 0], Xs[:, -1], u0, uf, z0, zf, T)
         objective = h * ca.mtimes(Ls, ca.DM(mesh.quadrature)) + mayer
-        g = ca.vertcat(ca.vec(defects), ca.vec(Rs), ca.vec(Ps), gb, gper)
+        # State-only path constraints also where no dynamics point lies (Radau t = 0,
+        # Legendre nodes): there the state is a variable, the control is not.
+        free = mesh.free_state_cols
+        if self.state_paths and free.size:
+            state_path = self._state_path_function().map(free.size)
+            Pfree = state_path(
+                Xs[:, free.tolist()], T * ca.DM(mesh.s_state[free]).T, ca.repmat(T, 1, free.size)
+            )
+        else:
+            Pfree = sym(0, 1)
+        g = ca.vertcat(ca.vec(defects), ca.vec(Rs), ca.vec(Ps), ca.vec(Pfree), gb, gper)
         self.nlp = {"x": w, "f": objective, "g": g}
         self._bounds_and_names()
 
@@ -663,6 +717,22 @@ class Transcription:
             lbg.append(np.tile(lo, nC))
             ubg.append(np.tile(hi, nC))
             g_scale.append(np.tile(np.concatenate([ocp.constraint_scale(c) for c in paths]), nC))
+        free = mesh.free_state_cols
+        if self.state_paths and free.size:
+            state_paths = self.state_paths
+            lo = np.concatenate([c.lower / ocp.constraint_scale(c) for c in state_paths])
+            hi = np.concatenate([c.upper / ocp.constraint_scale(c) for c in state_paths])
+            row_names = [
+                f"path[{c.name}]" + (f"[{i}]" if c.size > 1 else "")
+                for c in state_paths
+                for i in range(c.size)
+            ]
+            for col in free:
+                g_names.extend(f"{n} {mesh.state_label(int(col))}" for n in row_names)
+            lbg.append(np.tile(lo, free.size))
+            ubg.append(np.tile(hi, free.size))
+            scales = np.concatenate([ocp.constraint_scale(c) for c in state_paths])
+            g_scale.append(np.tile(scales, free.size))
         for c in self._boundary_constraints():
             scale = ocp.constraint_scale(c)
             g_names.extend(

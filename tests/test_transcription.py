@@ -221,6 +221,74 @@ def test_row_and_variable_names_are_complete_and_unique():
     assert "bound[M_link1] node 0" in transcription.w_names
 
 
+# ---- path constraints where no dynamics point lies -----------------------------------------
+
+
+def floor_problem(transcription, degree, floor=lambda p: p.q):
+    """Double integrator, v(0) = 1, v(1) = -1, q >= 0, min integral a^2 + 10 (q(0) + q(1)).
+    Optimum: a = -2 (the least integral a^2 with integral a = -2), q = t - t^2 (the lowest
+    start that keeps q >= 0), cost 4; the floor binds at both ends of the horizon."""
+    return (
+        OCP(
+            double_integrator(),
+            T=1.0,
+            N=4,
+            transcription=transcription,
+            degree=degree,
+            state_names=("q", "v"),
+            control_names=("a",),
+        )
+        .initial(v=1.0)
+        .final(v=-1.0)
+        .constrain("floor", floor, lower=0.0)
+        .minimize(integral=lambda p: p.a**2, terminal=lambda p: 10 * (p.x0[0] + p.q))
+    )
+
+
+@pytest.mark.parametrize("name,degree", [("radau", 3), ("legendre", 2), ("hermite-simpson", None)])
+def test_state_only_path_constraints_hold_at_every_node(name, degree):
+    solution = floor_problem(name, degree).solve(progress=False, options=TIGHT)
+    relax = 1e-7  # IPOPT relaxes bounds by ~1e-8 (bound_relax_factor)
+    assert solution.states[:, 0].min() >= -relax, solution.states[:, 0]
+    assert solution.state_values[:, 0].min() >= -relax
+    assert solution.cost == pytest.approx(4.0, abs=1e-6)
+    np.testing.assert_allclose(solution.states[:, 0], solution.time - solution.time**2, atol=relax)
+    names = Transcription(floor_problem(name, degree)).g_names
+    if name == "radau":  # t = 0 is the one state point that is no collocation point
+        assert "path[floor] node 0" in names and "path[floor] node 1" in names
+    elif name == "legendre":  # every node: the collocation points are interior
+        assert all(f"path[floor] node {k}" in names for k in range(5))
+    assert len(set(names)) == len(names)
+
+
+@pytest.mark.parametrize("name,degree", [("radau", 3), ("legendre", 2)])
+def test_path_constraints_with_controls_stay_at_the_dynamics_points(name, degree):
+    # a control is no variable at the Radau start or the Legendre nodes: no row there
+    transcription = Transcription(floor_problem(name, degree, lambda p: p.q - 1e-3 * p.a**2))
+    assert not transcription.state_paths
+    rows = [n for n in transcription.g_names if n.startswith("path[floor]")]
+    assert len(rows) == transcription.mesh.n_dyn_points
+    assert "path[floor] node 0" not in rows
+    # a time-dependent, state-only Function of named fields counts as state-only
+    q, t = ca.SX.sym("q"), ca.SX.sym("t")
+    function = ca.Function("g", [q, t], [q + 0.1 * ca.sin(t)], ["q", "t"], ["g"])
+    transcription = Transcription(floor_problem(name, degree, function))
+    assert [c.name for c in transcription.state_paths] == ["floor"]
+    mesh = transcription.mesh
+    free = mesh.free_state_cols
+    assert free.tolist() == ([0] if name == "radau" else mesh.node_state_cols.tolist())
+    rows = [n for n in transcription.g_names if n.startswith("path[floor]")]
+    assert len(rows) == mesh.n_dyn_points + free.size
+    # the extra rows evaluate the constraint at the free state points (numpy, by name)
+    w = np.random.default_rng(3).normal(size=transcription.n_w)
+    g = np.asarray(ca.Function("g", [transcription.nlp["x"]], [transcription.nlp["g"]])(w))
+    X = transcription.unpack(w)["X"]
+    for col in free:
+        row = transcription.g_names.index(f"path[floor] {mesh.state_label(int(col))}")
+        expected = X[col, 0] + 0.1 * np.sin(mesh.s_state[col] * 1.0)  # T = 1 s
+        assert g[row, 0] == pytest.approx(expected, rel=1e-14, abs=1e-14)
+
+
 # ---- NLP derivatives against central finite differences ---------------------------------
 
 
