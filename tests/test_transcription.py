@@ -221,6 +221,21 @@ def test_row_and_variable_names_are_complete_and_unique():
     assert "bound[M_link1] node 0" in transcription.w_names
 
 
+def test_hermite_simpson_cost_is_simpsons_rule_with_the_midpoint_variables():
+    # integral (y^2 + w^2) ~= h/6 sum (L(x_k, u_k) + 4 L(x_m, u_m) + L(x_k+1, u_k+1)), with the
+    # midpoint state and control the NLP's own variables (not averages of the nodes)
+    N = 3
+    transcription = Transcription(scalar_lq(N, "hermite-simpson"))
+    w = np.random.default_rng(5).normal(size=transcription.n_w)
+    f = float(ca.Function("f", [transcription.nlp["x"]], [transcription.nlp["f"]])(w))
+    values = transcription.unpack(w)
+    y, u = values["X"][:, 0], values["U"][:, 0]
+    L = y**2 + u**2
+    h = LQ_T / N
+    expected = sum(h / 6 * (L[2 * k] + 4 * L[2 * k + 1] + L[2 * k + 2]) for k in range(N))
+    assert f == pytest.approx(expected, rel=1e-14)
+
+
 # ---- path constraints where no dynamics point lies -----------------------------------------
 
 
