@@ -18,26 +18,52 @@ Writes to the output folder (default: first_problem_out):
 from __future__ import annotations
 
 import argparse
+import math
 import os
 from pathlib import Path
 
 import numpy as np
 
 from model import presets
-from problems import GaitLaw, torques_along
+from problems import LAW_PRESETS, GaitLaw, torques_along
+
+#: Highest --rate-hz: one period at 1 MHz is a million samples (about 200 MB of CSV).
+MAX_RATE_HZ = 1e6
+
+
+def rate_hz(text: str) -> float:
+    """--rate-hz: a finite rate in (0, MAX_RATE_HZ] Hz (argparse reports the message)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number in Hz, got {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0 Hz, got {text!r}")
+    if value > MAX_RATE_HZ:
+        raise argparse.ArgumentTypeError(
+            f"must be at most {MAX_RATE_HZ:,.0f} Hz, got {text!r}; give a smaller rate"
+        )
+    return value
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--law", default="paper22", help="gait-law preset: paper22 or walking")
-    parser.add_argument("--rate-hz", type=float, default=1000.0, help="samples per second, Hz")
+    parser.add_argument(
+        "--law", default="paper22", choices=sorted(LAW_PRESETS), help="gait-law preset"
+    )
+    parser.add_argument(
+        "--rate-hz",
+        type=rate_hz,
+        default=1000.0,
+        help="samples per second, Hz, in (0, 1e6] (default: 1000)",
+    )
     parser.add_argument("--output-dir", default="first_problem_out", help="output folder")
     parser.add_argument("--quick", action="store_true", help="skip the stick-figure strip")
     args = parser.parse_args(argv)
 
     dynamics = presets.six_link_anthropoid().dynamics()
     law = GaitLaw.preset(args.law)
-    samples = round(law.period * args.rate_hz) + 1
+    samples = max(2, round(law.period * args.rate_hz) + 1)
     profile = torques_along(dynamics, law, np.linspace(0.0, law.period, samples))
 
     folder = Path(args.output_dir)

@@ -1,5 +1,6 @@
 """The examples run as a user runs them (a subprocess each), in their --quick form."""
 
+import math
 import os
 import re
 import subprocess
@@ -7,22 +8,28 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
+from model import presets
 from planner.trajectory import Trajectory
-from problems import GaitLaw
+from problems import GaitLaw, upright_instability_rate
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
-def _run(script: str, *argv) -> str:
+def _call(script: str, *argv) -> subprocess.CompletedProcess:
     env = dict(os.environ, MPLBACKEND="Agg")
-    result = subprocess.run(
-        [sys.executable, str(EXAMPLES / script), "--quick", *map(str, argv)],
+    return subprocess.run(
+        [sys.executable, str(EXAMPLES / script), *map(str, argv)],
         capture_output=True,
         text=True,
         timeout=120,
         env=env,
     )
+
+
+def _run(script: str, *argv) -> str:
+    result = _call(script, "--quick", *argv)
     assert result.returncode == 0, result.stderr
     assert "Traceback" not in result.stderr
     return result.stdout
@@ -39,13 +46,57 @@ def test_first_then_second_problem(tmp_path):
     assert profile.time.size == 1001  # 1 kHz over one period
 
     out = _run("second_problem.py", "--output-dir", tmp_path)
+    assert "comparing with GaitLaw 'paper22'" in out
     assert (tmp_path / "second_problem.png").stat().st_size > 0
     motion = Trajectory.load(tmp_path / "second_problem.csv")
-    assert motion.time[-1] == 0.4
-    horizon = float(re.search(r"stays within 1e-6 rad of the law for ([0-9.]+) s", out).group(1))
-    assert horizon >= 0.2  # measured 0.27 s from the 1 kHz file
+    assert motion.time[-1] == 0.8
+    _check_replay(out)
+
+
+def _check_replay(out: str) -> None:
+    """The printed horizon and growth rate agree with an unstable motion seeded by the
+    integration error.
+
+    The deviation grows ~ e0 exp(rate t), so e0 = 1e-6 exp(-rate horizon) is the error level
+    the replay started from. It must lie between double-precision round-off of the angles
+    (1e-16 rad) and ten times the integrator's tolerance on them (rtol = atol = 1e-12 of
+    |psi| <= 2 rad, so 2e-11 rad): a larger e0 means an error source beyond integration
+    (a wrong law, a bad spline), a smaller one an impossible accuracy. Measured: 0.58 s and
+    25 /s (e0 = 5e-13 rad). The rate itself must be the upright pose's instability, within
+    the spread of a motion that moves about that pose.
+    """
+    horizon = float(re.search(r"stays within 1e-6 rad of the law for ([0-9.]+) s\n", out).group(1))
     rate = float(re.search(r"grows ~exp\(([0-9.]+) t\)", out).group(1))
-    assert 15.0 < rate < 40.0
+    linear = upright_instability_rate(presets.six_link_anthropoid(), np.full(6, np.pi / 2))
+    assert 0.5 < rate / linear < 1.5, (rate, linear)
+    e0 = 1e-6 * math.exp(-rate * horizon)
+    assert 1e-16 <= e0 <= 2e-11, (horizon, rate, e0)
+
+
+def test_second_problem_compares_with_the_law_of_its_file(tmp_path):
+    _run("first_problem.py", "--law", "walking", "--output-dir", tmp_path)
+    out = _run("second_problem.py", "--output-dir", tmp_path)
+    assert "comparing with GaitLaw 'walking'" in out
+    _check_replay(out)  # compared with paper22 it would leave the law at t = 0
+    result = _call("second_problem.py", "--quick", "--law", "paper22", "--output-dir", tmp_path)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "error: --law paper22 differs from the law 'walking'" in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--rate-hz", "-5"], r"argument --rate-hz: must be a finite number > 0 Hz, got '-5'"),
+        (["--rate-hz", "inf"], r"argument --rate-hz: must be a finite number > 0 Hz"),
+        (["--rate-hz", "2e6"], r"argument --rate-hz: must be at most 1,000,000 Hz"),
+        (["--law", "jogging"], r"argument --law: invalid choice: 'jogging'"),
+    ],
+)
+def test_first_problem_bad_input_is_an_argparse_error(tmp_path, argv, message):
+    result = _call("first_problem.py", *argv, "--output-dir", tmp_path)
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    assert re.search(message, result.stderr.strip().splitlines()[-1]), result.stderr
 
 
 def test_second_problem_writes_its_input_when_missing(tmp_path):
