@@ -9,7 +9,10 @@ The command line is ``python -m problems`` (see ``problems.cli``).
 """
 
 from problems.dynamics_problems import (
+    FIT_WINDOW,
+    MAX_OUTPUT_SAMPLES,
     METHODS,
+    MIN_TOLERANCE,
     ReplayReport,
     SimulationError,
     fit_growth_rate,
@@ -23,8 +26,11 @@ from problems.dynamics_problems import (
 from problems.gait_law import LAW_PRESETS, GaitLaw
 
 __all__ = [
+    "FIT_WINDOW",
     "LAW_PRESETS",
+    "MAX_OUTPUT_SAMPLES",
     "METHODS",
+    "MIN_TOLERANCE",
     "GaitLaw",
     "ReplayReport",
     "SimulationError",
