@@ -9,27 +9,39 @@ demo        the six-link equations of motion and the gait-law torque table (the 
 
 This module is the project's output layer: it alone prints. Results go to stdout, progress and
 errors to stderr; a bad input gives one line "anthropoid-planner <command>: error: ..." and
-exit status 2, a failed computation exit status 1, never a traceback.
+exit status 2; a failed computation (the library's own errors, such as a SimulationError) or
+a file that cannot be written, one line and exit status 1. Only the library's errors and
+OSError are caught: anything else is a bug and keeps its traceback.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
+import re
 import sys
+import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TextIO
 
 PROG = "anthropoid-planner"
 FORMATS = ("csv", "json", "npz")
 LAWS = ("paper22", "walking")
+#: Highest --rate-hz, Hz, and most samples a command writes (memory and disk stay sane).
+MAX_RATE_HZ = 1e6
+MAX_SAMPLES = 2_000_000
 
 
 class UsageError(Exception):
     """Bad command-line input: reported as one line, exit status 2."""
+
+
+class CommandFailed(Exception):
+    """A computation that failed on valid input: reported as one line, exit status 1."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -40,17 +52,35 @@ class _Parser(argparse.ArgumentParser):
 
 
 class Reporter:
-    """Progress on stderr: lines tagged with the elapsed time, throttled, switchable."""
+    """Progress on stderr: lines tagged with the elapsed time, throttled, switchable.
 
-    def __init__(self, stream: TextIO, enabled: bool = True) -> None:
+    ``step`` announces a stage; ``progress`` reports a fraction (throttled to one line per
+    0.5 s); ``working`` wraps a stage that reports nothing itself (an animation, a plot):
+    it announces it, adds a "still ..." line every ``heartbeat_s`` seconds while it runs and
+    a closing line with its duration when it took a second or more.
+    """
+
+    def __init__(
+        self, stream: TextIO, enabled: bool = True, heartbeat_s: float = 1.0, where: str = PROG
+    ) -> None:
         self._stream = stream
         self._enabled = enabled
+        self._where = where
+        self._heartbeat_s = heartbeat_s
         self._start = time.perf_counter()
         self._last = -math.inf
+        self._lock = threading.Lock()
 
     def step(self, message: str) -> None:
         if self._enabled:
-            print(f"[{time.perf_counter() - self._start:6.2f} s] {message}", file=self._stream)
+            with self._lock:
+                print(f"[{time.perf_counter() - self._start:6.2f} s] {message}", file=self._stream)
+                self._stream.flush()
+
+    def warn(self, message: str) -> None:
+        """One line "<prog> <command>: warning: ..." on the stream, even with --quiet."""
+        with self._lock:
+            print(f"{self._where}: warning: {message}", file=self._stream)
             self._stream.flush()
 
     def progress(self, fraction: float, message: str) -> None:
@@ -59,9 +89,36 @@ class Reporter:
             self._last = now
             self.step(f"{message} ({100.0 * fraction:3.0f}%)")
 
+    @contextlib.contextmanager
+    def working(self, message: str) -> Iterator[None]:
+        """Announce ``message``, then a heartbeat line while the block runs."""
+        self.step(message)
+        if not self._enabled:
+            yield
+            return
+        begin = time.perf_counter()
+        done = threading.Event()
+        beats = []
+
+        def beat() -> None:
+            while not done.wait(self._heartbeat_s):
+                beats.append(None)
+                self.step(f"still {message}: {time.perf_counter() - begin:.1f} s so far")
+
+        thread = threading.Thread(target=beat, name="progress-heartbeat", daemon=True)
+        thread.start()
+        try:
+            yield
+        finally:
+            done.set()
+            thread.join()
+        elapsed = time.perf_counter() - begin
+        if elapsed >= 1.0 or beats:
+            self.step(f"done {message} in {elapsed:.1f} s")
+
 
 # ---- argument types (each raises a one-line message naming the unit) -----------------------
-def _positive(unit: str):
+def _positive(unit: str, maximum: float = math.inf):
     def parse(text: str) -> float:
         try:
             value = float(text)
@@ -69,18 +126,27 @@ def _positive(unit: str):
             raise argparse.ArgumentTypeError(f"expected a number in {unit}, got {text!r}") from None
         if not math.isfinite(value) or value <= 0:
             raise argparse.ArgumentTypeError(f"must be a finite number > 0 {unit}, got {text!r}")
+        if value > maximum:
+            raise argparse.ArgumentTypeError(
+                f"must be at most {maximum:,.0f} {unit}, got {text!r}; give a smaller value"
+            )
         return value
 
     return parse
 
 
 def _tolerance(text: str) -> float:
+    from problems.dynamics_problems import tolerance_problem
+
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not 0 < value < 1:
-        raise argparse.ArgumentTypeError(f"must lie in (0, 1), got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a number such as 1e-10, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number such as 1e-10, got {text!r}")
+    problem = tolerance_problem(value)
+    if problem is not None:
+        raise argparse.ArgumentTypeError(problem)
     return value
 
 
@@ -205,11 +271,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     torques.add_argument(
         "--rate-hz",
-        type=_positive("Hz"),
+        type=_positive("Hz", MAX_RATE_HZ),
         default=1000.0,
         metavar="HZ",
-        help="samples per second in the files, Hz (default: 1000; the samples are exact, "
-        "a simulation interpolates between them)",
+        help="samples per second in the files, Hz, at most 1e6 and 2,000,000 samples "
+        "(default: 1000; the samples are exact, a simulation interpolates between them)",
     )
     torques.add_argument(
         "--output-dir",
@@ -237,7 +303,13 @@ def build_parser() -> argparse.ArgumentParser:
             "Second problem of dynamics: integrate the linkage under the hinge torques of a "
             "file written by 'torques' (or a planner Solution export), from the file's first "
             "state [psi (rad); dpsi (rad/s)], and compare the motion with the file's angles. "
-            "Writes simulated.<format> and, unless --no-plots, simulated.png."
+            "Writes simulated.<format> and, unless --no-plots, simulated.png. Between the "
+            "file's samples the torques are interpolated (--interpolation). A planner "
+            "solution saved at its nodes only (Solution.save(path) without rate_hz) has lost "
+            "the transcription's polynomials between them: the run goes ahead with a warning "
+            "on stderr, and the motion can leave the plan by far more than the integration "
+            "error; save it with Solution.save(path, rate_hz=1000) for a faithful replay. A "
+            "failed integration prints one error line and exits with status 1."
         ),
     )
     simulate.add_argument(
@@ -255,13 +327,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--rtol",
         type=_tolerance,
         default=1e-10,
-        help="relative tolerance of cvodes/idas (default: 1e-10)",
+        help="relative tolerance of cvodes/idas, in [1e-14, 1) (default: 1e-10)",
     )
     simulate.add_argument(
         "--atol",
         type=_tolerance,
         default=1e-10,
-        help="absolute tolerance of cvodes/idas, rad and rad/s (default: 1e-10)",
+        help="absolute tolerance of cvodes/idas, rad and rad/s, in [1e-14, 1) (default: 1e-10)",
     )
     simulate.add_argument(
         "--steps",
@@ -278,10 +350,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     simulate.add_argument(
         "--rate-hz",
-        type=_positive("Hz"),
+        type=_positive("Hz", MAX_RATE_HZ),
         default=100.0,
         metavar="HZ",
-        help="output samples per second, Hz (default: 100)",
+        help="output samples per second, Hz, at most 1e6 and 2,000,000 samples (default: 100)",
     )
     simulate.add_argument(
         "--interpolation",
@@ -330,7 +402,30 @@ def _linkage(name: str):
     return PRESETS[name]()
 
 
+def _in_option_words(message: str, options: dict[str, str]) -> str:
+    """A library message with its parameter names (`rate_hz`, `GaitLaw.zeta[2]`) replaced
+    by the command-line options they came from (--rate-hz, --zeta-rad value 3)."""
+
+    def option(match: re.Match) -> str:
+        name = options.get(match.group(1))
+        if name is None:
+            return match.group(0)
+        return name if match.group(2) is None else f"{name} value {int(match.group(2)) + 1}"
+
+    return re.sub(r"`(?:GaitLaw\.)?([A-Za-z_]+)(?:\[(\d+)\])?`", option, message)
+
+
+#: GaitLaw fields and the options of 'torques' that set them.
+_LAW_OPTIONS = {
+    "period": "--period-s",
+    "zeta": "--zeta-rad",
+    "varpi": "--varpi-rad",
+    "center": "--center-rad",
+}
+
+
 def _law(args, linkage):
+    from model.errors import DefinitionError, DefinitionTypeError
     from problems.gait_law import GaitLaw
 
     for option, values in (
@@ -342,6 +437,12 @@ def _law(args, linkage):
             raise UsageError(
                 f"{option}: expected {linkage.n} values (one per link of preset "
                 f"{args.preset!r}), got {len(values)}"
+            )
+    for i, value in enumerate(args.zeta_rad or ()):
+        if value < 0:
+            raise UsageError(
+                f"--zeta-rad: value {i + 1} is {value:g} rad, but an amplitude must be >= 0 "
+                f"rad; give {-value:g} and add pi to value {i + 1} of --varpi-rad instead"
             )
 
     if args.law not in LAWS:
@@ -361,17 +462,16 @@ def _law(args, linkage):
             "center": law.center,
         }
         values.update({k: v for k, v in changes.items() if v is not None})
-        law = GaitLaw(**values, name=f"{law.name} (modified)")
+        try:
+            law = GaitLaw(**values, name=f"{law.name} (modified)")
+        except (DefinitionError, DefinitionTypeError) as exc:
+            raise UsageError(_in_option_words(str(exc), _LAW_OPTIONS)) from exc
     return law
 
 
 def _equations(linkage, latex: bool) -> str:
-    try:
-        from model import equations
-    except ImportError as exc:
-        raise RuntimeError(
-            f"the equation printer model.equations is not available ({exc})"
-        ) from exc
+    from model import equations
+
     return equations.equations_latex(linkage) if latex else equations.equations_text(linkage)
 
 
@@ -383,21 +483,23 @@ def _write_plots(dynamics, trajectory, folder: Path, stem: str, strip: bool, gif
     from planner import plots
 
     written = []
-    report.step(f"plotting {stem}.png")
-    figures = [(plots.plot_trajectory(trajectory, extras=True), folder / f"{stem}.png")]
-    if strip:
-        report.step("plotting stick_figure.png")
-        figures.append(
-            (plots.stick_figure_strip(dynamics, trajectory), folder / "stick_figure.png")
-        )
-    for figure, path in figures:
-        figure.savefig(path, dpi=100)
+    with report.working(f"plotting {stem}.png"):
+        figure = plots.plot_trajectory(trajectory, extras=True)
+        figure.savefig(folder / f"{stem}.png", dpi=100)
         plt.close(figure)
-        written.append(path)
+    written.append(folder / f"{stem}.png")
+    if strip:
+        with report.working("plotting stick_figure.png"):
+            figure = plots.stick_figure_strip(dynamics, trajectory)
+            figure.savefig(folder / "stick_figure.png", dpi=100)
+            plt.close(figure)
+        written.append(folder / "stick_figure.png")
     if gif:
-        report.step("writing animation.gif")
+        fps = 30  # plots.animate's default: real-time playback
+        frames = max(2, round(trajectory.duration * fps) + 1)
         path = folder / "animation.gif"
-        plots.animate(dynamics, trajectory, path)
+        with report.working(f"writing animation.gif ({frames} frames)"):
+            plots.animate(dynamics, trajectory, path, fps=fps)
         written.append(path)
     return written
 
@@ -456,9 +558,9 @@ def _cmd_torques(args, out: TextIO, report: Reporter) -> int:
     dynamics = linkage.dynamics()
     duration = law.period if args.duration_s is None else args.duration_s
     count = max(2, math.ceil(duration * args.rate_hz - 1e-9) + 1)
-    if count > 2_000_000:
+    if count > MAX_SAMPLES:
         raise UsageError(
-            f"--rate-hz x --duration-s asks for {count} samples; keep it under 2,000,000"
+            f"--rate-hz x --duration-s asks for {count} samples; keep it under {MAX_SAMPLES:,}"
         )
     if law.n != linkage.n:
         raise UsageError(
@@ -466,9 +568,9 @@ def _cmd_torques(args, out: TextIO, report: Reporter) -> int:
             f"{linkage.n}; give --zeta-rad, --varpi-rad and --center-rad with {linkage.n} values"
         )
     folder = _output_folder(args.output_dir)
-    report.step(f"torques along {law.name!r}: {count} samples over {duration:g} s")
-    trajectory = torques_along(dynamics, law, np.linspace(0.0, duration, count))
-    written = _save(trajectory, folder, "torques", args.formats)
+    with report.working(f"torques along {law.name!r}: {count} samples over {duration:g} s"):
+        trajectory = torques_along(dynamics, law, np.linspace(0.0, duration, count))
+        written = _save(trajectory, folder, "torques", args.formats)
     if not args.no_plots:
         written += _write_plots(dynamics, trajectory, folder, "torques", True, args.gif, report)
     print(str(law), file=out)
@@ -482,7 +584,7 @@ def _cmd_torques(args, out: TextIO, report: Reporter) -> int:
 
 
 def _load_profile(path_text: str):
-    from planner.trajectory import Trajectory
+    from planner.trajectory import Trajectory, TrajectoryError, TrajectoryFileError
 
     path = Path(path_text)
     if not path.exists():
@@ -494,27 +596,89 @@ def _load_profile(path_text: str):
             f"torque file {path_text!r}: unknown format {path.suffix!r}; use .csv, .json or .npz"
         )
     try:
-        return Trajectory.load(path)
-    except Exception as exc:
+        profile = Trajectory.load(path)
+    except TrajectoryFileError as exc:  # the loader's one error for a malformed file
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        detail = detail.removeprefix(f"{path}: ")  # the message names the file already
         raise UsageError(f"torque file {path_text!r} is malformed: {detail}") from exc
+    except OSError as exc:
+        raise UsageError(f"torque file {path_text!r} cannot be read: {exc.strerror}") from exc
+    try:
+        names = tuple(profile.link_names)
+    except TrajectoryError as exc:
+        raise UsageError(
+            f"torque file {path_text!r} has no linkage columns (psi_*, dpsi_*, M_*): {exc}"
+        ) from exc
+    return profile, names
+
+
+def _node_samples_warning(profile, path_text: str, interpolation: str) -> str | None:
+    """The warning for a planner solution saved at its nodes only (or coarser), else None.
+
+    ``planner.Solution.to_trajectory()`` without ``rate_hz`` samples the N + 1 nodes and
+    keeps the solution's metadata (source "planner", N, T, transcription); a Trajectory
+    resampled later records ``resampled: {"rate_hz", "source_samples"}``. With no more
+    samples than nodes at the source, the transcription's polynomials between the nodes
+    (Hermite-Simpson's midpoint controls, a collocation interval's interior) are gone, and
+    the simulation sees a spline through the nodes, however finely it was resampled.
+    """
+    meta = profile.metadata
+    n_intervals = meta.get("N")
+    if (
+        meta.get("source") != "planner"
+        or isinstance(n_intervals, bool)
+        or not isinstance(n_intervals, int)
+    ):
+        return None
+    resampled = meta.get("resampled")
+    source = resampled.get("source_samples") if isinstance(resampled, dict) else None
+    if isinstance(source, int) and not isinstance(source, bool):
+        origin = f"was resampled from {source} samples"
+    else:
+        source = profile.time.size
+        origin = f"holds {source} samples"
+    if source > n_intervals + 1:
+        return None
+    mesh = str(meta.get("transcription", "unknown transcription"))
+    spline = "a not-a-knot cubic spline" if interpolation == "cubic" else "linear interpolation"
+    return (
+        f"torque file {path_text!r} {origin} of a planner solution with N = {n_intervals} "
+        f"intervals ({mesh}), its nodes only: between them the torques are {spline}, not the "
+        "transcription's polynomials, so the motion can leave the plan by far more than the "
+        "integration error; save the solution with Solution.save(path, rate_hz=1000) for a "
+        "faithful replay"
+    )
+
+
+#: simulate() parameters and the options of 'simulate' that set them.
+_SIMULATE_OPTIONS = {
+    "method": "--method",
+    "rtol": "--rtol",
+    "atol": "--atol",
+    "steps": "--steps",
+    "rate_hz": "--rate-hz",
+    "t_span": "--t-end-s",
+    "interpolation": "--interpolation",
+    "torques": "the torque file",
+}
 
 
 def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
     import numpy as np
 
-    from problems.dynamics_problems import METHODS, fit_growth_rate, simulate
+    from model.errors import DefinitionError, DefinitionTypeError
+    from problems.dynamics_problems import (
+        FIT_WINDOW,
+        METHODS,
+        SimulationError,
+        fit_growth_rate,
+        simulate,
+    )
 
     if args.method not in METHODS:
         raise UsageError(f"unknown --method {args.method!r}; choose one of: {', '.join(METHODS)}")
     linkage = _linkage(args.preset)
-    profile = _load_profile(args.torque_file)
-    try:
-        names = tuple(profile.link_names)
-    except Exception as exc:
-        raise UsageError(
-            f"torque file {args.torque_file!r} has no linkage columns (psi_*, dpsi_*, M_*): {exc}"
-        ) from exc
+    profile, names = _load_profile(args.torque_file)
     if not names:
         raise UsageError(
             f"torque file {args.torque_file!r} has no linkage columns (psi_*, dpsi_*, M_*)"
@@ -532,23 +696,38 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
             f"--t-end-s {t_end:g} s is outside the file's time range ({t0:g}, {t_file_end:g}] s"
         )
     t_end = min(t_end, t_file_end)
+    samples = max(1, math.ceil((t_end - t0) * args.rate_hz - 1e-9)) + 1
+    if samples > MAX_SAMPLES:
+        raise UsageError(
+            f"--rate-hz {args.rate_hz:g} Hz over {t_end - t0:g} s asks for {samples} output "
+            f"samples; keep it under {MAX_SAMPLES:,} (lower --rate-hz or --t-end-s)"
+        )
+    warning = _node_samples_warning(profile, args.torque_file, args.interpolation)
+    if warning is not None:
+        report.warn(warning)
     folder = _output_folder(args.output_dir)
     dynamics = linkage.dynamics()
     x0 = np.concatenate([np.asarray(profile.psi)[0], np.asarray(profile.dpsi)[0]])
     report.step(f"simulate with {args.method} over [{t0:g}, {t_end:g}] s")
-    result = simulate(
-        dynamics,
-        profile,
-        x0,
-        (t0, t_end),
-        rate_hz=args.rate_hz,
-        method=args.method,
-        rtol=args.rtol,
-        atol=args.atol,
-        steps=args.steps,
-        interpolation=args.interpolation,
-        progress=report.progress,
-    )
+    try:
+        result = simulate(
+            dynamics,
+            profile,
+            x0,
+            (t0, t_end),
+            rate_hz=args.rate_hz,
+            method=args.method,
+            rtol=args.rtol,
+            atol=args.atol,
+            steps=args.steps,
+            interpolation=args.interpolation,
+            progress=report.progress,
+        )
+    except (DefinitionError, DefinitionTypeError) as exc:
+        raise UsageError(_in_option_words(str(exc), _SIMULATE_OPTIONS)) from exc
+    except SimulationError as exc:
+        message = str(exc).replace("shorten t_span", "lower --t-end-s")
+        raise CommandFailed(message.replace("rtol/atol", "--rtol/--atol")) from exc
     written = _save(result, folder, "simulated", args.formats)
     if not args.no_plots:
         written += _write_plots(dynamics, result, folder, "simulated", False, False, report)
@@ -570,9 +749,13 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
             "--method rk with more --steps or tighter --rtol/--atol move it)",
             file=out,
         )
-        rate = fit_growth_rate(result.time, deviation)
+        rate = fit_growth_rate(result.time, deviation, FIT_WINDOW)
         if math.isfinite(rate):
-            print(f"deviation grows ~exp({rate:.1f} t), rate fitted over 1e-9..1e-3 rad", file=out)
+            low, high = (f"{v:.0e}".replace("e-0", "e-") for v in FIT_WINDOW)
+            print(
+                f"deviation grows ~exp({rate:.1f} t), rate fitted over {low}..{high} rad",
+                file=out,
+            )
     else:
         print("deviation from the file's angles stays below 1e-6 rad", file=out)
     for path in written:
@@ -628,6 +811,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     sys.stdout, progress and errors to sys.stderr (looked up at call time, so a caller can
     redirect them).
     """
+    from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+
     out, err = sys.stdout, sys.stderr
     argv = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in argv if a in COMMANDS), None)
@@ -638,7 +823,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args = parser.parse_args(argv)
         except SystemExit as exc:  # --help and --version exit through argparse
             return int(exc.code or 0)
-        report = Reporter(err, enabled=not args.quiet)
+        report = Reporter(err, enabled=not args.quiet, where=where)
         return COMMANDS[args.command](args, out, report)
     except BrokenPipeError:
         # The reader went away (``... | head``): stop quietly, as Unix tools do.
@@ -648,14 +833,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         except (OSError, ValueError, AttributeError):  # stdout without a file descriptor
             pass
         return 1
-    except UsageError as exc:
-        print(f"{where}: error: {exc}", file=err)
+    except (UsageError, DefinitionError, DefinitionTypeError) as exc:
+        # Bad input; a library definition error that the command did not reword itself
+        # still names what was wrong.
+        print(f"{where}: error: {_first_line(exc)}", file=err)
         return 2
-    except (ValueError, TypeError) as exc:
-        # The library's definition errors (DefinitionError is a ValueError) are bad input.
-        print(f"{where}: error: {exc}", file=err)
-        return 2
-    except Exception as exc:
-        text = str(exc).strip().splitlines()
-        print(f"{where}: error: {text[0] if text else type(exc).__name__}", file=err)
+    except (CommandFailed, AnthropoidError, OSError) as exc:
+        # A failed computation (SimulationError, a solver failure) or a file that could not
+        # be written. Anything else is a bug and keeps its traceback.
+        print(f"{where}: error: {_first_line(exc)}", file=err)
         return 1
+
+
+def _first_line(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.strerror:
+        return f"{exc.filename!r}: {exc.strerror}" if exc.filename else exc.strerror
+    text = str(exc).strip().splitlines()
+    return text[0] if text else type(exc).__name__

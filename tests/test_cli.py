@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from model import presets
+from model import equations, presets
 from planner.trajectory import Trajectory
 from problems import GaitLaw, torques_along
 from problems.__main__ import main
@@ -129,12 +129,7 @@ def test_python_dash_m_help_in_a_subprocess():
 
 
 # ---- equations and demo ----------------------------------------------------------------------
-def _equations_available():
-    return pytest.importorskip("model.equations", reason="model/equations.py not written yet")
-
-
 def test_equations_text_latex_and_file(capsys, tmp_path):
-    equations = _equations_available()
     linkage = presets.six_link_anthropoid()
     code, out, _ = run(capsys, "equations")
     assert code == 0 and out.strip() == equations.equations_text(linkage).strip()
@@ -149,7 +144,6 @@ def test_equations_text_latex_and_file(capsys, tmp_path):
 
 
 def test_demo_prints_equations_and_the_torque_table(capsys):
-    equations = _equations_available()
     code, out, _ = run(capsys, "demo")
     assert code == 0
     assert equations.equations_text(presets.six_link_anthropoid()).strip() in out
@@ -299,7 +293,18 @@ def test_simulate_bad_files(capsys, tmp_path, profile_files):
         "euler",
         *out_dir,
     )
-    assert_one_line_error(capsys, r"--rtol: must lie in \(0, 1\)", "simulate", good, "--rtol", "2")
+    for option, value, message in (
+        ("--rtol", "2", r"--rtol: must lie in \[1e-14, 1\), got 2.0; give a tolerance such as"),
+        ("--rtol", "1e-16", r"--rtol: must lie in \[1e-14, 1\), got 1e-16; below 1e-14 cvodes"),
+        ("--atol", "0", r"--atol: must lie in \[1e-14, 1\), got 0.0; a tolerance is a small"),
+        ("--atol=-1e-8", None, r"--atol: must lie in \[1e-14, 1\), got -1e-08"),
+        ("--rtol", "nan", r"--rtol: must be a finite number such as 1e-10, got 'nan'"),
+        ("--atol", "x", r"--atol: expected a number such as 1e-10, got 'x'"),
+        ("--rate-hz", "2e6", r"--rate-hz: must be at most 1,000,000 Hz, got '2e6'"),
+        ("--rate-hz", "-5", r"--rate-hz: must be a finite number > 0 Hz, got '-5'"),
+    ):
+        value = () if value is None else (value,)
+        assert_one_line_error(capsys, message, "simulate", good, option, *value, *out_dir)
     assert_one_line_error(
         capsys,
         r"--t-end-s 5 s is outside the file's time range \(0, 0.3\] s",
@@ -328,14 +333,19 @@ def test_simulate_bad_files(capsys, tmp_path, profile_files):
             r"--zeta-rad: expected 6 values \(one per link of preset 'six-link'\), got 2",
         ),
         (["--zeta-rad", "a,b"], r"--zeta-rad: expected comma-separated numbers in rad"),
-        (["--zeta-rad=-0.1,0,0,0,0,0"], r"`GaitLaw.zeta\[0\]`: amplitude must be >= 0 rad"),
+        (
+            ["--zeta-rad=0.2,-0.1,0,0,0,0"],
+            r"--zeta-rad: value 2 is -0.1 rad, but an amplitude must be >= 0 rad; give 0.1 and "
+            r"add pi to value 2 of --varpi-rad instead",
+        ),
         (["--center-rad", "nan,0,0,0,0,0"], r"--center-rad: must be finite numbers in rad"),
         (["--formats", "csv,xls"], r"--formats: unknown format\(s\) \['xls'\]"),
         (
             ["--preset", "five-link"],
             r"gait law 'paper22' drives 6 links but preset 'five-link' has 5",
         ),
-        (["--rate-hz", "1e9", "--duration-s", "10"], r"keep it under 2,000,000"),
+        (["--rate-hz", "1e6", "--duration-s", "10"], r"asks for 10000001 samples; keep it under"),
+        (["--rate-hz", "1e9"], r"--rate-hz: must be at most 1,000,000 Hz, got '1e9'"),
         (["--bogus"], r"unrecognized arguments: --bogus"),
     ],
 )
@@ -376,4 +386,146 @@ def test_torques_gif_and_npz(capsys, tmp_path):
     assert code == 0, err
     assert (tmp_path / "animation.gif").read_bytes()[:6] in (b"GIF89a", b"GIF87a")
     assert Trajectory.load(tmp_path / "torques.npz").time.size == 6
-    assert "writing animation.gif" in err
+    assert "writing animation.gif (4 frames)" in err  # 0.1 s at 30 frames per second
+
+
+# ---- failures, warnings and progress ----------------------------------------------------------
+def test_simulate_integration_failure_is_one_line(capfd, tmp_path):
+    # Torques of 1e9 N m make cvodes give up (100000 steps in one interval). SUNDIALS and
+    # CasADi write about 70 lines straight to stderr on such a failure; the command prints
+    # its progress line and one error line, in the options' words, and exits with 1.
+    law = GaitLaw.preset("paper22")
+    t = np.linspace(0.0, 0.3, 31)
+    names = presets.six_link_anthropoid().names
+    huge = Trajectory.from_linkage(t, law.psi(t), law.dpsi(t), np.full((31, 6), 1e9), names)
+    path = huge.save(tmp_path / "huge.csv")
+    code = main(["simulate", str(path), "--no-plots", "--output-dir", str(tmp_path / "out")])
+    captured = capfd.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert code == 1, captured.err
+    assert len(lines) <= 3, captured.err[:2000]
+    assert "Traceback" not in captured.err and "Input 0" not in captured.err
+    assert re.fullmatch(
+        rf"{PROG} simulate: error: integrator 'cvodes' failed between t = 0 s and t = 0.01 s: "
+        r"CV_TOO_MUCH_WORK \(more than 100000 steps inside one interval\); .* lower "
+        r"--t-end-s or loosen --rtol/--atol",
+        lines[-1],
+    ), lines[-1]
+    assert not (tmp_path / "out" / "simulated.csv").exists()
+
+
+@pytest.fixture(scope="module")
+def planner_files(tmp_path_factory):
+    """A planner solution for the exoskeleton leg, saved at its nodes and at 1 kHz."""
+    import casadi as ca
+
+    from planner import OCP
+
+    folder = tmp_path_factory.mktemp("planner")
+    down = -np.pi / 2
+    solution = (
+        OCP(presets.exoskeleton_leg().dynamics(), T=0.5, N=10)
+        .bound("M", -200, 200)
+        .initial(psi=[down] * 3, dpsi=[0.0] * 3)
+        .final(psi=[down + 0.4, down + 0.2, down + 0.6], dpsi=[0.0] * 3)
+        .minimize(integral=lambda p: ca.sumsqr(p.M))
+        .solve()
+    )
+    solution.save(folder / "nodes.csv")
+    solution.save(folder / "fine.csv", rate_hz=1000)
+    # the nodes resampled through a spline: as coarse as the nodes, however many samples
+    Trajectory.load(folder / "nodes.csv").save(folder / "resampled.csv", rate_hz=1000)
+    return folder
+
+
+def test_simulate_warns_about_a_planner_solution_saved_at_its_nodes(capsys, planner_files):
+    common = ["--preset", "exoskeleton-leg", "--no-plots", "-q"]
+    code, _out, err = run(
+        capsys, "simulate", planner_files / "nodes.csv", *common, "--output-dir", planner_files
+    )
+    assert code == 0
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err  # the warning shows through --quiet, on one line
+    assert re.fullmatch(
+        rf"{PROG} simulate: warning: torque file '.*nodes\.csv' holds 11 samples of a planner "
+        r"solution with N = 10 intervals \(hermite-simpson\), its nodes only: between them the "
+        r"torques are a not-a-knot cubic spline, .* Solution.save\(path, rate_hz=1000\) .*",
+        lines[0],
+    ), lines[0]
+    code, _out, err = run(
+        capsys, "simulate", planner_files / "resampled.csv", *common, "--output-dir", planner_files
+    )
+    assert code == 0
+    assert re.fullmatch(
+        rf"{PROG} simulate: warning: torque file '.*resampled\.csv' was resampled from 11 "
+        r"samples of a planner solution with N = 10 intervals \(hermite-simpson\), its nodes "
+        r"only: .*",
+        err.strip(),
+    ), err
+    # the same solution through its own interpolant at 1 kHz: no warning
+    code, _out, err = run(
+        capsys, "simulate", planner_files / "fine.csv", *common, "--output-dir", planner_files
+    )
+    assert code == 0 and err == ""
+    code, out, _ = run(capsys, "simulate", "--help")
+    assert "nodes only" in " ".join(out.split()) and "warning" in out
+
+
+def test_reporter_heartbeat_while_a_silent_stage_runs():
+    import io
+    import time
+
+    from problems.cli import Reporter
+
+    stream = io.StringIO()
+    report = Reporter(stream, heartbeat_s=0.01)
+    with report.working("writing animation.gif (4 frames)"):
+        deadline = time.monotonic() + 30.0  # a generous bound, not a timing assertion
+        while "still" not in stream.getvalue() and time.monotonic() < deadline:
+            time.sleep(0.005)
+    lines = stream.getvalue().splitlines()
+    assert lines[0].endswith("] writing animation.gif (4 frames)")
+    assert re.search(r"\] still writing animation.gif \(4 frames\): [0-9.]+ s so far$", lines[1])
+    assert re.search(r"\] done writing animation.gif \(4 frames\) in [0-9.]+ s$", lines[-1])
+    quiet = io.StringIO()
+    with Reporter(quiet, enabled=False, heartbeat_s=0.01).working("x"):
+        pass
+    assert quiet.getvalue() == ""
+
+
+def test_programming_errors_keep_their_traceback(capsys, monkeypatch):
+    from problems import SimulationError, cli
+
+    def fails_with(error):
+        def command(args, out, report):
+            raise error
+
+        return command
+
+    # A bug is not bad input: a plain ValueError, TypeError or KeyError propagates.
+    for bug in (ValueError("a bug"), TypeError("a bug"), KeyError("a bug")):
+        monkeypatch.setitem(cli.COMMANDS, "demo", fails_with(bug))
+        with pytest.raises(type(bug), match="a bug"):
+            main(["demo"])
+    # The library's own failures and OSError: one line, status 1.
+    for error, message in (
+        (SimulationError("integrator 'rk' failed"), "integrator 'rk' failed"),
+        (PermissionError(13, "Permission denied", "out/torques.png"), "'out/torques.png': Perm"),
+    ):
+        monkeypatch.setitem(cli.COMMANDS, "demo", fails_with(error))
+        assert_one_line_error(capsys, re.escape(message), "demo", code=1)
+
+
+def test_library_parameter_names_become_option_names():
+    from problems import cli
+
+    assert (
+        cli._in_option_words("`rate_hz`: must be > 0 Hz; `x0`: too", cli._SIMULATE_OPTIONS)
+        == "--rate-hz: must be > 0 Hz; `x0`: too"
+    )
+    assert cli._in_option_words(
+        "`GaitLaw.center`: has 5 values but `zeta` has 6", cli._LAW_OPTIONS
+    ) == ("--center-rad: has 5 values but --zeta-rad has 6")
+    assert cli._in_option_words("`GaitLaw.varpi[2]`: must be finite", cli._LAW_OPTIONS) == (
+        "--varpi-rad value 3: must be finite"
+    )
