@@ -61,10 +61,14 @@ def test_derivatives_against_central_differences(law):
     checked = 0
     for value, derivative in ((law.psi, law.dpsi), (law.dpsi, law.ddpsi)):
         numeric = (value(t + h) - value(t - h)) / (2 * h)
-        scale = np.max(np.abs(derivative(t))) + 1e-300
-        np.testing.assert_allclose(derivative(t), numeric, rtol=0, atol=1e-8 * max(scale, 1.0))
-        checked += numeric.size
-    assert checked == 2 * t.size * law.n  # the guard: every entry was compared
+        exact = derivative(t)
+        tolerance = 1e-8 * max(np.max(np.abs(exact)), 1.0)
+        np.testing.assert_allclose(exact, numeric, rtol=0, atol=tolerance)
+        # Only entries far above the tolerance test anything: a zero derivative (a link
+        # with zeta = 0, the stationary instants t = k T/2) matches any tiny difference.
+        checked += np.count_nonzero(np.abs(exact) > 1e3 * tolerance)
+    # the guard: most entries were real comparisons (measured 94-95% for these laws)
+    assert checked >= 0.9 * 2 * t.size * law.n, checked
 
 
 @pytest.mark.parametrize("law", _laws(), ids=lambda law: f"{law.name}-{law.n}")
