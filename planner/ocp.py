@@ -833,7 +833,10 @@ class OCP:
         interpolant in normalised time t / T (coarse-to-fine warm start). With a free
         duration, a Solution's (Trajectory's) duration also becomes the guess of T, clipped
         into the bounds; the re-gridding in normalised time keeps the guess on the new mesh
-        when the two durations differ.
+        when the two durations differ. When a converged Solution is the last guess and this
+        OCP has the same NLP layout (same mesh and transcription, variables and constraints;
+        e.g. a changed bound or cost weight), :func:`planner.solver.solve` also starts IPOPT
+        from its multipliers (``solve(..., warm_start=False)`` turns that off).
         ``values``: constants (``M=0``, ``psi=[...]``) or, with ``t`` (K,), arrays (K,) /
         (K, size) interpolated linearly onto the mesh. ``T``: guess of a free duration (wins
         over a source's duration given in the same call).

@@ -103,6 +103,12 @@ class Solution:
     time, states, controls, ddpsi : values at the N+1 mesh nodes (see properties).
     state_time, state_values : every state point (nX,), (nX, nx).
     point_time, control_values, aux_values, rate_values : every dynamics point (nC,), ...
+    w : the scaled decision vector (n_w,) of the NLP.
+    lam_x, lam_g : IPOPT's multipliers of the variable bounds (n_w,) and of the constraint
+        rows (n_g,) of the scaled NLP (CasADi's signs: > 0 at an active upper bound), or None;
+        they belong to the NLP layout :attr:`nlp_signature`. A guess from this Solution on an
+        OCP with the same layout also warm-starts IPOPT's multipliers (see
+        :func:`planner.solver.solve`, ``warm_start``).
     """
 
     def __init__(
@@ -126,8 +132,8 @@ class Solution:
         self.status = status
         self.success = bool(success)
         self.stats = stats
-        self.lam_g = lam_g
-        self.lam_x = lam_x
+        self.lam_g = None if lam_g is None else np.asarray(lam_g, dtype=float).reshape(-1).copy()
+        self.lam_x = None if lam_x is None else np.asarray(lam_x, dtype=float).reshape(-1).copy()
         values = transcription.unpack(self.w)
         self.T = float(values["T"])
         self.state_values = values["X"]
@@ -145,6 +151,12 @@ class Solution:
     @property
     def h(self) -> float:
         return self.T / self.N
+
+    @property
+    def nlp_signature(self) -> str:
+        """The structure of the NLP that ``w``, ``lam_x`` and ``lam_g`` belong to
+        (:attr:`planner.transcription.Transcription.signature`)."""
+        return self.transcription.signature
 
     @property
     def iterations(self) -> int:

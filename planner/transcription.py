@@ -33,6 +33,7 @@ constraint row keeps a name ("defect[psi_torso] interval 12", "path[clearance] n
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import time
 from dataclasses import dataclass
@@ -473,6 +474,28 @@ class Transcription:
     @property
     def n_g(self) -> int:
         return len(self.g_names)
+
+    @cached_property
+    def signature(self) -> str:
+        """The NLP's structure as a string: two transcriptions with equal signatures have the
+        same decision variables and constraint rows, in the same order.
+
+        "<scheme>[(degree)] N=<N> <formulation>: <n_w> variables, <n_g> constraints, <digest>",
+        the digest (SHA-256) over every variable and row name (``w_names``, ``g_names``: what
+        and where). Bounds, scales, expressions and T are not part of it: an OCP that differs
+        from another only in those (a parameter continuation, a changed bound or cost weight)
+        has the same signature, so its multipliers can warm-start the other's solve
+        (:func:`planner.solver.solve`).
+        """
+        digest = hashlib.sha256()
+        for names in (self.w_names, self.g_names):
+            digest.update("\n".join(names).encode())
+            digest.update(b"\0")
+        mesh = self.scheme.name + (f"({self.scheme.degree})" if self.scheme.degree else "")
+        return (
+            f"{mesh} N={self.ocp.N} {self.system.formulation}: {self.n_w} variables, "
+            f"{self.n_g} constraints, {digest.hexdigest()}"
+        )
 
     def _layout(self) -> None:
         s, mesh = self.system, self.mesh

@@ -3,6 +3,8 @@ accuracy estimates against scipy, warm starts, export round trips."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -286,10 +288,16 @@ def test_replay_is_the_chained_reintegration():
 
 def test_warm_starts_regrid_through_the_interpolant():
     coarse = solved("hermite-simpson", None, 6)
-    # same mesh: the guess is the solution itself (primal only: IPOPT restarts its barrier)
+    # same mesh: the guess is the solution itself, with its multipliers
     again = swing(6).guess(coarse).solve(progress=False, options={"tol": 1e-11})
-    assert again.iterations < coarse.iterations
+    assert again.stats["warm_start"] and again.iterations < coarse.iterations
     assert again.cost == pytest.approx(coarse.cost, rel=1e-10)
+    # primal only (IPOPT restarts its barrier): the variables re-gridded onto the same mesh
+    # through the interpolant are the solution's own
+    assert np.abs(Transcription(swing(6).guess(coarse)).initial_guess() - coarse.w).max() < 1e-12
+    primal = swing(6).guess(coarse).solve(progress=False, options={"tol": 1e-11}, warm_start=False)
+    assert not primal.stats["warm_start"] and again.iterations < primal.iterations
+    assert primal.cost == pytest.approx(coarse.cost, rel=1e-10)
     # coarse to fine: the new mesh's variables are the coarse interpolant's values
     fine = swing(24, "radau", 3).guess(coarse)
     values = Transcription(fine).unpack(Transcription(fine).initial_guess())
@@ -303,6 +311,46 @@ def test_warm_starts_regrid_through_the_interpolant():
     # a Trajectory (here the coarse solution exported) serves as a guess too
     from_file = swing(24, "radau", 2).guess(coarse.to_trajectory(rate_hz=200.0))
     assert from_file.solve(progress=False).success
+
+
+def test_nlp_signature_names_the_layout_of_the_multipliers():
+    solution = solved("hermite-simpson", None, 6)
+    transcription = solution.transcription
+    assert solution.lam_x.shape == (transcription.n_w,)
+    assert solution.lam_g.shape == (transcription.n_g,)
+    assert solution.nlp_signature == transcription.signature
+    assert solution.nlp_signature.startswith(
+        f"hermite-simpson N=6 implicit: {transcription.n_w} variables, "
+        f"{transcription.n_g} constraints, "
+    )
+    # bounds, scales, cost, T and guesses are no part of the layout ...
+    same = (
+        swing(6).bound("M", -50, 50),
+        swing(6).scale(M=7.0, psi=2.0),
+        swing(6).minimize(integral=lambda p: ca.sumsqr(p.M) + p.dpsi[0] ** 2),
+        dataclasses.replace(swing(6), T=1.6),
+        swing(6).guess(M=1.0),
+    )
+    for ocp in same:
+        assert Transcription(ocp).signature == solution.nlp_signature, str(ocp)
+    # ... the variables and the constraint rows are
+    different = (
+        swing(7),
+        swing(6, "trapezoid"),
+        swing(6, "radau", 3),
+        swing(6, "radau", 2),
+        swing(6, "legendre", 2),
+        swing(6, formulation="explicit"),
+        swing(6).constrain("elbow", lambda p: p.psi[1] - p.psi[0], lower=-2.0, upper=2.0),
+        swing(6).periodic(),
+        dataclasses.replace(swing(6), T=(1.0, 2.0)),
+    )
+    signatures = {Transcription(ocp).signature for ocp in different}
+    assert len(signatures) == len(different) and solution.nlp_signature not in signatures
+    assert (
+        Transcription(swing(6, "radau", 2)).signature
+        != Transcription(swing(6, "legendre", 2)).signature
+    )
 
 
 def free_time_swing(N, T=(0.5, 4.0), transcription="hermite-simpson", degree=None):

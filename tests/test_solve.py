@@ -257,9 +257,175 @@ def test_benchmark_quick_run():
         "legendre(3)",
         "trapezoid",
         "explicit / implicit",
+        "same-mesh warm start with multipliers",
     ):
         assert expected in result.stdout, expected
     assert "Maximum_Iterations" not in result.stdout
+    assert "multipliers were not reused" not in result.stdout
+
+
+# ---- warm start of the multipliers ---------------------------------------------------------
+
+CHAIN = presets.n_link_chain(2).dynamics()
+DOWN = -np.pi / 2
+RAISED = np.array([DOWN + 1.0, DOWN + 1.5])
+TIGHT = {"tol": 1e-10}
+
+
+def elbow_swing(N=10, limit=10.0, weight=1.0, elbow=0.6, transcription="hermite-simpson"):
+    """Two-link chain from hanging at rest to a raised pose at rest in 1.5 s, min sum M^2
+    (+ (weight - 1) M_1^2), |M| <= limit and |psi_1 - psi_0| <= elbow: at the optimum 7 bounds
+    and 5 elbow rows are active, so both kinds of multipliers matter."""
+    degree = 3 if transcription in ("radau", "legendre") else None
+    return (
+        OCP(CHAIN, T=1.5, N=N, transcription=transcription, degree=degree)
+        .initial(psi=[DOWN, DOWN], dpsi=0.0)
+        .final(psi=RAISED, dpsi=0.0)
+        .bound("M", -limit, limit)
+        .constrain("elbow", lambda p: p.psi[1] - p.psi[0], lower=-elbow, upper=elbow)
+        .minimize(integral=lambda p: ca.sumsqr(p.M) + (weight - 1.0) * p.M[1] ** 2)
+        .guess(t=[0.0, 1.5], psi=[[DOWN, DOWN], RAISED])
+    )
+
+
+@functools.cache
+def elbow_optimum():
+    solution = elbow_swing().solve(progress=False, options=TIGHT)
+    transcription = solution.transcription
+    active_bounds = np.abs(solution.lam_x) > 1e-6
+    inequality = transcription.lbg != transcription.ubg
+    active_rows = (np.abs(solution.lam_g) > 1e-6) & inequality
+    assert active_bounds.sum() >= 3 and active_rows.sum() >= 3  # the premise of these tests
+    assert not solution.stats["warm_start"]
+    return solution
+
+
+def assert_same_optimum(a, b):
+    assert a.success and b.success
+    assert a.cost == pytest.approx(b.cost, rel=1e-10)
+    np.testing.assert_allclose(a.states, b.states, atol=1e-8)
+    np.testing.assert_allclose(a.torques, b.torques, atol=1e-7 * np.abs(b.torques).max())
+
+
+def test_resolving_from_its_own_solution_starts_from_its_multipliers():
+    cold = elbow_optimum()
+    ocp = elbow_swing().guess(cold)
+    primal = ocp.solve(progress=False, options=TIGHT, warm_start=False)
+    warm = ocp.solve(progress=False, options=TIGHT)
+    assert warm.stats["warm_start"] and not primal.stats["warm_start"]
+    # deterministic counts: 2 with the multipliers, 11 from the primal point only, 14 cold
+    assert warm.iterations <= 3
+    assert 3 * warm.iterations <= primal.iterations < cold.iterations
+    assert_same_optimum(warm, cold)
+    # the same KKT point: the multipliers agree too
+    np.testing.assert_allclose(warm.lam_g, cold.lam_g, atol=1e-6 * np.abs(cold.lam_g).max())
+    np.testing.assert_allclose(warm.lam_x, cold.lam_x, atol=1e-6 * np.abs(cold.lam_x).max())
+
+
+@pytest.mark.parametrize(
+    "change", [{"limit": 9.8}, {"weight": 1.05}, {"elbow": 0.588}], ids=["bound", "weight", "path"]
+)
+def test_continuation_reaches_the_cold_optimum_in_fewer_iterations(change):
+    previous = elbow_optimum()
+    ocp = elbow_swing(**change)
+    cold = ocp.solve(progress=False, options=TIGHT)
+    primal = ocp.guess(previous).solve(progress=False, options=TIGHT, warm_start=False)
+    warm = ocp.guess(previous).solve(progress=False, options=TIGHT)
+    assert warm.nlp_signature == previous.nlp_signature
+    if "limit" in change:  # the default scale of M follows the bound: multipliers converted
+        assert warm.transcription.control_scale[0] == 9.8
+    assert warm.stats["warm_start"] and not primal.stats["warm_start"]
+    assert_same_optimum(warm, cold)
+    # 4-5 iterations with the multipliers, 11-14 from the primal point only, 14 cold
+    assert warm.iterations <= 6
+    assert 2 * warm.iterations <= min(primal.iterations, cold.iterations)
+
+
+def test_multipliers_follow_a_change_of_nominal_scales():
+    # Scales are no part of the layout: the multipliers of the scaled NLP are converted
+    # (lam / scale is the physical multiplier). Oracle: the same problem solved at the new
+    # scales has the converted multipliers (up to IPOPT's bound relaxation, 1e-8 scaled).
+    from planner.solver import warm_start_multipliers
+
+    ocp = elbow_swing()
+    small = ocp.scale(M=5.0).solve(progress=False, options={"tol": 1e-12})
+    large = ocp.scale(M=40.0).solve(progress=False, options={"tol": 1e-12})
+    assert small.nlp_signature == large.nlp_signature
+    lam_x, lam_g = warm_start_multipliers(Transcription(ocp.scale(M=40.0).guess(small)))
+    np.testing.assert_allclose(lam_x, large.lam_x, atol=1e-6 * np.abs(large.lam_x).max())
+    np.testing.assert_allclose(lam_g, large.lam_g, atol=1e-6 * np.abs(large.lam_g).max())
+    assert np.abs(small.lam_x - large.lam_x).max() > 0.1 * np.abs(large.lam_x).max()
+    warm = ocp.scale(M=40.0).guess(small).solve(progress=False, options=TIGHT)
+    primal = ocp.scale(M=40.0).guess(small).solve(progress=False, options=TIGHT, warm_start=False)
+    assert warm.stats["warm_start"] and 3 * warm.iterations <= primal.iterations  # 3 and 13
+
+
+@pytest.mark.parametrize(
+    "other",
+    [{"N": 14}, {"transcription": "radau"}, {"transcription": "trapezoid"}],
+    ids=["N", "radau", "trapezoid"],
+)
+def test_another_layout_takes_the_primal_guess_only(other):
+    from planner.solver import warm_start_multipliers
+
+    previous = elbow_optimum()
+    ocp = elbow_swing(**other).guess(previous)
+    assert Transcription(ocp).signature != previous.nlp_signature
+    assert warm_start_multipliers(Transcription(ocp)) is None
+    warm = ocp.solve(progress=False, options=TIGHT)
+    assert warm.success and not warm.stats["warm_start"]
+    # exactly what the switch turned off gives: a primal re-gridding, IPOPT's defaults
+    primal = ocp.solve(progress=False, options=TIGHT, warm_start=False)
+    assert warm.iterations == primal.iterations
+    np.testing.assert_array_equal(warm.w, primal.w)
+
+
+def test_warm_start_can_be_turned_off_and_needs_a_converged_solution_guess():
+    previous = elbow_optimum()
+    ocp = elbow_swing().guess(previous)
+    primal = ocp.solve(progress=False, options=TIGHT, warm_start=False)
+    assert not primal.stats["warm_start"] and primal.iterations >= 3 * 3
+    # IPOPT's own switch in the options turns it off too
+    off = ocp.solve(progress=False, options={**TIGHT, "warm_start_init_point": "no"})
+    assert not off.stats["warm_start"] and off.iterations == primal.iterations
+    # an explicit decision vector is a primal guess
+    explicit = ocp.solve(progress=False, options=TIGHT, guess=previous.w)
+    assert not explicit.stats["warm_start"]
+    # a failed solve's multipliers are not reused
+    failed = elbow_swing().solve(progress=False, options={"max_iter": 3}, raise_on_failure=False)
+    assert not failed.success and failed.lam_x is not None
+    after = elbow_swing().guess(failed).solve(progress=False, options=TIGHT)
+    assert after.success and not after.stats["warm_start"]
+    # a later guess over the Solution's, or a Trajectory (no multipliers): primal only
+    layered = elbow_swing().guess(previous).guess(M=0.0).solve(progress=False, options=TIGHT)
+    assert not layered.stats["warm_start"]
+    exported = elbow_swing().guess(previous.to_trajectory()).solve(progress=False, options=TIGHT)
+    assert not exported.stats["warm_start"]
+    with pytest.raises(DefinitionTypeError, match=r"`warm_start`: must be True or False"):
+        ocp.solve(progress=False, warm_start="yes")
+
+
+def test_user_options_override_the_warm_start_options(monkeypatch):
+    import planner.solver as solver_module
+
+    seen = []
+    build = solver_module.nlp_solver
+
+    def recording(transcription, options=None, report=None):
+        seen.append(dict(options or {}))
+        return build(transcription, options, report)
+
+    monkeypatch.setattr(solver_module, "nlp_solver", recording)
+    ocp = elbow_swing().guess(elbow_optimum())
+    warm = ocp.solve(progress=False, options={"mu_strategy": "monotone", "mu_init": 1e-9})
+    assert warm.success and warm.stats["warm_start"]
+    assert seen[-1] == {
+        **solver_module.WARM_START_IPOPT,
+        "mu_strategy": "monotone",
+        "mu_init": 1e-9,
+    }
+    ocp.solve(progress=False, options={"tol": 1e-9}, warm_start=False)
+    assert seen[-1] == {"tol": 1e-9}  # nothing added when it is off
 
 
 # ---- generic dynamics: implicit residuals and time-dependent ODEs ----------------------------
