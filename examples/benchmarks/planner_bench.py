@@ -14,7 +14,10 @@ Printed: per transcription and N, the NLP size, build time (transcription + IPOP
 including the derivative functions), solve time, iterations, ms per iteration, time in NLP
 function evaluations, cost; medians over ``--repeat`` runs. Then the headline case
 (Hermite-Simpson, N = 50): implicit vs explicit dynamics, and the MX (default) vs SX-expanded
-NLP, with ratios measured in the same run.
+NLP, with ratios measured in the same run. Last, warm starts on that case: the cold solve vs
+re-solving from its own Solution with the primal values only (``warm_start=False``) and with
+IPOPT's multipliers too (the default on the same NLP layout), and the same two after a
+continuation step (the band widened from 0.10 to 0.11 rad) next to that problem's cold solve.
 
     python examples/benchmarks/planner_bench.py            # N = 10, 20, 40, 80, 160
     python examples/benchmarks/planner_bench.py --quick    # smoke run (N = 10, 20; once)
@@ -66,8 +69,9 @@ def paper22_gait(
     degree: int | None = None,
     formulation: str = "implicit",
     dynamics=None,
+    band: float = BAND,
 ) -> OCP:
-    """The six-link periodic gait OCP of this benchmark."""
+    """The six-link periodic gait OCP of this benchmark (angles within +-``band`` rad)."""
     dynamics = dynamics or presets.six_link_anthropoid().dynamics()
     return (
         OCP(
@@ -78,18 +82,20 @@ def paper22_gait(
             degree=degree,
             formulation=formulation,
         )
-        .constrain("near_law", lambda p: p.psi - paper22_sx(p.t), lower=-BAND, upper=BAND)
+        .constrain("near_law", lambda p: p.psi - paper22_sx(p.t), lower=-band, upper=band)
         .periodic()
         .minimize(integral=lambda p: ca.sumsqr(p.M))
         .guess(paper22)
     )
 
 
-def measure(ocp: OCP, repeat: int, expand: bool | None = None) -> dict:
+def measure(ocp: OCP, repeat: int, expand: bool | None = None, warm_start: bool = True) -> dict:
     """Median build/solve times (s), iterations, function time of ``repeat`` fresh solves."""
     runs = []
     for _ in range(repeat):
-        solution = ocp.solve(progress=False, expand=expand, raise_on_failure=False)
+        solution = ocp.solve(
+            progress=False, expand=expand, raise_on_failure=False, warm_start=warm_start
+        )
         stats = solution.stats
         runs.append(
             (
@@ -115,6 +121,7 @@ def measure(ocp: OCP, repeat: int, expand: bool | None = None) -> dict:
         "n_w": solution.stats["n_variables"],
         "cost": solution.cost,
         "status": solution.status,
+        "warm_start": solution.stats["warm_start"],
     }
 
 
@@ -198,6 +205,51 @@ def main(argv=None) -> int:
         f"build+solve {total(implicit_sx) / total(implicit):.2f}x"
     )
     logger.info("\n".join(headline))
+
+    # Warm starts: the same NLP layout, so the multipliers of the cold solution are reused.
+    cold_ocp = paper22_gait(N, "hermite-simpson", None, dynamics=dynamics)
+    cold_solution = cold_ocp.solve(progress=False)
+    wider = paper22_gait(N, "hermite-simpson", None, dynamics=dynamics, band=0.11)
+    repeat_warm = 1 if args.quick else max(repeat, 5)
+    warm_cases = {"cold": implicit}
+    for label, ocp, warm_start in (
+        ("same, primal", cold_ocp, False),
+        ("same, +mult", cold_ocp, True),
+        ("band .11, cold", wider, None),
+        ("band .11, primal", wider, False),
+        ("band .11, +mult", wider, True),
+    ):
+        if warm_start is None:  # keeps the law as its guess
+            warm_cases[label] = measure(ocp, repeat_warm)
+        else:
+            guessed = ocp.guess(cold_solution)
+            warm_cases[label] = measure(guessed, repeat_warm, warm_start=warm_start)
+    lines = [
+        f"\nwarm start: hermite-simpson N={N}, guess = the cold solution; primal: values "
+        "only (warm_start=False); +mult: with its multipliers (warm_start=True)",
+        f"{'case':<17}" + HEADER[17:],
+    ]
+    for label, m in warm_cases.items():
+        lines.append(row(label, N, m))
+    same, cold = warm_cases["same, +mult"], warm_cases["cold"]
+    primal = warm_cases["same, primal"]
+    lines.append(
+        f"same-mesh warm start with multipliers: {same['iterations']:.0f} iterations "
+        f"(primal only {primal['iterations']:.0f}, cold {cold['iterations']:.0f}); "
+        f"solve cold / warm {cold['solve'] / same['solve']:.1f}x, "
+        f"primal / warm {primal['solve'] / same['solve']:.1f}x"
+    )
+    wide, wide_primal = warm_cases["band .11, +mult"], warm_cases["band .11, primal"]
+    wide_cold = warm_cases["band .11, cold"]
+    lines.append(
+        f"continuation (band 0.11): {wide['iterations']:.0f} iterations with multipliers "
+        f"(primal only {wide_primal['iterations']:.0f}, cold {wide_cold['iterations']:.0f}); "
+        f"solve cold / warm {wide_cold['solve'] / wide['solve']:.1f}x, "
+        f"primal / warm {wide_primal['solve'] / wide['solve']:.1f}x"
+    )
+    if not (same["warm_start"] and wide["warm_start"]):
+        lines.append("warning: the multipliers were not reused (stats['warm_start'] False)")
+    logger.info("\n".join(lines))
     return 0
 
 
