@@ -367,11 +367,7 @@ def _integrator(dynamics: Dynamics, method: str, degree: int, options: dict) -> 
     u = ca.mtimes(coefficients, ca.vertcat(*[tau**k for k in range(degree + 1)]))
     xdot = dynamics.function("ode")(x, u)
     dpsi = x[n:]
-    parent = np.zeros((n, n))
-    for i, p in enumerate(dynamics.linkage.parents):
-        if p >= 0:
-            parent[i, p] = 1.0
-    relative = dpsi - ca.mtimes(ca.DM(parent), dpsi)
+    relative = _hinge_rates(dynamics, dpsi)
     dae = {
         "x": x,
         "t": tau,
@@ -382,6 +378,17 @@ def _integrator(dynamics: Dynamics, method: str, degree: int, options: dict) -> 
     function = ca.integrator("second_problem", method, dae, 0.0, 1.0, options)
     cache[key] = _Integrator(function, method, degree, options)
     return cache[key]
+
+
+def _hinge_rates(dynamics: Dynamics, dpsi: ca.SX) -> ca.SX:
+    """(n,) relative angular velocities of the hinges, dpsi_i - dpsi_parent(i) (rad/s; the
+    root's hinge is to the ground): the rates that multiply M_i in the torques' power."""
+    n = dynamics.n
+    parent = np.zeros((n, n))
+    for i, p in enumerate(dynamics.linkage.parents):
+        if p >= 0:
+            parent[i, p] = 1.0
+    return dpsi - ca.mtimes(ca.DM(parent), dpsi)
 
 
 # The same model for the variable-step integrators, in physical time (see simulate).
@@ -408,11 +415,7 @@ def _grid_dae(dynamics: Dynamics, degree: int) -> dict:
     tau = (t - start) / h
     torque = ca.mtimes(coefficients, ca.vertcat(*[tau**k for k in range(degree + 1)]))
     dpsi = x[n:]
-    parent = np.zeros((n, n))
-    for i, p in enumerate(dynamics.linkage.parents):
-        if p >= 0:
-            parent[i, p] = 1.0
-    relative = dpsi - ca.mtimes(ca.DM(parent), dpsi)
+    relative = _hinge_rates(dynamics, dpsi)
     cache[degree] = {
         "x": x,
         "t": t,
