@@ -288,15 +288,14 @@ class Dynamics:
     def _velocities(self) -> tuple[Cx, Cx]:
         return self._memo("velocities", lambda: self._propagate(self._phasor_rates()))
 
-    def _phasor_accelerations(self, ddpsi) -> Cx:
-        """d^2/dt^2 e^{j psi} = (j ddpsi - dpsi^2) e^{j psi}; ``ddpsi=None``: bias part only."""
+    def _phasor_accelerations(self) -> Cx:
+        """d^2/dt^2 e^{j psi} = (j ddpsi - dpsi^2) e^{j psi}."""
         e = self._frames()
         w2 = self._dpsi * self._dpsi
-        if ddpsi is None:
-            return e.scale(-w2)
+        ddpsi = self._ddpsi
         return Cx(-w2 * e.re - ddpsi * e.im, ddpsi * e.re - w2 * e.im)
 
-    def _lagrange(self, ddpsi, static: bool = False) -> tuple[ca.SX, Cx]:
+    def _lagrange(self) -> tuple[ca.SX, Cx]:
         """Left-hand sides of Lagrange's equations in hinge-torque form, and the ground force.
 
         With F_i = m_i (d^2w_i/dt^2 + j g) (d'Alembert force plus weight) and the lever
@@ -304,30 +303,26 @@ class Dynamics:
             Q_k = Im( conj(e^{j psi_k}) [conj(c_k) F_k + sum_children conj(o_c) S_c] )
                   + J_k ddpsi_k,
         S_c = sum of F over the subtree of c. Hinge torques: M_k = sum of Q over the subtree.
-        Returns (M (n,), ground force sum_i F_i). ``ddpsi=None``: velocity and gravity terms
-        alone; ``static=True``: gravity alone.
+        Returns (M (n,), ground force sum_i F_i).
         """
-        n = self.n
-        if static:
-            acc = Cx(ca.SX.zeros(n), ca.SX.zeros(n))
-        else:
-            _, acc = self._propagate(self._phasor_accelerations(ddpsi))
-        mass = self._mass_dm
-        force = Cx(mass * acc.re, mass * acc.im + self._weight_dm)
-        subtree_force = Cx(self._subtree_sum(force.re), self._subtree_sum(force.im))
-        ops = self._operators()
-        moment = times_constants(force, self._com_conj) + apply(
-            ops["children"], times_constants(subtree_force, self._origin_conj)
-        )
-        generalized = imag_of_conj_product(self._frames(), moment)
-        if ddpsi is not None and any(self._inertia):
-            generalized = generalized + self._inertia_dm * ddpsi
-        torque = self._subtree_sum(generalized)
-        ground = Cx(subtree_force.re[0], subtree_force.im[0])
-        return torque, ground
 
-    def _full_lagrange(self) -> tuple[ca.SX, Cx]:
-        return self._memo("lagrange", lambda: self._lagrange(self._ddpsi))
+        def build():
+            _, acc = self._propagate(self._phasor_accelerations())
+            mass = self._mass_dm
+            force = Cx(mass * acc.re, mass * acc.im + self._weight_dm)
+            subtree_force = Cx(self._subtree_sum(force.re), self._subtree_sum(force.im))
+            ops = self._operators()
+            moment = times_constants(force, self._com_conj) + apply(
+                ops["children"], times_constants(subtree_force, self._origin_conj)
+            )
+            generalized = imag_of_conj_product(self._frames(), moment)
+            if any(self._inertia):
+                generalized = generalized + self._inertia_dm * self._ddpsi
+            torque = self._subtree_sum(generalized)
+            ground = Cx(subtree_force.re[0], subtree_force.im[0])
+            return torque, ground
+
+        return self._memo("lagrange", build)
 
     def _mass_matrix_entries(self) -> ca.SX:
         """M_km = Re( D_km conj(e^{j psi_k}) e^{j psi_m} ), D_km = conj(o_km) K_m, k ancestor of m.
@@ -404,30 +399,34 @@ class Dynamics:
         return [self._mass_matrix_entries()]
 
     def _build_inverse_dynamics(self):
-        torque, _ = self._full_lagrange()
+        torque, _ = self._lagrange()
         return [torque]
 
     def _build_gravity_torques(self):
-        torque, _ = self._lagrange(None, static=True)
-        return [torque]
+        torque, _ = self._lagrange()  # at rest: dpsi = ddpsi = 0
+        rates = ca.vertcat(self._dpsi, self._ddpsi)
+        return [ca.substitute(torque, rates, ca.DM.zeros(2 * self.n))]
 
     def _build_forward_dynamics(self):
         return [self._forward_expression()]
 
     def _forward_expression(self) -> ca.SX:
         def build():
-            bias, _ = self._lagrange(None)
+            # The velocity and gravity terms: the equations at ddpsi = 0, substituted in one
+            # C++ pass (several times cheaper than writing them again; SX folds the zeros).
+            torque, _ = self._lagrange()
+            bias = ca.substitute(torque, self._ddpsi, ca.DM.zeros(self.n))
             rhs = self._generalized_from_torques(self._torque - bias)
             return self._solve_mass_matrix(rhs)
 
         return self._memo("forward", build)
 
     def _build_dynamics_residual(self):
-        torque, _ = self._full_lagrange()
+        torque, _ = self._lagrange()
         return [torque - self._torque]
 
     def _build_ground_reaction(self):
-        _, force = self._full_lagrange()
+        _, force = self._lagrange()
         return [force.re, force.im]
 
     def _build_ode(self):
