@@ -330,9 +330,6 @@ def _chebyshev_nodes(degree: int) -> np.ndarray:
 @dataclass
 class _Integrator:
     function: ca.Function
-    method: str
-    degree: int
-    options: dict
     chains: dict = field(default_factory=dict)
 
     def chain(self, size: int) -> ca.Function:
@@ -342,42 +339,67 @@ class _Integrator:
         return self.chains[size]
 
 
-# Integrators per model (weakly keyed: a model that goes away takes its integrators along).
-_INTEGRATORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+# Symbolic models and integrators per model (weakly keyed: a model that goes away takes
+# them along), each built on first use.
+_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _cached(dynamics: Dynamics, key: tuple, build: Callable[[], object]):
+    cache = _CACHE.setdefault(dynamics, {})
+    if key not in cache:
+        cache[key] = build()
+    return cache[key]
+
+
+def _interval_model(dynamics: Dynamics, degree: int) -> dict:
+    """The model on one integration interval [t_a, t_a + h], shared by both integrators.
+
+    Symbols: ``x`` (2n) the state, ``tau`` in [0, 1] the normalised time, ``h`` the length
+    (s), ``c`` (n, degree + 1) the coefficients of the torque polynomial
+    u(tau) = c [1, tau, ..., tau^degree]. Expressions: ``xdot`` = f(x, u(tau)), the model's
+    "ode" Function, and ``power`` = sum_i u_i (dpsi_i - dpsi_parent(i)) (W), the power of
+    the hinge torques, integrated as a quadrature so that the energy balance can be checked
+    without resampling.
+    """
+
+    def build() -> dict:
+        n = dynamics.n
+        x = ca.SX.sym("x", 2 * n)
+        tau = ca.SX.sym("tau")
+        coefficients = ca.SX.sym("c", n, degree + 1)
+        u = ca.mtimes(coefficients, ca.vertcat(*[tau**k for k in range(degree + 1)]))
+        return {
+            "x": x,
+            "tau": tau,
+            "h": ca.SX.sym("h"),
+            "c": coefficients,
+            "xdot": dynamics.function("ode")(x, u),
+            "power": ca.dot(u, _hinge_rates(dynamics, x[n:])),
+        }
+
+    return _cached(dynamics, ("model", degree), build)
 
 
 def _integrator(dynamics: Dynamics, method: str, degree: int, options: dict) -> _Integrator:
-    """One CasADi integrator over a normalised interval tau in [0, 1].
+    """One CasADi integrator over the normalised interval tau in [0, 1].
 
-    The torque on an interval [t_a, t_a + h] is a polynomial of ``degree`` in tau with
-    coefficients c (n, degree + 1); the parameters are p = [h; vec(c)]. The state equation
-    dx/dtau = h f(x, u(tau)) is the model's "ode" Function; the quadrature integrates the
-    power of the hinge torques, sum_i M_i (dpsi_i - dpsi_parent(i)) (J), so that the energy
-    balance can be checked without resampling.
+    dx/dtau = h f(x, u(tau)) with the parameters p = [h; vec(c)] (see :func:`_interval_model`).
+    rk and collocation chain it over many intervals; for cvodes and idas it only locates a
+    failure (:func:`_locate_failure`).
     """
-    key = (method, degree, tuple(sorted(options.items())))
-    cache = _INTEGRATORS.setdefault(dynamics, {})
-    if key in cache:
-        return cache[key]
-    n = dynamics.n
-    x = ca.SX.sym("x", 2 * n)
-    tau = ca.SX.sym("tau")
-    h = ca.SX.sym("h")
-    coefficients = ca.SX.sym("c", n, degree + 1)
-    u = ca.mtimes(coefficients, ca.vertcat(*[tau**k for k in range(degree + 1)]))
-    xdot = dynamics.function("ode")(x, u)
-    dpsi = x[n:]
-    relative = _hinge_rates(dynamics, dpsi)
-    dae = {
-        "x": x,
-        "t": tau,
-        "p": ca.vertcat(h, ca.vec(coefficients)),
-        "ode": h * xdot,
-        "quad": h * ca.dot(u, relative),
-    }
-    function = ca.integrator("second_problem", method, dae, 0.0, 1.0, options)
-    cache[key] = _Integrator(function, method, degree, options)
-    return cache[key]
+
+    def build() -> _Integrator:
+        m = _interval_model(dynamics, degree)
+        dae = {
+            "x": m["x"],
+            "t": m["tau"],
+            "p": ca.vertcat(m["h"], ca.vec(m["c"])),
+            "ode": m["h"] * m["xdot"],
+            "quad": m["h"] * m["power"],
+        }
+        return _Integrator(ca.integrator("second_problem", method, dae, 0.0, 1.0, options))
+
+    return _cached(dynamics, ("integrator", method, degree, tuple(sorted(options.items()))), build)
 
 
 def _hinge_rates(dynamics: Dynamics, dpsi: ca.SX) -> ca.SX:
@@ -391,39 +413,29 @@ def _hinge_rates(dynamics: Dynamics, dpsi: ca.SX) -> ca.SX:
     return dpsi - ca.mtimes(ca.DM(parent), dpsi)
 
 
-# The same model for the variable-step integrators, in physical time (see simulate).
-_GRID_DAES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
 def _grid_dae(dynamics: Dynamics, degree: int) -> dict:
-    """The DAE of :func:`_integrator` in physical time t, for one run over many intervals.
+    """The model of :func:`_interval_model` in physical time t, for one run over many intervals.
 
     The torque on the interval [t_a, t_a + h] is the same polynomial in tau = (t - t_a) / h;
     its data u = [t_a; h; vec(c)] are CasADi's piecewise-constant controls, one column per
     interval of the integrator's output grid, so one cvodes/idas run crosses every interval
     and stops at each grid point for the next interval's polynomial.
     """
-    cache = _GRID_DAES.setdefault(dynamics, {})
-    if degree in cache:
-        return cache[degree]
-    n = dynamics.n
-    x = ca.SX.sym("x", 2 * n)
-    t = ca.SX.sym("t")
-    start = ca.SX.sym("t_a")
-    h = ca.SX.sym("h")
-    coefficients = ca.SX.sym("c", n, degree + 1)
-    tau = (t - start) / h
-    torque = ca.mtimes(coefficients, ca.vertcat(*[tau**k for k in range(degree + 1)]))
-    dpsi = x[n:]
-    relative = _hinge_rates(dynamics, dpsi)
-    cache[degree] = {
-        "x": x,
-        "t": t,
-        "u": ca.vertcat(start, h, ca.vec(coefficients)),
-        "ode": dynamics.function("ode")(x, torque),
-        "quad": ca.dot(torque, relative),
-    }
-    return cache[degree]
+
+    def build() -> dict:
+        m = _interval_model(dynamics, degree)
+        t = ca.SX.sym("t")
+        start = ca.SX.sym("t_a")
+        ode, quad = ca.substitute([m["xdot"], m["power"]], [m["tau"]], [(t - start) / m["h"]])
+        return {
+            "x": m["x"],
+            "t": t,
+            "u": ca.vertcat(start, m["h"], ca.vec(m["c"])),
+            "ode": ode,
+            "quad": quad,
+        }
+
+    return _cached(dynamics, ("grid", degree), build)
 
 
 def _round_off(times: np.ndarray) -> float:
@@ -798,7 +810,6 @@ def simulate(
         options = {"number_of_finite_elements": int(steps)}
     else:
         options = {"number_of_finite_elements": int(steps), "interpolation_order": 3}
-    integrator = _integrator(dynamics, method, int(degree), options)
 
     # Integration in blocks of intervals, a progress report after each.
     # * cvodes/idas: one run per block of up to 1000 intervals over the block's grid, the
@@ -831,7 +842,8 @@ def simulate(
             result = function(x0=x, u=controls[:, first : first + size])
             total = np.asarray(result["qf"]).reshape(size)  # integral from grid[first]
             return np.asarray(result["xf"]).reshape(2 * n, size), np.diff(total, prepend=0.0)
-        result = integrator.chain(size)(x0=x, p=parameters[:, first : first + size])
+        chain = _integrator(dynamics, method, int(degree), options).chain(size)
+        result = chain(x0=x, p=parameters[:, first : first + size])
         return np.asarray(result["xf"]).reshape(2 * n, size), np.asarray(result["qf"]).reshape(size)
 
     states = np.empty((2 * n, h.size))
@@ -844,6 +856,7 @@ def simulate(
             with _captured_stderr() as captured:
                 block_states, block_work = run(x, done, size)
         except RuntimeError as exc:
+            integrator = _integrator(dynamics, method, int(degree), options)
             failed = _locate_failure(integrator, x, parameters[:, done : done + size])
             if failed is None:  # the restarted replay went through: name the whole block
                 interval = (float(grid[done]), float(grid[done + size]))
