@@ -61,12 +61,12 @@ class Constants:
     def __init__(self, values) -> None:
         c = np.asarray(values, dtype=complex).reshape(-1)
         self.values = c
-        self.re = ca.DM(c.real)
-        self.im = ca.DM(c.imag)
         self.is_real = not np.any(c.imag)
+        self.re = ca.DM(c.real)
+        self.im = None if self.is_real else ca.DM(c.imag)  # never read for real constants
 
     def conj(self) -> Constants:
-        return Constants(np.conj(self.values))
+        return self if self.is_real else Constants(np.conj(self.values))
 
 
 def times_constants(z: Cx, constants: Constants) -> Cx:
