@@ -662,6 +662,13 @@ _SIMULATE_OPTIONS = {
     "torques": "the torque file",
 }
 
+#: The advice of a SimulationError, in the options of 'simulate'.
+_FAILURE_WORDS = (
+    ("shorten t_span", "lower --t-end-s"),
+    ("rtol/atol", "--rtol/--atol"),
+    ("raise steps", "raise --steps"),
+)
+
 
 def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
     import numpy as np
@@ -726,8 +733,10 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
     except (DefinitionError, DefinitionTypeError) as exc:
         raise UsageError(_in_option_words(str(exc), _SIMULATE_OPTIONS)) from exc
     except SimulationError as exc:
-        message = str(exc).replace("shorten t_span", "lower --t-end-s")
-        raise CommandFailed(message.replace("rtol/atol", "--rtol/--atol")) from exc
+        message = str(exc)
+        for words, option_words in _FAILURE_WORDS:
+            message = message.replace(words, option_words)
+        raise CommandFailed(message) from exc
     written = _save(result, folder, "simulated", args.formats)
     if not args.no_plots:
         written += _write_plots(dynamics, result, folder, "simulated", False, False, report)

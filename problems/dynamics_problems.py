@@ -547,6 +547,13 @@ _FLAG_ADVICE = {
 _FLAG_ADVICE["ERR_FAIL"] = _FLAG_ADVICE["ERR_FAILURE"]  # idas spelling
 _FLAG_ADVICE["CONV_FAIL"] = _FLAG_ADVICE["CONV_FAILURE"]
 
+#: What to change when the state of a fixed-step method (rk, collocation) blows up or an
+#: implicit collocation step finds no solution.
+_FIXED_STEP_ADVICE = (
+    "the motion diverges (torques too large, or an unstable motion run too long) or the "
+    "steps are too coarse for it; shorten t_span or raise steps"
+)
+
 
 def _integrator_failure(
     method: str, interval: tuple[float, float], exc: Exception, details: str
@@ -563,6 +570,11 @@ def _integrator_failure(
             flag.split("_", 1)[1], ("see the SUNDIALS documentation", "check the torques")
         )
         message = f"integrator {method!r} failed {where}: {flag} ({meaning}); {advice}"
+    elif "rootfinder" in text:  # collocation: CasADi's "rootfinder process failed. Set ..."
+        message = (
+            f"integrator {method!r} failed {where}: the Newton iteration of an implicit "
+            f"collocation step did not converge; {_FIXED_STEP_ADVICE}"
+        )
     else:
         lines = [line for line in text.strip().splitlines() if line.strip()]
         last = lines[-1] if lines else type(exc).__name__
@@ -863,15 +875,22 @@ def simulate(
             else:
                 interval = (float(grid[done + failed]), float(grid[done + failed + 1]))
             raise _integrator_failure(method, interval, exc, "".join(captured)) from exc
+        finite = np.all(np.isfinite(block_states), axis=0)
+        if not np.all(finite):  # rk, collocation: no error, a NaN (and CasADi's warnings)
+            k = done + int(np.argmin(finite))
+            details = "".join(captured)
+            advice = _FLAG_ADVICE["ERR_FAILURE"][1] if variable_step else _FIXED_STEP_ADVICE
+            if details:
+                logger.debug("integrator %r wrote while failing:\n%s", method, details)
+            raise SimulationError(
+                f"integrator {method!r} failed between t = {grid[k]:.6g} s and "
+                f"t = {grid[k + 1]:.6g} s: the state became non-finite; {advice}",
+                method=method,
+                interval=(float(grid[k]), float(grid[k + 1])),
+                details=details,
+            )
         if captured and captured[0].strip():
             logger.warning("integrator %r wrote on stderr: %s", method, captured[0].strip())
-        if not np.all(np.isfinite(block_states)):
-            raise SimulationError(
-                f"integrator {method!r}: the state became non-finite before "
-                f"t = {grid[done + size]:g} s",
-                method=method,
-                interval=(float(grid[done]), float(grid[done + size])),
-            )
         states[:, done : done + size] = block_states
         work[done : done + size] = block_work
         x = block_states[:, -1]

@@ -414,6 +414,26 @@ def test_simulate_integration_failure_is_one_line(capfd, tmp_path):
     assert not (tmp_path / "out" / "simulated.csv").exists()
 
 
+@pytest.mark.parametrize("method", ["rk", "collocation"])
+def test_simulate_fixed_step_failure_is_one_line(capfd, tmp_path, method):
+    # rk's NaN state (CasADi warns once per step) and collocation's failed Newton iteration:
+    # one error line with the advice in the options' words, status 1.
+    law = GaitLaw.preset("paper22")
+    t = np.linspace(0.0, 0.3, 31)
+    names = presets.six_link_anthropoid().names
+    huge = Trajectory.from_linkage(t, law.psi(t), law.dpsi(t), np.full((31, 6), 1e9), names)
+    path = huge.save(tmp_path / "huge.csv")
+    out = ["--no-plots", "--output-dir", str(tmp_path / "out"), "-q"]
+    code = main(["simulate", str(path), "--method", method, *out])
+    captured = capfd.readouterr()
+    assert code == 1, captured.err
+    assert re.fullmatch(
+        rf"{PROG} simulate: error: integrator '{method}' failed between t = 0 s and t = 0.01 s: "
+        r"[^\n]*; lower --t-end-s or raise --steps\n",
+        captured.err,
+    ), captured.err[:2000]
+
+
 @pytest.fixture(scope="module")
 def planner_files(tmp_path_factory):
     """A planner solution for the exoskeleton leg, saved at its nodes and at 1 kHz."""

@@ -373,7 +373,38 @@ def test_integrator_failure_is_one_error_and_quiet(six, paper22, capfd, method):
     assert capfd.readouterr().err == "fd 2 is back\n"
 
 
-def test_integrator_failure_names_the_interval_inside_a_chunk(six, paper22):
+@pytest.mark.parametrize(
+    ("method", "cause"),
+    [
+        ("rk", r"the state became non-finite"),
+        ("collocation", r"the Newton iteration of an implicit collocation step did not converge"),
+    ],
+)
+def test_fixed_step_failure_is_one_error_and_quiet(six, paper22, capfd, method, cause):
+    # rk raises nothing: its state turns NaN while CasADi warns once per step (about 200
+    # lines); collocation's Newton iteration fails with CasADi's advice to ignore the error.
+    # Either is one SimulationError naming the interval, the cause and what to change.
+    def huge(t):
+        return np.full((np.size(t), 6), 1e9)
+
+    with pytest.raises(SimulationError) as caught:
+        simulate(six, huge, paper22.state(0.0), (0.0, 1.0), method=method)
+    error = caught.value
+    message = str(error)
+    assert re.fullmatch(
+        rf"integrator '{method}' failed between t = 0 s and t = 0.01 s: {cause}; the motion "
+        r"diverges \(torques too large, or an unstable motion run too long\) or the steps are "
+        r"too coarse for it; shorten t_span or raise steps",
+        message,
+    ), message
+    assert error.interval == (0.0, 0.01) and error.method == method and error.flag is None
+    assert error.details  # CasADi's own words, kept out of the terminal
+    captured = capfd.readouterr()
+    assert captured.err == "" and captured.out == "", captured.err[:500]
+
+
+@pytest.mark.parametrize("method", ["cvodes", "rk", "collocation"])
+def test_integrator_failure_names_the_interval_inside_a_chunk(six, paper22, method):
     # Torques switch to 1e9 N m at t = 0.5 s: the chunk of 100 intervals fails as a whole,
     # the error names the one interval where the integrator gave up.
     exact = law_torque_function(six, paper22)
@@ -383,7 +414,7 @@ def test_integrator_failure_names_the_interval_inside_a_chunk(six, paper22):
         return np.where(t[:, None] < 0.5, exact(t), 1e9)
 
     with pytest.raises(SimulationError, match=r"failed between t = 0.5 s and t = 0.51 s"):
-        simulate(six, switching, paper22.state(0.0), (0.0, 1.0), t_eval=[0.5])
+        simulate(six, switching, paper22.state(0.0), (0.0, 1.0), t_eval=[0.5], method=method)
 
 
 def test_profile_and_its_control_function_give_the_same_motion():
