@@ -18,7 +18,6 @@ Writes to the output folder (default: first_problem_out):
 from __future__ import annotations
 
 import argparse
-import math
 import os
 from pathlib import Path
 
@@ -26,24 +25,7 @@ import numpy as np
 
 from model import presets
 from problems import LAW_PRESETS, GaitLaw, torques_along
-
-#: Highest --rate-hz: one period at 1 MHz is a million samples (about 200 MB of CSV).
-MAX_RATE_HZ = 1e6
-
-
-def rate_hz(text: str) -> float:
-    """--rate-hz: a finite rate in (0, MAX_RATE_HZ] Hz (argparse reports the message)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number in Hz, got {text!r}") from None
-    if not math.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0 Hz, got {text!r}")
-    if value > MAX_RATE_HZ:
-        raise argparse.ArgumentTypeError(
-            f"must be at most {MAX_RATE_HZ:,.0f} Hz, got {text!r}; give a smaller rate"
-        )
-    return value
+from problems.cli import MAX_RATE_HZ, positive
 
 
 def main(argv=None) -> int:
@@ -53,7 +35,7 @@ def main(argv=None) -> int:
     )
     parser.add_argument(
         "--rate-hz",
-        type=rate_hz,
+        type=positive("Hz", MAX_RATE_HZ),
         default=1000.0,
         help="samples per second, Hz, in (0, 1e6] (default: 1000)",
     )

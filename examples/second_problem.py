@@ -20,7 +20,6 @@ against time, log scale) to the output folder (default: first_problem_out).
 from __future__ import annotations
 
 import argparse
-import math
 import os
 from pathlib import Path
 
@@ -29,17 +28,7 @@ import numpy as np
 from model import presets
 from planner.trajectory import Trajectory
 from problems import LAW_PRESETS, GaitLaw, fit_growth_rate, simulate, torques_along
-
-
-def positive_seconds(text: str) -> float:
-    """--horizon-s: a finite time > 0 s (argparse reports the message)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number in s, got {text!r}") from None
-    if not math.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0 s, got {text!r}")
-    return value
+from problems.cli import positive
 
 
 def main(argv=None) -> int:
@@ -51,7 +40,7 @@ def main(argv=None) -> int:
         "file (default: the file's law, else paper22)",
     )
     parser.add_argument("--output-dir", default="first_problem_out", help="folder of the files")
-    parser.add_argument("--horizon-s", type=positive_seconds, default=1.0, help="simulated time, s")
+    parser.add_argument("--horizon-s", type=positive("s"), default=1.0, help="simulated time, s")
     parser.add_argument("--quick", action="store_true", help="0.8 s horizon")
     args = parser.parse_args(argv)
 

@@ -24,7 +24,7 @@ import re
 import sys
 import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TextIO
 
@@ -118,7 +118,10 @@ class Reporter:
 
 
 # ---- argument types (each raises a one-line message naming the unit) -----------------------
-def _positive(unit: str, maximum: float = math.inf):
+def positive(unit: str, maximum: float = math.inf) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number in (0, maximum] of ``unit`` (the examples use it
+    too, so that every command line says the same about a bad number)."""
+
     def parse(text: str) -> float:
         try:
             value = float(text)
@@ -246,7 +249,7 @@ def build_parser() -> argparse.ArgumentParser:
     torques.add_argument("--preset", default="six-link", metavar="NAME", help=preset_help)
     torques.add_argument(
         "--period-s",
-        type=_positive("s"),
+        type=positive("s"),
         metavar="T",
         help="walking period T, s (default: the law's, 1 s)",
     )
@@ -265,13 +268,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     torques.add_argument(
         "--duration-s",
-        type=_positive("s"),
+        type=positive("s"),
         metavar="S",
         help="length of the profile from t = 0, s (default: one period)",
     )
     torques.add_argument(
         "--rate-hz",
-        type=_positive("Hz", MAX_RATE_HZ),
+        type=positive("Hz", MAX_RATE_HZ),
         default=1000.0,
         metavar="HZ",
         help="samples per second in the files, Hz, at most 1e6 and 2,000,000 samples "
@@ -344,13 +347,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     simulate.add_argument(
         "--t-end-s",
-        type=_positive("s"),
+        type=positive("s"),
         metavar="S",
         help="end time, s (default: the end of the file's time range)",
     )
     simulate.add_argument(
         "--rate-hz",
-        type=_positive("Hz", MAX_RATE_HZ),
+        type=positive("Hz", MAX_RATE_HZ),
         default=100.0,
         metavar="HZ",
         help="output samples per second, Hz, at most 1e6 and 2,000,000 samples (default: 100)",

@@ -84,16 +84,23 @@ def test_second_problem_compares_with_the_law_of_its_file(tmp_path):
 
 
 @pytest.mark.parametrize(
-    ("argv", "message"),
+    ("script", "argv", "message"),
     [
-        (["--rate-hz", "-5"], r"argument --rate-hz: must be a finite number > 0 Hz, got '-5'"),
-        (["--rate-hz", "inf"], r"argument --rate-hz: must be a finite number > 0 Hz"),
-        (["--rate-hz", "2e6"], r"argument --rate-hz: must be at most 1,000,000 Hz"),
-        (["--law", "jogging"], r"argument --law: invalid choice: 'jogging'"),
+        (
+            "first",
+            ["--rate-hz", "-5"],
+            r"argument --rate-hz: must be a finite number > 0 Hz, got '-5'",
+        ),
+        ("first", ["--rate-hz", "inf"], r"argument --rate-hz: must be a finite number > 0 Hz"),
+        ("first", ["--rate-hz", "2e6"], r"argument --rate-hz: must be at most 1,000,000 Hz"),
+        ("first", ["--rate-hz", "x"], r"argument --rate-hz: expected a number in Hz, got 'x'"),
+        ("first", ["--law", "jogging"], r"argument --law: invalid choice: 'jogging'"),
+        ("second", ["--horizon-s", "0"], r"argument --horizon-s: must be a finite number > 0 s"),
+        ("second", ["--horizon-s", "soon"], r"argument --horizon-s: expected a number in s"),
     ],
 )
-def test_first_problem_bad_input_is_an_argparse_error(tmp_path, argv, message):
-    result = _call("first_problem.py", *argv, "--output-dir", tmp_path)
+def test_bad_input_is_an_argparse_error(tmp_path, script, argv, message):
+    result = _call(f"{script}_problem.py", *argv, "--output-dir", tmp_path)
     assert result.returncode == 2
     assert "Traceback" not in result.stderr
     assert re.search(message, result.stderr.strip().splitlines()[-1]), result.stderr
