@@ -33,7 +33,7 @@ import casadi as ca
 import numpy as np
 
 from model.complex_sx import Constants, Cx, apply, expj, imag_of_conj_product, times_constants
-from model.errors import DefinitionError, DefinitionTypeError
+from model.errors import DefinitionError, DefinitionTypeError, check_states
 from model.linkage import Linkage
 from model.numpy_tape import NumpyTape
 
@@ -540,34 +540,12 @@ def _as_columns(function: ca.Function, arrays) -> tuple[int | None, list[np.ndar
 
     Returns (K or None for a single state, list of column blocks).
     """
-    if len(arrays) != function.n_in():
-        raise DefinitionError(
-            f"`{function.name()}`: expects {function.n_in()} arrays "
-            f"({', '.join(function.name_in())}), got {len(arrays)}"
-        )
     batch = None
     columns = []
     for i, value in enumerate(arrays):
         name = function.name_in(i)
-        size = function.size1_in(i)
-        try:
-            array = np.asarray(value, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise DefinitionTypeError(
-                f"`{name}`: must be numeric of shape ({size},) or (K, {size}), got {value!r}"
-            ) from exc
-        if array.ndim == 1 and array.shape[0] == size:
-            this = None
-            block = array[:, None]
-        elif array.ndim == 2 and array.shape[1] == size:
-            this = array.shape[0]
-            block = array.T
-        else:
-            raise DefinitionError(
-                f"`{name}`: expected shape ({size},) or (K, {size}), got {array.shape}"
-            )
-        if not np.all(np.isfinite(array)):
-            raise DefinitionError(f"`{name}`: contains NaN or inf; give finite values")
+        array = check_states(name, value, function.size1_in(i))
+        this = None if array.ndim == 1 else array.shape[0]
         if i == 0:
             batch = this
         elif this != batch:
@@ -575,7 +553,7 @@ def _as_columns(function: ca.Function, arrays) -> tuple[int | None, list[np.ndar
                 f"`{name}`: batch size {this} differs from `{function.name_in(0)}` ({batch}); "
                 "give every input the same leading dimension"
             )
-        columns.append(np.ascontiguousarray(block))
+        columns.append(np.ascontiguousarray(np.atleast_2d(array).T))
     return batch, columns
 
 

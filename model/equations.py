@@ -36,7 +36,7 @@ import casadi as ca
 import numpy as np
 
 from model.complex_sx import Cx, expj
-from model.errors import DefinitionError, DefinitionTypeError
+from model.errors import DefinitionError, DefinitionTypeError, check_states
 from model.linkage import Linkage
 
 __all__ = [
@@ -200,23 +200,7 @@ class EquationsOfMotion:
 
     def _state(self, **arrays) -> list[np.ndarray]:
         """Validate state arrays: numeric, finite, last axis n."""
-        n = self.linkage.n
-        out = []
-        for name, value in arrays.items():
-            try:
-                array = np.asarray(value, dtype=float)
-            except (TypeError, ValueError) as exc:
-                raise DefinitionTypeError(
-                    f"`{name}`: must be numeric of shape ({n},) or (K, {n}), got {value!r}"
-                ) from exc
-            if array.ndim not in (1, 2) or array.shape[-1] != n:
-                raise DefinitionError(
-                    f"`{name}`: expected shape ({n},) or (K, {n}), got {array.shape}"
-                )
-            if not np.all(np.isfinite(array)):
-                raise DefinitionError(f"`{name}`: contains NaN or inf; give finite values")
-            out.append(array)
-        return out
+        return [check_states(name, value, self.linkage.n) for name, value in arrays.items()]
 
     def term_values(self, psi, dpsi, ddpsi) -> list[np.ndarray]:
         """Per equation, the value of each term: list of n arrays of shape (..., n_terms), N m."""

@@ -3,12 +3,17 @@
 Every error the project raises on purpose derives from :class:`AnthropoidError`, so a caller
 can catch the library's own failures in one clause. Definition errors also derive from the
 built-in ``ValueError``/``TypeError``, so code written against the standard exceptions works.
+
+The ``check_*``/``as_*`` helpers below validate a user's value and raise these errors with a
+message that names the field; model, planner and problems share them.
 """
 
 from __future__ import annotations
 
 import math
 from numbers import Real
+
+import numpy as np
 
 
 class AnthropoidError(Exception):
@@ -36,3 +41,36 @@ def check_real(field: str, value: object) -> float:
     if not math.isfinite(number):
         raise DefinitionError(f"`{field}`: must be finite, got {number!r}; give a finite number")
     return number
+
+
+def as_float_array(field: str, value: object, expected: str) -> np.ndarray:
+    """Return ``value`` as a float numpy array, or raise DefinitionTypeError
+    "`field`: must be <expected>, got <value>" (``expected``: e.g. "numeric of shape (6,)")."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise DefinitionTypeError(f"`{field}`: must be {expected}, got {value!r}") from exc
+
+
+def check_finite(field: str, array: np.ndarray, what: str = "values") -> None:
+    """Raise DefinitionError "`field`: contains NaN or inf; give finite <what>" unless every
+    entry of ``array`` is finite."""
+    if not np.all(np.isfinite(array)):
+        raise DefinitionError(f"`{field}`: contains NaN or inf; give finite {what}")
+
+
+def check_states(field: str, value: object, size: int) -> np.ndarray:
+    """Return ``value`` as a finite float array of shape (size,) (one state) or (K, size)
+    (a batch), or raise naming ``field``, the shape expected and the shape given."""
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise DefinitionTypeError(
+            f"`{field}`: must be numeric of shape ({size},) or (K, {size}), got {value!r}"
+        ) from exc
+    if array.ndim not in (1, 2) or array.shape[-1] != size:
+        raise DefinitionError(
+            f"`{field}`: expected shape ({size},) or (K, {size}), got {array.shape}"
+        )
+    check_finite(field, array)
+    return array
