@@ -280,6 +280,10 @@ class Point:
                 values[group] = ca.vertcat(*[values[m] for m in members])
         values.update(extra or {})
         object.__setattr__(self, "_values", values)
+        # Every field is an expression of x, u, z, t, T and the extras: their symbols are all
+        # the symbols an expression of the point may use (found once, when first asked).
+        object.__setattr__(self, "_sources", (x, u, z, t, T, *(extra or {}).values()))
+        object.__setattr__(self, "_symbols", None)
 
     def __getattr__(self, name: str):
         values = object.__getattribute__(self, "_values")
@@ -299,6 +303,18 @@ class Point:
     @property
     def fields(self) -> tuple[str, ...]:
         return tuple(self._values)
+
+    def _symbol_hashes(self) -> frozenset[int]:
+        """Element hashes of the SX symbols the point's fields are built from."""
+        if self._symbols is None:
+            hashes = {
+                s.element_hash()
+                for source in self._sources
+                if isinstance(source, ca.SX)
+                for s in ca.symvar(source)
+            }
+            object.__setattr__(self, "_symbols", frozenset(hashes))
+        return self._symbols
 
 
 def evaluate_expression(label: str, expression, point: Point) -> ca.SX:
@@ -362,10 +378,7 @@ def _check_symbols(label: str, result: ca.SX, point: Point) -> None:
     test point, so an expression that is merely singular somewhere (1/x at x = 0) passes.
     """
     symbols = ca.symvar(result)
-    known: set[int] = set()
-    for value in point._values.values():
-        if isinstance(value, ca.SX):
-            known.update(s.element_hash() for s in ca.symvar(value))
+    known = point._symbol_hashes()
     free = sorted(str(s) for s in symbols if s.element_hash() not in known)
     if free:
         raise DefinitionError(
