@@ -372,26 +372,34 @@ def evaluate_expression(label: str, expression, point: Point) -> ca.SX:
 
 
 def _check_symbols(label: str, result: ca.SX, point: Point) -> None:
-    """Reject free symbols (not the Point's) and NaN/inf constants in ``result``.
-
-    The NaN/inf check inspects the constants of the expression graph, not a value at some
-    test point, so an expression that is merely singular somewhere (1/x at x = 0) passes.
-    """
-    symbols = ca.symvar(result)
-    known = point._symbol_hashes()
-    free = sorted(str(s) for s in symbols if s.element_hash() not in known)
+    """Reject free symbols (not the Point's) and NaN/inf constants in ``result``."""
+    free = _free_symbols(result, point._symbol_hashes())
     if free:
         raise DefinitionError(
             f"`{label}`: the expression uses free symbols {free} that are not fields of the "
             "point; build it from the Point's fields only"
         )
-    function = ca.Function("check", symbols, [result])
+    _check_constants(label, result, "the expression")
+
+
+def _free_symbols(result: ca.SX, known: frozenset[int] | set[int]) -> list[str]:
+    """Names of the symbols of ``result`` whose element hashes are not ``known``, sorted."""
+    return sorted(str(s) for s in ca.symvar(result) if s.element_hash() not in known)
+
+
+def _check_constants(label: str, result: ca.SX, subject: str) -> None:
+    """Reject NaN/inf constants in the expression graph of ``result`` (``subject`` names it).
+
+    The check inspects the constants of the graph, not a value at some test point, so an
+    expression that is merely singular somewhere (1/x at x = 0) passes.
+    """
+    function = ca.Function("check", ca.symvar(result), [result])
     for k in range(function.n_instructions()):
         if function.instruction_id(k) == ca.OP_CONST:
             constant = function.instruction_constant(k)
             if not math.isfinite(constant):
                 raise DefinitionError(
-                    f"`{label}`: the expression contains the constant {constant}; "
+                    f"`{label}`: {subject} contains the constant {constant}; "
                     "NaN or inf in an NLP expression makes IPOPT stop (Invalid_Number_Detected)"
                 )
 
@@ -772,13 +780,13 @@ class OCP:
             if isinstance(value, list | tuple):
                 value = ca.vertcat(*value)
             if isinstance(value, ca.SX):
-                known = {s.element_hash() for s in ca.symvar(x)}
-                free = sorted(str(s) for s in ca.symvar(value) if s.element_hash() not in known)
+                free = _free_symbols(value, {s.element_hash() for s in ca.symvar(x)})
                 if free:
                     raise DefinitionError(
                         f"`periodic`: the mapping uses free symbols {free}; build it from the "
                         "state argument only"
                     )
+                _check_constants("periodic", value, "the mapping")
             if not isinstance(value, ca.SX | ca.MX) or value.shape != (self.system.nx, 1):
                 shape = getattr(value, "shape", type(value).__name__)
                 raise DefinitionError(

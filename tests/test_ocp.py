@@ -456,6 +456,8 @@ def test_bad_objective_and_boundary_expressions_are_definition_errors():
         ocp.boundary("b", lambda p: p.q + k, at="end", upper=1.0)
     with pytest.raises(DefinitionError, match=r"`periodic`: the mapping uses free symbols \['k'\]"):
         ocp.periodic(lambda x: x + k)
+    with pytest.raises(DefinitionError, match=r"`periodic`: the mapping contains the constant inf"):
+        ocp.periodic(lambda x: x + np.inf)
 
 
 def test_singular_but_finite_expressions_are_accepted():
