@@ -28,9 +28,26 @@ from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TextIO
 
+import numpy as np
+
+from model import equations
+from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from model.presets import PRESETS, six_link_anthropoid
+from planner.trajectory import Trajectory, TrajectoryError, TrajectoryFileError
+from problems.dynamics_problems import (
+    FIT_WINDOW,
+    METHODS,
+    SimulationError,
+    fit_growth_rate,
+    simulate,
+    tolerance_problem,
+    torques_along,
+)
+from problems.gait_law import LAW_PRESETS, GaitLaw
+
 PROG = "anthropoid-planner"
 FORMATS = ("csv", "json", "npz")
-LAWS = ("paper22", "walking")
+LAWS = tuple(LAW_PRESETS)
 #: Highest --rate-hz, Hz, and most samples a command writes (memory and disk stay sane).
 MAX_RATE_HZ = 1e6
 MAX_SAMPLES = 2_000_000
@@ -139,8 +156,6 @@ def positive(unit: str, maximum: float = math.inf) -> Callable[[str], float]:
 
 
 def _tolerance(text: str) -> float:
-    from problems.dynamics_problems import tolerance_problem
-
     try:
         value = float(text)
     except ValueError:
@@ -185,16 +200,9 @@ def _formats(text: str) -> tuple[str, ...]:
     return items
 
 
-def _preset_names() -> tuple[str, ...]:
-    from model.presets import PRESETS
-
-    return tuple(PRESETS)
-
-
 # ---- parser -------------------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
     """The command line's parser (every option documented with its unit)."""
-    presets = _preset_names()
     parser = _Parser(
         prog=PROG,
         description=(
@@ -210,7 +218,7 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", metavar="<command>", parser_class=_Parser)
     commands.required = True
 
-    preset_help = f"linkage preset, one of: {', '.join(presets)} (default: six-link)"
+    preset_help = f"linkage preset, one of: {', '.join(PRESETS)} (default: six-link)"
 
     equations = commands.add_parser(
         "equations",
@@ -398,8 +406,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 # ---- helpers --------------------------------------------------------------------------------
 def _linkage(name: str):
-    from model.presets import PRESETS
-
     if name not in PRESETS:
         raise UsageError(f"unknown preset {name!r}; choose one of: {', '.join(PRESETS)}")
     return PRESETS[name]()
@@ -428,9 +434,6 @@ _LAW_OPTIONS = {
 
 
 def _law(args, linkage):
-    from model.errors import DefinitionError, DefinitionTypeError
-    from problems.gait_law import GaitLaw
-
     for option, values in (
         ("--zeta-rad", args.zeta_rad),
         ("--varpi-rad", args.varpi_rad),
@@ -473,8 +476,6 @@ def _law(args, linkage):
 
 
 def _equations(linkage, latex: bool) -> str:
-    from model import equations
-
     return equations.equations_latex(linkage) if latex else equations.equations_text(linkage)
 
 
@@ -528,8 +529,6 @@ def _output_folder(text: str) -> Path:
 
 
 def _torque_table(trajectory, names: Sequence[str], out: TextIO) -> None:
-    import numpy as np
-
     width = 10
     header = f"{'t (s)':>7}" + "".join(f"{'M_' + str(i + 1):>{width}}" for i in range(len(names)))
     print(header, file=out)
@@ -552,10 +551,6 @@ def _cmd_equations(args, out: TextIO, report: Reporter) -> int:
 
 
 def _cmd_torques(args, out: TextIO, report: Reporter) -> int:
-    import numpy as np
-
-    from problems.dynamics_problems import torques_along
-
     linkage = _linkage(args.preset)
     law = _law(args, linkage)
     dynamics = linkage.dynamics()
@@ -587,8 +582,6 @@ def _cmd_torques(args, out: TextIO, report: Reporter) -> int:
 
 
 def _load_profile(path_text: str):
-    from planner.trajectory import Trajectory, TrajectoryError, TrajectoryFileError
-
     path = Path(path_text)
     if not path.exists():
         raise UsageError(f"torque file {path_text!r} does not exist")
@@ -674,25 +667,10 @@ _FAILURE_WORDS = (
 
 
 def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
-    import numpy as np
-
-    from model.errors import DefinitionError, DefinitionTypeError
-    from problems.dynamics_problems import (
-        FIT_WINDOW,
-        METHODS,
-        SimulationError,
-        fit_growth_rate,
-        simulate,
-    )
-
     if args.method not in METHODS:
         raise UsageError(f"unknown --method {args.method!r}; choose one of: {', '.join(METHODS)}")
     linkage = _linkage(args.preset)
     profile, names = _load_profile(args.torque_file)
-    if not names:
-        raise UsageError(
-            f"torque file {args.torque_file!r} has no linkage columns (psi_*, dpsi_*, M_*)"
-        )
     if names != linkage.names:
         raise UsageError(
             f"torque file {args.torque_file!r} is for links {list(names)}, but preset "
@@ -776,12 +754,6 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
 
 
 def _cmd_demo(args, out: TextIO, report: Reporter) -> int:
-    import numpy as np
-
-    from model.presets import six_link_anthropoid
-    from problems.dynamics_problems import torques_along
-    from problems.gait_law import GaitLaw
-
     linkage = six_link_anthropoid()
     dynamics = linkage.dynamics()
     if not args.no_equations:
@@ -823,8 +795,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     sys.stdout, progress and errors to sys.stderr (looked up at call time, so a caller can
     redirect them).
     """
-    from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
-
     out, err = sys.stdout, sys.stderr
     argv = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in argv if a in COMMANDS), None)
