@@ -40,7 +40,7 @@ import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
-from model.errors import DefinitionError, DefinitionTypeError
+from model.errors import DefinitionError, DefinitionTypeError, as_float_array, check_finite
 
 TRANSCRIPTIONS = ("trapezoid", "hermite-simpson", "radau", "legendre")
 FORMULATIONS = ("implicit", "explicit")
@@ -917,14 +917,8 @@ class OCP:
         resolved: dict[str, np.ndarray] = {}
         for key, value in values.items():
             names = self.resolve(key, "guess")
-            try:
-                array = np.asarray(value, dtype=float)
-            except (TypeError, ValueError) as exc:
-                raise DefinitionTypeError(
-                    f"`guess[{key}]`: must be numeric, got {value!r}"
-                ) from exc
-            if not np.all(np.isfinite(array)):
-                raise DefinitionError(f"`guess[{key}]`: contains NaN or inf; give finite values")
+            array = as_float_array(f"guess[{key}]", value, "numeric")
+            check_finite(f"guess[{key}]", array)
             m = len(names)
             if times is None:
                 if array.ndim == 0:
@@ -1014,10 +1008,7 @@ class OCP:
 
 
 def _positive_array(label: str, value, size: int) -> np.ndarray:
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise DefinitionTypeError(f"`{label}`: must be numeric, got {value!r}") from exc
+    array = as_float_array(label, value, "numeric")
     if array.ndim == 0:
         array = np.full(size, float(array))
     if array.shape != (size,):

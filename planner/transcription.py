@@ -43,7 +43,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
+from model.errors import DefinitionError, DefinitionTypeError, as_float_array
 from planner.collocation import collocation_roots, integration_weights, lagrange_matrix
 from planner.ocp import OCP, Point, evaluate_expression
 
@@ -406,7 +406,7 @@ def evaluate_guess_layer(ocp: OCP, layer, times: np.ndarray) -> dict[str, np.nda
             names = tuple(f"ddpsi_{k}" for k in system.dynamics.names)
         else:
             names = ocp.resolve(key, "guess")
-        array = np.asarray(value, dtype=float)
+        array = as_float_array(f"guess[{key}]", value, "numeric")
         m = len(names)
         if array.ndim == 1 and m == 1 and array.size == K:
             array = array[:, None]

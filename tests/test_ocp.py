@@ -296,6 +296,8 @@ def test_guess_errors():
         ocp.guess(lambda t: (np.zeros((t.size, 3)), np.zeros((t.size, 2))))
     with pytest.raises(DefinitionError, match=r"`guess\[dpsi\]`: the function returned NaN"):
         ocp.guess(lambda t: (np.zeros((t.size, 2)), np.full((t.size, 2), np.nan)))
+    with pytest.raises(DefinitionTypeError, match=r"`guess\[psi\]`: must be numeric, got 'up'"):
+        ocp.guess(lambda t: ("up", np.zeros((t.size, 2))))
     with pytest.raises(DefinitionError, match=r"`guess`: calling the guess function failed"):
         ocp.guess(lambda t: 1 / 0)
     with pytest.raises(DefinitionTypeError, match=r"`guess`: source must be a callable of t"):
