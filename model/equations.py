@@ -36,8 +36,10 @@ import casadi as ca
 import numpy as np
 
 from model.complex_sx import Cx, expj
+from model.dynamics import FUNCTIONS
 from model.errors import DefinitionError, DefinitionTypeError, check_states
 from model.linkage import Linkage
+from model.presets import PRESETS, SIX_LINK_TABLE
 
 __all__ = [
     "AD_FUNCTIONS",
@@ -462,7 +464,11 @@ def _right_hand_side(eq: Equation, style: _Style) -> str:
     return " - ".join([style.torque(eq.link)] + [style.torque(c) for c in eq.children])
 
 
-_PAPER_PARENTS = (-1, 0, 1, 2, 1, 4)  # the six-link tree of scene.md
+#: Parent indices of the six-link tree of scene.md, whose equations the paper numbers (16)-(21).
+_PAPER_PARENTS = tuple(
+    -1 if parent is None else [row[0] for row in SIX_LINK_TABLE].index(parent)
+    for _, parent, *_ in SIX_LINK_TABLE
+)
 
 
 def _first_number(linkage: Linkage, first_number: int | None) -> int:
@@ -555,13 +561,13 @@ def equations_latex(
         lines = _render_sum(eq.terms, style, trig_before_lengths=True)
         blocks.append(block(lines, f"= {_right_hand_side(eq, style)}", str(number + offset)))
     if include_energy:
+        paper = linkage.parents == _PAPER_PARENTS
         for symbol, terms, tag in (
             ("2T", system.kinetic_doubled, "14"),
             (style.potential_symbol, system.potential, "15"),
         ):
             lines = _render_sum(terms, style, trig_before_lengths=False)
             lines[0] = f"{symbol} = {lines[0]}"
-            paper = linkage.parents == _PAPER_PARENTS
             blocks.append(block(lines, "", tag if paper else None))
     return "\n\n".join(blocks) + "\n"
 
@@ -569,8 +575,6 @@ def equations_latex(
 def equations_for_preset(name: str = "six-link", latex: bool = False) -> str:
     """The printed equations of a ready linkage of ``model.presets.PRESETS`` (text or LaTeX),
     for the command line: ``equations_for_preset("six-link")`` is the corrected (16)-(21)."""
-    from model.presets import PRESETS
-
     if name not in PRESETS:
         raise DefinitionError(f"`name`: unknown preset {name!r}; available: {sorted(PRESETS)}")
     linkage = PRESETS[name]()
@@ -794,14 +798,8 @@ def ad_function(
         mass = ca.jacobian(momentum, dpsi)
         rhs = _generalized_from_torques(linkage, torque) - bias
         symbols, outputs = [psi, dpsi, torque], [ca.solve(mass, rhs)]
-    inputs, output_names, _ = _catalogue()[name]
+    inputs, output_names, _ = FUNCTIONS[name]
     return ca.Function(f"ad_{form}_{name}", symbols, outputs, list(inputs), list(output_names))
-
-
-def _catalogue():
-    from model.dynamics import FUNCTIONS
-
-    return FUNCTIONS
 
 
 #: Derivations compared by :func:`derivation_comparison`: label -> (form, time_derivative).
