@@ -201,6 +201,27 @@ def _formats(text: str) -> tuple[str, ...]:
 
 
 # ---- parser -------------------------------------------------------------------------------
+def _output_options(
+    command: argparse.ArgumentParser, folder: str, formats: tuple[str, ...]
+) -> None:
+    """--output-dir, --formats and --no-plots of a command that writes files."""
+    command.add_argument(
+        "--output-dir",
+        default=folder,
+        metavar="DIR",
+        help=f"output folder (created; default: {folder})",
+    )
+    command.add_argument(
+        "--formats",
+        type=_formats,
+        default=formats,
+        metavar="LIST",
+        help=f"comma-separated file formats among {', '.join(FORMATS)} "
+        f"(default: {','.join(formats)})",
+    )
+    command.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The command line's parser (every option documented with its unit)."""
     parser = _Parser(
@@ -288,20 +309,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="samples per second in the files, Hz, at most 1e6 and 2,000,000 samples "
         "(default: 1000; the samples are exact, a simulation interpolates between them)",
     )
-    torques.add_argument(
-        "--output-dir",
-        default="torques_out",
-        metavar="DIR",
-        help="output folder (created; default: torques_out)",
-    )
-    torques.add_argument(
-        "--formats",
-        type=_formats,
-        default=("csv", "json"),
-        metavar="LIST",
-        help="comma-separated file formats among csv, json, npz (default: csv,json)",
-    )
-    torques.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    _output_options(torques, "torques_out", ("csv", "json"))
     torques.add_argument(
         "--gif", action="store_true", help="also write an animation, animation.gif (slow)"
     )
@@ -372,20 +380,7 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("cubic", "linear"),
         help="interpolation of the file's torques between samples (default: cubic)",
     )
-    simulate.add_argument(
-        "--output-dir",
-        default="simulate_out",
-        metavar="DIR",
-        help="output folder (created; default: simulate_out)",
-    )
-    simulate.add_argument(
-        "--formats",
-        type=_formats,
-        default=("csv",),
-        metavar="LIST",
-        help="comma-separated file formats among csv, json, npz (default: csv)",
-    )
-    simulate.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    _output_options(simulate, "simulate_out", ("csv",))
 
     demo = commands.add_parser(
         "demo",
