@@ -556,13 +556,18 @@ class OCP:
 
     def __post_init__(self) -> None:
         dynamics = self.dynamics
-        formulation = self.formulation
-        if isinstance(dynamics, Dynamics):
-            formulation = formulation or "implicit"
-            if formulation not in FORMULATIONS:
-                raise DefinitionError(
-                    f"`formulation`: unknown {formulation!r}; use one of {FORMULATIONS}"
-                )
+        if not isinstance(dynamics, Dynamics | ca.Function):
+            raise DefinitionTypeError(
+                "`dynamics`: must be a model.Dynamics or a casadi.Function f(x, u[, t]) -> xdot, "
+                f"got {type(dynamics).__name__}"
+            )
+        linkage = isinstance(dynamics, Dynamics)
+        formulation = self.formulation or ("implicit" if linkage else "explicit")
+        if formulation not in FORMULATIONS:
+            raise DefinitionError(
+                f"`formulation`: unknown {formulation!r}; use one of {FORMULATIONS}"
+            )
+        if linkage:
             for name in ("state_names", "control_names", "state_units", "control_units"):
                 if getattr(self, name) is not None:
                     raise DefinitionError(
@@ -570,12 +575,7 @@ class OCP:
                         "give names only with a casadi.Function"
                     )
             system = System.from_dynamics(dynamics, formulation)
-        elif isinstance(dynamics, ca.Function):
-            formulation = formulation or "explicit"
-            if formulation not in FORMULATIONS:
-                raise DefinitionError(
-                    f"`formulation`: unknown {formulation!r}; use one of {FORMULATIONS}"
-                )
+        else:
             system = System.from_function(
                 dynamics,
                 formulation,
@@ -583,11 +583,6 @@ class OCP:
                 self.control_names,
                 self.state_units,
                 self.control_units,
-            )
-        else:
-            raise DefinitionTypeError(
-                "`dynamics`: must be a model.Dynamics or a casadi.Function f(x, u[, t]) -> xdot, "
-                f"got {type(dynamics).__name__}"
             )
         object.__setattr__(self, "formulation", formulation)
         object.__setattr__(self, "system", system)
