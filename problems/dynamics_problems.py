@@ -269,10 +269,10 @@ def _torque_source(
         else:
             torques = torques.to_trajectory()
     if isinstance(torques, Trajectory):
-        controls = np.asarray(torques.controls)
-        if controls.ndim != 2 or controls.shape[1] != n:
+        channels = np.shape(torques.controls)[1]  # a Trajectory's controls are (K, nu)
+        if channels != n:
             raise DefinitionError(
-                f"`torques`: the profile has {controls.shape[-1]} torque channels but the "
+                f"`torques`: the profile has {channels} torque channels but the "
                 f"linkage has {n} links; use a profile written for this linkage"
             )
         if torques.is_linkage and tuple(torques.link_names) != tuple(names):
@@ -281,9 +281,7 @@ def _torque_source(
                 f"linkage has {list(names)}; use a profile written for this linkage"
             )
         function = torques.control_function(interpolation)
-        time = np.asarray(torques.time, dtype=float)
-        if time.size < 2:
-            raise DefinitionError("`torques`: the profile needs at least 2 samples to integrate")
+        time = np.asarray(torques.time, dtype=float)  # at least 2 samples, as any Trajectory
 
         def evaluate(t: np.ndarray) -> np.ndarray:
             return np.asarray(function(t), dtype=float).reshape(-1, n)
