@@ -23,7 +23,7 @@ parameter is off by 1e-6.
 
 Also here: the numpy batch path against single-state CasADi calls, passive energy
 conservation over 2 s, lazy generation, validation messages of the numeric methods, and
-(at the end) tests of three defects found in model/ (see their docstrings).
+(at the end) edge cases: empty batches, a link without rotational inertia, one-link trees.
 """
 
 from __future__ import annotations
@@ -702,17 +702,17 @@ def test_dynamics_requires_a_linkage():
         Dynamics([Link("a", None, 1.0, 1.0)])
 
 
-# ---- defects found by these tests (see the report; the lead owns model/) ------------------------
-def test_empty_batch_gives_empty_result_or_library_error():
-    """A (0, n) batch is a legal numpy batch; it must give (0, n) results (or a library
-    error naming the field), never a raw numpy reshape error."""
+# ---- edge cases: empty batches, a link without rotational inertia, one-link trees ----------------
+@pytest.mark.parametrize("method", sorted(METHODS))
+def test_empty_batch_gives_empty_results(method):
+    """A (0, n) batch is a legal numpy batch: every method returns (0, ...) arrays with the
+    per-state shape of a single state (CasADi alone would evaluate one state instead)."""
     dyn = dynamics_of(SIX)
-    empty = np.zeros((0, 6))
-    try:
-        result = dyn.inverse_dynamics(empty, empty, empty)
-    except AnthropoidError:
-        return
-    assert np.asarray(result).shape == (0, 6)
+    count = len(METHODS[method])
+    single = _stack_outputs(getattr(dyn, method)(*[GOOD] * count))
+    empty = _stack_outputs(getattr(dyn, method)(*[np.zeros((0, 6))] * count))
+    assert empty.shape == (0, *np.shape(single))
+    assert empty.dtype == np.asarray(single).dtype
 
 
 def test_leaf_without_rotational_inertia_is_refused():
@@ -720,14 +720,14 @@ def test_leaf_without_rotational_inertia_is_refused():
     singular and forward dynamics is undefined. It must be refused with a message, not
     answered with NaN."""
     point_mass = [Link("arm", None, 1.0, 1.0), Link("bob", "arm", 1.0, 1.0, com=0.0, inertia=0.0)]
-    with pytest.raises(DefinitionError, match="inertia"):
+    with pytest.raises(DefinitionError, match=r"`links\[1\]`: 'bob' has no moment of inertia"):
         Linkage(point_mass).dynamics().forward_dynamics([0.0, 1.0], [0.0, 0.0], [0.0, 0.0])
 
 
 def test_one_link_linkage_keeps_its_shapes():
     """A one-link tree (``n_link_chain(1)``, or a tree with every other link locked) must
-    keep the documented shapes: M (n, n), torques (n,), positions (n,). The model collapses
-    every 1x1 output to a scalar, as if it were the energy."""
+    keep the documented shapes: M (n, n), torques (n,), positions (n,); only the energies and
+    the ground force, one number per state, become scalars."""
     dyn = presets.n_link_chain(1).dynamics()
     one = np.array([0.3])
     assert np.shape(dyn.hinge_positions(one)) == (2,)  # n + 1 = 2: not affected

@@ -217,6 +217,25 @@ def test_linkage_rejects_cycles_and_a_missing_root():
         Linkage([rod("a", "a")])
 
 
+def test_linkage_rejects_a_link_whose_angle_has_no_dynamics():
+    """No inertia about the start hinge (J = 0, centre of mass on the hinge) and no child away
+    from it: psi of that link is absent from T, so M(psi) is singular."""
+    point = dict(com=0.0, inertia=0.0)
+    message = (
+        r"`links\[1\]`: 'b' has no moment of inertia about its start hinge \(inertia 0 and "
+        r"centre of mass on the hinge\) and nothing hangs off that hinge, so its angle has no "
+        r"dynamics; give inertia > 0 or com > 0"
+    )
+    with pytest.raises(DefinitionError, match=message):
+        Linkage([rod("a"), rod("b", "a", **point)])
+    with pytest.raises(DefinitionError, match=message):  # a child on the same hinge does not help
+        Linkage([rod("a"), rod("b", "a", **point), rod("c", "b", origin=0j)])
+    # the same link is a lever once something hangs away from its start hinge, or has inertia
+    assert Linkage([rod("a"), rod("b", "a", **point), rod("c", "b")]).n == 3
+    assert Linkage([rod("a"), rod("b", "a", com=0.0, inertia=1e-3)]).n == 2
+    assert Linkage([rod("a"), rod("b", "a", com=0.1, inertia=0.0)]).n == 2
+
+
 def test_linkage_accepts_any_iterable_of_links():
     linkage = Linkage(link for link in [rod("a"), rod("b", "a")])
     assert linkage.names == ("a", "b")
