@@ -358,6 +358,9 @@ def test_other_bad_input(capsys, tmp_path):
     assert_one_line_error(capsys, r"required: <command>")
     assert_one_line_error(capsys, r"invalid choice: 'fly'", "fly")
     assert_one_line_error(capsys, r"--rows: must be >= 1", "demo", "--rows", "0")
+    assert_one_line_error(
+        capsys, r"--rows: expected an integer, got '2.5'", "demo", "--rows", "2.5"
+    )
     a_file = tmp_path / "file"
     a_file.write_text("x")
     assert_one_line_error(
@@ -366,6 +369,64 @@ def test_other_bad_input(capsys, tmp_path):
         "torques",
         "--output-dir",
         a_file,
+    )
+    assert_one_line_error(
+        capsys,
+        r"--output-dir: cannot create '.*file/sub': Not a directory",
+        "torques",
+        "--output-dir",
+        a_file / "sub",
+    )
+    assert_one_line_error(
+        capsys,
+        r"--output: cannot write '.*file/eq\.txt': Not a directory",
+        "equations",
+        "--output",
+        a_file / "eq.txt",
+    )
+
+
+def test_simulate_unreadable_file_and_too_many_samples(capsys, tmp_path, monkeypatch):
+    assert (
+        main(
+            [
+                "torques",
+                "-q",
+                "--duration-s",
+                "3",
+                "--rate-hz",
+                "10",
+                "--no-plots",
+                "--output-dir",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
+    profile = tmp_path / "torques.csv"
+    assert_one_line_error(
+        capsys,
+        r"--rate-hz 1e\+06 Hz over 3 s asks for 3000001 output samples; keep it under "
+        r"2,000,000 \(lower --rate-hz or --t-end-s\)",
+        "simulate",
+        profile,
+        "--rate-hz",
+        "1e6",
+        "--output-dir",
+        tmp_path,
+    )
+
+    def unreadable(cls, path):
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(Trajectory, "load", classmethod(unreadable))
+    assert_one_line_error(
+        capsys,
+        r"torque file '.*torques\.csv' cannot be read: Permission denied",
+        "simulate",
+        profile,
+        "--output-dir",
+        tmp_path,
     )
 
 

@@ -156,6 +156,10 @@ def test_first_problem_validation(six, paper22):
         torques_along(six, paper22, [0.0, 0.2, 0.1])
     with pytest.raises(DefinitionTypeError, match=r"`dynamics`: must be a model.Dynamics"):
         torques_along("six-link", paper22, [0.0, 1.0])
+    with pytest.raises(DefinitionTypeError, match=r"`t`: must be a 1-D array of times in s"):
+        torques_along(six, paper22, "soon")
+    with pytest.raises(DefinitionError, match=r"`t`: contains NaN or inf; give finite times"):
+        torques_along(six, paper22, [0.0, math.nan])
 
 
 # ---- second problem -------------------------------------------------------------------------
@@ -275,6 +279,17 @@ def test_replay_of_the_law_follows_it_then_diverges(six, paper22):
     assert rows[0] == (0.0, 0.0) and len(rows) == 5
 
 
+def test_replay_and_instability_validation(six, paper22):
+    with pytest.raises(DefinitionError, match=r"`t_end`: must be > t0 = 0.5 s, got 0.5"):
+        replay_law(six, paper22, 0.5, t0=0.5)
+    with pytest.raises(DefinitionError, match=r"`law`: drives 6 links but the linkage has 5"):
+        replay_law(presets.five_link_biped(), paper22, 1.0)
+    with pytest.raises(DefinitionError, match=r"`psi`: must be 6 finite angles in rad"):
+        upright_instability_rate(six, np.zeros(5))
+    with pytest.raises(DefinitionError, match=r"`psi`: must be 6 finite angles in rad"):
+        upright_instability_rate(six, np.full(6, np.nan))
+
+
 def test_replay_of_a_sampled_profile(six, paper22):
     profile = torques_along(six, paper22, np.linspace(0.0, 0.5, 501))  # 1 kHz
     report = replay_law(six, paper22, 0.4, torques=profile, rtol=1e-12, atol=1e-12)
@@ -304,6 +319,11 @@ def test_second_problem_validation(six, paper22):
         ({"t_eval": [0.0, 0.7]}, DefinitionError, r"`t_eval`: must lie within t_span"),
         ({"rate_hz": -1.0}, DefinitionError, r"`rate_hz`: must be > 0 Hz"),
         ({"interpolation": "quintic"}, DefinitionError, r"`interpolation`: must be 'cubic'"),
+        ({"degree": 0}, DefinitionError, r"`degree`: must be an integer >= 1, got 0"),
+        ({"max_interval": 0.0}, DefinitionError, r"`max_interval`: must be > 0 s, got 0.0"),
+        ({"solution_rate_hz": -1.0}, DefinitionError, r"`solution_rate_hz`: must be > 0 Hz"),
+        ({"t_span": 0.5}, DefinitionTypeError, r"`t_span`: must be \(t0, tf\) in s, got 0.5"),
+        ({"x0": "psi"}, DefinitionTypeError, r"`x0`: must be 2n = 12 numbers, got 'psi'"),
     ]
     for changes, error, message in cases:
         arguments = {"x0": x0, "t_span": (0.0, 0.5)}

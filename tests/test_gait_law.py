@@ -144,5 +144,7 @@ def test_bad_times_and_presets():
         GaitLaw.preset("paper23")
     with pytest.raises(DefinitionError, match=r"`data`: gait-law parameters lack \['varpi'\]"):
         GaitLaw.from_dict({"period": 1.0, "zeta": [0.1]})
+    with pytest.raises(DefinitionTypeError, match=r"`data`: must be a dict of law parameters"):
+        GaitLaw.from_dict([1.0, [0.1], [0.0]])
     with pytest.raises(DefinitionError, match=r"`t_end`: must be >= 0 s"):
         law.static_times(t_end=-1.0)
