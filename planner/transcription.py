@@ -661,7 +661,7 @@ class Transcription:
         # State-only path constraints also where no dynamics point lies (Radau t = 0,
         # Legendre nodes): there the state is a variable, the control is not.
         free = mesh.free_state_cols
-        if self.state_paths and free.size:
+        if free.size and self.state_paths:
             state_path = self._state_path_function().map(free.size)
             Pfree = state_path(
                 Xs[:, free.tolist()], T * ca.DM(mesh.s_state[free]).T, ca.repmat(T, 1, free.size)
@@ -726,43 +726,26 @@ class Transcription:
             lbg.append(np.zeros(s.nz * nC))
             ubg.append(np.zeros(s.nz * nC))
             g_scale.append(np.tile(self.residual_scale, nC))
-        paths = self._path_constraints()
-        if paths:
-            lo = np.concatenate([c.lower / ocp.constraint_scale(c) for c in paths])
-            hi = np.concatenate([c.upper / ocp.constraint_scale(c) for c in paths])
-            row_names = [
-                f"path[{c.name}]" + (f"[{i}]" if c.size > 1 else "")
-                for c in paths
-                for i in range(c.size)
-            ]
-            for col in range(nC):
-                g_names.extend(f"{n} {mesh.dyn_label(col)}" for n in row_names)
-            lbg.append(np.tile(lo, nC))
-            ubg.append(np.tile(hi, nC))
-            g_scale.append(np.tile(np.concatenate([ocp.constraint_scale(c) for c in paths]), nC))
+        # Path constraints at every dynamics point, the state-only ones also at the state
+        # points with no dynamics point (Radau t = 0, Legendre nodes).
         free = mesh.free_state_cols
-        if self.state_paths and free.size:
-            state_paths = self.state_paths
-            lo = np.concatenate([c.lower / ocp.constraint_scale(c) for c in state_paths])
-            hi = np.concatenate([c.upper / ocp.constraint_scale(c) for c in state_paths])
-            row_names = [
-                f"path[{c.name}]" + (f"[{i}]" if c.size > 1 else "")
-                for c in state_paths
-                for i in range(c.size)
-            ]
-            for col in free:
-                g_names.extend(f"{n} {mesh.state_label(int(col))}" for n in row_names)
-            lbg.append(np.tile(lo, free.size))
-            ubg.append(np.tile(hi, free.size))
-            scales = np.concatenate([ocp.constraint_scale(c) for c in state_paths])
-            g_scale.append(np.tile(scales, free.size))
-        for c in self._boundary_constraints():
-            scale = ocp.constraint_scale(c)
-            g_names.extend(
-                f"{c.where}[{c.name}]" + (f"[{i}]" if c.size > 1 else "") for i in range(c.size)
-            )
-            lbg.append(c.lower / scale)
-            ubg.append(c.upper / scale)
+        for constraints, columns, label in (
+            (self._path_constraints(), range(nC), mesh.dyn_label),
+            (self.state_paths if free.size else (), free, mesh.state_label),
+        ):
+            if constraints:
+                row_names, lo, hi, scale = self._constraint_rows(constraints)
+                for col in columns:
+                    g_names.extend(f"{n} {label(int(col))}" for n in row_names)
+                lbg.append(np.tile(lo, len(columns)))
+                ubg.append(np.tile(hi, len(columns)))
+                g_scale.append(np.tile(scale, len(columns)))
+        boundary = self._boundary_constraints()
+        if boundary:
+            row_names, lo, hi, scale = self._constraint_rows(boundary)
+            g_names.extend(row_names)
+            lbg.append(lo)
+            ubg.append(hi)
             g_scale.append(scale)
         if ocp.periodicity is not None:
             g_names.extend(f"periodic[{n}]" for n in s.state_names)
@@ -777,6 +760,19 @@ class Transcription:
             raise RuntimeError(
                 f"internal: {self.lbg.size} constraint bounds for {self.nlp['g'].size1()} rows"
             )
+
+    def _constraint_rows(self, constraints) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
+        """Row names ("path[c]", "start[b][1]"), scaled lower and upper bounds and nominal
+        scales of ``constraints`` at one point, stacked in order."""
+        scales = [self.ocp.constraint_scale(c) for c in constraints]
+        names = [
+            f"{c.where}[{c.name}]" + (f"[{i}]" if c.size > 1 else "")
+            for c in constraints
+            for i in range(c.size)
+        ]
+        lower = np.concatenate([c.lower / s for c, s in zip(constraints, scales, strict=True)])
+        upper = np.concatenate([c.upper / s for c, s in zip(constraints, scales, strict=True)])
+        return names, lower, upper, np.concatenate(scales)
 
     # ---- numeric helpers ----------------------------------------------------------------
     def unpack(self, w: np.ndarray) -> dict[str, Any]:
