@@ -118,10 +118,6 @@ class Dynamics:
         self._mass = [link.mass for link in links]
         self._inertia = [link.inertia for link in links]
         self._length = [link.length for link in links]
-        subtree_mass = [0.0] * n
-        for i in reversed(range(n)):
-            subtree_mass[i] = self._mass[i] + sum(subtree_mass[c] for c in linkage.children[i])
-        self._subtree_mass = subtree_mass
         # Constants converted to CasADi once (each conversion costs microseconds).
         self._origin_vector = Constants(self._origin)
         self._origin_conj = self._origin_vector.conj()
@@ -131,15 +127,17 @@ class Dynamics:
         self._mass_dm = ca.DM(self._mass)
         self._weight_dm = ca.DM(self._mass) * linkage.gravity
         self._inertia_dm = ca.DM(self._inertia)
-        self._mass_coefficients, self._mass_pattern, self._mass_diagonal = self._mass_constants()
 
     def _mass_constants(self) -> tuple[np.ndarray, ca.Sparsity, np.ndarray]:
         """Constant parts of the mass matrix: D_km (lower triangle), its pattern, diagonal."""
         linkage = self._linkage
         n = self.n
+        subtree_mass = [0.0] * n
+        for i in reversed(range(n)):
+            subtree_mass[i] = self._mass[i] + sum(subtree_mass[c] for c in linkage.children[i])
         first_moment = [
             self._mass[m] * self._com[m]
-            + sum(self._origin[c] * self._subtree_mass[c] for c in linkage.children[m])
+            + sum(self._origin[c] * subtree_mass[c] for c in linkage.children[m])
             for m in range(n)
         ]
         coefficient = np.zeros((n, n), dtype=complex)
@@ -149,9 +147,7 @@ class Dynamics:
             diagonal[m] = (
                 self._inertia[m]
                 + self._mass[m] * abs(self._com[m]) ** 2
-                + sum(
-                    abs(self._origin[c]) ** 2 * self._subtree_mass[c] for c in linkage.children[m]
-                )
+                + sum(abs(self._origin[c]) ** 2 * subtree_mass[c] for c in linkage.children[m])
             )
             rows.append(m)
             cols.append(m)
@@ -336,16 +332,14 @@ class Dynamics:
 
         def build():
             e = self._frames()
-            coefficient = self._mass_coefficients  # lower triangle (m > k), complex
+            coefficient, pattern, diagonal = self._mass_constants()  # lower triangle (m > k)
             # conj(e_k) e_m for all pairs: real part cos(psi_m - psi_k), imaginary sin(...)
             cosine = ca.mtimes(e.re, e.re.T) + ca.mtimes(e.im, e.im.T)
             lower = ca.DM(coefficient.real) * cosine
             if np.any(coefficient.imag):
                 sine = ca.mtimes(e.im, e.re.T) - ca.mtimes(e.re, e.im.T)
                 lower = lower - ca.DM(coefficient.imag) * sine
-            return ca.tril2symm(
-                ca.project(lower, self._mass_pattern) + ca.diag(ca.DM(self._mass_diagonal))
-            )
+            return ca.tril2symm(ca.project(lower, pattern) + ca.diag(ca.DM(diagonal)))
 
         return self._memo("mass_matrix", build)
 
