@@ -110,3 +110,21 @@ def test_second_problem_writes_its_input_when_missing(tmp_path):
     out = _run("second_problem.py", "--output-dir", tmp_path / "fresh")
     assert "(it was missing)" in out
     assert (tmp_path / "fresh" / "first_problem.csv").exists()
+
+
+def test_problems_benchmark_quick_run():
+    """The benchmark behind README's errata and replay numbers runs and prints its tables."""
+    result = _call("benchmarks/problems_bench.py", "--quick")
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    out = result.stdout
+    for expected in (
+        "errata: max |M_i(printed (16)-(17)) - M_i(corrected)|",
+        "linearised instability rate",
+        "rk (RK4), 8 steps per 1 ms interval",
+        "collocation, 8 steps per 1 ms interval",
+        "cvodes 1e-12, 1 ms intervals",
+        "replay of a 1 kHz torque file",
+        "cvodes 1e-10, 100 Hz output (CLI defaults)",
+    ):
+        assert expected in out, expected
