@@ -25,18 +25,30 @@ Accuracy estimates (all in the states' physical units):
 from __future__ import annotations
 
 import importlib.metadata
+import re
 from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError
+from model.errors import AnthropoidError, DefinitionError, check_real
+from planner.collocation import gauss_legendre, lagrange_coefficients
 
 #: Gauss-Legendre points per interval for residual_error. The integrand |f - dx/dt| has kinks
 #: where f - dx/dt changes sign, so the rule is not exact (its degree 2 * 12 - 1 exactness
 #: holds for smooth polynomials only): an estimate, whose error is not bounded by that degree.
 RESIDUAL_QUADRATURE_POINTS = 12
+
+
+def _tolerance(name: str, value) -> float:
+    """An integrator tolerance: a real number in (0, 1)."""
+    number = check_real(name, value)
+    if not 0 < number < 1:
+        raise DefinitionError(
+            f"`{name}`: must lie in (0, 1), got {number!r}; give e.g. 1e-10 (1e-12 for a tight run)"
+        )
+    return number
 
 
 @dataclass(frozen=True)
@@ -337,7 +349,7 @@ class Solution:
                 "residual"
             )
 
-    def _interval_integrator(self, rtol: float, atol: float, what: str) -> ca.Function:
+    def _interval_integrator(self, rtol, atol, what: str) -> ca.Function:
         """One interval in tau: dx/dtau = h f(x, u(tau), t_k + h tau).
 
         An explicit ODE integrates with CVODES. A generic implicit residual r(x, xdot, u, t)
@@ -347,8 +359,8 @@ class Solution:
         The control polynomial enters as parameters: the interval's dynamics-point controls,
         combined with the monomial coefficients of the scheme's Lagrange basis.
         """
-        from planner.collocation import lagrange_coefficients
-
+        rtol, atol = _tolerance("rtol", rtol), _tolerance("atol", atol)
+        self._require_rate(what)
         s = self.system
         ndc = self.scheme.ndc
         coefficients = lagrange_coefficients(self.scheme.interval_dyn_tau)  # (ndc, ndc)
@@ -364,7 +376,6 @@ class Solution:
         if not self._implicit_only:
             dae = {"x": x, "p": p, "t": tau, "ode": h * s.ode(x, u, t0 + h * tau)}
             return ca.integrator("interval", "cvodes", dae, 0.0, 1.0, options)
-        self._require_rate(what)
         z = ca.SX.sym("z", s.nz)
         t = t0 + h * tau
         dae = {
@@ -377,20 +388,29 @@ class Solution:
         }
         return ca.integrator("interval", "idas", dae, 0.0, 1.0, options)
 
-    def _integrate(self, integrator: ca.Function, x0: np.ndarray, p: np.ndarray, z0=None):
-        """Call an interval integrator, (nx, K) x0 and (np, K) p; returns (xf, zf)."""
+    def _integrate(self, integrator: ca.Function, x0: np.ndarray, p: np.ndarray, z0, where: str):
+        """Call an interval integrator, (nx, K) x0 and (np, K) p; returns (xf, zf).
+
+        A failure of the integrator raises AnthropoidError naming ``where`` (the interval(s))
+        and the SUNDIALS flag."""
         arguments = {"x0": x0, "p": p}
         if self._implicit_only:
             arguments["z0"] = z0
         try:
             result = integrator(**arguments)
         except RuntimeError as exc:
-            if not self._implicit_only:
-                raise
+            found = re.search(r'returned "([A-Z_]+)"', str(exc))
+            flag = found.group(1) if found else str(exc).strip().splitlines()[-1]
+            if self._implicit_only:
+                raise AnthropoidError(
+                    f"re-integration of the implicit residual failed (IDAS, {flag}) {where}: "
+                    "the residual r(x, xdot, u, t) must determine xdot (dr/dxdot nonsingular "
+                    "along the solution)"
+                ) from exc
             raise AnthropoidError(
-                "re-integration of the implicit residual failed (IDAS): the residual "
-                "r(x, xdot, u, t) must determine xdot (dr/dxdot nonsingular along the "
-                f"solution); {exc}"
+                f"re-integration of the ODE failed (CVODES, {flag}) {where}: the interpolated "
+                "motion diverges or is too stiff for rtol/atol; loosen them, or check the "
+                "solution (its status, a finer mesh)"
             ) from exc
         return np.asarray(result["xf"]), np.asarray(result["zf"])
 
@@ -408,6 +428,11 @@ class Solution:
         if not self._implicit_only:
             return np.asarray(s.ode.map(K)(x.T, u.T, t[None, :])).T
         self._require_rate("residual_error")
+        failed = (
+            "solving the implicit residual r(x, xdot, u, t) = 0 for xdot failed (Newton from "
+            "the interpolant's slope)"
+        )
+        advice = "the residual must determine xdot (dr/dxdot nonsingular along the solution)"
         xs, us, ts = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("t")
         z = ca.SX.sym("z", s.nz)
         parameters = ca.vertcat(xs, us, ts)
@@ -416,11 +441,13 @@ class Solution:
             root = ca.rootfinder("xdot", "newton", residual, {"abstol": 1e-13, "max_iter": 100})
             z_root = np.asarray(root.map(K)(guess.T, np.vstack([x.T, u.T, t[None, :]])))
         except RuntimeError as exc:
+            raise AnthropoidError(f"{failed}: {advice}; {exc}") from exc
+        bad = np.flatnonzero(~np.all(np.isfinite(z_root), axis=0))
+        if bad.size:  # Newton reports success on a NaN iterate (casadi 3.8): check the root
             raise AnthropoidError(
-                "solving the implicit residual r(x, xdot, u, t) = 0 for xdot failed (Newton "
-                "from the interpolant's slope): the residual must determine xdot (dr/dxdot "
-                f"nonsingular along the solution); {exc}"
-            ) from exc
+                f"{failed}: the root is NaN or inf at t = {t[bad[0]]:.6g} s ({bad.size} of {K} "
+                f"points); {advice}"
+            )
         rate = s.rate.map(K)(x.T, z_root, u.T, t[None, :])
         return np.asarray(rate).T
 
@@ -441,7 +468,8 @@ class Solution:
         integrator = self._interval_integrator(rtol, atol, "integration_error").map(self.N)
         nodes = self.states
         z0 = self._interval_start_rates() if self._implicit_only else None
-        end, _ = self._integrate(integrator, nodes[:-1].T, self._interval_parameters(), z0)
+        where = f"on one of the {self.N} intervals"
+        end, _ = self._integrate(integrator, nodes[:-1].T, self._interval_parameters(), z0, where)
         return IntegrationError(np.abs(end.T - nodes[1:]), self.system.state_names)
 
     def residual_error(self, points: int = RESIDUAL_QUADRATURE_POINTS) -> IntegrationError:
@@ -449,8 +477,6 @@ class Solution:
 
         (N, nx), state units; Gauss-Legendre quadrature with ``points`` points per interval.
         """
-        from planner.collocation import gauss_legendre
-
         tau, weights = gauss_legendre(points)
         t = (np.arange(self.N)[:, None] + tau[None, :]).reshape(-1) * self.h
         # Points never hit a node, so the interval of each is unambiguous.
@@ -475,7 +501,8 @@ class Solution:
         z = self._interval_start_rates()[:, 0] if self._implicit_only else None
         out = [x]
         for k in range(self.N):
-            xf, zf = self._integrate(integrator, x, parameters[:, k], z)
+            where = f"on interval {k} (t = {self.time[k]:.6g} .. {self.time[k + 1]:.6g} s)"
+            xf, zf = self._integrate(integrator, x, parameters[:, k], z, where)
             x, z = xf.reshape(-1), zf.reshape(-1)
             out.append(x)
         states = np.array(out)

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from model import DefinitionError, presets
-from planner import OCP, Trajectory, Transcription
+from model import AnthropoidError, DefinitionError, DefinitionTypeError, presets
+from planner import OCP, Solution, Trajectory, Transcription
 from planner.collocation import collocation_roots
 
 CHAIN = presets.n_link_chain(2).dynamics()
@@ -271,6 +271,51 @@ def test_a_residual_that_does_not_determine_xdot_is_named():
     for method in ("integration_error", "residual_error", "replay"):
         with pytest.raises(DefinitionError, match=rf"`{method}`: .*structural rank 1 < 2"):
             getattr(solution, method)()
+
+
+def scalar_solution(dynamics, formulation, x, u, z):
+    """A Solution of the scalar system ``dynamics`` (state y) holding the constant values x,
+    u and z at every point (not a solve: a state the accuracy estimates must cope with)."""
+    ocp = OCP(dynamics, T=1.0, N=2, formulation=formulation, state_names=("y",))
+    transcription = Transcription(ocp.minimize(integral=lambda p: p.u_0**2))
+    mesh = transcription.mesh
+    nz = transcription.system.nz
+    w = transcription.pack(
+        np.full((mesh.n_state_points, 1), x),
+        np.full((mesh.n_dyn_points, 1), u),
+        np.full((mesh.n_dyn_points, nz), z),
+        1.0,
+    )
+    return Solution(transcription, w, 0.0, "constructed", False, {})
+
+
+def test_integrator_and_newton_failures_raise_naming_the_solver():
+    y, u, ydot = ca.SX.sym("y"), ca.SX.sym("u"), ca.SX.sym("ydot")
+    # y' = y^2 from y = 10 blows up at t = 0.1, inside the first interval
+    blowing_up = scalar_solution(ca.Function("f", [y, u], [y**2 + u]), "explicit", 10.0, 0, 0)
+    with pytest.raises(AnthropoidError, match=r"ODE failed \(CVODES, CV_\w+\) on one of the 2"):
+        blowing_up.integration_error()
+    with pytest.raises(AnthropoidError, match=r"\(CVODES, CV_\w+\) on interval 0 \(t = 0 .. 0.5"):
+        blowing_up.replay()
+    # r = y'^2 - u with u = 1 and the slope guess y' = 0: dr/dy' = 0 there, no Newton step
+    singular = scalar_solution(ca.Function("r", [y, ydot, u], [ydot**2 - u]), "implicit", 0, 1, 0)
+    with pytest.raises(AnthropoidError, match=r"\(Newton .*\): the root is NaN or inf at t ="):
+        singular.residual_error()
+    with pytest.raises(AnthropoidError, match=r"implicit residual failed \(IDAS, IDA_\w+\) on"):
+        singular.integration_error()
+    with pytest.raises(AnthropoidError, match=r"\(IDAS, IDA_\w+\) on interval 0 \(t = 0 .. 0.5"):
+        singular.replay()
+
+
+def test_tolerances_are_checked():
+    solution = solved("hermite-simpson")
+    for name in ("rtol", "atol"):
+        with pytest.raises(DefinitionError, match=rf"`{name}`: must lie in \(0, 1\), got 0.0"):
+            solution.integration_error(**{name: 0.0})
+        with pytest.raises(DefinitionError, match=rf"`{name}`: must lie in \(0, 1\), got 1.0"):
+            solution.replay(**{name: 1})
+        with pytest.raises(DefinitionTypeError, match=rf"`{name}`: must be a real number"):
+            solution.replay(**{name: "tight"})
 
 
 def test_replay_is_the_chained_reintegration():
