@@ -27,6 +27,7 @@ from __future__ import annotations
 import importlib.metadata
 import re
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import casadi as ca
@@ -154,6 +155,8 @@ class Solution:
         self.state_time = self.mesh.s_state * self.T
         self.point_time = self.mesh.s_dyn * self.T
         self.rate_values = self._rates()
+        #: Interval integrators by (rtol, atol), built on first use.
+        self._integrators: dict[tuple[float, float], ca.Function] = {}
 
     # ---- basic views -----------------------------------------------------------------
     @property
@@ -333,24 +336,30 @@ class Solution:
         """The dynamics are a residual r(x, xdot, u, t) = 0 with no explicit ODE (generic)."""
         return self.system.ode is None
 
+    @cached_property
+    def _rate_rank(self) -> int:
+        """Structural rank of dr/dxdot of a generic implicit residual."""
+        s = self.system
+        z = ca.SX.sym("z", s.nz)
+        x, u, t = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("t")
+        return ca.sprank(ca.jacobian(s.residual(x, z, u, t), z))
+
     def _require_rate(self, what: str) -> None:
         """A generic implicit residual must determine xdot: dr/dxdot structurally regular."""
         if not self._implicit_only:
             return
-        s = self.system
-        z = ca.SX.sym("z", s.nz)
-        x, u, t = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("t")
-        rank = ca.sprank(ca.jacobian(s.residual(x, z, u, t), z))
-        if rank < s.nz:
+        rank, nz = self._rate_rank, self.system.nz
+        if rank < nz:
             raise DefinitionError(
                 f"`{what}`: the implicit residual r(x, xdot, u, t) does not determine xdot "
-                f"(dr/dxdot has structural rank {rank} < {s.nz}), so the dynamics cannot be "
+                f"(dr/dxdot has structural rank {rank} < {nz}), so the dynamics cannot be "
                 "re-integrated or solved for xdot; give an ODE f(x, u[, t]) or an index-1 "
                 "residual"
             )
 
     def _interval_integrator(self, rtol, atol, what: str) -> ca.Function:
-        """One interval in tau: dx/dtau = h f(x, u(tau), t_k + h tau).
+        """One interval in tau: dx/dtau = h f(x, u(tau), t_k + h tau), built once per
+        tolerance pair.
 
         An explicit ODE integrates with CVODES. A generic implicit residual r(x, xdot, u, t)
         integrates as the semi-explicit index-1 DAE dx/dtau = h z, 0 = r(x, z, u, t) with IDAS
@@ -359,8 +368,10 @@ class Solution:
         The control polynomial enters as parameters: the interval's dynamics-point controls,
         combined with the monomial coefficients of the scheme's Lagrange basis.
         """
-        rtol, atol = _tolerance("rtol", rtol), _tolerance("atol", atol)
+        key = (_tolerance("rtol", rtol), _tolerance("atol", atol))
         self._require_rate(what)
+        if key in self._integrators:
+            return self._integrators[key]
         s = self.system
         ndc = self.scheme.ndc
         coefficients = lagrange_coefficients(self.scheme.interval_dyn_tau)  # (ndc, ndc)
@@ -372,21 +383,24 @@ class Solution:
         monomials = ca.vertcat(*[tau**p for p in range(ndc)])
         u = ca.mtimes(ca.mtimes(uk, ca.DM(coefficients)), monomials)
         p = ca.vertcat(ca.vec(uk), t0, h)
-        options = {"abstol": atol, "reltol": rtol, "max_num_steps": 100000}
+        options = {"abstol": key[1], "reltol": key[0], "max_num_steps": 100000}
         if not self._implicit_only:
             dae = {"x": x, "p": p, "t": tau, "ode": h * s.ode(x, u, t0 + h * tau)}
-            return ca.integrator("interval", "cvodes", dae, 0.0, 1.0, options)
-        z = ca.SX.sym("z", s.nz)
-        t = t0 + h * tau
-        dae = {
-            "x": x,
-            "z": z,
-            "p": p,
-            "t": tau,
-            "ode": h * s.rate(x, z, u, t),
-            "alg": s.residual(x, z, u, t),
-        }
-        return ca.integrator("interval", "idas", dae, 0.0, 1.0, options)
+            integrator = ca.integrator("interval", "cvodes", dae, 0.0, 1.0, options)
+        else:
+            z = ca.SX.sym("z", s.nz)
+            t = t0 + h * tau
+            dae = {
+                "x": x,
+                "z": z,
+                "p": p,
+                "t": tau,
+                "ode": h * s.rate(x, z, u, t),
+                "alg": s.residual(x, z, u, t),
+            }
+            integrator = ca.integrator("interval", "idas", dae, 0.0, 1.0, options)
+        self._integrators[key] = integrator
+        return integrator
 
     def _integrate(self, integrator: ca.Function, x0: np.ndarray, p: np.ndarray, z0, where: str):
         """Call an interval integrator, (nx, K) x0 and (np, K) p; returns (xf, zf).
@@ -420,6 +434,16 @@ class Solution:
         weights = self.scheme.control_weights([0.0])[0]  # (ndc,)
         return np.einsum("c,kcn->nk", weights, self.aux_values[self.mesh.dyn_cols])
 
+    @cached_property
+    def _newton(self) -> ca.Function:
+        """xdot from r(x, xdot, u, t) = 0 by Newton's method: (guess, [x; u; t]) -> xdot."""
+        s = self.system
+        xs, us, ts = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("t")
+        z = ca.SX.sym("z", s.nz)
+        parameters = ca.vertcat(xs, us, ts)
+        residual = ca.Function("r", [z, parameters], [s.residual(xs, z, us, ts)])
+        return ca.rootfinder("xdot", "newton", residual, {"abstol": 1e-13, "max_iter": 100})
+
     def _rates_at(self, x: np.ndarray, u: np.ndarray, t: np.ndarray, guess: np.ndarray):
         """(K, nx) xdot = f(x, u, t) at K points: the ODE, or for a generic implicit residual
         the root of r(x, xdot, u, t) = 0 by Newton's method from ``guess`` (K, nx)."""
@@ -433,13 +457,8 @@ class Solution:
             "the interpolant's slope)"
         )
         advice = "the residual must determine xdot (dr/dxdot nonsingular along the solution)"
-        xs, us, ts = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("t")
-        z = ca.SX.sym("z", s.nz)
-        parameters = ca.vertcat(xs, us, ts)
-        residual = ca.Function("r", [z, parameters], [s.residual(xs, z, us, ts)])
         try:
-            root = ca.rootfinder("xdot", "newton", residual, {"abstol": 1e-13, "max_iter": 100})
-            z_root = np.asarray(root.map(K)(guess.T, np.vstack([x.T, u.T, t[None, :]])))
+            z_root = np.asarray(self._newton.map(K)(guess.T, np.vstack([x.T, u.T, t[None, :]])))
         except RuntimeError as exc:
             raise AnthropoidError(f"{failed}: {advice}; {exc}") from exc
         bad = np.flatnonzero(~np.all(np.isfinite(z_root), axis=0))

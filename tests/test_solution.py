@@ -307,7 +307,7 @@ def test_integrator_and_newton_failures_raise_naming_the_solver():
         singular.replay()
 
 
-def test_tolerances_are_checked():
+def test_tolerances_are_checked_and_each_pair_is_integrated_by_one_integrator():
     solution = solved("hermite-simpson")
     for name in ("rtol", "atol"):
         with pytest.raises(DefinitionError, match=rf"`{name}`: must lie in \(0, 1\), got 0.0"):
@@ -316,6 +316,10 @@ def test_tolerances_are_checked():
             solution.replay(**{name: 1})
         with pytest.raises(DefinitionTypeError, match=rf"`{name}`: must be a real number"):
             solution.replay(**{name: "tight"})
+    first = solution.integration_error()
+    integrator = solution._interval_integrator(1e-12, 1e-12, "integration_error")
+    assert solution._interval_integrator(1e-12, 1e-12, "replay") is integrator
+    np.testing.assert_array_equal(solution.integration_error().per_interval, first.per_interval)
 
 
 def test_replay_is_the_chained_reintegration():
