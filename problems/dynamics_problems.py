@@ -37,7 +37,14 @@ import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
-from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError, check_real
+from model.errors import (
+    AnthropoidError,
+    DefinitionError,
+    DefinitionTypeError,
+    as_float_array,
+    check_finite,
+    check_real,
+)
 from model.linkage import Linkage
 from planner.trajectory import Trajectory
 from problems.gait_law import GaitLaw
@@ -143,19 +150,13 @@ def _check_law(dynamics: Dynamics, law: GaitLaw) -> None:
 
 def _time_grid(name: str, t, minimum: int = 1) -> np.ndarray:
     """A strictly increasing finite 1-D array of times, s."""
-    try:
-        times = np.atleast_1d(np.asarray(t, dtype=float))
-    except (TypeError, ValueError) as exc:
-        raise DefinitionTypeError(
-            f"`{name}`: must be a 1-D array of times in s, got {t!r}"
-        ) from exc
+    times = np.atleast_1d(as_float_array(name, t, "a 1-D array of times in s"))
     if times.ndim != 1 or times.size < minimum:
         raise DefinitionError(
             f"`{name}`: must be a 1-D array of at least {minimum} time(s) in s, "
             f"got shape {times.shape}"
         )
-    if not np.all(np.isfinite(times)):
-        raise DefinitionError(f"`{name}`: contains NaN or inf; give finite times in s")
+    check_finite(name, times, "times in s")
     if times.size > 1 and np.any(np.diff(times) <= 0):
         k = int(np.argmax(np.diff(times) <= 0))
         raise DefinitionError(
@@ -778,16 +779,12 @@ def simulate(
             )
         states, _ = source.trajectory.at(np.array([t0]))
         x0 = np.asarray(states, dtype=float).reshape(-1)[: 2 * n]
-    try:
-        x_start = np.asarray(x0, dtype=float).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise DefinitionTypeError(f"`x0`: must be 2n = {2 * n} numbers, got {x0!r}") from exc
+    x_start = as_float_array("x0", x0, f"2n = {2 * n} numbers").reshape(-1)
     if x_start.shape != (2 * n,):
         raise DefinitionError(
             f"`x0`: must have 2n = {2 * n} entries [psi (rad); dpsi (rad/s)], got {x_start.size}"
         )
-    if not np.all(np.isfinite(x_start)):
-        raise DefinitionError("`x0`: contains NaN or inf; give finite angles and rates")
+    check_finite("x0", x_start, "angles and rates")
 
     # Integration intervals and torque polynomials on each (one batched torque evaluation).
     grid = _integration_grid(output, source.knots, max_interval)
@@ -1047,7 +1044,7 @@ def upright_instability_rate(dynamics: Dynamics | Linkage, psi) -> float:
     """
     dynamics = _as_dynamics(dynamics)
     n = dynamics.n
-    pose = np.asarray(psi, dtype=float).reshape(-1)
+    pose = as_float_array("psi", psi, f"{n} finite angles in rad").reshape(-1)
     if pose.shape != (n,) or not np.all(np.isfinite(pose)):
         raise DefinitionError(f"`psi`: must be {n} finite angles in rad, got {psi!r}")
     x = ca.SX.sym("x", 2 * n)

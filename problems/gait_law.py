@@ -25,7 +25,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError, check_real
+from model.errors import (
+    DefinitionError,
+    DefinitionTypeError,
+    as_float_array,
+    check_finite,
+    check_real,
+)
 
 __all__ = ["LAW_PRESETS", "GaitLaw"]
 
@@ -144,18 +150,12 @@ class GaitLaw:
     def _phase(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
         """phi (K, n), dphi/dt (K, 1), d2phi/dt2 (K, 1) and the arrays' scalar flag."""
         scalar = np.ndim(t) == 0
-        try:
-            times = np.atleast_1d(np.asarray(t, dtype=float))
-        except (TypeError, ValueError) as exc:
-            raise DefinitionTypeError(
-                f"`t`: must be a time or a 1-D array of times in s, got {t!r}"
-            ) from exc
+        times = np.atleast_1d(as_float_array("t", t, "a time or a 1-D array of times in s"))
         if times.ndim != 1:
             raise DefinitionError(
                 f"`t`: must be a scalar or a 1-D array (K,), got shape {times.shape}"
             )
-        if not np.all(np.isfinite(times)):
-            raise DefinitionError("`t`: contains NaN or inf; give finite times in s")
+        check_finite("t", times, "times in s")
         w = 2.0 * math.pi / self.period
         wt = w * times[:, None]
         phi = np.asarray(self.varpi)[None, :] - (1.0 - np.cos(wt)) * HALF_PI

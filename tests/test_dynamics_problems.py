@@ -288,6 +288,8 @@ def test_replay_and_instability_validation(six, paper22):
         upright_instability_rate(six, np.zeros(5))
     with pytest.raises(DefinitionError, match=r"`psi`: must be 6 finite angles in rad"):
         upright_instability_rate(six, np.full(6, np.nan))
+    with pytest.raises(DefinitionTypeError, match=r"`psi`: must be 6 finite angles in rad"):
+        upright_instability_rate(six, "upright")
 
 
 def test_replay_of_a_sampled_profile(six, paper22):
