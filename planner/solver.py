@@ -232,10 +232,6 @@ def warm_start_multipliers(transcription: Transcription) -> tuple[np.ndarray, np
     return lam_x, lam_g
 
 
-#: Iteration callbacks of live solvers, by id(solver); dropped when solve() returns.
-_CALLBACKS: dict[int, Any] = {}
-
-
 def nlp_solver(
     transcription: Transcription,
     options: Mapping[str, Any] | None = None,
@@ -275,9 +271,9 @@ def nlp_solver(
     except RuntimeError as exc:
         # IPOPT rejects unknown or ill-typed options while the solver is built.
         raise DefinitionError(f"`options`: IPOPT refused the options {ipopt}: {exc}") from exc
-    # The Python callback must outlive the solver (CasADi holds only a reference): keep it.
-    if "iteration_callback" in solver_options:
-        _CALLBACKS[id(solver)] = solver_options["iteration_callback"]
+    # The Python callback must live as long as the solver (CasADi holds only a reference):
+    # the solver object keeps it, and solve() reads the callback's error from there.
+    solver._planner_progress = solver_options.get("iteration_callback")
     return solver
 
 
@@ -353,14 +349,14 @@ def solve(
         if multipliers is not None:
             solver_options = {**WARM_START_IPOPT, **user}
 
-    start = time.perf_counter()
-    solver = nlp_solver(transcription, solver_options, report)
-    setup_seconds = time.perf_counter() - start
     w0 = transcription.initial_guess() if guess is None else np.asarray(guess, dtype=float)
     if w0.shape != (transcription.n_w,):
         raise DefinitionError(
             f"`guess`: expected a decision vector of shape ({transcription.n_w},), got {w0.shape}"
         )
+    start = time.perf_counter()
+    solver = nlp_solver(transcription, solver_options, report)
+    setup_seconds = time.perf_counter() - start
     arguments = {
         "x0": w0,
         "lbx": transcription.lbx,
@@ -373,7 +369,7 @@ def solve(
     start = time.perf_counter()
     result = solver(**arguments)
     solve_seconds = time.perf_counter() - start
-    callback = _CALLBACKS.pop(id(solver), None)
+    callback = getattr(solver, "_planner_progress", None)
     if callback is not None and callback.error is not None:
         raise callback.error
     stats = solver.stats()

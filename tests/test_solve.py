@@ -405,6 +405,17 @@ def test_warm_start_can_be_turned_off_and_needs_a_converged_solution_guess():
         ocp.solve(progress=False, warm_start="yes")
 
 
+def test_a_guess_of_the_wrong_shape_is_refused_before_ipopt_is_set_up(monkeypatch):
+    import planner.solver as solver_module
+
+    def refuse(*arguments, **options):
+        raise AssertionError("no solver is built for a guess of the wrong shape")
+
+    monkeypatch.setattr(solver_module, "nlp_solver", refuse)
+    with pytest.raises(DefinitionError, match=r"`guess`: expected a decision vector of shape"):
+        rest_to_rest().solve(progress=False, guess=np.zeros(3))
+
+
 def test_user_options_override_the_warm_start_options(monkeypatch):
     import planner.solver as solver_module
 
