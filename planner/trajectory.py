@@ -1327,6 +1327,15 @@ def _read_json(path: Path) -> dict[str, Any]:
     )
 
 
+#: The .npz arrays that hold names and units (1-D string arrays), and every array of the file.
+_NPZ_STRING_KEYS = (
+    "state_names",
+    "state_units",
+    "control_names",
+    "control_units",
+    "extra_names",
+    "extra_units",
+)
 _NPZ_KEYS = (
     "format",
     "version",
@@ -1334,12 +1343,7 @@ _NPZ_KEYS = (
     "states",
     "controls",
     "extras",
-    "state_names",
-    "state_units",
-    "control_names",
-    "control_units",
-    "extra_names",
-    "extra_units",
+    *_NPZ_STRING_KEYS,
     "metadata",
 )
 
@@ -1366,14 +1370,7 @@ def _read_npz(path: Path) -> dict[str, Any]:
         int(arrays["version"]) if arrays["version"].dtype.kind in "iu" else arrays["version"],
     )
     strings = {}
-    for key in (
-        "state_names",
-        "state_units",
-        "control_names",
-        "control_units",
-        "extra_names",
-        "extra_units",
-    ):
+    for key in _NPZ_STRING_KEYS:
         value = arrays[key]
         if value.ndim != 1 or (value.size and value.dtype.kind != "U"):
             raise TrajectoryFileError(
