@@ -816,6 +816,7 @@ def json_document(tmp_path) -> dict:
         (lambda d: {**d, "format": "csv"}, r"format is 'csv', expected"),
         (lambda d: {**d, "version": 2}, r"format version 2 is newer"),
         (lambda d: {**d, "version": "1"}, r"version must be an integer"),
+        (lambda d: {**d, "version": 0}, r"top level: unknown format version 0"),
         (lambda d: {**d, "columns": {}}, r"`columns` must be a list"),
         (lambda d: {**d, "columns": d["columns"][1:]}, r"columns\[0\] must be \{'name': 't'"),
         (
@@ -875,6 +876,9 @@ def test_npz_load_errors(tmp_path):
         Trajectory.load(path)
     np.savez(path.with_suffix(""), **{**arrays, "extras": np.zeros((4, 2))})
     with pytest.raises(TrajectoryFileError, match=r"array 'extras' must have shape \(K, 0\)"):
+        Trajectory.load(path)
+    np.savez(path.with_suffix(""), **{**arrays, "extra_units": np.array(["m"])})
+    with pytest.raises(TrajectoryFileError, match=r"'extra_names' and 'extra_units' differ in len"):
         Trajectory.load(path)
     np.savez(path.with_suffix(""), **{**arrays, "states": np.zeros((3, 2))})
     with pytest.raises(TrajectoryFileError, match=r"bad.npz: `states`: must have one row per"):
