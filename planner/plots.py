@@ -12,7 +12,6 @@ start hinge H_{parent(i)} (H0 for the root) to its end hinge H_i, with the hinge
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -23,7 +22,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from model.errors import DefinitionError, DefinitionTypeError
+from model.errors import DefinitionError, DefinitionTypeError, check_real
 from planner.files import atomic_path
 from planner.trajectory import (
     Trajectory,
@@ -218,8 +217,8 @@ def stick_figure_strip(
     height = float(np.ptp(hinges.imag))
     if spacing is None:
         spacing = max(1.15 * width, height / 3.0, 1e-3)
-    elif isinstance(spacing, bool) or not isinstance(spacing, (int, float)) or spacing < 0:
-        raise DefinitionError(f"`spacing`: must be a number >= 0 m, got {spacing!r}")
+    elif check_real("spacing", spacing) < 0:
+        raise DefinitionError(f"`spacing`: must be >= 0 m, got {spacing!r}")
     shifted = hinges + spacing * np.arange(frames)[:, None]
     if ax is None:
         size = figsize or (min(2.0 + 1.3 * frames, 16.0), 3.5)
@@ -304,9 +303,7 @@ def animate(
         raise TrajectoryFileNotFoundError(
             f"{path}: cannot save, the folder {str(path.parent)!r} does not exist; create it first"
         )
-    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps):
-        raise DefinitionTypeError(f"`fps`: must be a finite number > 0, got {fps!r}")
-    if fps <= 0:
+    if check_real("fps", fps) <= 0:
         raise DefinitionError(f"`fps`: must be > 0 frames per second, got {fps!r}")
     if n_frames is None:
         frames = max(2, round(trajectory.duration * fps) + 1)

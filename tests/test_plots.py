@@ -113,6 +113,12 @@ def test_stick_figure_strip_into_given_axes_and_errors(dynamics, walk):
         plots.stick_figure_strip(object(), walk)
     with pytest.raises(DefinitionTypeError, match=r"`ax`: must be matplotlib Axes"):
         plots.stick_figure_strip(dynamics, walk, ax="axes")
+    with pytest.raises(DefinitionError, match=r"`spacing`: must be >= 0 m, got -1"):
+        plots.stick_figure_strip(dynamics, walk, spacing=-1)
+    with pytest.raises(DefinitionError, match=r"`spacing`: must be finite, got nan"):
+        plots.stick_figure_strip(dynamics, walk, spacing=float("nan"))
+    with pytest.raises(DefinitionTypeError, match=r"`spacing`: must be a real number"):
+        plots.stick_figure_strip(dynamics, walk, spacing="wide")
 
 
 def test_animate_writes_a_gif_with_the_frames_asked_for(dynamics, walk, tmp_path):
@@ -143,6 +149,10 @@ def test_animate_errors_and_atomic_write(dynamics, walk, tmp_path, monkeypatch):
         plots.animate(dynamics, walk, tmp_path / "no" / "walk.gif")
     with pytest.raises(DefinitionError, match=r"`fps`: must be > 0"):
         plots.animate(dynamics, walk, tmp_path / "walk.gif", fps=0)
+    with pytest.raises(DefinitionError, match=r"`fps`: must be finite, got inf"):
+        plots.animate(dynamics, walk, tmp_path / "walk.gif", fps=float("inf"))
+    with pytest.raises(DefinitionTypeError, match=r"`fps`: must be a real number, got 'fast'"):
+        plots.animate(dynamics, walk, tmp_path / "walk.gif", fps="fast")
     with pytest.raises(DefinitionError, match=r"`n_frames`: must be >= 2"):
         plots.animate(dynamics, walk, tmp_path / "walk.gif", n_frames=1)
 
