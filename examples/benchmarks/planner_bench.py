@@ -1,9 +1,8 @@
 """Planner benchmark: build and solve times of every transcription on a six-link periodic gait.
 
-The problem (defined here so that the benchmark stands alone; problems/ may reuse it):
-the six-link scene of shared/scene.md, period T = 1 s fixed, periodicity x(0) = x(T),
-minimise the integral of sum_i M_i^2, every absolute angle within +-0.1 rad of the "paper22"
-gait law (22)
+The problem: the six-link scene of shared/scene.md, period T = 1 s fixed, periodicity
+x(0) = x(T), minimise the integral of sum_i M_i^2, every absolute angle within +-0.1 rad of the
+"paper22" gait law (22) (``problems.GaitLaw.preset("paper22")``)
 
     psi_j(t) = pi/2 + zeta_j sin(varpi_j - (1 - cos(2 pi t / T)) pi/2),
     zeta = [0.20, 0.30, 0.40, 0.30, 0.10, 0.05], varpi = [0.00, 0.50, 1.00, 1.50, 0.20, 0.40],
@@ -35,32 +34,19 @@ import numpy as np
 
 from model import presets
 from planner import OCP
+from problems import GaitLaw
 
 logger = logging.getLogger("planner_bench")
 
-ZETA = np.array([0.20, 0.30, 0.40, 0.30, 0.10, 0.05])
-VARPI = np.array([0.00, 0.50, 1.00, 1.50, 0.20, 0.40])
-PERIOD = 1.0
+LAW = GaitLaw.preset("paper22")
+PERIOD = LAW.period
 BAND = 0.1  # rad: allowed distance of every angle from the law
 
 
-def paper22(t, period: float = PERIOD):
-    """Law (22), "paper22" parameters: (psi, dpsi, ddpsi), each (K, 6), rad, rad/s, rad/s^2."""
-    t = np.asarray(t, dtype=float)[:, None]
-    w = 2 * np.pi / period
-    phase = VARPI - (1 - np.cos(w * t)) * np.pi / 2
-    dphase = -(np.pi / 2) * w * np.sin(w * t)
-    ddphase = -(np.pi / 2) * w * w * np.cos(w * t)
-    psi = np.pi / 2 + ZETA * np.sin(phase)
-    dpsi = ZETA * np.cos(phase) * dphase
-    ddpsi = ZETA * (np.cos(phase) * ddphase - np.sin(phase) * dphase**2)
-    return psi, dpsi, ddpsi
-
-
-def paper22_sx(t, period: float = PERIOD):
+def paper22_sx(t):
     """The law's angles as a CasADi expression of the symbolic time t, (6, 1)."""
-    phase = ca.DM(VARPI) - (1 - ca.cos(2 * np.pi * t / period)) * np.pi / 2
-    return np.pi / 2 + ca.DM(ZETA) * ca.sin(phase)
+    phase = ca.DM(LAW.varpi) - (1 - ca.cos(2 * np.pi * t / LAW.period)) * np.pi / 2
+    return ca.DM(LAW.center) + ca.DM(LAW.zeta) * ca.sin(phase)
 
 
 def paper22_gait(
@@ -85,7 +71,7 @@ def paper22_gait(
         .constrain("near_law", lambda p: p.psi - paper22_sx(p.t), lower=-band, upper=band)
         .periodic()
         .minimize(integral=lambda p: ca.sumsqr(p.M))
-        .guess(paper22)
+        .guess(LAW)
     )
 
 
