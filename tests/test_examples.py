@@ -128,3 +128,16 @@ def test_problems_benchmark_quick_run():
         "cvodes 1e-10, 100 Hz output (CLI defaults)",
     ):
         assert expected in out, expected
+
+
+def test_convergence_orders_benchmark_prints_slopes_near_the_scheme_orders():
+    """The script behind README's convergence slopes: each fitted slope within 0.3 of the
+    scheme's nominal order (the same bound as tests/test_transcription.py, computed here from
+    the printed table, so a script that prints wrong or stale slopes fails)."""
+    result = _call("benchmarks/convergence_orders.py", "--quick")
+    assert result.returncode == 0, result.stderr
+    rows = [line.split() for line in result.stdout.splitlines()[2:] if line.strip()]
+    assert [row[0] for row in rows] == ["trapezoid", "hermite-simpson", "radau(1)"]
+    for row in rows:
+        order, slope = int(row[1]), float(row[2])
+        assert order - 0.3 <= slope <= order + 0.5, row
