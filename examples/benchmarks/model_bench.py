@@ -17,9 +17,13 @@ prints, measured in the same run:
   batch of 100,000 states through ``Dynamics.inverse_dynamics`` on (K, n) arrays (the numpy
   tape), us per state; medians of repeats.
 
-Then the targets of the model issue next to the six-link measurements, and the per-function
-operation counts of the six-link scene by kind. Timings depend on the machine and its load;
-nothing here asserts them.
+Then the targets of the model issue next to the six-link measurements (with a CasADi ``map``
+of the inverse-dynamics Function over the same batch, for comparison), the accuracy of the
+model against the test suite's recursive Newton-Euler oracle (tests/reference/newton_euler.py,
+which the library never imports; this script runs from a clone, as the tests do) at random
+six-link states and on random trees, the energy drift of 2 s of passive six-link motion
+(cvodes at 1e-12), and the per-function operation counts of the six-link scene by kind.
+Timings depend on the machine and its load; nothing here asserts them.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ import argparse
 import statistics
 import sys
 import time
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -35,6 +40,7 @@ import numpy as np
 from model import FUNCTIONS, Dynamics, presets
 from model import equations as eq
 
+TESTS = Path(__file__).resolve().parents[2] / "tests"
 CHAINS = (2, 6, 10, 20, 40)
 #: Targets stated in the model issue for the six-link scene.
 TARGET_GENERATION_MS = 5.0
@@ -122,6 +128,83 @@ def measure(name: str, linkage, options) -> dict:
     }
 
 
+def map_us(dynamics: Dynamics, rng: np.random.Generator, size: int, repeats: int) -> float:
+    """Median time per state (us) of the inverse-dynamics Function mapped over ``size`` states
+    (CasADi's serial ``map``, numpy (n, size) inputs): what the numpy tape is compared with."""
+    n = dynamics.n
+    mapped = dynamics.function("inverse_dynamics").map(size)
+    psi, dpsi = rng.uniform(-3, 3, (n, size)), rng.normal(0, 3, (n, size))
+    ddpsi = rng.normal(0, 10, (n, size))
+    seconds = _median_seconds(lambda: mapped(psi, dpsi, ddpsi), repeats)
+    return 1e6 * seconds / size
+
+
+def _per_state(difference: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(K,) ||difference|| / ||reference|| per state, over all components (Frobenius)."""
+    k = reference.shape[0]
+    norm = np.linalg.norm
+    return norm(difference.reshape(k, -1), axis=1) / norm(reference.reshape(k, -1), axis=1)
+
+
+def oracle_agreement(ne, linkages, count: int, rng: np.random.Generator) -> dict[str, float]:
+    """Largest per-state relative difference from the Newton-Euler oracle over ``count``
+    random states of each linkage: inverse dynamics, mass matrix, and forward dynamics in the
+    kinetic-energy norm sqrt(e^T M e) (random trees reach cond(M) ~ 1e8, where two correct
+    solvers differ by ~cond * eps in directions M barely weighs; tests/test_dynamics.py
+    measures it the same way)."""
+    worst = {"inverse dynamics": 0.0, "mass matrix": 0.0, "forward dynamics (M-norm)": 0.0}
+    for linkage in linkages:
+        dynamics = linkage.dynamics()
+        n = linkage.n
+        psi = rng.uniform(-np.pi, np.pi, (count, n))
+        dpsi, ddpsi = rng.normal(0, 2, (count, n)), rng.normal(0, 5, (count, n))
+        torques = ne.inverse_dynamics(linkage, psi, dpsi, ddpsi)
+        mass = ne.mass_matrix(linkage, psi)
+        ours_mass = np.stack([dynamics.mass_matrix(state) for state in psi])
+        forward = ne.forward_dynamics(linkage, psi, dpsi, torques)
+        error = dynamics.forward_dynamics(psi, dpsi, torques) - forward
+
+        def m_norm(v, mass=mass):
+            return np.sqrt(np.einsum("ki,kij,kj->k", v, mass, v))
+
+        errors = {
+            "inverse dynamics": _per_state(
+                dynamics.inverse_dynamics(psi, dpsi, ddpsi) - torques, torques
+            ),
+            "mass matrix": _per_state(ours_mass - mass, mass),
+            "forward dynamics (M-norm)": m_norm(error) / m_norm(forward),
+        }
+        for key, value in errors.items():
+            worst[key] = max(worst[key], float(np.max(value)))
+    return worst
+
+
+def passive_energy_drift(seconds: float = 2.0) -> float:
+    """max |E(t) - E(0)| / E(0) over ``seconds`` of zero-torque six-link motion from a seeded
+    random state, cvodes at rtol = atol = 1e-12; E = T + Pi - Pi_lowest, the energy above the
+    pose hanging straight down (>= 0 for every state, so not a ratio of small numbers)."""
+    linkage = presets.six_link_anthropoid()
+    dynamics = linkage.dynamics()
+    n = linkage.n
+    lowest = -sum(
+        linkage.gravity
+        * link.mass
+        * (sum(linkage.links[k].length for k in linkage.ancestors(i)) + link.com * link.length)
+        for i, link in enumerate(linkage.links)
+    )
+    rng = np.random.default_rng(2026)
+    x0 = np.concatenate([rng.uniform(-np.pi, np.pi, n), rng.normal(0.0, 1.0, n)])
+    x = ca.SX.sym("x", 2 * n)
+    ode = dynamics.function("ode")(x, ca.DM.zeros(n))
+    grid = np.linspace(0.0, seconds, 401)[1:]  # the integrator's output times after t = 0
+    options = {"abstol": 1e-12, "reltol": 1e-12, "max_num_steps": 100000}
+    integrator = ca.integrator("passive", "cvodes", {"x": x, "ode": ode}, 0.0, grid, options)
+    states = np.vstack([x0, np.asarray(integrator(x0=x0)["xf"]).T])
+    kinetic, potential = dynamics.energy(states[:, :n], states[:, n:])
+    energy = kinetic + potential - lowest
+    return float(np.max(np.abs(energy - energy[0])) / energy[0])
+
+
 #: (key, heading, unit, width, format) of the main table's columns.
 COLUMNS = (
     ("scene", "scene", "", 10, "<10"),
@@ -201,6 +284,32 @@ def main(argv=None) -> int:
     print(format_table(rows))
     print()
     print(format_targets(rows[0]))
+    six_dynamics = presets.six_link_anthropoid().dynamics()
+    mapped = map_us(six_dynamics, np.random.default_rng(1), options.batch, options.repeats)
+    print(
+        f"  for comparison, CasADi map of the Function     {mapped:.3f} us/state  "
+        f"(numpy tape {mapped / rows[0]['batch_us']:.1f}x faster)"
+    )
+    print()
+    sys.path.insert(0, str(TESTS))
+    from reference import newton_euler  # the test suite's oracle, written another way
+
+    rng = np.random.default_rng(7)
+    count = 16 if options.quick else 128
+    trees = [
+        newton_euler.random_tree(rng, size, general=bool(i % 2))
+        for i, size in enumerate(range(2, 8) if options.quick else (list(range(2, 13)) * 4)[:36])
+    ]
+    six_errors = oracle_agreement(newton_euler, [presets.six_link_anthropoid()], count, rng)
+    tree_errors = oracle_agreement(newton_euler, trees, 20, rng)
+    print(
+        "Accuracy against the recursive Newton-Euler oracle (tests/reference), largest "
+        "per-state relative difference:"
+    )
+    print(f"  {'':<28}{f'six-link, {count} states':>24}{f'{len(trees)} random trees':>20}")
+    for key in six_errors:
+        print(f"  {key:<28}{six_errors[key]:>24.1e}{tree_errors[key]:>20.1e}")
+    print(f"Passive six-link motion, 2 s, cvodes 1e-12: energy drift {passive_energy_drift():.1e}")
     print()
     print("Operation counts of the six-link scene by kind (total = Function.n_instructions()):")
     six = presets.six_link_anthropoid()
