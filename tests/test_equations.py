@@ -13,6 +13,7 @@ References used here, each written another way than the code under test:
 from __future__ import annotations
 
 import pathlib
+import re
 import runpy
 
 import casadi as ca
@@ -637,3 +638,16 @@ def test_model_bench_quick_run_prints_the_table(capsys):
     ours = presets.six_link_anthropoid().dynamics().function("inverse_dynamics")
     assert six.split()[4] == str(ours.n_instructions())  # scene, n, generation, best, ours
     assert "Targets (six-link scene" in out and "inverse_dynamics  ours" in out
+    # The accuracy rows the README quotes: three quantities, two columns, all at round-off
+    # (the oracle agrees to 1e-10 in tests/test_dynamics.py; a printed NaN or a large value
+    # would mean the benchmark compares the wrong things).
+    rows = {
+        label: line.split()[-2:]
+        for line in out.splitlines()
+        for label in ("inverse dynamics", "mass matrix", "forward dynamics (M-norm)")
+        if line.strip().startswith(label)
+    }
+    assert len(rows) == 3, out
+    assert all(0.0 <= float(value) < 1e-10 for pair in rows.values() for value in pair), rows
+    drift = float(re.search(r"energy drift (\S+)", out).group(1))
+    assert 0.0 < drift < 1e-6
