@@ -440,7 +440,10 @@ def test_profile_and_its_control_function_give_the_same_motion():
     a = simulate(chain, profile, x0, (0.0, 1.0), out, rtol=1e-12, atol=1e-12)
     b = simulate(chain, spline, x0, (0.0, 1.0), out, rtol=1e-12, atol=1e-12, max_interval=1e-3)
     np.testing.assert_array_equal(a.time, out)
-    assert np.max(np.abs(a.states - b.states)) < 1e-10  # measured 6e-14
+    # Each run carries its own cvodes error at 1e-12 (2.3e-10 and 2.1e-10 against RK4 with 64
+    # steps per ms, casadi 3.8.2), so the two agree only to a few 1e-10; reading an output
+    # one knot off would differ by dt * |dpsi| ~ 1e-3.
+    assert np.max(np.abs(a.states - b.states)) < 1e-9
     exact = simulate(
         chain,
         lambda s: np.column_stack([np.sin(7 * s), np.cos(5 * s)]),
