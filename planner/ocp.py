@@ -808,10 +808,17 @@ class OCP:
 
         The NLP works with v / scale; defects are divided by their state's scale and the
         dynamics residual by the scale of the torques (states for a generic implicit DAE).
+        ``objective=`` gives the objective's nominal magnitude, in its own units (default:
+        from the objective and its gradient at the initial guess, see
+        :func:`planner.solver.objective_scale`).
         """
         items = list(self.scales)
         constraint_names = self._constraint_names()
         for key, value in scales.items():
+            if key == "objective":
+                array = _positive_array("scale[objective]", value, 1)
+                items.append(("objective", float(array[0])))
+                continue
             if key in constraint_names:
                 size = next(c.size for c in self.constraints if c.name == key)
                 _positive_array(f"scale[{key}]", value, size)
@@ -821,6 +828,12 @@ class OCP:
             array = _positive_array(f"scale[{key}]", value, len(names))
             items.extend((n, float(array[i])) for i, n in enumerate(names))
         return dataclasses.replace(self, scales=tuple(items))
+
+    @property
+    def objective_scale(self) -> float | None:
+        """The objective's nominal magnitude given by ``scale(objective=...)``, or None."""
+        given = [v for key, v in self.scales if key == "objective"]
+        return float(given[-1]) if given else None
 
     def variable_scale(self, name: str) -> float:
         value = None

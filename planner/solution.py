@@ -232,14 +232,13 @@ class Solution:
 
     def _rates(self) -> np.ndarray:
         """(nC, nx) f(x, z, u, t) at the dynamics points, through the NLP's own point Function."""
-        t = self.transcription
-        mapped = t.point_function.map(self.mesh.n_dyn_points)
-        xs = (self.state_values[self.mesh.dyn_state_cols] / t.state_scale).T
-        us = (self.control_values / t.control_scale).T
-        zs = (self.aux_values / t.aux_scale).T if self.system.nz else np.zeros((0, xs.shape[1]))
+        mapped = self.transcription.point_function.map(self.mesh.n_dyn_points)
+        x = self.state_values[self.mesh.dyn_state_cols].T
+        u = self.control_values.T
+        z = self.aux_values.T if self.system.nz else np.zeros((0, x.shape[1]))
         times = self.point_time[None, :]
-        rate = mapped(xs, us, zs, times, np.full_like(times, self.T))[0]
-        return np.asarray(rate).T * t.state_scale
+        rate = mapped(x, u, z, times, np.full_like(times, self.T))[0]
+        return np.asarray(rate).T
 
     # ---- interpolation ---------------------------------------------------------------
     def _locate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -10,13 +10,29 @@ by name and the last iterate as a :class:`planner.solution.Solution`; with
 Progress (iteration, objective, and "infeasibility": the planner's largest violation of its
 scaled constraint rows lbg <= g <= ubg, not IPOPT's inf_pr) goes through one switchable reporter:
 the logger ``planner.progress`` at INFO level (``progress=True``, the default; shown when the
-application configures logging), a callable of a dict per iteration, or nothing
-(``progress=False``). The library never prints.
+application configures logging, e.g. ``logging.basicConfig(level=logging.INFO)``, and by the
+command line ``python -m problems`` unless ``--quiet``), a callable of a dict per iteration,
+or nothing (``progress=False``). The library never prints: what IPOPT or CasADi would write
+on stdout or stderr (an option's documentation when IPOPT refuses a value, warnings about NaN
+in a function evaluation) is caught and turned into the error message or a log record.
+
+Solvers are reused: the NLP takes bounds, nominal scales, a fixed T and the guess as
+arguments, so solving an OCP with the same structure again (a re-solve, a warm start, a
+continuation in a bound or in T, a study over such values) takes the IPOPT solver built the
+first time from :data:`planner.solver_cache.SOLVERS` and skips the build
+(``stats["solver_cached"]``; ``solve(..., cache=False)`` builds a fresh one).
+
+The objective is scaled too: IPOPT sees f / f_scale, f_scale from the objective's gradient
+at the initial guess (:func:`objective_scale`) or given by ``ocp.scale(objective=...)``. A
+problem written in other units (millimetres and grams instead of metres and kilograms) then
+solves like the SI one.
 """
 
 from __future__ import annotations
 
+import json
 import logging
+import math
 import time
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -25,8 +41,10 @@ import casadi as ca
 import numpy as np
 
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from planner.native_output import captured
 from planner.ocp import OCP
 from planner.solution import Solution
+from planner.solver_cache import SOLVERS, CachedSolver
 from planner.transcription import Transcription
 
 logger = logging.getLogger(__name__)
@@ -43,6 +61,10 @@ DEFAULT_IPOPT = {
     # of the solve time on the six-link gait (examples/benchmarks/planner_bench.py).
     "mumps_permuting_scaling": 0,
     "mumps_scaling": 0,
+    # Adaptive barrier update and AMD ordering (MUMPS picks METIS from N ~ 100 on, which
+    # fills more on these banded KKT systems): see planner_bench.py's before/after table.
+    "mu_strategy": "adaptive",
+    "mumps_pivot_order": 0,
 }
 #: IPOPT options added when :func:`solve` warm-starts the multipliers from a Solution on the
 #: same NLP layout; anything in ``options`` overrides them. Start from the given primal-dual
@@ -90,17 +112,32 @@ class SolverError(AnthropoidError):
 
 
 class _Progress(ca.Callback):
-    """IPOPT iteration callback: reports iteration, objective and max constraint violation."""
+    """IPOPT iteration callback: reports iteration, objective and max constraint violation.
 
-    def __init__(self, n_w: int, n_g: int, lbg, ubg, report: Callable[[dict], None]) -> None:
+    One per solver; :meth:`start` sets what the next solve reports (a cached solver serves
+    many solves with different bounds and reporters).
+    """
+
+    def __init__(self, n_w: int, n_g: int) -> None:
         ca.Callback.__init__(self)
         self._n_w, self._n_g = n_w, n_g
-        self._lbg, self._ubg = np.asarray(lbg), np.asarray(ubg)
-        self._report = report
+        self._lbg = self._ubg = np.zeros(n_g)
+        self._report: Callable[[dict], None] | None = None
+        self._scale = 1.0
+        self._started = time.perf_counter()
         self.iteration = -1
         #: An exception raised by ``report``; solve() re-raises it after stopping IPOPT.
         self.error: BaseException | None = None
         self.construct("progress", {})
+
+    def start(self, report, lbg, ubg, objective_scale: float = 1.0) -> None:
+        """Set the reporter, the scaled row bounds and the objective scale of the next solve."""
+        self._report = report
+        self._lbg, self._ubg = np.asarray(lbg), np.asarray(ubg)
+        self._scale = objective_scale
+        self._started = time.perf_counter()
+        self.iteration = -1
+        self.error = None
 
     def get_n_in(self):
         return ca.nlpsol_n_out()
@@ -126,6 +163,8 @@ class _Progress(ca.Callback):
 
     def eval(self, arg):
         self.iteration += 1
+        if self._report is None:
+            return [0]
         g = np.asarray(arg[ca.nlpsol_out().index("g")]).reshape(-1)
         infeasibility = (
             float(np.max(np.maximum(self._lbg - g, g - self._ubg), initial=0.0)) if g.size else 0.0
@@ -134,8 +173,10 @@ class _Progress(ca.Callback):
             self._report(
                 {
                     "iteration": self.iteration,
-                    "objective": float(arg[ca.nlpsol_out().index("f")]),
+                    # in the objective's own units (IPOPT sees it divided by the scale)
+                    "objective": float(arg[ca.nlpsol_out().index("f")]) * self._scale,
                     "infeasibility": infeasibility,
+                    "seconds": time.perf_counter() - self._started,
                 }
             )
         except Exception as exc:  # the user's callback: keep it, stop IPOPT, re-raise later
@@ -146,10 +187,11 @@ class _Progress(ca.Callback):
 
 def _log_progress(row: Mapping[str, Any]) -> None:
     progress_logger.info(
-        "iter %4d  objective %.8e  max violation %.2e",
+        "iter %4d  objective %.8e  max violation %.2e  %7.2f s",
         row["iteration"],
         row["objective"],
         row["infeasibility"],
+        row["seconds"],
     )
 
 
@@ -172,12 +214,14 @@ def violations(transcription: Transcription, w: np.ndarray, g: np.ndarray, count
     return rows[:count]
 
 
-def _non_finite(transcription: Transcription, solver: ca.Function, w: np.ndarray) -> str:
+def _non_finite(
+    transcription: Transcription, solver: ca.Function, w: np.ndarray, p: np.ndarray
+) -> str:
     """Where the NLP functions are NaN or inf at the scaled iterate ``w``, by name."""
     places = []
     try:
-        f, grad_f = solver.get_function("nlp_grad_f")(w, [])
-        g = solver.get_function("nlp_g")(w, [])
+        f, grad_f = solver.get_function("nlp_grad_f")(w, p)
+        g = solver.get_function("nlp_g")(w, p)
     except RuntimeError:  # the oracle itself failed: nothing more to say
         return "NaN or inf in the NLP functions"
     if not np.isfinite(float(f)):
@@ -196,16 +240,19 @@ def _non_finite(transcription: Transcription, solver: ca.Function, w: np.ndarray
     return "NaN or inf in " + "; ".join(places)
 
 
-def warm_start_multipliers(transcription: Transcription) -> tuple[np.ndarray, np.ndarray] | None:
+def warm_start_multipliers(
+    transcription: Transcription, objective_scale: float = 1.0
+) -> tuple[np.ndarray, np.ndarray] | None:
     """(lam_x0 (n_w,), lam_g0 (n_g,)) for ``transcription`` from its OCP's guess, or None.
 
     Multipliers are reused when the OCP's last guess is a converged :class:`Solution` that
     carries finite multipliers of an NLP with the same :attr:`Transcription.signature` (same
     transcription, degree, N, variables and constraint rows): a re-solve, or a continuation
     in a bound, a cost weight or another parameter. They are re-scaled to this transcription's
-    nominal scales (a changed bound may change a default scale). Otherwise (another mesh or
-    transcription, a Trajectory, a failed solve, a later guess over the Solution's) None: the
-    guess is primal only.
+    nominal scales (a changed bound may change a default scale) and to ``objective_scale``,
+    the objective scale of this solve. Otherwise (another mesh or transcription, a
+    Trajectory, a failed solve, a later guess over the Solution's) None: the guess is primal
+    only.
     """
     guesses = transcription.ocp.guesses
     if not guesses or guesses[-1].kind != "solution":
@@ -224,9 +271,12 @@ def warm_start_multipliers(transcription: Transcription) -> tuple[np.ndarray, np
         )
         return None
     old = source.transcription
-    # Lagrangian terms lam^T (v / scale) are invariant: lam_new = lam_old * new / old scale.
-    lam_x = source.lam_x * (transcription.w_scale / old.w_scale)
-    lam_g = source.lam_g * (transcription.g_scale / old.g_scale)
+    # The physical multipliers lam * f_scale / scale are invariant (the Lagrangian is
+    # f / f_scale + lam^T (v / scale)): lam_new = lam_old * (new / old scale) * (old / new
+    # f_scale).
+    ratio = float(source.stats.get("objective_scale", 1.0)) / objective_scale
+    lam_x = source.lam_x * (transcription.w_scale / old.w_scale) * ratio
+    lam_g = source.lam_g * (transcription.g_scale / old.g_scale) * ratio
     if not (np.all(np.isfinite(lam_x)) and np.all(np.isfinite(lam_g))):
         return None
     return lam_x, lam_g
@@ -236,11 +286,17 @@ def nlp_solver(
     transcription: Transcription,
     options: Mapping[str, Any] | None = None,
     report: Callable[[dict], None] | None = None,
+    expand: bool = False,
 ) -> ca.Function:
-    """The ``casadi.nlpsol`` IPOPT solver of a transcription (planner defaults + ``options``).
+    """A new ``casadi.nlpsol`` IPOPT solver of a transcription (planner defaults + ``options``).
 
-    Its oracle functions (``solver.get_function("nlp_jac_g")``, ``"nlp_hess_l"``) are the
-    derivatives IPOPT uses. ``report`` receives a dict per iteration (see :func:`solve`).
+    The solver takes the NLP parameters ``p`` (:meth:`Transcription.parameter_values`) with
+    the bounds. Its oracle functions (``solver.get_function("nlp_jac_g")``,
+    ``"nlp_hess_l"``) are the derivatives IPOPT uses, functions of (w, p). ``report``
+    receives a dict per iteration (see :func:`solve`). ``expand``: expand an MX NLP to SX
+    before the derivatives are generated (CasADi's ``expand`` option; ~8x the build, ~0.7x
+    the evaluation time). :func:`solve` keeps the solvers it builds here in
+    :data:`planner.solver_cache.SOLVERS`.
     """
     ipopt = dict(DEFAULT_IPOPT)
     if options is not None:
@@ -249,32 +305,122 @@ def nlp_solver(
                 f"`options`: must be a dict of IPOPT options, got {options!r}"
             )
         ipopt.update(options)
-    solver_options: dict[str, Any] = {"ipopt": ipopt, "print_time": False}
-    if report is not None:
-        solver_options["iteration_callback"] = _Progress(
-            transcription.n_w, transcription.n_g, transcription.lbg, transcription.ubg, report
-        )
-    problem = transcription.nlp
-    if isinstance(problem["x"], ca.MX):
+    callback = _Progress(transcription.n_w, transcription.n_g)
+    callback.start(report, transcription.lbg, transcription.ubg)
+    solver_options: dict[str, Any] = {
+        "ipopt": ipopt,
+        "print_time": False,
+        # NaN in a function evaluation: solve() names the rows itself (_non_finite).
+        "show_eval_warnings": False,
+        # The multipliers of the parameters (scales, T) mean nothing here; CasADi would
+        # generate a gradient function for them and evaluate it after every solve.
+        "calc_lam_p": False,
+        "iteration_callback": callback,
+    }
+    problem = transcription.parametric_nlp
+    if isinstance(problem["x"], ca.MX) and expand:
+        solver_options["expand"] = True
+    elif isinstance(problem["x"], ca.MX):
         # Reverse mode for the MX Jacobian: 14 adjoint instead of 21 forward colours on the
         # six-link gait, 25% less time in nlp_jac_g (planner_bench.py, Hermite-Simpson N=50).
         problem = ca.Function(
             "nlp",
-            [problem["x"], ca.MX.sym("p", 0)],
+            [problem["x"], problem["p"]],
             [problem["f"], problem["g"]],
             ["x", "p"],
             ["f", "g"],
             {"ad_weight": 1.0},
         )
     try:
-        solver = ca.nlpsol("planner", "ipopt", problem, solver_options)
+        with captured() as output:
+            solver = ca.nlpsol("planner", "ipopt", problem, solver_options)
     except RuntimeError as exc:
-        # IPOPT rejects unknown or ill-typed options while the solver is built.
-        raise DefinitionError(f"`options`: IPOPT refused the options {ipopt}: {exc}") from exc
+        # IPOPT rejects unknown or ill-typed options while the solver is built, and prints
+        # the option's documentation on stdout: that text (caught) goes into the message.
+        said = " ".join(output[0].split())
+        said = f"; IPOPT said: {said[:400]}" if said else ""
+        raise DefinitionError(
+            f"`options`: IPOPT refused the options {_user_options(options)}{said} "
+            f"({_first_line(exc)})"
+        ) from exc
+    if output[0].strip():
+        logger.warning("IPOPT/CasADi wrote while the solver was built: %s", output[0].strip())
     # The Python callback must live as long as the solver (CasADi holds only a reference):
     # the solver object keeps it, and solve() reads the callback's error from there.
-    solver._planner_progress = solver_options.get("iteration_callback")
+    solver._planner_progress = callback
     return solver
+
+
+def _user_options(options) -> dict:
+    return dict(options) if isinstance(options, Mapping) else {}
+
+
+def _first_line(exc: BaseException) -> str:
+    """The last non-empty line of a CasADi error (its first lines are a stack of places)."""
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    return lines[-1] if lines else type(exc).__name__
+
+
+def _cache_key(
+    transcription: Transcription, options: Mapping[str, Any] | None, expand: bool
+) -> tuple:
+    """The cache key of a solver: the NLP structure, the expansion and the IPOPT options it
+    was built with."""
+    return (
+        transcription.structure_key,
+        bool(expand),
+        json.dumps(dict(options or {}), sort_keys=True, default=repr),
+    )
+
+
+#: The largest objective gradient (w.r.t. the scaled variables) the objective scale aims at:
+#: IPOPT's own ``nlp_scaling_max_gradient``, so that IPOPT's gradient-based scaling leaves
+#: the scaled objective as it is.
+OBJECTIVE_GRADIENT = 1.0
+
+
+def objective_scale(transcription: Transcription, solver: ca.Function, w0: np.ndarray) -> float:
+    """The objective's nominal magnitude f_scale (IPOPT minimises f / f_scale) for a solve
+    from the scaled guess ``w0``.
+
+    ``ocp.scale(objective=...)`` when given; else, when the OCP's last guess is a Solution,
+    the scale that Solution was solved with (a continuation or a refinement keeps the scaled
+    problem, and the meaning of its multipliers, unchanged); otherwise the largest |df/dw|
+    at ``w0`` (w the scaled variables: the change of f when one variable moves by its
+    nominal scale) divided by :data:`OBJECTIVE_GRADIENT`. Where that gradient vanishes (a
+    guess at a minimum of f, e.g. zero torques for a sum of squared torques) it is taken
+    one nominal scale further, at w0 + 1 within the bounds; 1 when that vanishes too.
+
+    Why the gradient: IPOPT scales an objective down to a largest gradient of 100 by itself,
+    but never by less than 1e-8 and never up, so a problem written in millimetres and grams
+    (torques 1e9 times larger, their squares 1e18) left IPOPT a badly scaled objective.
+    Dividing by the gradient makes the scaled NLP the same in any units and leaves an SI
+    problem close to what IPOPT did alone. Dividing by f(w0) instead can loosen IPOPT's
+    tolerance by orders of magnitude: the six-link gait's guess costs 1.26e6, its optimum
+    4.56e4, and with f / f(w0) the optimum came out 0.21 (5e-6 relative) too high at
+    ``tol`` 1e-8.
+    """
+    given = transcription.ocp.objective_scale
+    if given is not None:
+        return given
+    guesses = transcription.ocp.guesses
+    if guesses and guesses[-1].kind == "solution" and isinstance(guesses[-1].source, Solution):
+        previous = guesses[-1].source.stats.get("objective_scale")
+        if isinstance(previous, float) and math.isfinite(previous) and previous > 0:
+            return previous
+    gradient_function = solver.get_function("nlp_grad_f")
+    parameters = transcription.parameter_values()
+    for point in (w0, np.clip(w0 + 1.0, transcription.lbx, transcription.ubx)):
+        try:
+            gradient = np.asarray(gradient_function(point, parameters)[1])
+        except RuntimeError:  # the oracle failed (NaN in the guess): IPOPT will say so
+            return 1.0
+        largest = float(np.max(np.abs(gradient), initial=0.0))
+        if not math.isfinite(largest):
+            return 1.0
+        if largest > 0.0:
+            return largest / OBJECTIVE_GRADIENT
+    return 1.0
 
 
 def solve(
@@ -287,6 +433,7 @@ def solve(
     expand: bool | None = None,
     guess: np.ndarray | None = None,
     warm_start: bool = True,
+    cache: bool = True,
 ) -> Solution:
     """Solve an OCP (or an already built Transcription) with IPOPT.
 
@@ -294,15 +441,20 @@ def solve(
     ----------
     problem : the OCP, transcribed here, or a :class:`Transcription` to reuse.
     options : IPOPT options (``{"max_iter": 50, "tol": 1e-10}``), over the planner defaults
-        (exact Hessian, ``tol`` 1e-8, quiet). Keys are IPOPT's own names.
+        :data:`DEFAULT_IPOPT` (exact Hessian, ``tol`` 1e-8, adaptive barrier update, AMD
+        ordering in MUMPS, quiet). Keys are IPOPT's own names.
     accept_acceptable : count "Solved_To_Acceptable_Level" as success.
     raise_on_failure : raise :class:`SolverError` on failure (default); otherwise return the
         last iterate with ``success == False``.
-    progress : True logs every iteration on the ``planner.progress`` logger (INFO), a callable
-        receives {"iteration", "objective", "infeasibility"} dicts, False reports nothing.
-        An exception raised by the callable stops IPOPT and is re-raised from here.
-    expand : build the NLP fully in SX (True: fastest evaluation) or in MX with the SX point
-        Function mapped over the mesh (False, default: fastest construction). Only for an OCP.
+    progress : True logs every iteration on the ``planner.progress`` logger (INFO: shown
+        when the application configures logging, and by the command line), a callable
+        receives {"iteration", "objective", "infeasibility", "seconds"} dicts, False reports
+        nothing. An exception raised by the callable stops IPOPT and is re-raised from here.
+    expand : True: the solver evaluates the NLP expanded to SX (~0.7x the solve time of the
+        default, for ~8x its build: it pays from a few solves of one structure, and the
+        solver is cached); False (default): the MX NLP, the SX point Function mapped over the
+        mesh (fastest build). Only for an OCP (a Transcription keeps the symbols it was built
+        with). ``planner_bench.py`` measures the break-even number of solves.
     guess : a scaled decision vector to start from (default: the OCP's guesses).
     warm_start : when the OCP's last guess is a converged Solution of an NLP with the same
         layout (:attr:`Transcription.signature`: same transcription, degree, N, variables and
@@ -311,16 +463,22 @@ def solve(
         :data:`WARM_START_IPOPT` (``options`` override them). False: primal guess only, as
         for any other guess. Ignored with an explicit ``guess`` vector, and when the layouts
         differ (coarse-to-fine, another transcription): then the guess is re-gridded only.
+    cache : take the IPOPT solver from :data:`planner.solver_cache.SOLVERS` when one was
+        built for the same NLP structure and options, and keep a new one there (default);
+        False builds a private solver.
 
     Returns
     -------
-    Solution, with ``stats``: transcription_seconds, solver_setup_seconds, build_seconds,
-    solve_seconds, iterations, function_seconds (wall time in NLP function evaluations),
-    warm_start (whether IPOPT started from a Solution's multipliers), ipopt (the raw
+    Solution, with ``stats``: transcription_seconds, solver_setup_seconds (0-ish for a cached
+    solver), build_seconds, solve_seconds, iterations, function_seconds (wall time in NLP
+    function evaluations), warm_start (whether IPOPT started from a Solution's multipliers),
+    solver_cached (whether the solver was reused), objective_scale, ipopt (the raw
     ``solver.stats()``).
     """
     if isinstance(problem, OCP):
-        transcription = Transcription(problem, expand=expand)
+        # Always the MX transcription: it builds in milliseconds and its structure key is
+        # cheap; the expansion to SX happens once, inside the (cached) solver.
+        transcription = Transcription(problem)
     elif isinstance(problem, Transcription):
         if expand is not None:
             raise DefinitionError("`expand`: applies when solving an OCP, not a Transcription")
@@ -330,23 +488,27 @@ def solve(
             f"`problem`: must be a planner.OCP or a Transcription, got {type(problem).__name__}"
         )
     if progress is True:
-        report = _log_progress
+        report = _log_progress if progress_logger.isEnabledFor(logging.INFO) else None
     elif progress is False or progress is None:
         report = None
     elif callable(progress):
         report = progress
     else:
         raise DefinitionTypeError(f"`progress`: must be a bool or a callable, got {progress!r}")
-
     if not isinstance(warm_start, bool):
         raise DefinitionTypeError(f"`warm_start`: must be True or False, got {warm_start!r}")
-    multipliers = None
+    if not isinstance(cache, bool):
+        raise DefinitionTypeError(f"`cache`: must be True or False, got {cache!r}")
+    if options is not None and not isinstance(options, Mapping):
+        raise DefinitionTypeError(f"`options`: must be a dict of IPOPT options, got {options!r}")
+
+    warm = False
     solver_options = options
-    if warm_start and guess is None and (options is None or isinstance(options, Mapping)):
+    if warm_start and guess is None:
         user = dict(options or {})
         if str(user.get("warm_start_init_point", "yes")).lower() == "yes":
-            multipliers = warm_start_multipliers(transcription)
-        if multipliers is not None:
+            warm = warm_start_multipliers(transcription) is not None
+        if warm:
             solver_options = {**WARM_START_IPOPT, **user}
 
     w0 = transcription.initial_guess() if guess is None else np.asarray(guess, dtype=float)
@@ -355,30 +517,55 @@ def solve(
             f"`guess`: expected a decision vector of shape ({transcription.n_w},), got {w0.shape}"
         )
     start = time.perf_counter()
-    solver = nlp_solver(transcription, solver_options, report)
-    setup_seconds = time.perf_counter() - start
-    arguments = {
-        "x0": w0,
-        "lbx": transcription.lbx,
-        "ubx": transcription.ubx,
-        "lbg": transcription.lbg,
-        "ubg": transcription.ubg,
-    }
-    if multipliers is not None:
-        arguments["lam_x0"], arguments["lam_g0"] = multipliers
-    start = time.perf_counter()
-    result = solver(**arguments)
-    solve_seconds = time.perf_counter() - start
-    callback = getattr(solver, "_planner_progress", None)
-    if callback is not None and callback.error is not None:
-        raise callback.error
-    stats = solver.stats()
+
+    expand = bool(expand)
+
+    def build() -> CachedSolver:
+        begin = time.perf_counter()
+        solver = nlp_solver(transcription, solver_options, expand=expand)
+        return CachedSolver(solver, solver._planner_progress, time.perf_counter() - begin)
+
+    cached = False
+    if cache:
+        entry, cached = SOLVERS.get(_cache_key(transcription, solver_options, expand), build)
+        if not entry.lock.acquire(blocking=False):  # busy in another thread: a private one
+            entry, cached = build(), False
+            entry.lock.acquire()
+    else:
+        entry = build()
+        entry.lock.acquire()
+    try:
+        solver, callback = entry.value, entry.extra
+        entry.uses += 1
+        f_scale = objective_scale(transcription, solver, w0)
+        multipliers = warm_start_multipliers(transcription, f_scale) if warm else None
+        callback.start(report, transcription.lbg, transcription.ubg, f_scale)
+        parameters = transcription.parameter_values(f_scale)
+        setup_seconds = time.perf_counter() - start
+        arguments = {
+            "x0": w0,
+            "p": parameters,
+            "lbx": transcription.lbx,
+            "ubx": transcription.ubx,
+            "lbg": transcription.lbg,
+            "ubg": transcription.ubg,
+        }
+        if multipliers is not None:
+            arguments["lam_x0"], arguments["lam_g0"] = multipliers
+        start = time.perf_counter()
+        result = solver(**arguments)
+        solve_seconds = time.perf_counter() - start
+        stats = solver.stats()
+        if callback.error is not None:
+            raise callback.error
+    finally:
+        entry.lock.release()
     status = str(stats.get("return_status", "unknown"))
     if status == "Invalid_Option":
         # IPOPT checks some option values only when it starts (e.g. a linear solver that is
         # not installed): a definition error, not a failed solve.
         raise DefinitionError(
-            f"`options`: IPOPT refused the options {dict(options or {})} (status Invalid_Option)"
+            f"`options`: IPOPT refused the options {_user_options(options)} (status Invalid_Option)"
         )
     success = bool(stats.get("success", False)) and status in SUCCESS
     if status == ACCEPTABLE and accept_acceptable:
@@ -393,6 +580,8 @@ def solve(
         "iterations": iterations,
         "function_seconds": function_seconds,
         "warm_start": multipliers is not None,
+        "solver_cached": cached,
+        "objective_scale": f_scale,
         "n_variables": transcription.n_w,
         "n_constraints": transcription.n_g,
         "ipopt": stats,
@@ -402,7 +591,7 @@ def solve(
     solution = Solution(
         transcription,
         w,
-        cost=float(result["f"]),
+        cost=float(result["f"]) * f_scale,
         status=status,
         success=success,
         stats=summary,
@@ -410,12 +599,13 @@ def solve(
         lam_x=np.asarray(result["lam_x"]).reshape(-1),
     )
     logger.debug(
-        "%s N=%d: %s in %d iterations, build %.3f s, solve %.3f s",
+        "%s N=%d: %s in %d iterations, build %.3f s (solver %s), solve %.3f s",
         transcription.scheme.name,
         transcription.ocp.N,
         status,
         iterations,
         summary["build_seconds"],
+        "cached" if cached else "built",
         solve_seconds,
     )
     if not success and raise_on_failure:
@@ -423,7 +613,7 @@ def solve(
         listed = "; ".join(f"{name}: {value:.3g}" for name, value in worst) or "none"
         hint = " (pass accept_acceptable=True to accept it)" if status == ACCEPTABLE else ""
         if status == "Invalid_Number_Detected":
-            hint = f" ({_non_finite(transcription, solver, w)})"
+            hint = f" ({_non_finite(transcription, solver, w, parameters)})"
         raise SolverError(
             f"IPOPT failed with status {status}{hint} after {iterations} iterations; "
             f"worst violations: {listed}",

@@ -497,6 +497,47 @@ class Transcription:
             f"{self.n_g} constraints, {digest.hexdigest()}"
         )
 
+    def parameter_values(self, objective_scale: float = 1.0) -> np.ndarray:
+        """The NLP parameters p of :attr:`parametric_nlp` for this OCP, (n_w + n_g + 1 + 1,)
+        (no T entry for a free duration): [variable scales (n_w,); 1 / row scales (n_g,);
+        T, s (fixed duration only); 1 / ``objective_scale``]."""
+        fixed_T = [] if self.ocp.free_time else [self.ocp.T]
+        return np.concatenate(
+            [self.w_scale, 1.0 / self.g_scale, fixed_T, [1.0 / float(objective_scale)]]
+        )
+
+    @cached_property
+    def nlp_function(self) -> ca.Function:
+        """(w (n_w,), p) -> (f, g): the scaled NLP of :attr:`parametric_nlp` as a Function."""
+        nlp = self.parametric_nlp
+        return ca.Function(
+            "nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]], ["x", "p"], ["f", "g"]
+        )
+
+    @cached_property
+    def nlp(self) -> dict[str, Any]:
+        """This OCP's NLP in the decision vector alone: {"x": w, "f": the objective in its
+        physical units (unscaled), "g": the scaled constraint rows}, the parameters replaced
+        by :meth:`parameter_values`."""
+        nlp = self.parametric_nlp
+        physical = ca.Function("physical", [nlp["x"], nlp["p"]], [self._objective, nlp["g"]])
+        f, g = physical(nlp["x"], ca.DM(self.parameter_values()))
+        return {"x": nlp["x"], "f": f, "g": g}
+
+    @cached_property
+    def structure_key(self) -> str:
+        """SHA-256 of the serialised NLP function (w, p) -> (f, g).
+
+        Two transcriptions with equal keys compute the same f and g from the same (w, p):
+        same mesh, transcription, dynamics, expressions and constants. Bounds, nominal
+        scales, a fixed T and the guess are not part of it (they are arguments of the
+        solver), so an IPOPT solver built for one serves the other
+        (:mod:`planner.solver_cache`). Any constant inside an expression (a cost weight, a
+        target angle written as a number) is part of it.
+        """
+        text = self.nlp_function.serialize()
+        return f"{'SX' if self.expand else 'MX'}-{hashlib.sha256(text.encode()).hexdigest()}"
+
     def _layout(self) -> None:
         s, mesh = self.system, self.mesh
         nX, nC = mesh.n_state_points, mesh.n_dyn_points
@@ -533,57 +574,48 @@ class Transcription:
         return tuple(kept)
 
     def _state_path_function(self) -> ca.Function:
-        """(xs, t, T) -> the state-only path constraints, scaled, at one state point."""
-        s, ocp = self.system, self.ocp
-        xs, t, T = ca.SX.sym("xs", s.nx), ca.SX.sym("t"), ca.SX.sym("T")
-        x = xs * ca.DM(self.state_scale)
+        """(x, t, T) -> the state-only path constraints at one state point, physical units."""
+        s = self.system
+        x, t, T = ca.SX.sym("x", s.nx), ca.SX.sym("t"), ca.SX.sym("T")
         # The constraints do not depend on u and z; zeros keep their shapes.
         point = Point(s, x, ca.SX.zeros(s.nu), ca.SX.zeros(s.nz), t, T)
         rows = [
-            evaluate_expression(f"path[{c.name}]", c.expression, point)
-            / ca.DM(ocp.constraint_scale(c))
-            for c in self.state_paths
+            evaluate_expression(f"path[{c.name}]", c.expression, point) for c in self.state_paths
         ]
         return ca.Function(
             "state_path",
-            [xs, t, T],
+            [x, t, T],
             [ca.vertcat(*rows) if rows else ca.SX(0, 1)],
-            ["xs", "t", "T"],
+            ["x", "t", "T"],
             ["path"],
         )
 
     def _point_function(self) -> ca.Function:
-        """SX Function at one dynamics point, scaled in and out.
+        """SX Function at one dynamics point, in physical units (scaling is applied around
+        it, by the NLP parameters: see :meth:`_build`).
 
-        (xs, us, zs, t, T) -> (f / x_scale (nx,), residual / residual_scale (nz,),
-        path / path_scale (np,), integrand (1,)).
+        (x, u, z, t, T) -> (f (nx,), residual (nz,), path (np,), integrand (1,)).
         """
-        s, ocp = self.system, self.ocp
-        xs, us, zs = ca.SX.sym("xs", s.nx), ca.SX.sym("us", s.nu), ca.SX.sym("zs", s.nz)
+        s = self.system
+        x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
         t, T = ca.SX.sym("t"), ca.SX.sym("T")
-        x = xs * ca.DM(self.state_scale)
-        u = us * ca.DM(self.control_scale)
-        z = zs * ca.DM(self.aux_scale)
-        rate = s.rate(x, z, u, t) / ca.DM(self.state_scale)
-        if s.residual is not None:
-            residual = s.residual(x, z, u, t) / ca.DM(self.residual_scale)
-        else:
-            residual = ca.SX(0, 1)
+        rate = s.rate(x, z, u, t)
+        residual = s.residual(x, z, u, t) if s.residual is not None else ca.SX(0, 1)
         point = Point(s, x, u, z, t, T)
-        paths = []
-        for c in self._path_constraints():
-            value = evaluate_expression(f"path[{c.name}]", c.expression, point)
-            paths.append(value / ca.DM(ocp.constraint_scale(c)))
+        paths = [
+            evaluate_expression(f"path[{c.name}]", c.expression, point)
+            for c in self._path_constraints()
+        ]
         path = ca.vertcat(*paths) if paths else ca.SX(0, 1)
-        if ocp.integral is not None:
-            integrand = evaluate_expression("integral", ocp.integral, point)
+        if self.ocp.integral is not None:
+            integrand = evaluate_expression("integral", self.ocp.integral, point)
         else:
             integrand = ca.SX(0)
         return ca.Function(
             "point",
-            [xs, us, zs, t, T],
+            [x, u, z, t, T],
             [rate, residual, path, integrand],
-            ["xs", "us", "zs", "t", "T"],
+            ["x", "u", "z", "t", "T"],
             ["f", "residual", "path", "integrand"],
         )
 
@@ -595,68 +627,78 @@ class Transcription:
         return self.state_scale
 
     def _boundary_function(self) -> ca.Function:
-        """(x0s, xfs, u0s, ufs, z0s, zfs, T) -> (boundary rows (scaled), periodic defect, Mayer)."""
+        """(x0, xf, u0, uf, z0, zf, T) -> (boundary rows, periodic defect x0 - Delta(xf),
+        Mayer term), physical units."""
         s, ocp = self.system, self.ocp
-        sx, su, sz = ca.DM(self.state_scale), ca.DM(self.control_scale), ca.DM(self.aux_scale)
-        x0s, xfs = ca.SX.sym("x0s", s.nx), ca.SX.sym("xfs", s.nx)
-        u0s, ufs = ca.SX.sym("u0s", s.nu), ca.SX.sym("ufs", s.nu)
-        z0s, zfs = ca.SX.sym("z0s", s.nz), ca.SX.sym("zfs", s.nz)
+        x0, xf = ca.SX.sym("x0", s.nx), ca.SX.sym("xf", s.nx)
+        u0, uf = ca.SX.sym("u0", s.nu), ca.SX.sym("uf", s.nu)
+        z0, zf = ca.SX.sym("z0", s.nz), ca.SX.sym("zf", s.nz)
         T = ca.SX.sym("T")
-        x0, xf = x0s * sx, xfs * sx
         extra = {"x0": x0, "xf": xf}
-        start = Point(s, x0, u0s * su, z0s * sz, ca.SX(0), T, extra)
-        end = Point(s, xf, ufs * su, zfs * sz, T, T, extra)
+        start = Point(s, x0, u0, z0, ca.SX(0), T, extra)
+        end = Point(s, xf, uf, zf, T, T, extra)
         rows = []
         for c in self._boundary_constraints():
             point = start if c.where == "start" else end
-            value = evaluate_expression(f"{c.where}[{c.name}]", c.expression, point)
-            rows.append(value / ca.DM(ocp.constraint_scale(c)))
+            rows.append(evaluate_expression(f"{c.where}[{c.name}]", c.expression, point))
         periodic = ca.SX(0, 1)
         if ocp.periodicity is not None:
             mapping = ocp.periodicity[0]
             image = xf if mapping is None else mapping(xf)
             if isinstance(image, list | tuple):
                 image = ca.vertcat(*image)
-            periodic = (x0 - image) / sx
+            periodic = x0 - image
         mayer = ca.SX(0)
         if ocp.terminal is not None:
             mayer = evaluate_expression("terminal", ocp.terminal, end)
         return ca.Function(
             "boundary",
-            [x0s, xfs, u0s, ufs, z0s, zfs, T],
+            [x0, xf, u0, uf, z0, zf, T],
             [ca.vertcat(*rows) if rows else ca.SX(0, 1), periodic, mayer],
         )
 
     def _build(self) -> None:
+        """The NLP as a function of the scaled decision vector w and the parameters p.
+
+        Everything that is a number of the problem rather than its structure is a parameter
+        (:meth:`parameter_values`): the nominal scales of the variables (v = w * scale), the
+        reciprocal scales of the constraint rows and of the objective, and a fixed duration
+        T. The functions inside work in physical units. So two OCPs that differ only in
+        bounds, scales, T or the guess have the same NLP function (:attr:`structure_key`)
+        and :func:`planner.solver.solve` reuses one IPOPT solver for both.
+        """
         s, ocp, mesh, scheme = self.system, self.ocp, self.mesh, self.scheme
         self._layout()
         nX, nC, N = mesh.n_state_points, mesh.n_dyn_points, ocp.N
         sym = ca.SX if self.expand else ca.MX
         w = sym.sym("w", self.n_w)
-        Xs = ca.reshape(w[self._slices["X"]], s.nx, nX)
-        Us = ca.reshape(w[self._slices["U"]], s.nu, nC)
-        Zs = ca.reshape(w[self._slices["Z"]], s.nz, nC)
-        T = w[self._slices["T"]] * self.T_scale if ocp.free_time else sym(ocp.T)
+        p_w = sym.sym("p_w", self.n_w)  # nominal scale of each variable
+        v = w * p_w
+        X = ca.reshape(v[self._slices["X"]], s.nx, nX)
+        U = ca.reshape(v[self._slices["U"]], s.nu, nC)
+        Z = ca.reshape(v[self._slices["Z"]], s.nz, nC)
+        p_T = sym.sym("p_T", 0 if ocp.free_time else 1)  # a fixed duration, s
+        T = v[self._slices["T"]] if ocp.free_time else p_T
         h = T / N
         point_f = self._point_function()
         self.point_function = point_f
         mapped = point_f.map(nC)
         times = T * ca.DM(mesh.s_dyn).T
-        Xd = Xs[:, mesh.dyn_state_cols.tolist()]
-        Fs, Rs, Ps, Ls = mapped(Xd, Us, Zs, times, ca.repmat(T, 1, nC))
+        Xd = X[:, mesh.dyn_state_cols.tolist()]
+        Fs, Rs, Ps, Ls = mapped(Xd, U, Z, times, ca.repmat(T, 1, nC))
         A_big, B_big = mesh.defect_matrices()
-        defects = ca.mtimes(Xs, A_big) - h * ca.mtimes(Fs, B_big)
+        defects = ca.mtimes(X, A_big) - h * ca.mtimes(Fs, B_big)
         # Boundary values of controls and aux come from the first/last interval's polynomial.
         w0 = scheme.control_weights([0.0])[0]
         w1 = scheme.control_weights([1.0])[0]
         first, last = mesh.dyn_cols[0].tolist(), mesh.dyn_cols[-1].tolist()
-        u0 = ca.mtimes(Us[:, first], ca.DM(w0))
-        uf = ca.mtimes(Us[:, last], ca.DM(w1))
-        z0 = ca.mtimes(Zs[:, first], ca.DM(w0)) if s.nz else Zs[:, :0]
-        zf = ca.mtimes(Zs[:, last], ca.DM(w1)) if s.nz else Zs[:, :0]
+        u0 = ca.mtimes(U[:, first], ca.DM(w0))
+        uf = ca.mtimes(U[:, last], ca.DM(w1))
+        z0 = ca.mtimes(Z[:, first], ca.DM(w0)) if s.nz else Z[:, :0]
+        zf = ca.mtimes(Z[:, last], ca.DM(w1)) if s.nz else Z[:, :0]
         boundary_f = self._boundary_function()
         self.boundary_function = boundary_f
-        gb, gper, mayer = boundary_f(Xs[:, 0], Xs[:, -1], u0, uf, z0, zf, T)
+        gb, gper, mayer = boundary_f(X[:, 0], X[:, -1], u0, uf, z0, zf, T)
         objective = h * ca.mtimes(Ls, ca.DM(mesh.quadrature)) + mayer
         # State-only path constraints also where no dynamics point lies (Radau t = 0,
         # Legendre nodes): there the state is a variable, the control is not.
@@ -664,12 +706,21 @@ class Transcription:
         if free.size and self.state_paths:
             state_path = self._state_path_function().map(free.size)
             Pfree = state_path(
-                Xs[:, free.tolist()], T * ca.DM(mesh.s_state[free]).T, ca.repmat(T, 1, free.size)
+                X[:, free.tolist()], T * ca.DM(mesh.s_state[free]).T, ca.repmat(T, 1, free.size)
             )
         else:
             Pfree = sym(0, 1)
         g = ca.vertcat(ca.vec(defects), ca.vec(Rs), ca.vec(Ps), ca.vec(Pfree), gb, gper)
-        self.nlp = {"x": w, "f": objective, "g": g}
+        p_g = sym.sym("p_g", g.size1())  # 1 / nominal scale of each constraint row
+        p_f = sym.sym("p_f")  # 1 / nominal scale of the objective
+        #: The NLP IPOPT solves: scaled w, parameters p, scaled objective and rows.
+        self.parametric_nlp = {
+            "x": w,
+            "p": ca.vertcat(p_w, p_g, p_T, p_f),
+            "f": objective * p_f,
+            "g": g * p_g,
+        }
+        self._objective = objective
         self._bounds_and_names()
 
     def _bounds_and_names(self) -> None:

@@ -351,7 +351,7 @@ def test_nlp_jacobian_and_hessian_match_central_differences(scheme, degree, form
     hess_l = solver.get_function("nlp_hess_l")
     rng = np.random.default_rng(7)
     n, m = transcription.n_w, transcription.n_g
-    p = np.zeros(0)
+    p = transcription.parameter_values()  # the nominal scales and T
     step = 1e-6
     jacobian_checked = hessian_checked = 0
     rows_seen, columns_seen = np.zeros(m, bool), np.zeros(n, bool)
