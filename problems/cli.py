@@ -33,12 +33,14 @@ import numpy as np
 from model import equations
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.presets import PRESETS, six_link_anthropoid
-from planner.trajectory import Trajectory, TrajectoryError, TrajectoryFileError
+from planner.trajectory import Trajectory, TrajectoryFileError
+from planner.units import si_unit
 from problems.dynamics_problems import (
     FIT_WINDOW,
     METHODS,
     SimulationError,
     fit_growth_rate,
+    linkage_profile,
     simulate,
     tolerance_problem,
     torques_along,
@@ -594,13 +596,35 @@ def _load_profile(path_text: str):
         raise UsageError(f"torque file {path_text!r} is malformed: {detail}") from exc
     except OSError as exc:
         raise UsageError(f"torque file {path_text!r} cannot be read: {exc.strerror}") from exc
-    try:
-        names = tuple(profile.link_names)
-    except TrajectoryError as exc:
+    return profile
+
+
+def _linkage_profile(profile, path_text: str, preset: str, names: tuple[str, ...]):
+    """The file's profile for the preset's links in SI units (problems.linkage_profile), or
+    a UsageError naming the file, the column and its unit, or the missing column."""
+    links = list(
+        dict.fromkeys(
+            name.split("_", 1)[1]
+            for name, _, _ in profile.columns
+            if name.startswith(("psi_", "dpsi_", "M_"))
+        )
+    )
+    if not links:
         raise UsageError(
-            f"torque file {path_text!r} has no linkage columns (psi_*, dpsi_*, M_*): {exc}"
-        ) from exc
-    return profile, names
+            f"torque file {path_text!r} has no linkage columns (psi_<link> [rad], "
+            f"dpsi_<link> [rad/s], M_<link> [N m]); its columns are "
+            f"{[name for name, _, _ in profile.columns]}"
+        )
+    if set(links) - set(names):
+        raise UsageError(
+            f"torque file {path_text!r} is for links {links}, but preset {preset!r} has "
+            f"{list(names)}; pass the matching --preset"
+        )
+    try:
+        return linkage_profile(profile, names)
+    except (DefinitionError, DefinitionTypeError) as exc:
+        message = str(exc).removeprefix("`torques`: ")
+        raise UsageError(f"torque file {path_text!r}: {message}") from exc
 
 
 def _node_samples_warning(profile, path_text: str, interpolation: str) -> str | None:
@@ -665,12 +689,17 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
     if args.method not in METHODS:
         raise UsageError(f"unknown --method {args.method!r}; choose one of: {', '.join(METHODS)}")
     linkage = _linkage(args.preset)
-    profile, names = _load_profile(args.torque_file)
-    if names != linkage.names:
-        raise UsageError(
-            f"torque file {args.torque_file!r} is for links {list(names)}, but preset "
-            f"{args.preset!r} has {list(linkage.names)}; pass the matching --preset"
-        )
+    loaded = _load_profile(args.torque_file)
+    profile = _linkage_profile(loaded, args.torque_file, args.preset, linkage.names)
+    converted = sorted(
+        {
+            f"{unit} -> {si_unit(unit)[0]}"
+            for _, unit, _ in loaded.columns
+            if si_unit(unit) is not None and si_unit(unit) != (unit, 1.0)
+        }
+    )
+    if converted:
+        report.step(f"converted the columns of {args.torque_file} to SI: {', '.join(converted)}")
     time_grid = np.asarray(profile.time, dtype=float)
     t0, t_file_end = float(time_grid[0]), float(time_grid[-1])
     t_end = t_file_end if args.t_end_s is None else args.t_end_s

@@ -47,6 +47,7 @@ from model.errors import (
 )
 from model.linkage import Linkage
 from planner.trajectory import Trajectory
+from planner.units import QUANTITIES, accepted, si_unit, to_si
 from problems.gait_law import GaitLaw
 
 __all__ = [
@@ -58,6 +59,7 @@ __all__ = [
     "SimulationError",
     "fit_growth_rate",
     "law_torque_function",
+    "linkage_profile",
     "replay_law",
     "simulate",
     "torques_along",
@@ -254,8 +256,125 @@ class _TorqueSource:
     trajectory: Trajectory | None
 
 
+def _unit_problem(where: str, name: str, unit: str, si: str) -> str | None:
+    """Why column ``name`` in ``unit`` cannot stand for a quantity in ``si``, or None."""
+    known = si_unit(unit)
+    quantity = QUANTITIES[si]
+    if known is None:
+        return (
+            f"`{where}`: column `{name}` is in {unit!r}, a unit this library does not read as "
+            f"{quantity}; give it in {si} (or one of {accepted(si)})"
+        )
+    if known[0] != si:
+        return (
+            f"`{where}`: column `{name}` is in {unit!r}, {QUANTITIES[known[0]]}, but it must "
+            f"be {quantity}: {si} (or one of {accepted(si)})"
+        )
+    return None
+
+
+def linkage_profile(
+    profile: Trajectory, names, states: bool = True, where: str = "torques"
+) -> Trajectory:
+    """``profile`` in the linkage convention of the links ``names``, in SI units.
+
+    Reads the columns by name: M_<link> (torques), and with ``states`` psi_<link> and
+    dpsi_<link> (the initial state), whatever their order in the file; converts the units
+    the library knows (deg -> rad, kN m -> N m, ..., :mod:`planner.units`). A profile whose
+    controls are not named M_<link> but are as many as the links, all in torque units, is
+    read in order. Raises DefinitionError naming the missing column, or the column and its
+    unit when the unit is not one of the quantity's (a torque in 'rad', an angle in 'N m'),
+    or unknown (a file in 'kN/m' is refused, not integrated as N m).
+    """
+    if not isinstance(profile, Trajectory):
+        raise DefinitionTypeError(
+            f"`{where}`: must be a planner Trajectory, got {type(profile).__name__}"
+        )
+    names = tuple(names)
+    n = len(names)
+    channels = {name: unit for name, unit, _ in profile.columns}
+    wanted = [(f"M_{link}", "N m") for link in names]
+    if states:
+        wanted = (
+            [(f"psi_{link}", "rad") for link in names]
+            + [(f"dpsi_{link}", "rad/s") for link in names]
+            + wanted
+        )
+    links = list(
+        dict.fromkeys(c.split("_", 1)[1] for c in channels if c.startswith(("psi_", "dpsi_", "M_")))
+    )
+    torque_channels = len(profile.control_names)
+    if set(links) - set(names):
+        raise DefinitionError(
+            f"`{where}`: the profile is for links {links}: the profile has {torque_channels} "
+            f"torque channels but the linkage has {n} links {list(names)}; use a profile "
+            "written for this linkage"
+        )
+    positional = not any(c.startswith("M_") for c in profile.control_names)
+    if positional and torque_channels != n:
+        raise DefinitionError(
+            f"`{where}`: the profile has {torque_channels} torque channels but the linkage "
+            f"has {n} links; use a profile written for this linkage"
+        )
+    # Controls under other names (a generic trajectory): read in order, units checked.
+    renamed = (
+        dict(zip(profile.control_names, (f"M_{link}" for link in names), strict=True))
+        if positional
+        else {}
+    )
+    missing = [
+        f"{name} [{si}]"
+        for name, si in wanted
+        if name not in channels and name not in renamed.values()
+    ]
+    if missing:
+        raise DefinitionError(
+            f"`{where}`: the profile lacks the column(s) {', '.join(missing)}; a linkage "
+            "profile needs psi_<link> [rad], dpsi_<link> [rad/s] (for the initial state) and "
+            "M_<link> [N m] for every link of the linkage"
+        )
+    converted = to_si(profile)
+    columns = {}
+    for name, si in wanted:
+        source = next((k for k, v in renamed.items() if v == name), name)
+        problem = _unit_problem(where, source, channels[source], si)
+        if problem is not None:
+            raise DefinitionError(problem)
+        columns[name] = converted.column(source)
+    torques = np.column_stack([columns[f"M_{link}"] for link in names])
+    metadata = dict(converted.metadata)
+    if not states:
+        return Trajectory(
+            time=converted.time,
+            states=np.zeros((converted.n_samples, 0)),
+            controls=torques,
+            state_names=(),
+            state_units=(),
+            control_names=tuple(f"M_{link}" for link in names),
+            control_units=("N m",) * n,
+            metadata=metadata,
+        )
+    ddpsi = None
+    accelerations = [f"ddpsi_{link}" for link in names]
+    if all(a in converted.extras and converted.extras[a][1] == "rad/s^2" for a in accelerations):
+        ddpsi = np.column_stack([converted.extras[a][0] for a in accelerations])
+    return Trajectory.from_linkage(
+        converted.time,
+        np.column_stack([columns[f"psi_{link}"] for link in names]),
+        np.column_stack([columns[f"dpsi_{link}"] for link in names]),
+        torques,
+        names,
+        ddpsi=ddpsi,
+        metadata=metadata,
+    )
+
+
 def _torque_source(
-    torques, names: tuple[str, ...], interpolation: str, solution_rate_hz: float
+    torques,
+    names: tuple[str, ...],
+    interpolation: str,
+    solution_rate_hz: float,
+    states: bool = True,
 ) -> _TorqueSource:
     n = len(names)
     if hasattr(torques, "to_trajectory") and not isinstance(torques, Trajectory):
@@ -270,17 +389,7 @@ def _torque_source(
         else:
             torques = torques.to_trajectory()
     if isinstance(torques, Trajectory):
-        channels = np.shape(torques.controls)[1]  # a Trajectory's controls are (K, nu)
-        if channels != n:
-            raise DefinitionError(
-                f"`torques`: the profile has {channels} torque channels but the "
-                f"linkage has {n} links; use a profile written for this linkage"
-            )
-        if torques.is_linkage and tuple(torques.link_names) != tuple(names):
-            raise DefinitionError(
-                f"`torques`: the profile is for links {list(torques.link_names)} but the "
-                f"linkage has {list(names)}; use a profile written for this linkage"
-            )
+        torques = linkage_profile(torques, names, states=states)
         function = torques.control_function(interpolation)
         time = np.asarray(torques.time, dtype=float)  # at least 2 samples, as any Trajectory
 
@@ -654,7 +763,10 @@ def simulate(
     dynamics : model.Dynamics or model.Linkage
         The linkage's model (n links).
     torques : Trajectory, object with ``to_trajectory()``, or callable
-        The torque profile. A Trajectory (or a planner Solution) is interpolated with its
+        The torque profile. A Trajectory (or a planner Solution) is read by column name
+        (M_<link>, and psi_<link>, dpsi_<link> for the default x0) with its units converted
+        to SI (deg, kN m, ...: :func:`linkage_profile`; a unit that is not one of the
+        quantity's is refused, naming the column) and interpolated with its
         ``control_function(interpolation)``; a callable maps t (s, scalar or (K,)) to torques
         (N m, (n,) or (K, n)).
     x0 : array_like (2n,), optional
@@ -731,7 +843,9 @@ def simulate(
     solution_rate_hz = check_real("solution_rate_hz", solution_rate_hz)
     if solution_rate_hz <= 0:
         raise DefinitionError(f"`solution_rate_hz`: must be > 0 Hz, got {solution_rate_hz!r}")
-    source = _torque_source(torques, dynamics.names, interpolation, solution_rate_hz)
+    source = _torque_source(
+        torques, dynamics.names, interpolation, solution_rate_hz, states=x0 is None
+    )
 
     # Time span and output grid.
     if t_span is None:

@@ -610,3 +610,81 @@ def test_library_parameter_names_become_option_names():
     assert cli._in_option_words("`GaitLaw.varpi[2]`: must be finite", cli._LAW_OPTIONS) == (
         "--varpi-rad value 3: must be finite"
     )
+
+
+# ---- units of the torque file -----------------------------------------------------------------
+def _relabelled(source, target, replace):
+    """A copy of CSV ``source`` with its header rewritten by ``replace`` (a function of the
+    header cells, returning the new cells) and the data column by column as it returns."""
+    lines = source.read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    cells = lines[header].split(",")
+    rows = [line.split(",") for line in lines[header + 1 :]]
+    keep, cells, scale = replace(cells)
+    out = [line for line in lines[:header] if not line.startswith("# groups")]
+    out.append(",".join(cells))
+    for row in rows:
+        out.append(",".join(repr(float(row[i]) / scale[j]) for j, i in enumerate(keep)))
+    target.write_text("\n".join(out) + "\n")
+    return target
+
+
+def test_simulate_converts_a_file_in_degrees_and_kilonewton_metres(capsys, tmp_path, profile_files):
+    source = profile_files / "torques.csv"
+
+    def to_kilo(cells):
+        keep = list(range(len(cells)))
+        scale = [1e3 if "[N m]" in c else (np.pi / 180 if "[rad" in c else 1.0) for c in cells]
+        cells = [
+            c.replace("[N m]", "[kN m]")
+            .replace("[rad/s^2]", "[deg/s^2]")
+            .replace("[rad/s]", "[deg/s]")
+            .replace("[rad]", "[deg]")
+            for c in cells
+        ]
+        return keep, cells, scale
+
+    kilo = _relabelled(source, tmp_path / "kilo.csv", to_kilo)
+    assert "psi_torso [deg]" in kilo.read_text() and "M_head [kN m]" in kilo.read_text()
+    common = ("--t-end-s", "0.2", "--no-plots")
+    code, out_si, _ = run(capsys, "simulate", source, "--output-dir", tmp_path / "si", *common)
+    assert code == 0
+    code, out_kilo, err = run(capsys, "simulate", kilo, "--output-dir", tmp_path / "k", *common)
+    assert code == 0
+    assert "converted the columns of" in err and "kN m -> N m" in err and "deg -> rad" in err
+    deviation = [line for line in out_kilo.splitlines() if line.startswith("max |psi")]
+    assert deviation == [line for line in out_si.splitlines() if line.startswith("max |psi")]
+    a = Trajectory.load(tmp_path / "si" / "simulated.csv")
+    b = Trajectory.load(tmp_path / "k" / "simulated.csv")
+    np.testing.assert_allclose(b.psi, a.psi, atol=1e-10)
+
+
+def test_simulate_refuses_an_unknown_unit_or_a_missing_column_by_name(
+    capsys, tmp_path, profile_files
+):
+    source = profile_files / "torques.csv"
+
+    def unknown(cells):
+        cells = [c.replace("M_torso [N m]", "M_torso [kN/m]") for c in cells]
+        return list(range(len(cells))), cells, [1.0] * len(cells)
+
+    bad = _relabelled(source, tmp_path / "unknown.csv", unknown)
+    assert_one_line_error(
+        capsys,
+        r"torque file '.*unknown\.csv': column `M_torso` is in 'kN/m', a unit this library "
+        r"does not read as a torque; give it in N m",
+        "simulate",
+        bad,
+    )
+
+    def without_head_angle(cells):
+        keep = [i for i, c in enumerate(cells) if not c.startswith("psi_head ")]
+        return keep, [cells[i] for i in keep], [1.0] * len(keep)
+
+    lacking = _relabelled(source, tmp_path / "lacking.csv", without_head_angle)
+    assert_one_line_error(
+        capsys,
+        r"torque file '.*lacking\.csv': the profile lacks the column\(s\) psi_head \[rad\]",
+        "simulate",
+        lacking,
+    )

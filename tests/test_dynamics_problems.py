@@ -354,6 +354,83 @@ def test_second_problem_validation(six, paper22):
         simulate(six, renamed, x0, (0.0, 0.1))
 
 
+def _with_units(profile, angle, rate, torque, factor_angle, factor_torque, order=None):
+    """The profile's columns in other units (values divided by the factor to SI), and
+    optionally in another column order: what a hand-made or spreadsheet file holds."""
+    names = list(profile.state_names)
+    states = profile.states.copy()
+    n = len(names) // 2
+    states[:, :n] /= factor_angle
+    states[:, n:] /= factor_angle
+    units = (angle,) * n + (rate,) * n
+    order = list(range(2 * n)) if order is None else order
+    return Trajectory(
+        time=profile.time,
+        states=states[:, order],
+        controls=profile.controls / factor_torque,
+        state_names=tuple(names[i] for i in order),
+        state_units=tuple(units[i] for i in order),
+        control_names=profile.control_names,
+        control_units=(torque,) * len(profile.control_names),
+    )
+
+
+def test_a_profile_in_degrees_and_kilonewton_metres_is_converted_not_misread(six, paper22):
+    profile = torques_along(six, paper22, np.linspace(0.0, 0.3, 301))
+    reference = simulate(six, profile, t_span=(0.0, 0.2))
+    degrees = _with_units(
+        profile, "deg", "deg/s", "kN m", math.pi / 180, 1e3, order=[5, 0, 1, 2, 3, 4, *range(6, 12)]
+    )
+    motion = simulate(six, degrees, t_span=(0.0, 0.2))  # x0 from the file, in degrees
+    np.testing.assert_allclose(motion.psi, reference.psi, atol=1e-9)
+    np.testing.assert_allclose(motion.torques, reference.torques, rtol=1e-12)
+    # the same numbers read as rad and N m (what the labels were ignored into) are another
+    # motion: the conversion is what makes the two agree
+    kilo = _with_units(profile, "rad", "rad/s", "N m", 1.0, 1e3)
+    misread = simulate(six, kilo, t_span=(0.0, 0.2))
+    assert np.max(np.abs(misread.psi - reference.psi)) > 0.1
+
+
+def test_a_profile_column_in_a_unit_of_another_quantity_or_unknown_is_refused(six, paper22):
+    profile = torques_along(six, paper22, np.linspace(0.0, 0.3, 31))
+    cases = [
+        (
+            _with_units(profile, "rad", "rad/s", "kN/m", 1.0, 1.0),
+            r"`torques`: column `M_stance_shank` is in 'kN/m', a unit this library does not "
+            r"read as a torque; give it in N m \(or one of N m, Nm, kN m",
+        ),
+        (
+            _with_units(profile, "rad", "rad/s", "rad", 1.0, 1.0),
+            r"`torques`: column `M_stance_shank` is in 'rad', an angle, but it must be a "
+            r"torque: N m",
+        ),
+        (
+            _with_units(profile, "N m", "rad/s", "N m", 1.0, 1.0),
+            r"`torques`: column `psi_stance_shank` is in 'N m', a torque, but it must be an "
+            r"angle: rad \(or one of rad, deg",
+        ),
+    ]
+    for bad, message in cases:
+        with pytest.raises(DefinitionError, match=message):
+            simulate(six, bad, t_span=(0.0, 0.1))
+    # a missing column is named (the initial state needs it; with x0 given it does not)
+    keep = [i for i, name in enumerate(profile.state_names) if name != "psi_head"]
+    lacking = Trajectory(
+        time=profile.time,
+        states=profile.states[:, keep],
+        controls=profile.controls,
+        state_names=tuple(profile.state_names[i] for i in keep),
+        state_units=tuple(profile.state_units[i] for i in keep),
+        control_names=profile.control_names,
+        control_units=profile.control_units,
+    )
+    with pytest.raises(
+        DefinitionError, match=r"`torques`: the profile lacks the column\(s\) psi_head \[rad\]"
+    ):
+        simulate(six, lacking, t_span=(0.0, 0.1))
+    assert simulate(six, lacking, paper22.state(0.0), (0.0, 0.05)).time[-1] == 0.05
+
+
 def test_smallest_accepted_tolerance_runs(six, paper22):
     # MIN_TOLERANCE itself must work, or the bound rejects too little: 0.05 s at 1e-14.
     motion = simulate(

@@ -9,14 +9,22 @@ x(0) = x(T), minimise the integral of sum_i M_i^2, every absolute angle within +
 
 initial guess: the law, its derivatives, and the torques of inverse dynamics along it.
 
-Printed: per transcription and N, the NLP size, build time (transcription + IPOPT setup,
-including the derivative functions), solve time, iterations, ms per iteration, time in NLP
-function evaluations, cost; medians over ``--repeat`` runs. Then the headline case
-(Hermite-Simpson, N = 50): implicit vs explicit dynamics, and the MX (default) vs SX-expanded
-NLP, with ratios measured in the same run. Last, warm starts on that case: the cold solve vs
-re-solving from its own Solution with the primal values only (``warm_start=False``) and with
-IPOPT's multipliers too (the default on the same NLP layout), and the same two after a
-continuation step (the band widened from 0.10 to 0.11 rad) next to that problem's cold solve.
+Printed, all measured in this one run (medians over ``--repeat`` runs; the machine is shared,
+so compare the ratios of a run, not runs):
+
+1. per transcription and N: NLP size, build time (transcription + IPOPT setup with its
+   derivative functions, a fresh solver each time), solve time, iterations, ms per iteration,
+   time in NLP function evaluations, cost, re-integration error; and the exponent a of
+   solve time ~ N^a (and of ms per iteration) fitted over N = 20..160;
+2. before/after: today's defaults against the previous ones (IPOPT's monotone barrier update
+   and MUMPS's automatic ordering, objective unscaled, a solver built per solve), on the
+   same OCPs, with the solve-time ratio and the cost difference, and the exponent of each;
+3. the headline case (Hermite-Simpson, N = 50): implicit vs explicit dynamics, MX vs
+   SX-expanded NLP;
+4. the solver cache: a re-solve's build with a cached solver, and when the SX expansion pays
+   (its extra build divided by what it saves per solve);
+5. warm starts on the headline case: cold, re-solves from its own Solution with primal values
+   only and with the multipliers, and a continuation step (band 0.10 -> 0.11 rad).
 
     python examples/benchmarks/planner_bench.py            # N = 10, 20, 40, 80, 160
     python examples/benchmarks/planner_bench.py --quick    # smoke run (N = 10, 20; once)
@@ -34,6 +42,7 @@ import numpy as np
 
 from model import presets
 from planner import OCP
+from planner.solver_cache import SOLVERS
 from problems import GaitLaw
 
 logger = logging.getLogger("planner_bench")
@@ -75,12 +84,36 @@ def paper22_gait(
     )
 
 
-def measure(ocp: OCP, repeat: int, expand: bool | None = None, warm_start: bool = True) -> dict:
-    """Median build/solve times (s), iterations, function time of ``repeat`` fresh solves."""
+#: The previous defaults, for the before/after table: IPOPT's monotone barrier update and
+#: MUMPS's automatic ordering (METIS from N ~ 100 on here); the objective is left unscaled by
+#: ``unscaled`` below, and every solve builds its solver (``cache=False``).
+BEFORE_IPOPT = {"mu_strategy": "monotone", "mumps_pivot_order": 7}
+
+
+def unscaled(ocp: OCP) -> OCP:
+    """The OCP with the objective scale 1, as before objective scaling."""
+    return ocp.scale(objective=1.0)
+
+
+def measure(
+    ocp: OCP,
+    repeat: int,
+    expand: bool | None = None,
+    warm_start: bool = True,
+    options: dict | None = None,
+    cache: bool = False,
+) -> dict:
+    """Median build/solve times (s), iterations, function time of ``repeat`` solves (each
+    with a freshly built solver unless ``cache``)."""
     runs = []
     for _ in range(repeat):
         solution = ocp.solve(
-            progress=False, expand=expand, raise_on_failure=False, warm_start=warm_start
+            progress=False,
+            expand=expand,
+            raise_on_failure=False,
+            warm_start=warm_start,
+            options=options,
+            cache=cache,
         )
         stats = solution.stats
         runs.append(
@@ -108,6 +141,7 @@ def measure(ocp: OCP, repeat: int, expand: bool | None = None, warm_start: bool 
         "cost": solution.cost,
         "status": solution.status,
         "warm_start": solution.stats["warm_start"],
+        "cached": solution.stats["solver_cached"],
     }
 
 
@@ -127,6 +161,21 @@ HEADER = (
 )
 
 
+def exponent(Ns, values) -> float:
+    """a of values ~ N^a, least squares in log-log over N >= 20 (below, fixed costs rule)."""
+    points = [(N, v) for N, v in zip(Ns, values, strict=True) if N >= 20 and v > 0]
+    if len(points) < 2:
+        return float("nan")
+    x, y = zip(*points, strict=True)
+    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
+
+
+def exponent_line(label: str, Ns, results) -> str:
+    solve = exponent(Ns, [m["solve"] for m in results])
+    per_iteration = exponent(Ns, [m["solve"] / max(m["iterations"], 1) for m in results])
+    return f"  {label:<26} solve time ~ N^{solve:.2f}, time per iteration ~ N^{per_iteration:.2f}"
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="smoke run: N = 10, 20, once")
@@ -144,18 +193,95 @@ def main(argv=None) -> int:
     )
     out = [
         f"six-link periodic gait (paper22 law +-{BAND} rad, min int sum M^2), implicit dynamics, "
-        f"exact Hessian, MX + mapped SX functions; medians of {repeat} run(s); err rad: largest "
-        "per-interval re-integration error of the angles (Solution.integration_error)",
+        f"exact Hessian, MX + mapped SX functions, default options; medians of {repeat} "
+        "run(s), a fresh solver per run; err rad: largest per-interval re-integration error "
+        "of the angles (Solution.integration_error)",
         HEADER,
     ]
+    exponents = []
+    by_scheme = {}
     for name, degree in schemes:
         label = name + (f"({degree})" if degree else "")
+        results = []
         for N in Ns:
             ocp = paper22_gait(N, name, degree, dynamics=dynamics)
-            out.append(row(label, N, measure(ocp, repeat)))
+            results.append(measure(ocp, repeat))
+            out.append(row(label, N, results[-1]))
+        by_scheme[label] = results
+        exponents.append(exponent_line(label, Ns, results))
+    if not args.quick:
+        out.append("fitted over N = 20..160 (log-log least squares):")
+        out.extend(exponents)
     logger.info("\n".join(out))
 
+    # ---- before/after: the previous defaults on the same OCPs, in this run -------------
     N = 20 if args.quick else 50
+    cases = [("hermite-simpson", None, N)]
+    if not args.quick:
+        cases += [
+            ("hermite-simpson", None, 160),
+            ("radau", 3, 80),
+            ("legendre", 3, 80),
+            ("trapezoid", None, 40),
+        ]
+    lines = [
+        "\nbefore/after: before = mu_strategy monotone, MUMPS automatic ordering, objective "
+        "unscaled; after = the defaults (mu_strategy adaptive, mumps_pivot_order 2 = AMF, "
+        "objective scaled); both a fresh solver per solve",
+        f"{'case':<22} {'iters':>13} {'solve ms':>17} {'after/before':>12} {'cost':>14} "
+        f"{'|d cost|':>9}",
+    ]
+    for name, degree, n in cases:
+        label = f"{name}{f'({degree})' if degree else ''} N={n}"
+        ocp = paper22_gait(n, name, degree, dynamics=dynamics)
+        before = measure(unscaled(ocp), repeat, options=BEFORE_IPOPT)
+        after = by_scheme.get(label.split(" N=")[0], [])
+        after = next((m for m, k in zip(after, Ns, strict=True) if k == n), None)
+        after = after or measure(ocp, repeat)
+        lines.append(
+            f"{label:<22} {before['iterations']:>5.0f} -> {after['iterations']:>4.0f} "
+            f"{1e3 * before['solve']:>7.0f} -> {1e3 * after['solve']:>6.0f} "
+            f"{after['solve'] / before['solve']:>11.2f}x {after['cost']:>14.6f} "
+            f"{abs(after['cost'] - before['cost']):>9.1e}"
+            + ("" if after["status"] == before["status"] == "Solve_Succeeded" else "  FAILED")
+        )
+    if not args.quick:
+        # Robustness: variants of the gait (narrower and wider bands, coarse meshes), each
+        # solved once with the previous and with today's defaults.
+        variants = [(band, n) for band in (0.09, 0.1, 0.11, 0.12, 0.15, 0.2) for n in (10, 20, 40)]
+        counts = {"before": [0, []], "after": [0, []]}
+        failed = []
+        for band, n in variants:
+            ocp = paper22_gait(n, band=band, dynamics=dynamics)
+            for key, problem, options in (
+                ("before", unscaled(ocp), BEFORE_IPOPT),
+                ("after", ocp, None),
+            ):
+                solution = problem.solve(
+                    progress=False, options=options, raise_on_failure=False, cache=False
+                )
+                counts[key][0] += solution.success
+                counts[key][1].append(solution.iterations)
+                if not solution.success:
+                    failed.append(f"{key} band {band} N={n}: {solution.status}")
+        ratios = [a / b for a, b in zip(counts["after"][1], counts["before"][1], strict=True)]
+        lines.append(
+            f"robustness, {len(variants)} variants (band 0.09..0.2 rad x N = 10, 20, 40): "
+            f"converged before {counts['before'][0]}, after {counts['after'][0]}; "
+            f"iterations after/before: median {statistics.median(ratios):.2f}, "
+            f"range {min(ratios):.2f}..{max(ratios):.2f}"
+        )
+        lines.extend(f"  not converged: {item}" for item in failed)
+        before_hs = [
+            measure(unscaled(paper22_gait(n, dynamics=dynamics)), repeat, options=BEFORE_IPOPT)
+            for n in Ns
+        ]
+        lines.append("hermite-simpson, fitted over N = 20..160:")
+        lines.append(exponent_line("before", Ns, before_hs))
+        lines.append(exponent_line("after", Ns, by_scheme["hermite-simpson"]))
+    logger.info("\n".join(lines))
+
+    # ---- headline: formulations and SX expansion -------------------------------------
     headline = [
         f"\nheadline: hermite-simpson N={N} (target here: build ~500 ms, solve ~750 ms)",
         f"{'case':<17}" + HEADER[17:],
@@ -192,7 +318,39 @@ def main(argv=None) -> int:
     )
     logger.info("\n".join(headline))
 
-    # Warm starts: the same NLP layout, so the multipliers of the cold solution are reused.
+    # ---- the solver cache, and when the SX expansion pays ------------------------------
+    SOLVERS.clear()
+    sizes = [("hermite-simpson", None, n) for n in ((20,) if args.quick else (20, 50, 160))]
+    if not args.quick:
+        sizes.append(("radau", 3, 80))
+    lines = [
+        "\nsolver cache: build = transcription + solver (fresh), or transcription + structure "
+        "key + lookup (cached); solves with a cached solver, same guess; SX pays after "
+        "(SX build - MX build) / (MX solve - SX solve) solves of one structure",
+        f"{'case':<22} {'MX build':>9} {'cached':>7} {'SX build':>9} {'cached':>7} "
+        f"{'MX solve':>9} {'SX solve':>9} {'SX/MX':>6} {'SX pays after':>14}",
+    ]
+    for name, degree, n in sizes:
+        label = f"{name}{f'({degree})' if degree else ''} N={n}"
+        ocp = paper22_gait(n, name, degree, dynamics=dynamics)
+        runs = 1 if args.quick else max(repeat, 5)
+        mx_fresh = measure(ocp, 1, cache=True)  # builds and keeps the solver
+        mx = measure(ocp, runs, cache=True)
+        sx_fresh = measure(ocp, 1, expand=True, cache=True)
+        sx = measure(ocp, runs, expand=True, cache=True)
+        assert mx["cached"] and sx["cached"] and not mx_fresh["cached"]
+        gain = mx["solve"] - sx["solve"]
+        extra = sx_fresh["build"] - mx_fresh["build"]
+        pays = f"{extra / gain:.1f} solves" if gain > 0 else "never"
+        lines.append(
+            f"{label:<22} {1e3 * mx_fresh['build']:>7.0f}ms {1e3 * mx['build']:>5.0f}ms "
+            f"{1e3 * sx_fresh['build']:>7.0f}ms {1e3 * sx['build']:>5.0f}ms "
+            f"{1e3 * mx['solve']:>7.0f}ms {1e3 * sx['solve']:>7.0f}ms "
+            f"{sx['solve'] / mx['solve']:>6.2f} {pays:>14}"
+        )
+    logger.info("\n".join(lines))
+
+    # ---- warm starts: the same NLP layout, so the multipliers of the cold solution are reused
     cold_ocp = paper22_gait(N, "hermite-simpson", None, dynamics=dynamics)
     cold_solution = cold_ocp.solve(progress=False)
     wider = paper22_gait(N, "hermite-simpson", None, dynamics=dynamics, band=0.11)
@@ -206,13 +364,14 @@ def main(argv=None) -> int:
         ("band .11, +mult", wider, True),
     ):
         if warm_start is None:  # keeps the law as its guess
-            warm_cases[label] = measure(ocp, repeat_warm)
+            warm_cases[label] = measure(ocp, repeat_warm, cache=True)
         else:
             guessed = ocp.guess(cold_solution)
-            warm_cases[label] = measure(guessed, repeat_warm, warm_start=warm_start)
+            warm_cases[label] = measure(guessed, repeat_warm, warm_start=warm_start, cache=True)
     lines = [
         f"\nwarm start: hermite-simpson N={N}, guess = the cold solution; primal: values "
-        "only (warm_start=False); +mult: with its multipliers (warm_start=True)",
+        "only (warm_start=False); +mult: with its multipliers (warm_start=True); cached "
+        "solvers except 'cold'",
         f"{'case':<17}" + HEADER[17:],
     ]
     for label, m in warm_cases.items():
