@@ -429,7 +429,15 @@ class Dynamics:
     # ---- numeric evaluation ---------------------------------------------------------------
     def _evaluate(self, name: str, *arrays: np.ndarray) -> list[np.ndarray]:
         """Evaluate Function ``name`` on one state or a batch; returns per-output arrays with
-        the batch as the leading axis (dropped again for a single state)."""
+        the batch as the leading axis (dropped again for a single state). Finite inputs that
+        give a non-finite result (they overflow double precision) raise DefinitionError."""
+        results = self._evaluate_unchecked(name, *arrays)
+        for result in results:
+            if not np.all(np.isfinite(result)):
+                raise DefinitionError(_overflow_message(self.function(name), arrays, result))
+        return results
+
+    def _evaluate_unchecked(self, name: str, *arrays: np.ndarray) -> list[np.ndarray]:
         function = self.function(name)
         batch, columns = _as_columns(function, arrays)
         if name not in self._layouts:
@@ -527,6 +535,21 @@ class Dynamics:
 
     def __repr__(self) -> str:
         return f"Dynamics({self._linkage!r}; built: {list(self.built)})"
+
+
+def _overflow_message(function: ca.Function, arrays, result) -> str:
+    """Where a result is not finite, and how large the inputs were."""
+    bad = np.argwhere(~np.isfinite(np.atleast_1d(result)))
+    place = f" at state {int(bad[0][0])}" if np.ndim(result) > 1 and bad.size else ""
+    sizes = ", ".join(
+        f"|{function.name_in(i)}| up to {float(np.max(np.abs(np.asarray(a, dtype=float)))):.3g}"
+        for i, a in enumerate(arrays)
+    )
+    return (
+        f"`{function.name()}`: the result is inf or NaN{place} although the inputs are finite "
+        f"({sizes}): they overflow double precision; check their units (rad, rad/s, "
+        "rad/s^2, N m) and magnitudes"
+    )
 
 
 def _as_columns(function: ca.Function, arrays) -> tuple[int | None, list[np.ndarray]]:

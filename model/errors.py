@@ -43,9 +43,26 @@ def check_real(field: str, value: object) -> float:
     return number
 
 
+def _refuse_booleans_and_complex(field: str, value: object, expected: str) -> None:
+    """numpy turns booleans into 0/1 and drops imaginary parts (with only a warning) when
+    it converts to float: both are mistakes here, refused by name."""
+    try:
+        kind = np.asarray(value).dtype.kind
+    except (TypeError, ValueError):  # ragged or odd input: the float conversion reports it
+        return
+    if kind in "bc":
+        what = "booleans" if kind == "b" else "complex numbers"
+        raise DefinitionTypeError(
+            f"`{field}`: must be {expected}, got {what}; give real numbers "
+            "(numpy.real(...) or .astype(float) if that is what you mean)"
+        )
+
+
 def as_float_array(field: str, value: object, expected: str) -> np.ndarray:
     """Return ``value`` as a float numpy array, or raise DefinitionTypeError
-    "`field`: must be <expected>, got <value>" (``expected``: e.g. "numeric of shape (6,)")."""
+    "`field`: must be <expected>, got <value>" (``expected``: e.g. "numeric of shape (6,)").
+    Booleans and complex numbers are refused, not converted."""
+    _refuse_booleans_and_complex(field, value, expected)
     try:
         return np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -61,7 +78,9 @@ def check_finite(field: str, array: np.ndarray, what: str = "values") -> None:
 
 def check_states(field: str, value: object, size: int) -> np.ndarray:
     """Return ``value`` as a finite float array of shape (size,) (one state) or (K, size)
-    (a batch), or raise naming ``field``, the shape expected and the shape given."""
+    (a batch), or raise naming ``field``, the shape expected and the shape given. Booleans
+    and complex numbers are refused."""
+    _refuse_booleans_and_complex(field, value, f"real numbers of shape ({size},) or (K, {size})")
     try:
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:

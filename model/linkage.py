@@ -90,6 +90,12 @@ class Link:
             )
         if self.inertia is None:
             inertia = mass * length**2 / 12.0
+            if not math.isfinite(inertia):
+                raise DefinitionError(
+                    f"`{where}.mass`: {mass!r} kg with length {length!r} m makes the uniform "
+                    "rod's moment of inertia m l^2 / 12 overflow to inf; give the mass in kg "
+                    "and the length in m (or a finite inertia)"
+                )
         else:
             inertia = check_real(f"{where}.inertia", self.inertia)
             if inertia < 0:
@@ -214,6 +220,25 @@ class Linkage:
         self._children = tuple(
             tuple(c for c in range(len(links)) if parents[c] == i) for i in range(len(links))
         )
+        # Every coefficient of the equations of motion is bounded by the total mass times the
+        # square of the total length (mass matrix) or times g and the total length (gravity):
+        # refuse values whose products overflow, before they turn into inf or NaN torques.
+        total_mass = math.fsum(link.mass for link in links)
+        reach = math.fsum(link.length + abs(link.origin or 0.0) for link in links)
+        bounds = (
+            total_mass,
+            total_mass * reach * reach,
+            total_mass * g * reach,
+            math.fsum(link.inertia for link in links),
+        )
+        if not all(math.isfinite(b) for b in bounds):
+            raise DefinitionError(
+                f"`links`: masses up to {max(link.mass for link in links):g} kg, lengths up "
+                f"to {max(link.length for link in links):g} m and inertias up to "
+                f"{max(link.inertia for link in links):g} kg m^2 overflow double precision in "
+                "the equations of motion (total mass x total length^2 is inf); give SI values "
+                "(kg, m, kg m^2)"
+            )
         for i, link in enumerate(links):
             # psi_i is absent from T when nothing of link i's subtree moves as it turns: the
             # mass matrix is singular and forward dynamics undefined.

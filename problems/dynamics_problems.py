@@ -201,8 +201,15 @@ def torques_along(
     # A Trajectory has at least 2 samples; one state's torques: dynamics.inverse_dynamics.
     times = _time_grid("t", t, minimum=2)
     psi, dpsi, ddpsi = law(times)
-    torques = dynamics.inverse_dynamics(psi, dpsi, ddpsi)
-    ground = dynamics.ground_reaction(psi, dpsi, ddpsi)
+    try:
+        torques = dynamics.inverse_dynamics(psi, dpsi, ddpsi)
+        ground = dynamics.ground_reaction(psi, dpsi, ddpsi)
+    except DefinitionError as exc:  # finite motion, torques beyond double precision
+        raise DefinitionError(
+            f"`law`: the torques along {law.name!r} overflow double precision (period "
+            f"{law.period:g} s, angular accelerations up to {np.max(np.abs(ddpsi)):.3g} "
+            f"rad/s^2); give a longer period or smaller amplitudes ({exc})"
+        ) from exc
     info = {
         "source": "problems.torques_along",
         "problem": "first problem of dynamics: torques by inverse dynamics along a law",

@@ -99,6 +99,16 @@ class GaitLaw:
                 )
         if not isinstance(self.name, str):
             raise DefinitionTypeError(f"`GaitLaw.name`: must be a string, got {self.name!r}")
+        # |ddpsi_j| <= zeta_j ((pi/2) w^2 + (pi/2)^2 w^2) with w = 2 pi / T: a period so short
+        # that this overflows gives inf and NaN accelerations (then torques) everywhere.
+        w = 2.0 * math.pi / period
+        peak = max(zeta) * (HALF_PI + HALF_PI * HALF_PI) * w * w
+        if not math.isfinite(w) or not math.isfinite(peak):
+            raise DefinitionError(
+                f"`GaitLaw.period`: {period!r} s is too short: the law's angular accelerations "
+                f"(~zeta (2 pi / T)^2 = {peak:.3g} rad/s^2) overflow double precision; give a "
+                "period in seconds, e.g. 1.0"
+            )
         object.__setattr__(self, "period", period)
         object.__setattr__(self, "zeta", zeta)
         object.__setattr__(self, "varpi", varpi)

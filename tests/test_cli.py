@@ -326,6 +326,7 @@ def test_simulate_bad_files(capsys, tmp_path, profile_files):
         (["--preset", "nope"], r"unknown preset 'nope'; choose one of: six-link"),
         (["--law", "paper23"], r"unknown gait law 'paper23'; choose one of: paper22, walking"),
         (["--period-s", "-1"], r"--period-s: must be a finite number > 0 s, got '-1'"),
+        (["--period-s", "1e-300"], r"--period-s: 1e-300 s is too short: the law's angular"),
         (["--duration-s", "abc"], r"--duration-s: expected a number in s, got 'abc'"),
         (["--rate-hz", "0"], r"--rate-hz: must be a finite number > 0 Hz"),
         (

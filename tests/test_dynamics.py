@@ -646,7 +646,10 @@ BAD_INPUTS = [
     (np.full(6, np.nan), DefinitionError, "`psi`: contains NaN or inf"),
     (np.array([0, 0, np.inf, 0, 0, 0]), DefinitionError, "`psi`: contains NaN or inf"),
     ("abcdef", DefinitionTypeError, r"`psi`: must be numeric of shape \(6,\) or \(K, 6\)"),
-    ([0, 0, 0, 0, 0, 1j], DefinitionTypeError, "`psi`: must be numeric"),
+    ([0, 0, 0, 0, 0, 1j], DefinitionTypeError, r"`psi`: must be real numbers .* got complex"),
+    # numpy would drop the imaginary parts (with a warning) and read booleans as 0 and 1
+    (np.full(6, 1.0 + 1e-3j), DefinitionTypeError, r"`psi`: must be real numbers of shape "),
+    (np.ones(6, dtype=bool), DefinitionTypeError, r"`psi`: .* got booleans; give real numbers"),
 ]
 
 
@@ -659,6 +662,25 @@ def test_numeric_methods_reject_bad_psi(method, bad, error, message):
     args = [bad] + [GOOD] * (len(METHODS[method]) - 1)
     with pytest.raises(error, match=message):
         getattr(dyn, method)(*args)
+
+
+def test_finite_inputs_that_overflow_raise_instead_of_returning_nan():
+    dyn = dynamics_of(SIX)
+    psi = np.ones((3, 6))
+    dpsi = np.zeros((3, 6))
+    dpsi[1] = 1e200  # (1e200)^2 overflows: the torques would come back NaN
+    with pytest.raises(
+        DefinitionError,
+        match=r"`inverse_dynamics`: the result is inf or NaN at state 1 although the inputs are "
+        r"finite \(\|psi\| up to 1, \|dpsi\| up to 1e\+200, \|ddpsi\| up to 0\)",
+    ):
+        dyn.inverse_dynamics(psi, dpsi, np.zeros((3, 6)))
+    with pytest.raises(DefinitionError, match=r"`energy`: the result is inf or NaN"):
+        dyn.energy(np.ones(6), np.full(6, 1e200))
+    with pytest.raises(DefinitionError, match=r"`forward_dynamics`: the result is inf or NaN"):
+        dyn.forward_dynamics(np.ones(6), np.zeros(6), np.full(6, 1e308))
+    # large but representable values pass (the check is on the result, not a threshold)
+    assert np.all(np.isfinite(dyn.inverse_dynamics(np.ones(6), np.full(6, 1e100), np.zeros(6))))
 
 
 @pytest.mark.parametrize("method", [m for m in sorted(METHODS) if len(METHODS[m]) > 1])

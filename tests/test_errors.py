@@ -40,8 +40,10 @@ def test_as_float_array():
     assert array.dtype == float and array.tolist() == [1.0, 2.0]
     with pytest.raises(DefinitionTypeError, match=r"`x0`: must be 2 numbers, got 'ab'"):
         as_float_array("x0", "ab", "2 numbers")
-    with pytest.raises(DefinitionTypeError, match=r"`x0`: must be 2 numbers, got \[1, 1j\]"):
-        as_float_array("x0", [1, 1j], "2 numbers")
+    # numpy would drop the imaginary part (with only a warning) and read booleans as 0, 1
+    for bad, what in (([1, 1j], "complex numbers"), (np.array([True, False]), "booleans")):
+        with pytest.raises(DefinitionTypeError, match=rf"`x0`: must be 2 numbers, got {what}"):
+            as_float_array("x0", bad, "2 numbers")
 
 
 def test_check_finite():
@@ -69,3 +71,9 @@ def test_check_states():
             check_states("psi", bad, 3)
     with pytest.raises(DefinitionError, match="`psi`: contains NaN or inf; give finite values"):
         check_states("psi", [0.0, np.inf, 0.0], 3)
+    for bad, what in ((np.full(3, 1j), "complex numbers"), ([True, False, True], "booleans")):
+        with pytest.raises(
+            DefinitionTypeError,
+            match=rf"`psi`: must be real numbers of shape \(3,\) or \(K, 3\), got {what}",
+        ):
+            check_states("psi", bad, 3)

@@ -5,8 +5,9 @@ import math
 import numpy as np
 import pytest
 
+from model import presets
 from model.errors import DefinitionError, DefinitionTypeError
-from problems import LAW_PRESETS, GaitLaw
+from problems import LAW_PRESETS, GaitLaw, torques_along
 
 HALF_PI = math.pi / 2
 
@@ -123,6 +124,12 @@ def test_dict_round_trip_and_str():
         ({"zeta": []}, DefinitionError, r"`GaitLaw.zeta`: must have one value per link"),
         ({"zeta": "abc"}, DefinitionTypeError, r"`GaitLaw.zeta`: must be a sequence"),
         ({"name": 3}, DefinitionTypeError, r"`GaitLaw.name`: must be a string"),
+        (
+            {"period": 1e-300},
+            DefinitionError,
+            r"`GaitLaw.period`: 1e-300 s is too short: the law's angular accelerations "
+            r"\(~zeta \(2 pi / T\)\^2 = inf rad/s\^2\) overflow double precision",
+        ),
     ],
 )
 def test_validation_messages(kwargs, error, message):
@@ -148,3 +155,18 @@ def test_bad_times_and_presets():
         GaitLaw.from_dict([1.0, [0.1], [0.0]])
     with pytest.raises(DefinitionError, match=r"`t_end`: must be >= 0 s"):
         law.static_times(t_end=-1.0)
+
+
+def test_the_shortest_periods_still_give_finite_torques_or_a_named_error():
+    # 1e-150 s: accelerations ~1e300 rad/s^2, still finite; the torques too (a few kg m^2)
+    six = presets.six_link_anthropoid().dynamics()
+    fast = GaitLaw(period=1e-150, zeta=[0.2] * 6, varpi=[0.0] * 6)
+    assert np.all(np.isfinite(torques_along(six, fast, np.linspace(0, 1e-150, 5)).torques))
+    # 2e-153 s: accelerations finite (~5e306 rad/s^2), the torques beyond double precision
+    faster = GaitLaw(period=2e-153, zeta=[0.2] * 6, varpi=[0.0] * 6)
+    with pytest.raises(
+        DefinitionError,
+        match=r"`law`: the torques along 'custom' overflow double precision "
+        r"\(period 2e-153 s",
+    ):
+        torques_along(six, faster, np.linspace(0, 2e-153, 5))

@@ -236,6 +236,26 @@ def test_linkage_rejects_a_link_whose_angle_has_no_dynamics():
     assert Linkage([rod("a"), rod("b", "a", com=0.1, inertia=0.0)]).n == 2
 
 
+def test_masses_and_lengths_that_overflow_the_equations_are_refused():
+    # a uniform rod's m l^2 / 12 overflows: named at the link
+    with pytest.raises(
+        DefinitionError,
+        match=r"`Link 'a'.mass`: 1e\+308 kg with length 10.0 m makes the uniform rod's moment "
+        r"of inertia m l\^2 / 12 overflow to inf",
+    ):
+        Link("a", None, length=10.0, mass=1e308)
+    # the link itself is finite, the weight m g (and M(psi)) are not: named at the tree
+    heavy = Link("a", None, length=1.0, mass=1e308)
+    assert math.isfinite(heavy.inertia)
+    with pytest.raises(
+        DefinitionError,
+        match=r"`links`: masses up to 1e\+308 kg, lengths up to 1 m and inertias up to "
+        r"8.33333e\+306 kg m\^2 overflow double precision",
+    ):
+        Linkage([heavy])
+    assert Linkage([heavy], gravity=0.0).n == 1  # no weight: every coefficient is finite
+
+
 def test_linkage_accepts_any_iterable_of_links():
     linkage = Linkage(link for link in [rod("a"), rod("b", "a")])
     assert linkage.names == ("a", "b")
