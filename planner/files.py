@@ -4,7 +4,9 @@ Every file the planner writes (trajectory exports, GIF animations) goes through
 :func:`atomic_path`: the content is written to a temporary file in the destination folder and
 renamed over the destination only when complete. ``os.replace`` within one file system is
 atomic, so a reader sees either the old file or the new one, never a partial one; on any
-failure the temporary file is removed and the error propagates.
+failure the temporary file is removed and the error propagates. An OSError (a folder without
+write permission, a full disk, a file-size limit) propagates naming the destination, not the
+hidden temporary file (nor no file at all, as a full disk's error does).
 """
 
 from __future__ import annotations
@@ -37,18 +39,32 @@ def atomic_path(path: Path, suffix: str = ".tmp") -> Iterator[str]:
     (matplotlib's) see the right one.
     """
     path = Path(path)
-    descriptor, temporary = tempfile.mkstemp(
-        dir=path.parent, prefix=f".{path.name}.", suffix=suffix
-    )
+    try:
+        descriptor, temporary = tempfile.mkstemp(
+            dir=path.parent, prefix=f".{path.name}.", suffix=suffix
+        )
+    except OSError as error:
+        raise naming(error, path) from None
     os.close(descriptor)
     try:
         yield temporary
         mode = path.stat().st_mode & 0o7777 if path.exists() else _new_file_mode()
         os.chmod(temporary, mode)
         os.replace(temporary, path)
-    except BaseException:
+    except BaseException as error:
         try:
             os.unlink(temporary)
         except FileNotFoundError:
             pass
+        if isinstance(error, OSError) and error.filename in (None, temporary):
+            raise naming(error, path) from error
         raise
+
+
+def naming(error: OSError, path: Path) -> OSError:
+    """The same OSError (type, errno, strerror) with ``path`` as its file name."""
+    strerror = error.strerror or str(error) or type(error).__name__
+    try:
+        return type(error)(error.errno, strerror, str(path))
+    except TypeError:  # a subclass with another constructor: keep it as it is
+        return error

@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import bisect
 import csv
+import errno as errno_module
 import json
 import math
 import os
@@ -112,6 +113,35 @@ class TrajectoryFileError(TrajectoryError):
 
 class TrajectoryFileNotFoundError(TrajectoryFileError, FileNotFoundError):
     """The file to load, or the folder to save into, does not exist."""
+
+
+class TrajectoryWriteError(TrajectoryFileError, OSError):
+    """The system refused to write a trajectory file (no write permission, a full disk, a
+    file-size limit). The message names the file; ``errno``, ``strerror`` and ``filename``
+    (the destination, never the temporary file) are the system's."""
+
+    def __init__(self, message: str, errno=None, strerror=None, filename=None) -> None:
+        OSError.__init__(self, errno, strerror, filename)
+        self.args = (message,)
+        self._message = message
+
+    def __str__(self) -> str:
+        return self._message
+
+
+#: What to say about a write failure, by errno.
+_WRITE_HINTS = {
+    getattr(errno_module, name): hint
+    for name, hint in (
+        ("EACCES", "the folder is not writable; save elsewhere or change its permissions"),
+        ("EPERM", "the folder is not writable; save elsewhere or change its permissions"),
+        ("EROFS", "the file system is read-only; save elsewhere"),
+        ("ENOSPC", "the disk is full; free space or save elsewhere"),
+        ("EDQUOT", "the disk quota is exceeded; free space or save elsewhere"),
+        ("EFBIG", "the file exceeds the size limit; write fewer samples"),
+    )
+    if hasattr(errno_module, name)
+}
 
 
 # ---- validation helpers -------------------------------------------------------------------
@@ -773,7 +803,9 @@ class Trajectory:
         at ``rate_hz`` through the interpolant (``resample``). Floats are written at full
         precision (they read back bit for bit). The write is atomic: the data go to a
         temporary file in the same folder, renamed over ``path`` only when complete, so a
-        failure leaves any previous file untouched and no partial one. Returns the path.
+        failure leaves any previous file untouched and no partial one; the system's refusal (a
+        folder without write permission, a full disk) raises :class:`TrajectoryWriteError`
+        naming ``path``. Returns the path.
         """
         path = _as_path(path)
         suffix = _suffix(path)
@@ -786,7 +818,17 @@ class Trajectory:
             raise TrajectoryFileError(f"{path}: cannot save, this is a folder; give a file name")
         trajectory = self if rate_hz is None else self.resample(rate_hz=rate_hz)
         writer, binary = _WRITERS[suffix]
-        _atomic_write(path, lambda handle: writer(trajectory, handle), binary)
+        try:
+            _atomic_write(path, lambda handle: writer(trajectory, handle), binary)
+        except OSError as error:
+            strerror = error.strerror or str(error)
+            hint = _WRITE_HINTS.get(error.errno)
+            raise TrajectoryWriteError(
+                f"{path}: cannot save: {strerror}" + (f"; {hint}" if hint else ""),
+                error.errno,
+                strerror,
+                str(path),
+            ) from error
         return path
 
     @classmethod
@@ -1301,8 +1343,18 @@ def _read_json(path: Path) -> dict[str, Any]:
                     f"{path}: data[{name!r}][{k}] is {v!r}, not a number; every value must be "
                     "a number"
                 )
-            if not math.isfinite(v):
-                raise TrajectoryFileError(f"{path}: data[{name!r}][{k}] must be finite, got {v!r}")
+            try:
+                finite = math.isfinite(v)
+            except OverflowError:  # an integer beyond the largest float
+                finite = False
+            if not finite:
+                shown = (
+                    f"an integer of {len(str(abs(v)))} digits" if isinstance(v, int) else repr(v)
+                )
+                raise TrajectoryFileError(
+                    f"{path}: data[{name!r}][{k}] must be finite, got {shown}; fill "
+                    "or remove the sample"
+                )
         arrays.append(np.array(values, dtype=np.float64))
         if arrays[-1].shape != arrays[0].shape:
             raise TrajectoryFileError(
@@ -1363,11 +1415,13 @@ def _read_npz(path: Path) -> dict[str, Any]:
         raise TrajectoryFileError(
             f"{path}: not a readable .npz archive ({error}); write it with Trajectory.save"
         ) from None
+    name, version = arrays["format"], arrays["version"]
+    scalar = name.ndim == 0 and version.ndim == 0  # not arrays of several values
     _check_format(
         path,
         "arrays format/version",
-        str(arrays["format"]) if arrays["format"].dtype.kind == "U" else arrays["format"],
-        int(arrays["version"]) if arrays["version"].dtype.kind in "iu" else arrays["version"],
+        str(name) if scalar and name.dtype.kind == "U" else name,
+        int(version) if scalar and version.dtype.kind in "iu" else version,
     )
     strings = {}
     for key in _NPZ_STRING_KEYS:
@@ -1432,4 +1486,5 @@ __all__ = [
     "TrajectoryError",
     "TrajectoryFileError",
     "TrajectoryFileNotFoundError",
+    "TrajectoryWriteError",
 ]

@@ -33,6 +33,7 @@ import numpy as np
 from model import equations
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.presets import PRESETS, six_link_anthropoid
+from planner.files import atomic_path
 from planner.trajectory import Trajectory, TrajectoryFileError
 from planner.units import si_unit
 from problems.dynamics_problems import (
@@ -537,10 +538,17 @@ def _torque_table(trajectory, names: Sequence[str], out: TextIO) -> None:
 def _cmd_equations(args, out: TextIO, report: Reporter) -> int:
     text = _equations(_linkage(args.preset), args.latex)
     if args.output:
+        path = Path(args.output)
         try:
-            Path(args.output).write_text(text + "\n")
-        except OSError as exc:
-            raise UsageError(f"--output: cannot write {args.output!r}: {exc.strerror}") from exc
+            # Atomic: a failed write (a full disk, a size limit) leaves no partial file.
+            with atomic_path(path) as temporary, open(temporary, "w", encoding="utf-8") as handle:
+                handle.write(text + "\n")
+                handle.flush()
+                os.fsync(handle.fileno())
+        except OSError as exc:  # a file that cannot be written: status 1
+            raise CommandFailed(
+                f"--output: cannot write {args.output!r}: {exc.strerror or exc}"
+            ) from exc
         print(f"wrote {args.output}", file=out)
     else:
         print(text, file=out)

@@ -378,13 +378,38 @@ def test_other_bad_input(capsys, tmp_path):
         "--output-dir",
         a_file / "sub",
     )
-    assert_one_line_error(
+    assert_one_line_error(  # a file that cannot be written: status 1, as documented
         capsys,
         r"--output: cannot write '.*file/eq\.txt': Not a directory",
         "equations",
         "--output",
         a_file / "eq.txt",
+        code=1,
     )
+
+
+def test_equations_output_is_atomic_under_a_file_size_limit(tmp_path):
+    # A real failure of the system (EFBIG) in a child process limited to 1 kB of file size:
+    # exit status 1, the file named, and the old file untouched (no truncated file).
+    target = tmp_path / "equations.txt"
+    target.write_text("old\n")
+    script = (
+        "import resource, signal, sys\n"
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        "resource.setrlimit(resource.RLIMIT_FSIZE, (1024, 1024))\n"
+        "from problems.__main__ import main\n"
+        f"sys.exit(main(['equations', '--output', {str(target)!r}]))\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 1, result.stderr
+    assert result.stderr.strip() == (
+        f"{PROG} equations: error: --output: cannot write {str(target)!r}: File too large"
+    )
+    assert result.stdout == ""
+    assert target.read_text() == "old\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["equations.txt"]
 
 
 def test_simulate_unreadable_file_and_too_many_samples(capsys, tmp_path, monkeypatch):

@@ -10,8 +10,11 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import errno
 import json
 import os
+import subprocess
+import sys
 import zipfile
 from pathlib import Path
 
@@ -20,6 +23,7 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from planner import files as files_module
 from planner import interpolation
 from planner import trajectory as trajectory_module
 from planner.trajectory import (
@@ -28,6 +32,7 @@ from planner.trajectory import (
     TrajectoryError,
     TrajectoryFileError,
     TrajectoryFileNotFoundError,
+    TrajectoryWriteError,
 )
 
 LINKS = ("shank", "thigh", "torso")
@@ -727,6 +732,106 @@ def test_atomic_write_keeps_the_old_file_when_the_writer_fails(tmp_path, monkeyp
         generic_trajectory().save(path)
     assert path.read_bytes() == before
     assert [p.name for p in tmp_path.iterdir()] == [path.name]
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_a_full_disk_names_the_file_and_leaves_nothing(tmp_path, monkeypatch, suffix):
+    path = linkage_trajectory().save(tmp_path / f"x{suffix}")
+    before = path.read_bytes()
+
+    def full(trajectory, handle):
+        raise OSError(errno.ENOSPC, "No space left on device")  # as write() raises it: no file
+
+    monkeypatch.setitem(trajectory_module._WRITERS, suffix, (full, suffix == ".npz"))
+    with pytest.raises(
+        TrajectoryWriteError,
+        match=rf"x\{suffix}: cannot save: No space left on device; the disk is full",
+    ) as caught:
+        generic_trajectory().save(path)
+    assert caught.value.filename == str(path) and caught.value.errno == errno.ENOSPC
+    assert isinstance(caught.value, OSError) and isinstance(caught.value, AnthropoidError)
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+
+
+def test_a_folder_without_write_permission_names_the_file_not_the_temporary(tmp_path, monkeypatch):
+    def refuse(dir, prefix, suffix):
+        raise PermissionError(errno.EACCES, "Permission denied", f"{dir}/{prefix}abc{suffix}")
+
+    monkeypatch.setattr(files_module.tempfile, "mkstemp", refuse)
+    with pytest.raises(TrajectoryWriteError) as caught:
+        generic_trajectory().save(tmp_path / "x.csv")
+    message = str(caught.value)
+    assert message == (
+        f"{tmp_path / 'x.csv'}: cannot save: Permission denied; the folder is not writable; "
+        "save elsewhere or change its permissions"
+    )
+    assert ".x.csv." not in message and caught.value.filename == str(tmp_path / "x.csv")
+
+
+@pytest.mark.skipif(
+    not hasattr(os, "geteuid") or os.geteuid() == 0,
+    reason="root (and Windows) write into a folder without write permission",
+)
+def test_a_read_only_folder_names_the_file(tmp_path):
+    folder = tmp_path / "locked"
+    folder.mkdir()
+    folder.chmod(0o555)
+    try:
+        with pytest.raises(TrajectoryWriteError, match=r"locked/x.csv: cannot save: Permission"):
+            generic_trajectory().save(folder / "x.csv")
+    finally:
+        folder.chmod(0o755)
+
+
+def test_a_file_size_limit_leaves_no_partial_file(tmp_path):
+    # A real OSError (EFBIG) from the system: a child process limited to 2 kB of file size.
+    path = tmp_path / "big.csv"
+    path.write_text("old content\n")
+    script = f"""
+import resource, signal, sys
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+resource.setrlimit(resource.RLIMIT_FSIZE, (2048, 2048))
+sys.path.insert(0, {str(Path(__file__).parent)!r})
+from test_trajectory import linkage_trajectory
+from planner.trajectory import TrajectoryWriteError
+try:
+    linkage_trajectory(k=400).save({str(path)!r})
+except TrajectoryWriteError as error:
+    print(error)
+    sys.exit(3)
+"""
+    result = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 3, result.stderr
+    assert result.stdout.strip() == (
+        f"{path}: cannot save: File too large; the file exceeds the size limit; write fewer samples"
+    )
+    assert path.read_text() == "old content\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["big.csv"]
+
+
+def test_malformed_numbers_in_json_and_npz_are_file_errors(tmp_path):
+    path = linkage_trajectory().save(tmp_path / "x.json")
+    document = json.loads(path.read_text())
+    document["data"]["t"][3] = 10**400  # valid JSON, beyond any float
+    path.write_text(json.dumps(document))
+    with pytest.raises(
+        TrajectoryFileError,
+        match=r"data\['t'\]\[3\] must be finite, got an integer of 401 digits",
+    ):
+        Trajectory.load(path)
+    npz = linkage_trajectory().save(tmp_path / "x.npz")
+    with np.load(npz) as archive:
+        arrays = dict(archive)
+    for version in (np.array([1, 2]), np.array([1])):
+        arrays["version"] = version
+        np.savez(tmp_path / "v.npz", **arrays)
+        with pytest.raises(
+            TrajectoryFileError, match=r"version must be an integer, got array\(\[1"
+        ):
+            Trajectory.load(tmp_path / "v.npz")
 
 
 def test_saved_file_gets_ordinary_permissions(tmp_path):
