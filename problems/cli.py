@@ -8,16 +8,21 @@ simulate    second problem of dynamics: integrate the motion under the torques o
 demo        the six-link equations of motion and the gait-law torque table (the README's job)
 
 This module is the project's output layer: it alone prints. Results go to stdout, progress and
-errors to stderr; a bad input gives one line "anthropoid-planner <command>: error: ..." and
-exit status 2; a failed computation (the library's own errors, such as a SimulationError) or
-a file that cannot be written, one line and exit status 1. Only the library's errors and
-OSError are caught: anything else is a bug and keeps its traceback.
+errors to stderr (including the planner's iterations, which ``planner.solve(progress=True)``
+logs on ``planner.progress``: shown here by default, ``--quiet`` turns them off); a bad input
+gives one line "anthropoid-planner <command>: error: ..." and exit status 2; a failed
+computation (the library's own errors, such as a SimulationError) or a file that cannot be
+written, one line and exit status 1. Only the library's errors and OSError are caught:
+anything else is a bug and keeps its traceback. Commands that could run for long or write
+large files refuse beyond LIMIT_SAMPLES samples (or about LIMIT_SECONDS of fixed-step
+integration) unless given --force, and beyond MAX_SAMPLES always.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import logging
 import math
 import os
 import re
@@ -51,9 +56,17 @@ from problems.gait_law import LAW_PRESETS, GaitLaw
 PROG = "anthropoid-planner"
 FORMATS = ("csv", "json", "npz")
 LAWS = tuple(LAW_PRESETS)
-#: Highest --rate-hz, Hz, and most samples a command writes (memory and disk stay sane).
+#: Highest --rate-hz, Hz, and most samples a command makes even with --force (memory).
 MAX_RATE_HZ = 1e6
 MAX_SAMPLES = 2_000_000
+#: Most samples (rows of the demo table, samples of a written profile) without --force:
+#: 200,000 samples are ~100 MB per CSV or JSON file and ~6 s of writing here.
+LIMIT_SAMPLES = 200_000
+#: Longest estimated integration without --force, s, and the estimate's cost per finite
+#: element of the six-link model, s (measured: rk 6 us, collocation 170 us; cvodes and idas
+#: choose their own steps and are not estimated).
+LIMIT_SECONDS = 60.0
+SECONDS_PER_ELEMENT = {"rk": 6e-6, "collocation": 2e-4}
 
 
 class UsageError(Exception):
@@ -239,6 +252,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("-q", "--quiet", action="store_true", help="no progress lines on stderr")
+    limits = argparse.ArgumentParser(add_help=False)
+    limits.add_argument(
+        "--force",
+        action="store_true",
+        help=f"go past the limits that keep a run short and its files small "
+        f"({LIMIT_SAMPLES:,} samples or table rows, about {LIMIT_SECONDS:g} s of fixed-step "
+        f"integration); {MAX_SAMPLES:,} samples stay the most",
+    )
     commands = parser.add_subparsers(dest="command", metavar="<command>", parser_class=_Parser)
     commands.required = True
 
@@ -262,7 +283,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     torques = commands.add_parser(
         "torques",
-        parents=[common],
+        parents=[common, limits],
         help="first problem: torques along a gait law, to files and plots",
         description=(
             "First problem of dynamics: the hinge torques M_i (N m) that make the linkage "
@@ -309,8 +330,9 @@ def build_parser() -> argparse.ArgumentParser:
         type=positive("Hz", MAX_RATE_HZ),
         default=1000.0,
         metavar="HZ",
-        help="samples per second in the files, Hz, at most 1e6 and 2,000,000 samples "
-        "(default: 1000; the samples are exact, a simulation interpolates between them)",
+        help=f"samples per second in the files, Hz, at most 1e6 and {LIMIT_SAMPLES:,} samples "
+        "(--force: 2,000,000) (default: 1000; the samples are exact, a simulation "
+        "interpolates between them)",
     )
     _output_options(torques, "torques_out", ("csv", "json"))
     torques.add_argument(
@@ -319,7 +341,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     simulate = commands.add_parser(
         "simulate",
-        parents=[common],
+        parents=[common, limits],
         help="second problem: motion under the torques of a file",
         description=(
             "Second problem of dynamics: integrate the linkage under the hinge torques of a "
@@ -362,7 +384,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=_count,
         default=8,
         help="finite elements per integration interval for rk/collocation; an interval "
-        "runs between consecutive file samples and output times, at most 10 ms (default: 8)",
+        "runs between consecutive file samples and output times, at most 10 ms; runs "
+        f"estimated longer than {LIMIT_SECONDS:g} s need --force (default: 8)",
     )
     simulate.add_argument(
         "--t-end-s",
@@ -375,7 +398,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=positive("Hz", MAX_RATE_HZ),
         default=100.0,
         metavar="HZ",
-        help="output samples per second, Hz, at most 1e6 and 2,000,000 samples (default: 100)",
+        help=f"output samples per second, Hz, at most 1e6 and {LIMIT_SAMPLES:,} samples "
+        "(--force: 2,000,000) (default: 100)",
     )
     simulate.add_argument(
         "--interpolation",
@@ -387,7 +411,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     demo = commands.add_parser(
         "demo",
-        parents=[common],
+        parents=[common, limits],
         help="six-link equations of motion and the gait-law torque table",
         description=(
             "Print the six-link equations of motion (corrected (16)-(21)) and the hinge "
@@ -396,7 +420,11 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     demo.add_argument(
-        "--rows", type=_count, default=11, help="number of times in the table (default: 11)"
+        "--rows",
+        type=_count,
+        default=11,
+        help=f"number of times in the table, at most {LIMIT_SAMPLES:,} (--force: "
+        f"{MAX_SAMPLES:,}) (default: 11)",
     )
     demo.add_argument("--no-equations", action="store_true", help="print the torque table only")
     return parser
@@ -526,6 +554,20 @@ def _output_folder(text: str) -> Path:
     return folder
 
 
+def _check_samples(count: int, force: bool, asked: str, fix: str, result: str) -> None:
+    """Refuse more than LIMIT_SAMPLES samples without --force, more than MAX_SAMPLES ever."""
+    if count > MAX_SAMPLES:
+        raise UsageError(
+            f"{asked} asks for {count:,} samples, more than the {MAX_SAMPLES:,} any command "
+            f"makes; {fix}"
+        )
+    if count > LIMIT_SAMPLES and not force:
+        raise UsageError(
+            f"{asked} asks for {count:,} samples ({result}), more than {LIMIT_SAMPLES:,}; "
+            f"{fix}, or add --force to go ahead"
+        )
+
+
 def _torque_table(trajectory, names: Sequence[str], out: TextIO) -> None:
     width = 10
     header = f"{'t (s)':>7}" + "".join(f"{'M_' + str(i + 1):>{width}}" for i in range(len(names)))
@@ -561,10 +603,13 @@ def _cmd_torques(args, out: TextIO, report: Reporter) -> int:
     dynamics = linkage.dynamics()
     duration = law.period if args.duration_s is None else args.duration_s
     count = max(2, math.ceil(duration * args.rate_hz - 1e-9) + 1)
-    if count > MAX_SAMPLES:
-        raise UsageError(
-            f"--rate-hz x --duration-s asks for {count} samples; keep it under {MAX_SAMPLES:,}"
-        )
+    _check_samples(
+        count,
+        args.force,
+        f"--rate-hz {args.rate_hz:g} Hz x --duration-s {duration:g} s",
+        "lower --rate-hz or --duration-s",
+        f"files of about {count * len(args.formats) * 530 / 1e6:,.0f} MB",
+    )
     if law.n != linkage.n:
         raise UsageError(
             f"gait law {law.name!r} drives {law.n} links but preset {args.preset!r} has "
@@ -717,11 +762,26 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
         )
     t_end = min(t_end, t_file_end)
     samples = max(1, math.ceil((t_end - t0) * args.rate_hz - 1e-9)) + 1
-    if samples > MAX_SAMPLES:
-        raise UsageError(
-            f"--rate-hz {args.rate_hz:g} Hz over {t_end - t0:g} s asks for {samples} output "
-            f"samples; keep it under {MAX_SAMPLES:,} (lower --rate-hz or --t-end-s)"
-        )
+    _check_samples(
+        samples,
+        args.force,
+        f"--rate-hz {args.rate_hz:g} Hz over {t_end - t0:g} s",
+        "lower --rate-hz or --t-end-s",
+        "output files to match",
+    )
+    if args.method in SECONDS_PER_ELEMENT:
+        # One interval per file sample, output time and 10 ms at most (an upper estimate).
+        in_span = int(np.count_nonzero((time_grid >= t0) & (time_grid <= t_end)))
+        intervals = in_span + samples + math.ceil((t_end - t0) / 0.01)
+        elements = intervals * args.steps
+        seconds = elements * SECONDS_PER_ELEMENT[args.method]
+        if seconds > LIMIT_SECONDS and not args.force:
+            raise UsageError(
+                f"--steps {args.steps} with --method {args.method} over up to {intervals:,} "
+                f"integration intervals is {elements:,} finite elements, about "
+                f"{seconds:,.0f} s here (more than {LIMIT_SECONDS:g} s); give fewer --steps "
+                "or a shorter --t-end-s, or add --force to run it"
+            )
     warning = _node_samples_warning(profile, args.torque_file, args.interpolation)
     if warning is not None:
         report.warn(warning)
@@ -793,6 +853,7 @@ def _cmd_demo(args, out: TextIO, report: Reporter) -> int:
         print("Equations of motion of the six-link anthropoid (corrected (16)-(21)):", file=out)
         print(text, file=out)
         print(file=out)
+    _check_samples(args.rows, args.force, f"--rows {args.rows}", "give fewer --rows", "a table")
     law = GaitLaw.preset("paper22")
     table = torques_along(dynamics, law, np.linspace(0.0, law.period, args.rows))
     fine = torques_along(dynamics, law, np.linspace(0.0, law.period, 1001))
@@ -820,6 +881,40 @@ COMMANDS = {
 }
 
 
+class _ReportHandler(logging.Handler):
+    """Log records as the Reporter's progress lines (the planner's IPOPT iterations)."""
+
+    def __init__(self, report: Reporter) -> None:
+        super().__init__(logging.INFO)
+        self._report = report
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            self._report.step(record.getMessage())
+        except Exception:  # a broken stream must not break the solve
+            self.handleError(record)
+
+
+@contextlib.contextmanager
+def _solver_progress(report: Reporter, enabled: bool) -> Iterator[None]:
+    """While a command runs, show what ``planner.solve(progress=True)`` logs (one line per
+    IPOPT iteration on the ``planner.progress`` logger) on stderr, unless --quiet."""
+    if not enabled:
+        yield
+        return
+    logger = logging.getLogger("planner.progress")
+    handler = _ReportHandler(report)
+    level = logger.level
+    logger.addHandler(handler)
+    if not logger.isEnabledFor(logging.INFO):
+        logger.setLevel(logging.INFO)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line with ``argv`` (default: sys.argv[1:]); returns the exit status.
 
@@ -838,7 +933,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         except SystemExit as exc:  # --help and --version exit through argparse
             return int(exc.code or 0)
         report = Reporter(err, enabled=not args.quiet, where=where)
-        return COMMANDS[args.command](args, out, report)
+        with _solver_progress(report, enabled=not args.quiet):
+            return COMMANDS[args.command](args, out, report)
     except BrokenPipeError:
         # The reader went away (``... | head``): stop quietly, as Unix tools do.
         try:

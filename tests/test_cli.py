@@ -345,7 +345,19 @@ def test_simulate_bad_files(capsys, tmp_path, profile_files):
             ["--preset", "five-link"],
             r"gait law 'paper22' drives 6 links but preset 'five-link' has 5",
         ),
-        (["--rate-hz", "1e6", "--duration-s", "10"], r"asks for 10000001 samples; keep it under"),
+        (
+            ["--rate-hz", "1e6", "--duration-s", "10"],
+            r"asks for 10,000,001 samples, more than the 2,000,000 any command makes",
+        ),
+        (
+            ["--rate-hz", "1e6", "--duration-s", "2"],
+            r"--rate-hz 1e\+06 Hz x --duration-s 2 s asks for 2,000,001 samples, more than the",
+        ),
+        (
+            ["--rate-hz", "1e5", "--duration-s", "2"],
+            r"asks for 200,001 samples \(files of about 212 MB\), more than 200,000; lower "
+            r"--rate-hz or --duration-s, or add --force to go ahead",
+        ),
         (["--rate-hz", "1e9"], r"--rate-hz: must be at most 1,000,000 Hz, got '1e9'"),
         (["--bogus"], r"unrecognized arguments: --bogus"),
     ],
@@ -432,8 +444,8 @@ def test_simulate_unreadable_file_and_too_many_samples(capsys, tmp_path, monkeyp
     profile = tmp_path / "torques.csv"
     assert_one_line_error(
         capsys,
-        r"--rate-hz 1e\+06 Hz over 3 s asks for 3000001 output samples; keep it under "
-        r"2,000,000 \(lower --rate-hz or --t-end-s\)",
+        r"--rate-hz 1e\+06 Hz over 3 s asks for 3,000,001 samples, more than the 2,000,000 "
+        r"any command makes; lower --rate-hz or --t-end-s",
         "simulate",
         profile,
         "--rate-hz",
@@ -714,3 +726,93 @@ def test_simulate_refuses_an_unknown_unit_or_a_missing_column_by_name(
         "simulate",
         lacking,
     )
+
+
+# ---- bounded work -----------------------------------------------------------------------------
+def test_long_runs_need_force_and_the_largest_are_refused(capsys, tmp_path, profile_files):
+    assert_one_line_error(
+        capsys,
+        r"--rows 100000000 asks for 100,000,000 samples, more than the 2,000,000 any command "
+        r"makes; give fewer --rows",
+        "demo",
+        "--rows",
+        "100000000",
+    )
+    assert_one_line_error(
+        capsys,
+        r"--rows 200001 asks for 200,001 samples \(a table\), more than 200,000; give fewer "
+        r"--rows, or add --force to go ahead",
+        "demo",
+        "--rows",
+        "200001",
+    )
+    profile = profile_files / "torques.csv"  # 0.3 s at 1 kHz: 300 intervals and more
+    line = assert_one_line_error(
+        capsys,
+        r"--steps 1000000000 with --method rk over up to 362 integration intervals is "
+        r"362,000,000,000 finite elements, about 2,172,000 s here \(more than 60 s\); give "
+        r"fewer --steps or a shorter --t-end-s, or add --force to run it",
+        "simulate",
+        profile,
+        "--method",
+        "rk",
+        "--steps",
+        "1000000000",
+    )
+    assert "collocation" not in line
+    assert_one_line_error(
+        capsys,
+        r"--steps 2000 with --method collocation .* about 145 s here",
+        "simulate",
+        profile,
+        "--method",
+        "collocation",
+        "--steps",
+        "2000",
+    )
+    assert_one_line_error(
+        capsys,
+        r"--rate-hz 1e\+06 Hz over 0.3 s asks for 300,001 samples \(output files to match\), "
+        r"more than 200,000; lower --rate-hz or --t-end-s, or add --force",
+        "simulate",
+        profile,
+        "--rate-hz",
+        "1e6",
+    )
+    # --force goes past the soft limits
+    code, out, _ = run(capsys, "demo", "--no-equations", "--rows", "200001", "--force")
+    rows = [line for line in out.splitlines() if re.match(r"\s*\d+\.\d{3}\s", line)]
+    assert code == 0 and len(rows) == 200001
+
+
+def test_planner_progress_is_shown_on_stderr_unless_quiet(capsys, monkeypatch):
+    import casadi as ca
+
+    from planner import OCP
+    from problems import cli
+
+    x, u = ca.SX.sym("x", 2), ca.SX.sym("u")
+    f = ca.Function("f", [x, u], [ca.vertcat(x[1], u)])
+    ocp = (
+        OCP(f, T=1.0, N=5, state_names=("q", "v"), control_names=("a",))
+        .initial(q=0.0, v=0.0)
+        .final(q=1.0, v=0.0)
+        .minimize(integral=lambda p: p.a**2)
+    )
+    solved = []
+
+    def plan(args, out, report):
+        solved.append(ocp.solve())  # progress=True, the default
+        return 0
+
+    monkeypatch.setitem(cli.COMMANDS, "demo", plan)
+    code, out, err = run(capsys, "demo")
+    iterations = [line for line in err.splitlines() if "iter" in line and "objective" in line]
+    assert code == 0 and out == ""
+    assert len(iterations) == solved[-1].iterations + 1, err
+    assert re.search(r"\] iter\s+0\s+objective [-+.\de]+\s+max violation [.\de+-]+\s+[\d.]+ s", err)
+    code, out, err = run(capsys, "demo", "--quiet")
+    assert code == 0 and err == ""
+    # outside the command line nothing is configured: nothing on the streams
+    ocp.solve()
+    assert capsys.readouterr() == ("", "")
