@@ -46,15 +46,17 @@ Implementation notes
   ``range_tolerance`` of an end (1e-9 of the duration, at least a few ulp) is clamped to it,
   because integrators and grids built by arithmetic land a rounding error past the end.
 * Files (format by suffix):
-    - ``.csv``: leading comment lines ``# format: ...``, ``# version: 1``,
-      ``# groups: {"state": [...], "control": [...], "extra": [...]}`` and
-      ``# metadata: {json}``, then a header ``t [s],psi_stance_shank [rad],...`` and one row
-      per sample, floats written with ``repr`` (shortest text that reads back bit for bit).
-      ``pandas.read_csv(path, comment="#")`` reads it. Without a ``# groups`` line (a file
-      made by hand) columns named ``M_*`` are controls, ``ddpsi_*``/``Fx``/``Fy`` extras and
-      the rest states. The reader also takes the file back after a spreadsheet saved it
-      again (a byte-order mark, CRLF line ends, rows padded with empty cells, quoted comment
-      lines, columns reordered).
+    - ``.csv``: a header ``t [s],psi_stance_shank [rad],...``, then the comment lines
+      ``# format: ...``, ``# version: 1``, ``# groups: {"state": [...], "control": [...],
+      "extra": [...]}`` and ``# metadata: {json}``, then one row per sample, floats written
+      with ``repr`` (shortest text that reads back bit for bit). Plain readers take it:
+      ``numpy.genfromtxt(path, delimiter=",", names=True, comments="#")`` (fields named
+      ``t_s``, ``psi_stance_shank_rad``, ...) and ``pandas.read_csv(path, comment="#")``
+      (columns ``t [s]``, ...). Files of earlier versions, with the comments before the
+      header, read back too. Without a ``# groups`` line (a file made by hand) columns named
+      ``M_*`` are controls, ``ddpsi_*``/``Fx``/``Fy`` extras and the rest states. The reader
+      also takes the file back after a spreadsheet saved it again (a byte-order mark, CRLF
+      line ends, rows padded with empty cells, quoted comment lines, columns reordered).
     - ``.json``: ``{"format", "version", "metadata", "columns": [{"name", "unit", "group"}],
       "data": {name: [values]}}``, the time column being ``t`` [s] with group ``time``.
     - ``.npz``: arrays ``time``, ``states``, ``controls``, ``extras`` (K, n_extras), the
@@ -1009,11 +1011,13 @@ def _groups(trajectory: Trajectory) -> dict[str, list[str]]:
 
 def _write_csv(trajectory: Trajectory, handle) -> None:
     columns = trajectory.columns
+    # The header comes first and the comments after it: numpy.genfromtxt(names=True) takes
+    # the first line for the names, comment or not; pandas and csv readers skip "#" lines.
+    handle.write(",".join(f"{name} [{unit}]" for name, unit, _ in columns) + "\n")
     handle.write(f"# format: {json.dumps(FORMAT_NAME)}\n")
     handle.write(f"# version: {FORMAT_VERSION}\n")
     handle.write(f"# groups: {json.dumps(_groups(trajectory))}\n")
     handle.write(f"# metadata: {json.dumps(trajectory.metadata)}\n")
-    handle.write(",".join(f"{name} [{unit}]" for name, unit, _ in columns) + "\n")
     table = np.column_stack(
         [trajectory.time, trajectory.states, trajectory.controls, trajectory._extra_values]
     )
@@ -1186,7 +1190,12 @@ def _read_csv(path: Path) -> dict[str, Any]:
                 stripped = line.strip().rstrip(",").strip()
             key, colon, value = stripped[1:].partition(":")
             key = key.strip()
-            if header is None and colon and key in ("format", "version", "groups", "metadata"):
+            # Before the header (files of earlier versions) or right after it (this one).
+            if not rows and colon and key in ("format", "version", "groups", "metadata"):
+                if key in comments:
+                    raise TrajectoryFileError(
+                        f"{path}: line {number}: a second `# {key}:` comment; keep one"
+                    )
                 try:
                     comments[key] = json.loads(value)
                 except json.JSONDecodeError as error:

@@ -657,10 +657,10 @@ def _relabelled(source, target, replace):
     lines = source.read_text().splitlines()
     header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
     cells = lines[header].split(",")
-    rows = [line.split(",") for line in lines[header + 1 :]]
+    rows = [line.split(",") for line in lines[header + 1 :] if not line.startswith("#")]
     keep, cells, scale = replace(cells)
-    out = [line for line in lines[:header] if not line.startswith("# groups")]
-    out.append(",".join(cells))
+    out = [",".join(cells)]
+    out += [line for line in lines if line.startswith("#") and not line.startswith("# groups")]
     for row in rows:
         out.append(",".join(repr(float(row[i]) / scale[j]) for j, i in enumerate(keep)))
     target.write_text("\n".join(out) + "\n")

@@ -627,21 +627,46 @@ def test_round_trip_at_a_rate_equals_the_interpolant(tmp_path, suffix):
     assert back.link_names == LINKS
 
 
-def test_csv_layout_is_readable_by_spreadsheets(tmp_path):
+def test_csv_layout_is_readable_by_spreadsheets_numpy_and_pandas(tmp_path):
     traj = linkage_trajectory(k=3)
     path = traj.save(tmp_path / "m.csv")
     lines = path.read_text().splitlines()
     comments = [line for line in lines if line.startswith("#")]
-    assert lines[: len(comments)] == comments  # comments lead, then the header
-    header = lines[len(comments)]
+    header = lines[0]  # the header first, the comments right after it
+    assert lines[1 : 1 + len(comments)] == comments and len(comments) == 4
     assert header.startswith("t [s],psi_shank [rad],psi_thigh [rad],psi_torso [rad],dpsi_shank")
     assert "M_torso [N m],ddpsi_shank [rad/s^2]" in header and header.endswith("Fx [N],Fy [N]")
     assert json.loads(comments[0].split(":", 1)[1]) == FORMAT_NAME
     meta = [c for c in comments if c.startswith("# metadata: ")]
     assert json.loads(meta[0][len("# metadata: ") :]) == traj.metadata
-    table = np.loadtxt(path, delimiter=",", comments="#", skiprows=len(comments) + 1)
+    table = np.loadtxt(path, delimiter=",", comments="#", skiprows=1)
     assert table.shape == (3, 1 + 6 + 3 + 5)
     assert bits(table[:, 1:7]) == bits(traj.states)
+    # numpy's reader with names from the header (sanitised: "t [s]" -> "t_s")
+    named = np.genfromtxt(path, delimiter=",", names=True, comments="#")
+    assert named.dtype.names[:2] == ("t_s", "psi_shank_rad") and named.shape == (3,)
+    assert bits(named["psi_shank_rad"]) == bits(traj.states[:, 0])
+    assert bits(named["Fy_N"]) == bits(traj.extras["Fy"][0])
+    # pandas.read_csv(path, comment="#")'s rules: the first line names the columns, lines
+    # starting with "#" are skipped (the same rows through the csv module here)
+    with open(path, newline="") as handle:
+        rows = [row for row in csv.reader(handle) if not row[0].startswith("#")]
+    assert rows[0][0] == "t [s]" and len(rows) == 1 + 3
+    assert bits(np.array(rows[1:], dtype=float)[:, 1:7]) == bits(traj.states)
+
+
+def test_a_csv_with_the_comments_before_the_header_still_reads_back(tmp_path):
+    # the layout of files written before the header moved first
+    traj = linkage_trajectory(k=4)
+    path = traj.save(tmp_path / "old.csv")
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([*lines[1:5], lines[0], *lines[5:]]) + "\n")
+    assert path.read_text().startswith("# format:")
+    assert_identical(Trajectory.load(path), traj)
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([*lines[:5], lines[1], *lines[5:]]) + "\n")  # a second version
+    with pytest.raises(TrajectoryFileError, match=r"line 6: a second `# version:` comment"):
+        Trajectory.load(path)
 
 
 def test_hand_made_csv_infers_groups(tmp_path):
@@ -679,7 +704,7 @@ def test_a_file_saved_again_by_a_spreadsheet_reads_back(tmp_path):
         writer = csv.writer(handle, lineterminator="\r\n")
         for row in rows:
             writer.writerow(row + [""] * (width - len(row)))
-    assert (tmp_path / "resaved.csv").read_text().startswith('"# format: ""anthropoid')
+    assert '\n"# format: ""anthropoid' in (tmp_path / "resaved.csv").read_text()
     assert_identical(Trajectory.load(tmp_path / "resaved.csv"), traj)
 
 
