@@ -233,29 +233,46 @@ def format_table(rows) -> str:
     return "\n".join(lines)
 
 
-def format_targets(six: dict) -> str:
-    def line(label, value, target, unit, fmt):
-        verdict = "met" if value <= target else "MISSED"
-        return f"  {label:<42} {value:{fmt}} {unit:<9} target <= {target:g} {unit:<9} {verdict}"
+def format_targets(six: dict, mapped_us: float) -> str:
+    """The model issue's targets next to this run's numbers. Timings are reported, not
+    judged (a loaded machine is not a slower model); the only judgements are on quantities
+    that do not depend on the load: the instruction count, and the ratio of two timings
+    measured in this run (numpy tape against CasADi's map over the same batch)."""
 
+    def line(label, value, target, unit, fmt, note):
+        goal = f"target {target:g} {unit}".strip()
+        return f"  {label:<42} {value:{fmt}} {unit:<9} ({goal}) {note}"
+
+    instructions = six["ours"]
     return "\n".join(
         [
-            "Targets (six-link scene, model issue):",
+            "Targets (six-link scene, model issue); timings depend on the machine and its load:",
             line(
                 "generation of all functions (median)",
                 six["generation_ms"],
                 TARGET_GENERATION_MS,
                 "ms",
                 ">8.2f",
+                f"{six['generation_ms'] / TARGET_GENERATION_MS:.2f} of the target",
             ),
-            line("inverse dynamics instructions", six["ours"], TARGET_INSTRUCTIONS, "", ">8d"),
+            line(
+                "inverse dynamics instructions",
+                instructions,
+                TARGET_INSTRUCTIONS,
+                "",
+                ">8d",
+                "within the target" if instructions <= TARGET_INSTRUCTIONS else "over the target",
+            ),
             line(
                 "batch inverse dynamics (numpy tape)",
                 six["batch_us"],
                 TARGET_BATCH_US,
                 "us/state",
                 ">8.3f",
+                f"{six['batch_us'] / TARGET_BATCH_US:.2f} of the target",
             ),
+            f"  {'CasADi map of the Function, same batch':<42} {mapped_us:>8.3f} us/state  "
+            f"(numpy tape {mapped_us / six['batch_us']:.1f}x faster, measured in this run)",
         ]
     )
 
@@ -283,13 +300,9 @@ def main(argv=None) -> int:
     )
     print(format_table(rows))
     print()
-    print(format_targets(rows[0]))
     six_dynamics = presets.six_link_anthropoid().dynamics()
     mapped = map_us(six_dynamics, np.random.default_rng(1), options.batch, options.repeats)
-    print(
-        f"  for comparison, CasADi map of the Function     {mapped:.3f} us/state  "
-        f"(numpy tape {mapped / rows[0]['batch_us']:.1f}x faster)"
-    )
+    print(format_targets(rows[0], mapped))
     print()
     sys.path.insert(0, str(TESTS))
     from reference import newton_euler  # the test suite's oracle, written another way
