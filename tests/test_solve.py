@@ -352,10 +352,9 @@ def test_multipliers_follow_a_change_of_nominal_scales():
     small = ocp.scale(M=5.0).solve(progress=False, options={"tol": 1e-12})
     large = ocp.scale(M=40.0).solve(progress=False, options={"tol": 1e-12})
     assert small.nlp_signature == large.nlp_signature
-    # the objective scale follows the variables' (its gradient w.r.t. the scaled M): the
-    # conversion is to the scale ``large`` was solved with
+    # the conversion is to the objective scale ``large`` was solved with (1 here: the
+    # objective's gradient lies in the range left unscaled)
     f_scale = large.stats["objective_scale"]
-    assert f_scale != pytest.approx(small.stats["objective_scale"], rel=0.1)
     lam_x, lam_g = warm_start_multipliers(
         Transcription(ocp.scale(M=40.0).guess(small)), objective_scale=f_scale
     )
@@ -364,7 +363,8 @@ def test_multipliers_follow_a_change_of_nominal_scales():
     assert np.abs(small.lam_x - large.lam_x).max() > 0.1 * np.abs(large.lam_x).max()
     warm = ocp.scale(M=40.0).guess(small).solve(progress=False, options=TIGHT)
     primal = ocp.scale(M=40.0).guess(small).solve(progress=False, options=TIGHT, warm_start=False)
-    assert warm.stats["warm_start"] and 3 * warm.iterations <= primal.iterations  # 3 and 9
+    # 3 and 8 (3 and 13 with the monotone barrier update, which warm starts less well)
+    assert warm.stats["warm_start"] and 2 * warm.iterations <= primal.iterations
 
 
 @pytest.mark.parametrize(
@@ -640,9 +640,13 @@ def test_si_and_millimetre_gram_pendulum_give_the_same_swing_up_in_as_many_itera
     si = swing_up(pendulum, 1.0).solve(progress=False)
     mm = swing_up(millimetre_gram(pendulum), 1e9).solve(progress=False)
     assert_same_physical_answer(si, mm, 1e9)
-    assert abs(mm.iterations - si.iterations) <= 2, (si.iterations, mm.iterations)  # 13 and 13
-    # the objective scale carries the unit: (g mm^2/s^2)^2 s = 1e18 N^2 m^4 s^-3
-    assert mm.stats["objective_scale"] == pytest.approx(1e18 * si.stats["objective_scale"])
+    assert abs(mm.iterations - si.iterations) <= 0.2 * si.iterations + 2, (
+        si.iterations,
+        mm.iterations,
+    )
+    # SI: the objective's gradient is in the range left as it is; mm/g: 1e18 times larger
+    # ((g mm^2/s^2)^2 s against N^2 m^4 s^-3), scaled down by more than IPOPT would
+    assert si.stats["objective_scale"] == 1.0 and mm.stats["objective_scale"] > 1e8
     # without it (IPOPT's own scaling stops at 1e-8) the mm/g problem does not converge in
     # ten times the SI iterations (measured: 3000 iterations, Maximum_Iterations_Exceeded)
     unscaled = swing_up(millimetre_gram(pendulum), 1e9).scale(objective=1.0)
@@ -653,7 +657,7 @@ def test_si_and_millimetre_gram_pendulum_give_the_same_swing_up_in_as_many_itera
 def test_si_and_millimetre_gram_six_link_gait_give_the_same_gait_in_as_many_iterations():
     def bounded_gait(linkage, torque_unit):
         return (
-            OCP(linkage.dynamics(), T=1.0, N=12)
+            OCP(linkage.dynamics(), T=1.0, N=16)
             .constrain("near_law", lambda p: p.psi - law_sx(p.t), lower=-0.1, upper=0.1)
             .periodic()
             .bound("M", -2000.0 * torque_unit, 2000.0 * torque_unit)
@@ -664,13 +668,17 @@ def test_si_and_millimetre_gram_six_link_gait_give_the_same_gait_in_as_many_iter
     six = presets.six_link_anthropoid()
     si = bounded_gait(six, 1.0).solve(progress=False)
     mm = bounded_gait(millimetre_gram(six), 1e9).solve(progress=False)
-    # the same optimum within IPOPT's tolerance (tol 1e-8 of the scaled NLP: the head's
-    # rate, the least determined variable, agrees to 2e-6 rad/s)
-    assert_same_physical_answer(si, mm, 1e9, states=1e-5, torques=1e-6)
+    # the same scaled NLP (both objective scales outside the range left as it is, 1e18
+    # apart), so the same optimum in the same iterations (27 and 27)
+    assert mm.stats["objective_scale"] == pytest.approx(1e18 * si.stats["objective_scale"])
+    assert_same_physical_answer(si, mm, 1e9, states=1e-7, torques=1e-7)
     assert abs(mm.iterations - si.iterations) <= 0.1 * si.iterations + 2, (
         si.iterations,
         mm.iterations,
     )
+    unscaled = bounded_gait(millimetre_gram(six), 1e9).scale(objective=1.0)
+    with pytest.raises(SolverError, match="Maximum_Iterations_Exceeded"):
+        unscaled.solve(progress=False, options={"max_iter": 2 * si.iterations})
 
 
 def test_a_given_objective_scale_is_used_and_validated():

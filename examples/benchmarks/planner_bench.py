@@ -248,7 +248,8 @@ def main(argv=None) -> int:
     if not args.quick:
         # Robustness: variants of the gait (narrower and wider bands, coarse meshes), each
         # solved once with the previous and with today's defaults.
-        variants = [(band, n) for band in (0.09, 0.1, 0.11, 0.12, 0.15, 0.2) for n in (10, 20, 40)]
+        bands = (0.08, 0.09, 0.1, 0.11, 0.12, 0.15, 0.2, 0.25)
+        variants = [(band, n) for band in bands for n in (10, 15, 20, 30, 40)]
         counts = {"before": [0, []], "after": [0, []]}
         failed = []
         for band, n in variants:
@@ -266,7 +267,7 @@ def main(argv=None) -> int:
                     failed.append(f"{key} band {band} N={n}: {solution.status}")
         ratios = [a / b for a, b in zip(counts["after"][1], counts["before"][1], strict=True)]
         lines.append(
-            f"robustness, {len(variants)} variants (band 0.09..0.2 rad x N = 10, 20, 40): "
+            f"robustness, {len(variants)} variants (band 0.08..0.25 rad x N = 10..40): "
             f"converged before {counts['before'][0]}, after {counts['after'][0]}; "
             f"iterations after/before: median {statistics.median(ratios):.2f}, "
             f"range {min(ratios):.2f}..{max(ratios):.2f}"
