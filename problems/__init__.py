@@ -4,6 +4,8 @@
 * :func:`torques_along`: the first problem of dynamics (torques along a law).
 * :func:`simulate`: the second problem of dynamics (motion under given torques).
 * :func:`replay_law`: both together, with the deviation from the law measured.
+* :func:`walking_step`: the hybrid walking step (single support, heel strike, leg swap).
+* :func:`verify_gait`: a gait checked again in numpy from its samples.
 
 The command line is ``python -m problems`` (see ``problems.cli``).
 """
@@ -23,10 +25,21 @@ from problems.dynamics_problems import (
     upright_instability_rate,
     versions,
 )
+from problems.biped import Biped
 from problems.gait_law import LAW_PRESETS, GaitLaw
+from problems.verification import Check, GaitReport, GaitVerificationError, verify_gait
+from problems.walking import OBJECTIVES, WalkingGait, WalkingStep, WorldMotion, walking_step
 
 __all__ = [
     "FIT_WINDOW",
+    "OBJECTIVES",
+    "Biped",
+    "Check",
+    "GaitReport",
+    "GaitVerificationError",
+    "WalkingGait",
+    "WalkingStep",
+    "WorldMotion",
     "LAW_PRESETS",
     "MAX_OUTPUT_SAMPLES",
     "METHODS",
@@ -40,5 +53,7 @@ __all__ = [
     "simulate",
     "torques_along",
     "upright_instability_rate",
+    "verify_gait",
     "versions",
+    "walking_step",
 ]

@@ -177,8 +177,8 @@ def walking_pieces(options) -> list[dict]:
         return dyn.function("mass_matrix"), lambda p, d: dyn.mass_matrix(p)
 
     def floating(dyn):
-        return dyn.floating.function("floating_mass_matrix"), lambda p, d: (
-            dyn.floating.mass_matrix(p)
+        return dyn.floating.function("floating_mass_matrix"), lambda p, d: dyn.floating.mass_matrix(
+            p
         )
 
     def impact(dyn):
