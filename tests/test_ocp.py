@@ -345,8 +345,9 @@ def test_expression_errors():
     ocp = chain()
     psi = ca.SX.sym("psi", 2)
     two_out = ca.Function("two", [psi], [psi[0], psi[1]], ["psi"], ["a", "b"])
-    with pytest.raises(DefinitionError, match=r"`path\[c\]`: the Function must have one output"):
-        ocp.constrain("c", two_out, lower=0)
+    # Several outputs stack into rows (a constraint), so an objective term must be scalar.
+    with pytest.raises(DefinitionError, match=r"`integral`: must be scalar, got shape \(2, 1\)"):
+        ocp.minimize(integral=two_out)
     wrong = ca.Function("wrong", [ca.SX.sym("psi", 3)], [0], ["psi"], ["a"])
     with pytest.raises(DefinitionError, match=r"`path\[c\]`: calling the Function failed"):
         ocp.constrain("c", wrong, lower=0)
