@@ -1,10 +1,10 @@
 """The optimal control problem as a value: dynamics, horizon, mesh, bounds, constraints, cost.
 
 An :class:`OCP` is a frozen dataclass. Builder methods (``bound``, ``constrain``,
-``boundary``, ``initial``, ``final``, ``periodic``, ``minimize``, ``scale``, ``guess``) return a
-new OCP and never change the old one, so a definition can be printed, copied
-(``dataclasses.replace``, ``copy.copy``), refined (``ocp.refine(N=80)``) and solved any number
-of times. Every argument is validated when it is given: a mistake raises
+``constrain_at``, ``boundary``, ``initial``, ``final``, ``periodic``, ``minimize``, ``scale``,
+``guess``) return a new OCP and never change the old one, so a definition can be printed,
+copied (``dataclasses.replace``, ``copy.copy``), refined (``ocp.refine(N=80)``) and solved any
+number of times. Every argument is validated when it is given: a mistake raises
 :class:`model.errors.DefinitionError` (or ``DefinitionTypeError``) naming the field, the value
 and the fix, never a CasADi stack trace at solve time.
 
@@ -15,9 +15,12 @@ and the fix, never a CasADi stack trace at solve time.
 ...        .guess(gait_law))                             # t -> (psi, dpsi, ddpsi)
 >>> solution = ocp.solve()
 
-Expressions (path and boundary constraints, objective terms) are Python callables of a
-:class:`Point`, or CasADi Functions whose input names pick the Point's fields (``x``, ``u``,
-``z``, ``t``, ``T``, a group such as ``psi`` or ``M``, or a variable name).
+Expressions (path, keypoint and boundary constraints, objective terms) are Python callables
+of a :class:`Point`, or CasADi Functions whose input names pick the Point's fields (``x``,
+``u``, ``z``, ``t``, ``T``, a group such as ``psi`` or ``M``, or a variable name); a Function
+with several outputs gives a constraint one row block, rows named after the outputs. Besides
+the variables, a Point offers fields computed from them: a linkage's ``ddpsi`` in both
+formulations and control rates (``du``; a linkage's ``dM``, ``dM_<link>``).
 
 Variables. A system has states x (nx,), controls u (nu,) and, in the implicit formulation,
 auxiliary variables z (nz,) that stand for the state derivatives the residual needs. For a
@@ -952,15 +955,18 @@ class OCP:
         derivative of the control polynomial of the interval that owns the point, the one the
         Solution interpolates with there (:meth:`planner.solution.Solution.control_rate`):
         intervals [t_k, t_k+1), the last one also owning T; Radau (t_k, t_k+1], its end node
-        included. So a node shared by two intervals (trapezoid, Hermite-Simpson) sees the slope
-        of the interval that starts there (at T, of the last one): for the trapezoid's
-        piecewise-linear controls the forward difference (U_k+1 - U_k) / h, backward at T.
-        A rate bound therefore holds on every interval's slope for the trapezoid, at the
-        start and midpoint of each Hermite-Simpson interval, and at every collocation point.
-        The integral of a rate term converges at order 1 on the trapezoid (the one-sided slopes
-        at 0 and T; order 2 when they are equal, e.g. periodic), order 2 on Hermite-Simpson
-        (the rate at a shared node is one side's) and at the scheme's order on collocation,
-        whose intervals share no dynamics point.
+        included. A node shared by two intervals (trapezoid, Hermite-Simpson) has a slope on
+        each side: the point carries the slope of the interval starting there, and path rows
+        and integrands that read a rate are evaluated once more at each interior node with the
+        slope of the interval ending there (rows "path[c] node 3 (end of interval 2)"; on the
+        trapezoid, whose rate is constant per interval, not for rows that read only rates and T:
+        they would repeat a row). So a rate bound holds on both sides of every node, and the
+        integral of a rate term is every interval's own quadrature. Collocation controls are
+        separate polynomials per interval that may jump at the nodes, where no rate sees them:
+        when anything reads a rate, the transcription makes them continuous (rows
+        "continuity[u] node k"); degree 1 (piecewise-constant controls) is refused.
+        A rate term converges at order 2 p for controls of degree p (capped by the scheme's
+        order): 2 on the trapezoid and degree-2 collocation, 4 on Hermite-Simpson and degree 3.
 
         A constraint of the state, ``t`` and ``T`` only (no control, no z) also holds where
         no dynamics point lies: t = 0 for ``radau`` (its points are the interval ends) and the

@@ -29,6 +29,13 @@ stacked variables. Path constraints hold at the dynamics points; those of the st
 only hold also at the state points with no dynamics point (Radau: t = 0; Legendre: the
 nodes). Variables and constraints are scaled by their nominal magnitudes; every
 constraint row keeps a name ("defect[psi_torso] interval 12", "path[clearance] node 3").
+
+Keypoint constraints (``OCP.constrain_at``) evaluate the point on the interpolant of the
+interval holding each instant: sparse constant matrices of the weights Wx, Wf, Wu (and Wu'
+for control rates) applied to X, F and U. Control rates at the dynamics points are U_k
+Wu'(tau)^T / h of the owning interval; reading them adds, on schemes sharing nodes, the other
+side's slope at interior nodes, and on collocation, control continuity rows (see
+``OCP.constrain``).
 """
 
 from __future__ import annotations
@@ -621,12 +628,23 @@ class Transcription:
         # A derived field (explicit ddpsi) repeats the rate's forward dynamics: merge them.
         options = {"cse": True} if point.uses_derived else {}
         reads = [_reads(value, dus) for value in paths]
-        constraints = self._path_constraints()
-        self._rate_paths = tuple(c for c, r in zip(constraints, reads, strict=True) if r)
         self._integrand_reads_rate = _reads(integrand, dus)
+        self._point_reads_rate = any(reads) or self._integrand_reads_rate
+        if self.scheme.ndc == 2:
+            # Linear controls (trapezoid): the rate is constant on an interval, so a row that
+            # reads nothing but the rate (and T) at the node ending an interval would repeat
+            # the row of the node starting it: only rows that also read the point get a side.
+            point_values = ca.vertcat(xs, us, zs, t)
+            sides = [
+                r and _reads(value, point_values) for value, r in zip(paths, reads, strict=True)
+            ]
+        else:
+            sides = reads
+        constraints = self._path_constraints()
+        self._rate_paths = tuple(c for c, r in zip(constraints, sides, strict=True) if r)
         self.node_side_function = None
         if self.scheme.shares_end and (self._rate_paths or self._integrand_reads_rate):
-            side_paths = [value for value, r in zip(paths, reads, strict=True) if r]
+            side_paths = [value for value, r in zip(paths, sides, strict=True) if r]
             self.node_side_function = ca.Function(
                 "node_side",
                 [xs, us, zs, t, T, dus],
@@ -707,7 +725,7 @@ class Transcription:
         mapped = point_f.map(nC)
         times = T * ca.DM(mesh.s_dyn).T
         Xd = Xs[:, mesh.dyn_state_cols.tolist()]
-        if self._rate_paths or self._integrand_reads_rate:
+        if self._point_reads_rate:
             # du/dt at each dynamics point from the polynomial of the interval owning it.
             owner, tau = mesh.dyn_owner
             rates = mesh.interval_matrix(owner, scheme.control_weights(tau, 1), state=False)
@@ -732,8 +750,7 @@ class Transcription:
         gb, gper, mayer = boundary_f(Xs[:, 0], Xs[:, -1], u0, uf, z0, zf, T, du0, duf)
         at_functions = [self._instant_function(c) for c in self._instant_constraints()]
         self.reads_control_rate = (
-            bool(self._rate_paths)
-            or self._integrand_reads_rate
+            self._point_reads_rate
             or self._boundary_reads_rate
             or any(reads for _, reads in at_functions)
         )

@@ -298,3 +298,18 @@ def test_linkage_torque_rates_are_named_dM():
     rates = solution.control_rate(solution.point_time)
     assert np.max(np.abs(rates[:, 0])) == pytest.approx(2.0, rel=1e-6)
     assert np.max(np.abs(rates[:, 1])) > 2.0  # only link1's rate is bounded
+
+
+def test_trapezoid_side_rows_only_where_they_differ_from_the_next_nodes_row():
+    # The trapezoid's rate is constant per interval: a row reading only the rate at the node
+    # ending an interval would repeat the row at the node starting it; a row reading the
+    # point too (here v) is a new row there.
+    ocp = bounded_rate("trapezoid", None, N=3).constrain(
+        "power", lambda p: p.da * p.v, lower=-50.0, upper=50.0
+    )
+    names = ocp.transcribe().g_names
+    assert not any(n.startswith("path[rate]") and "end of interval" in n for n in names)
+    assert [n for n in names if n.startswith("path[power]") and "end of" in n] == [
+        "path[power] node 1 (end of interval 0)",
+        "path[power] node 2 (end of interval 1)",
+    ]
