@@ -238,8 +238,8 @@ class Solution:
         us = (self.control_values / t.control_scale).T
         zs = (self.aux_values / t.aux_scale).T if self.system.nz else np.zeros((0, xs.shape[1]))
         times = self.point_time[None, :]
-        dus = np.zeros_like(us)  # the rates do not depend on the control rates
-        rate = mapped(xs, us, zs, times, np.full_like(times, self.T), dus)[0]
+        # By name: the control-rate input, when there is one, does not change the rates.
+        rate = mapped(xs=xs, us=us, zs=zs, t=times, T=np.full_like(times, self.T))["f"]
         return np.asarray(rate).T * t.state_scale
 
     # ---- interpolation ---------------------------------------------------------------

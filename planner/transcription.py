@@ -597,8 +597,9 @@ class Transcription:
     def _point_function(self) -> ca.Function:
         """SX Function at one dynamics point, scaled in and out.
 
-        (xs, us, zs, t, T, dus) -> (f / x_scale (nx,), residual / residual_scale (nz,),
-        path / path_scale (np,), integrand (1,)); dus: control rates / control scale.
+        (xs, us, zs, t, T[, dus]) -> (f / x_scale (nx,), residual / residual_scale (nz,),
+        path / path_scale (np,), integrand (1,)); dus: control rates / control scale, an
+        input only when path constraints or the integrand read them.
 
         Also sets ``node_side_function`` when path constraints or the integrand read the
         control rate on a scheme whose nodes two intervals share (trapezoid, Hermite-Simpson):
@@ -656,11 +657,14 @@ class Transcription:
                 ["path", "integrand"],
                 options,
             )
+        # The rate input only when read: an unused input still costs IPOPT's setup time
+        # (derivative functions of the mapped call).
+        inputs = [xs, us, zs, t, T] + ([dus] if self._point_reads_rate else [])
         return ca.Function(
             "point",
-            [xs, us, zs, t, T, dus],
+            inputs,
             [rate, residual, path, integrand],
-            ["xs", "us", "zs", "t", "T", "dus"],
+            ["xs", "us", "zs", "t", "T", "dus"][: len(inputs)],
             ["f", "residual", "path", "integrand"],
             options,
         )
@@ -673,8 +677,8 @@ class Transcription:
         return self.state_scale
 
     def _boundary_function(self) -> ca.Function:
-        """(x0s, xfs, u0s, ufs, z0s, zfs, T, du0s, dufs) -> (boundary rows (scaled),
-        periodic defect, Mayer)."""
+        """(x0s, xfs, u0s, ufs, z0s, zfs, T[, du0s, dufs]) -> (boundary rows (scaled),
+        periodic defect, Mayer); the control rates at both ends only when read."""
         s, ocp = self.system, self.ocp
         sx, su, sz = ca.DM(self.state_scale), ca.DM(self.control_scale), ca.DM(self.aux_scale)
         x0s, xfs = ca.SX.sym("x0s", s.nx), ca.SX.sym("xfs", s.nx)
@@ -702,9 +706,10 @@ class Transcription:
         if ocp.terminal is not None:
             mayer = evaluate_expression("terminal", ocp.terminal, end)
         self._boundary_reads_rate = _reads(ca.vertcat(*rows, mayer), ca.vertcat(du0s, dufs))
+        rates = [du0s, dufs] if self._boundary_reads_rate else []
         return ca.Function(
             "boundary",
-            [x0s, xfs, u0s, ufs, z0s, zfs, T, du0s, dufs],
+            [x0s, xfs, u0s, ufs, z0s, zfs, T, *rates],
             [ca.vertcat(*rows) if rows else ca.SX(0, 1), periodic, mayer],
             {"cse": True} if start.uses_derived or end.uses_derived else {},
         )
@@ -725,14 +730,13 @@ class Transcription:
         mapped = point_f.map(nC)
         times = T * ca.DM(mesh.s_dyn).T
         Xd = Xs[:, mesh.dyn_state_cols.tolist()]
+        rate_input = []
         if self._point_reads_rate:
             # du/dt at each dynamics point from the polynomial of the interval owning it.
             owner, tau = mesh.dyn_owner
             rates = mesh.interval_matrix(owner, scheme.control_weights(tau, 1), state=False)
-            dUs = ca.mtimes(Us, rates) / h
-        else:
-            dUs = sym(s.nu, nC)
-        Fs, Rs, Ps, Ls = mapped(Xd, Us, Zs, times, ca.repmat(T, 1, nC), dUs)
+            rate_input = [ca.mtimes(Us, rates) / h]
+        Fs, Rs, Ps, Ls = mapped(Xd, Us, Zs, times, ca.repmat(T, 1, nC), *rate_input)
         A_big, B_big = mesh.defect_matrices()
         defects = ca.mtimes(Xs, A_big) - h * ca.mtimes(Fs, B_big)
         # Boundary values of controls and aux come from the first/last interval's polynomial.
@@ -743,11 +747,15 @@ class Transcription:
         uf = ca.mtimes(Us[:, last], ca.DM(w1))
         z0 = ca.mtimes(Zs[:, first], ca.DM(w0)) if s.nz else Zs[:, :0]
         zf = ca.mtimes(Zs[:, last], ca.DM(w1)) if s.nz else Zs[:, :0]
-        du0 = ca.mtimes(Us[:, first], ca.DM(scheme.control_weights([0.0], 1)[0])) / h
-        duf = ca.mtimes(Us[:, last], ca.DM(scheme.control_weights([1.0], 1)[0])) / h
         boundary_f = self._boundary_function()
         self.boundary_function = boundary_f
-        gb, gper, mayer = boundary_f(Xs[:, 0], Xs[:, -1], u0, uf, z0, zf, T, du0, duf)
+        rate_input = []
+        if self._boundary_reads_rate:
+            rate_input = [
+                ca.mtimes(Us[:, first], ca.DM(scheme.control_weights([0.0], 1)[0])) / h,
+                ca.mtimes(Us[:, last], ca.DM(scheme.control_weights([1.0], 1)[0])) / h,
+            ]
+        gb, gper, mayer = boundary_f(Xs[:, 0], Xs[:, -1], u0, uf, z0, zf, T, *rate_input)
         at_functions = [self._instant_function(c) for c in self._instant_constraints()]
         self.reads_control_rate = (
             self._point_reads_rate
