@@ -131,10 +131,6 @@ class System:
         return None
 
     @property
-    def control_rate_units(self) -> tuple[str, ...]:
-        return tuple(f"{unit}/s" for unit in self.control_units)
-
-    @property
     def point_only_fields(self) -> tuple[str, ...]:
         """Names of the Point fields that are expressions, not NLP variables: derived groups
         and their rows, control-rate groups and names."""
