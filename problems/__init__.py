@@ -10,6 +10,7 @@
 The command line is ``python -m problems`` (see ``problems.cli``).
 """
 
+from problems.biped import Biped
 from problems.dynamics_problems import (
     FIT_WINDOW,
     MAX_OUTPUT_SAMPLES,
@@ -25,28 +26,27 @@ from problems.dynamics_problems import (
     upright_instability_rate,
     versions,
 )
-from problems.biped import Biped
 from problems.gait_law import LAW_PRESETS, GaitLaw
 from problems.verification import Check, GaitReport, GaitVerificationError, verify_gait
 from problems.walking import OBJECTIVES, WalkingGait, WalkingStep, WorldMotion, walking_step
 
 __all__ = [
     "FIT_WINDOW",
-    "OBJECTIVES",
-    "Biped",
-    "Check",
-    "GaitReport",
-    "GaitVerificationError",
-    "WalkingGait",
-    "WalkingStep",
-    "WorldMotion",
     "LAW_PRESETS",
     "MAX_OUTPUT_SAMPLES",
     "METHODS",
     "MIN_TOLERANCE",
+    "OBJECTIVES",
+    "Biped",
+    "Check",
     "GaitLaw",
+    "GaitReport",
+    "GaitVerificationError",
     "ReplayReport",
     "SimulationError",
+    "WalkingGait",
+    "WalkingStep",
+    "WorldMotion",
     "fit_growth_rate",
     "law_torque_function",
     "replay_law",

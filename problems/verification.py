@@ -11,7 +11,7 @@ failure names the node, its time and by how much the gait misses):
 
 walking step (``metadata["gait"]["problem"] == "walking_step"``)
   * ``periodic angles``: psi(0) = the leg swap of psi(T) (mod 2 pi), rad;
-  * ``landing``: the swing foot at (step_length, 0) at T, m;
+  * ``landing``: the swing foot at (step_length, 0) at T, m; ``heel strike``: it moves down;
   * ``impact momentum``: across heel strike, from x(T) before and x(0) (relabelled back)
     after, the angular momentum about the landing foot of the whole tree and about every
     hinge of the part beyond it without the landing foot is conserved, kg m^2/s
@@ -323,6 +323,7 @@ def _verify_walking(add, kin: _Kinematics, settings, psi, dpsi, ddpsi, times, we
     swapped, _ = swap.map_state(psi[-1], dpsi[-1])
     add("periodic angles", -np.abs(_wrap(psi[0] - swapped)), "rad", where="t = 0 vs swap(T)")
     landing, approach, _ = kin.point(foot_link, foot_offset, psi[-1:], dpsi[-1:])
+    add("heel strike", np.array([-approach[0].imag]), "m/s", where="t = T (foot moving down)")
     add(
         "landing",
         -np.abs(np.array([landing[0].real - step_length, landing[0].imag])),
