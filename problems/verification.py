@@ -24,7 +24,8 @@ walking step (``metadata["gait"]["problem"] == "walking_step"``)
   * ``torque bounds``, ``knees``, ``posture`` at every sample.
 fixed-base periodic gait (``"periodic_gait"``)
   * ``periodic state``: x(0) = x(T); ``clearance`` above the law's minimum minus the margin;
-    ``torque bounds``, ``posture``, ``keypoints``.
+    ``torque bounds``, ``posture`` (the keypoints between samples are the planner's
+    interpolant's business: a sampled file cannot show them exactly).
 """
 
 from __future__ import annotations

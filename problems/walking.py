@@ -27,10 +27,8 @@ Constraints (names as in the OCP, each row scaled by a nominal magnitude):
 * torque bounds |M_i| <= ``torque_limit``; ``passive`` hinges have M_i = 0 (a passive
   ankle: ``passive=("stance_shank",)``, the torque at H0).
 
-Objective: ``"torque"`` (default) the integral of sum M_i^2, N^2 m^2 s; ``"work"`` the
-integral of the positive mechanical power sum max(0, M_i w_i) (w_i the hinge's relative
-rate), smoothed as (P + sqrt(P^2 + eps^2)) / 2 with eps = ``WORK_EPSILON`` W, plus 1e-3 of
-the torque term so the torques stay determined where no power flows.
+Objective (``problems.gait_problem.OBJECTIVES``): ``"torque"`` (default) the integral of
+sum M_i^2, ``"torque-rate"`` or ``"work"`` (positive mechanical work).
 
 The guess is the law (22) fitted to the step (:meth:`problems.biped.Biped.step_law`); its cost
 on the same mesh, torques by inverse dynamics, is the benchmark to beat (``law_cost``).
@@ -40,7 +38,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Any
 
@@ -52,17 +50,18 @@ from model.errors import DefinitionError, DefinitionTypeError, check_real
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
 from planner.ocp import OCP
-from planner.solution import Solution
 from planner.solver import solve
-from planner.trajectory import Trajectory
 from planner.transcription import Transcription
 from problems.biped import HALF_PI, Biped
 from problems.gait_law import GaitLaw
-from problems.verification import GaitReport, verify_gait
-
-OBJECTIVES = ("torque", "work")
-#: Smoothing of max(0, P) in the positive-work objective, W.
-WORK_EPSILON = 1.0
+from problems.gait_problem import (
+    Gait,
+    check_links,
+    check_objective,
+    objective_at_guess,
+    objective_integrand,
+    torque_limits,
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,38 +158,6 @@ class WalkingStep:
         }
 
 
-def objective_at_guess(transcription: Transcription) -> float:
-    """The NLP's objective at its initial guess, in the objective's physical units."""
-    nlp = transcription.nlp
-    objective = ca.Function("objective_at_guess", [nlp["x"]], [nlp["f"]])
-    value = float(objective(transcription.initial_guess()))
-    return value * float(getattr(transcription, "objective_scale", 1.0))
-
-
-def _limits(biped: Biped, torque_limit) -> dict[str, float]:
-    names = biped.linkage.names
-    if isinstance(torque_limit, Mapping):
-        unknown = [k for k in torque_limit if k not in names]
-        if unknown:
-            raise DefinitionError(
-                f"`torque_limit`: unknown links {unknown}; known links: {list(names)}"
-            )
-        limits = {k: check_real(f"torque_limit[{k}]", v) for k, v in torque_limit.items()}
-        missing = [k for k in names if k not in limits]
-        if missing:
-            raise DefinitionError(
-                f"`torque_limit`: give a limit for every link, missing {missing}; or one "
-                "number for all"
-            )
-    else:
-        value = check_real("torque_limit", torque_limit)
-        limits = dict.fromkeys(names, value)
-    for name, value in limits.items():
-        if value <= 0:
-            raise DefinitionError(f"`torque_limit`: must be > 0 N m, got {value!r} for {name!r}")
-    return limits
-
-
 def walking_step(
     linkage: Linkage | None = None,
     step_length: float = 0.5,
@@ -205,7 +172,7 @@ def walking_step(
     passive: Sequence[str] = (),
     clearance: float | Callable = 0.05,
     knee_range: tuple[float, float] = (0.0, 2.5),
-    posture: float = 0.35,
+    posture: float = 0.2,
     upright: Sequence[str] | None = None,
     objective: str = "torque",
     swing: tuple[str, str] | None = None,
@@ -240,8 +207,7 @@ def walking_step(
     mu = check_real("mu", mu)
     if mu <= 0:
         raise DefinitionError(f"`mu`: the friction coefficient must be > 0, got {mu!r}")
-    if objective not in OBJECTIVES:
-        raise DefinitionError(f"`objective`: unknown {objective!r}; use one of {OBJECTIVES}")
+    check_objective(objective)
     if callable(clearance):
         height = 0.05
         profile_probe = clearance(np.linspace(0.0, 1.0, 5))
@@ -253,13 +219,8 @@ def walking_step(
         height = check_real("clearance", clearance)
         if height < 0:
             raise DefinitionError(f"`clearance`: must be >= 0 m, got {height!r}")
-    limits = _limits(biped, torque_limit)
-    passive = tuple(passive)
-    for name in passive:
-        if name not in linkage.names:
-            raise DefinitionError(
-                f"`passive`: no link called {name!r}; known links: {list(linkage.names)}"
-            )
+    limits = torque_limits(linkage, torque_limit)
+    passive = check_links("passive", passive, linkage)
     if len(knee_range) != 2:
         raise DefinitionError(f"`knee_range`: give (lower, upper) in rad, got {knee_range!r}")
     knees = (check_real("knee_range[0]", knee_range[0]), check_real("knee_range[1]", knee_range[1]))
@@ -268,12 +229,7 @@ def walking_step(
     posture = check_real("posture", posture)
     if posture <= 0:
         raise DefinitionError(f"`posture`: must be > 0 rad, got {posture!r}")
-    upright = biped.upper_body if upright is None else tuple(upright)
-    for name in upright:
-        if name not in linkage.names:
-            raise DefinitionError(
-                f"`upright`: no link called {name!r}; known links: {list(linkage.names)}"
-            )
+    upright = biped.upper_body if upright is None else check_links("upright", upright, linkage)
     law = biped.step_law(step_length, step_time, clearance=max(height, 0.02) + 0.02)
     dynamics = linkage.dynamics()
     step = WalkingStep(
@@ -369,7 +325,7 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
             lower=-step.posture,
             upper=step.posture,
         )
-    ocp = ocp.minimize(integral=_integrand(step))
+    ocp = ocp.minimize(integral=objective_integrand(linkage, step.objective))
     # Nominal magnitudes: angles ~1 rad, rates a few rad/s, accelerations tens of rad/s^2,
     # torques a third of their limit (the guess's inverse dynamics is of that size).
     typical = float(np.median(list(step.torque_limit.values()))) / 3.0
@@ -377,23 +333,6 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
     if ocp.system.nz:
         ocp = ocp.scale(ddpsi=30.0)
     return ocp.guess(step.law)
-
-
-def _integrand(step: WalkingStep):
-    if step.objective == "torque":
-        return lambda p: ca.sumsqr(p.M)
-    linkage = step.biped.linkage
-    parents = linkage.parents
-
-    def positive_work(p):
-        rates = [
-            p.dpsi[i] - (p.dpsi[parents[i]] if parents[i] >= 0 else 0) for i in range(linkage.n)
-        ]
-        power = [p.M[i] * rates[i] for i in range(linkage.n)]
-        smooth = [0.5 * (w + ca.sqrt(w * w + WORK_EPSILON**2)) for w in power]
-        return ca.sum1(ca.vertcat(*smooth)) + 1e-3 * ca.sumsqr(p.M)
-
-    return positive_work
 
 
 # ---- the solved gait ----------------------------------------------------------------------
@@ -413,54 +352,15 @@ class WorldMotion:
 
 
 @dataclass(frozen=True, eq=False)
-class WalkingGait:
-    """A solved walking step: the Solution and what a gait study reads from it.
-
-    ``cost`` (the optimum) and ``law_cost`` (the fitted law on the same mesh), ``speed`` m/s,
-    ``positive_work`` J per step, ``cost_of_transport`` (positive work / (m g s)),
-    ``impact`` (impulse N s, lift-off velocity of the old stance foot m/s),
-    ``world(steps)`` (several steps in world coordinates), ``to_trajectory(rate_hz)`` (one
-    step, with the gait's settings in the metadata), ``verify()``.
-    """
-
-    problem: WalkingStep
-    solution: Solution
-    law_cost: float
-    _cache: dict = field(default_factory=dict, repr=False)
-
-    @property
-    def cost(self) -> float:
-        return self.solution.cost
-
-    @property
-    def success(self) -> bool:
-        return self.solution.success
+class WalkingGait(Gait):
+    """A solved walking step (:class:`problems.gait_problem.Gait`: cost, ``law_cost``,
+    ``positive_work``, ``summary()``, ``to_trajectory(rate_hz)``, ``verify()``) and what a
+    walking study reads from it: ``speed`` m/s, ``cost_of_transport``, ``impact`` and
+    ``world(steps)``."""
 
     @property
     def speed(self) -> float:
         return self.problem.speed
-
-    def _fine(self, count: int = 2001):
-        if "fine" not in self._cache:
-            times = np.linspace(0.0, self.solution.T, count)
-            states, torques = self.solution(times)
-            self._cache["fine"] = (times, states, torques)
-        return self._cache["fine"]
-
-    @property
-    def positive_work(self) -> float:
-        """Positive mechanical work of the hinge drives per step, J: the integral of
-        sum max(0, M_i w_i) (w_i the hinge's relative rate) on a 2001-point grid."""
-        times, states, torques = self._fine()
-        linkage = self.problem.linkage
-        n = linkage.n
-        dpsi = states[:, n:]
-        rates = dpsi.copy()
-        for i, p in enumerate(linkage.parents):
-            if p >= 0:
-                rates[:, i] -= dpsi[:, p]
-        power = np.maximum(torques * rates, 0.0).sum(axis=1)
-        return float(np.trapezoid(power, times))
 
     @property
     def cost_of_transport(self) -> float:
@@ -478,21 +378,6 @@ class WalkingGait:
         dpsi_plus, impulse, base = self.problem.impact(x[:n], x[n:])
         return {"impulse": impulse, "lift_off": base, "dpsi_plus": dpsi_plus}
 
-    def to_trajectory(self, rate_hz: float | None = None) -> Trajectory:
-        """One step (the solution's interpolant at ``rate_hz``, default the nodes), with the
-        ground reaction and the gait's settings (``metadata["gait"]``)."""
-        trajectory = self.solution.to_trajectory(rate_hz)
-        n = self.problem.linkage.n
-        force = self.problem.dynamics.ground_reaction(
-            trajectory.states[:, :n], trajectory.states[:, n:], trajectory.ddpsi
-        )
-        trajectory = trajectory.with_extra("Fx", np.real(force), "N").with_extra(
-            "Fy", np.imag(force), "N"
-        )
-        return trajectory.with_metadata(
-            gait={**self.problem.settings(), "cost": self.cost, "law_cost": self.law_cost}
-        )
-
     def world(self, steps: int = 2, rate_hz: float = 100.0) -> WorldMotion:
         """``steps`` consecutive steps in world coordinates: step k stands on the foothold
         k s, with the legs swapped at every heel strike. Samples at ``rate_hz`` per step (the
@@ -502,18 +387,18 @@ class WalkingGait:
         problem = self.problem
         linkage = problem.linkage
         n = linkage.n
-        swap = problem.biped.swap
         times = self.solution.sample_times(rate_hz)
         states, _ = self.solution(times)
         hinges_step = problem.dynamics.hinge_positions(states[:, :n])
         starts = np.asarray(linkage.parents) + 1
-        source = list(swap.source)
-        segments = {name: [] for name in linkage.names}
+        source = list(problem.biped.swap.source)
+        segments: dict[str, list] = {name: [] for name in linkage.names}
         all_times, which = [], []
         for k in range(steps):
             keep = slice(0 if k == 0 else 1, None)
             hinges = hinges_step[keep] + k * problem.step_length
             for i in range(n):
+                # After an odd number of swaps, link i is the body that was link source[i].
                 body = linkage.names[i if k % 2 == 0 else source[i]]
                 segments[body].append(np.stack([hinges[:, starts[i]], hinges[:, i + 1]], axis=1))
             all_times.append(times[keep] + k * self.solution.T)
@@ -525,32 +410,16 @@ class WalkingGait:
             problem.step_length * np.arange(steps + 1) + 0j,
         )
 
-    def verify(self, **options) -> GaitReport:
-        """:func:`problems.verify_gait` on this gait's node trajectory (``options``: its
-        tolerances and overrides)."""
-        return verify_gait(self.to_trajectory(), self.problem.linkage, **options)
-
     def summary(self) -> dict[str, Any]:
-        """The numbers a study records: cost and law cost, speed, work, cost of transport,
-        peak and RMS torque per hinge, iterations and times, status."""
-        times, _, torques = self._fine()
-        names = self.problem.linkage.names
-        rms = np.sqrt(np.trapezoid(torques**2, times, axis=0) / times[-1])
-        stats = self.solution.stats
+        """:meth:`Gait.summary` plus speed, cost of transport, impulse and lift-off speed."""
+        impact = self.impact
         return {
-            "status": self.solution.status,
-            "success": self.success,
-            "cost": self.cost,
-            "law_cost": self.law_cost,
+            **super().summary(),
             "speed": self.speed,
-            "positive_work": self.positive_work,
             "cost_of_transport": self.cost_of_transport,
-            "peak_torque": dict(zip(names, np.max(np.abs(torques), axis=0).tolist(), strict=True)),
-            "rms_torque": dict(zip(names, rms.tolist(), strict=True)),
-            "iterations": self.solution.iterations,
-            "build_seconds": stats.get("build_seconds"),
-            "solve_seconds": stats.get("solve_seconds"),
+            "impulse": impact["impulse"].tolist(),
+            "lift_off": impact["lift_off"].tolist(),
         }
 
 
-__all__ = ["OBJECTIVES", "WalkingGait", "WalkingStep", "WorldMotion", "walking_step"]
+__all__ = ["WalkingGait", "WalkingStep", "WorldMotion", "walking_step"]
