@@ -341,7 +341,8 @@ class WorldMotion:
     """Several steps of a gait in world coordinates, for plots and animations.
 
     time (K,) s; segments: physical link name (the first step's labels) -> (K, 2) complex
-    start and end of the link, m; stance (K,) int: the step each sample belongs to;
+    start and end of the link as in the first step (its start hinge there first), m;
+    step (K,) int: the step each sample belongs to;
     footholds (steps + 1,) complex: where the stance feet stood.
     """
 
@@ -391,16 +392,24 @@ class WalkingGait(Gait):
         states, _ = self.solution(times)
         hinges_step = problem.dynamics.hinge_positions(states[:, :n])
         starts = np.asarray(linkage.parents) + 1
-        source = list(problem.biped.swap.source)
+        swap = problem.biped.swap
+        source = list(swap.source)
         segments: dict[str, list] = {name: [] for name in linkage.names}
         all_times, which = [], []
         for k in range(steps):
             keep = slice(0 if k == 0 else 1, None)
             hinges = hinges_step[keep] + k * problem.step_length
             for i in range(n):
-                # After an odd number of swaps, link i is the body that was link source[i].
-                body = linkage.names[i if k % 2 == 0 else source[i]]
-                segments[body].append(np.stack([hinges[:, starts[i]], hinges[:, i + 1]], axis=1))
+                ends = [hinges[:, starts[i]], hinges[:, i + 1]]
+                if k % 2:
+                    # After an odd number of swaps link i is the body that was link
+                    # source[i], described from its other end if it is a leg.
+                    body = linkage.names[source[i]]
+                    if swap.angle_offsets[i] != 0.0:
+                        ends.reverse()
+                else:
+                    body = linkage.names[i]
+                segments[body].append(np.stack(ends, axis=1))
             all_times.append(times[keep] + k * self.solution.T)
             which.append(np.full(len(times[keep]), k))
         return WorldMotion(

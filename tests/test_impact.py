@@ -63,14 +63,7 @@ def offset_of(linkage, point):
 def oracle_jacobian(linkage, point, psi):
     """(K, 2, n + 2): the point's velocity for unit dq, from rigid-body kinematics."""
     i, offset = offset_of(linkage, point)
-    k, n = psi.shape
-    columns = [np.tile([[1.0], [0.0]], (k, 1, 1)), np.tile([[0.0], [1.0]], (k, 1, 1))]
-    for m in range(n):
-        unit = np.zeros((k, n))
-        unit[:, m] = 1.0
-        _, velocity, _ = ne.point_kinematics(linkage, i, offset, psi, unit, np.zeros((k, n)))
-        columns.append(np.stack([velocity.real, velocity.imag], axis=1)[:, :, None])
-    return np.concatenate(columns, axis=2)
+    return ne.point_jacobian(linkage, i, offset, psi)
 
 
 @functools.cache

@@ -50,6 +50,7 @@ __all__ = [
     "hinge_velocities",
     "inverse_dynamics",
     "mass_matrix",
+    "point_jacobian",
     "point_kinematics",
     "random_tree",
 ]
@@ -312,6 +313,23 @@ def point_kinematics(linkage: Linkage, link: int, offset: complex, psi, dpsi, dd
     acceleration = kin["a_start"][link] + dw * _perp(r) - w**2 * r
     out = [a[:, 0] + 1j * a[:, 1] for a in (position, velocity, acceleration)]
     return tuple(complex(a[0]) for a in out) if single else tuple(out)
+
+
+def point_jacobian(linkage: Linkage, link: int, offset: complex, psi) -> np.ndarray:
+    """d(x, y)/dq of the point ``offset`` on link ``link`` for q = (x0, y0, psi): (2, n + 2)
+    or (K, 2, n + 2), columns = the point's velocity for a unit rate of one coordinate."""
+    single, (psi,) = _batch(linkage, psi)
+    k, n = psi.shape
+    out = np.zeros((k, 2, n + 2))
+    out[:, 0, 0] = 1.0
+    out[:, 1, 1] = 1.0
+    zero = np.zeros((k, n))
+    for m in range(n):
+        unit = zero.copy()
+        unit[:, m] = 1.0
+        _, velocity, _ = point_kinematics(linkage, link, offset, psi, unit, zero)
+        out[:, 0, 2 + m], out[:, 1, 2 + m] = velocity.real, velocity.imag
+    return _unbatch(single, out)
 
 
 def _split_floating(linkage: Linkage, *arrays):
