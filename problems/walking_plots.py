@@ -101,7 +101,8 @@ def world_strip(motion: WorldMotion, frames_per_step: int = 6) -> Figure:
     ax.plot(motion.footholds.real, motion.footholds.imag, "kv", label="footholds")
     ax.set(xlim=(x0, x1), ylim=(y0, y1), xlabel="x [m]", ylabel="y [m]", aspect="equal")
     ax.set_title(f"{steps} steps in world coordinates (later poses darker)")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize="small", frameon=False)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize="small", frameon=False,
+              title="bodies, named\nas in step 1", title_fontsize="small")  # fmt: skip
     return figure
 
 
@@ -135,7 +136,8 @@ def animate_walk(
                 markersize=3.0, solid_capstyle="round", label=name)[0]
         for j, name in enumerate(motion.segments)
     ]  # fmt: skip
-    ax.legend(loc="upper right", fontsize="x-small", frameon=False)
+    ax.legend(loc="upper right", fontsize="x-small", frameon=False, title="named as in step 1",
+              title_fontsize="x-small")  # fmt: skip
     clock = ax.set_title("")
     segments = list(motion.segments.values())
     with atomic_path(path, suffix=".gif") as temporary:
