@@ -14,7 +14,8 @@ Objectives (``OBJECTIVES``), integrated over the step or period:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,12 +24,14 @@ import numpy as np
 
 from model.errors import DefinitionError, check_real
 from model.linkage import Linkage
+from planner.ocp import OCP
 from planner.solution import Solution
 from planner.trajectory import Trajectory
 from planner.transcription import Transcription
 from problems.verification import GaitReport, verify_gait
 
 OBJECTIVES = ("torque", "torque-rate", "work")
+HALF_PI = 0.5 * math.pi
 #: Smoothing of max(0, P) in the positive-work objective, W.
 WORK_EPSILON = 1.0
 #: Weight of the torque term added to the torque-rate and work objectives.
@@ -108,6 +111,38 @@ def check_links(field_name: str, names, linkage: Linkage) -> tuple[str, ...]:
                 f"`{field_name}`: no link called {name!r}; known links: {list(linkage.names)}"
             )
     return names
+
+
+def gait_ocp(dynamics, duration: float, mesh: Mapping[str, Any], limits: Mapping[str, float]):
+    """The OCP both gait problems start from: the linkage's dynamics on [0, duration] with
+    ``mesh`` (N, transcription, degree, formulation) and |M_i| <= limits[name]."""
+    ocp = OCP(dynamics, T=duration, **mesh)
+    for name, limit in limits.items():
+        ocp = ocp.bound(f"M_{name}", -limit, limit)
+    return ocp
+
+
+def keep_upright(ocp: OCP, upright: Sequence[str], posture: float) -> OCP:
+    """``posture`` rows: each link of ``upright`` within ``posture`` rad of the vertical."""
+    if not upright:
+        return ocp
+    return ocp.constrain(
+        "posture",
+        lambda p: ca.vertcat(*[p[f"psi_{name}"] - HALF_PI for name in upright]),
+        lower=-posture,
+        upper=posture,
+    )
+
+
+def finish_gait_ocp(ocp: OCP, linkage: Linkage, objective: str, limits, law) -> OCP:
+    """The objective, nominal scales and the law as the guess, the same for both problems:
+    angles ~1 rad, rates a few rad/s, accelerations tens of rad/s^2, torques a third of
+    their limit (the law's inverse dynamics is of that size)."""
+    typical = float(np.median(list(limits.values()))) / 3.0
+    ocp = ocp.minimize(integral=objective_integrand(linkage, objective)).scale(dpsi=3.0, M=typical)
+    if ocp.system.nz:
+        ocp = ocp.scale(ddpsi=30.0)
+    return ocp.guess(law)
 
 
 def objective_at_guess(transcription: Transcription) -> float:
@@ -200,13 +235,17 @@ class Gait:
 
 
 __all__ = [
+    "HALF_PI",
     "OBJECTIVES",
     "REGULARISATION",
     "WORK_EPSILON",
     "Gait",
     "check_links",
     "check_objective",
+    "finish_gait_ocp",
+    "gait_ocp",
     "joint_rates",
+    "keep_upright",
     "objective_at_guess",
     "objective_integrand",
     "torque_limits",

@@ -40,14 +40,16 @@ from model.presets import six_link_anthropoid
 from planner.ocp import OCP
 from planner.solver import solve
 from planner.transcription import Transcription
-from problems.biped import HALF_PI, Biped
+from problems.biped import Biped
 from problems.gait_law import GaitLaw
 from problems.gait_problem import (
     Gait,
     check_links,
     check_objective,
+    finish_gait_ocp,
+    gait_ocp,
+    keep_upright,
     objective_at_guess,
-    objective_integrand,
     torque_limits,
 )
 
@@ -214,16 +216,8 @@ def periodic_gait(
 def _periodic_ocp(problem: PeriodicGaitProblem, N, transcription, degree, formulation) -> OCP:
     linkage = problem.linkage
     position = problem.foot.function("position")
-    ocp = OCP(
-        problem.dynamics,
-        T=problem.law.period,
-        N=N,
-        transcription=transcription,
-        degree=degree,
-        formulation=formulation,
-    )
-    for name, limit in problem.torque_limit.items():
-        ocp = ocp.bound(f"M_{name}", -limit, limit)
+    mesh = {"N": N, "transcription": transcription, "degree": degree, "formulation": formulation}
+    ocp = gait_ocp(problem.dynamics, problem.law.period, mesh, problem.torque_limit)
     ocp = ocp.constrain(
         "clearance",
         lambda p: position(p.psi)[1],
@@ -239,22 +233,8 @@ def _periodic_ocp(problem: PeriodicGaitProblem, N, transcription, degree, formul
             upper=problem.foot_targets,
             scale=max(float(np.max(np.abs(problem.foot_targets))), 0.1),
         )
-    if problem.upright:
-        ocp = ocp.constrain(
-            "posture",
-            lambda p: ca.vertcat(*[p[f"psi_{name}"] - HALF_PI for name in problem.upright]),
-            lower=-problem.posture,
-            upper=problem.posture,
-        )
-    typical = float(np.median(list(problem.torque_limit.values()))) / 3.0
-    ocp = (
-        ocp.periodic()
-        .minimize(integral=objective_integrand(linkage, problem.objective))
-        .scale(dpsi=3.0, M=typical)
-    )
-    if ocp.system.nz:
-        ocp = ocp.scale(ddpsi=30.0)
-    return ocp.guess(problem.law)
+    ocp = keep_upright(ocp, problem.upright, problem.posture).periodic()
+    return finish_gait_ocp(ocp, linkage, problem.objective, problem.torque_limit, problem.law)
 
 
 __all__ = ["KEYPOINTS", "PeriodicGait", "PeriodicGaitProblem", "periodic_gait"]

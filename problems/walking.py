@@ -52,14 +52,16 @@ from model.presets import six_link_anthropoid
 from planner.ocp import OCP
 from planner.solver import solve
 from planner.transcription import Transcription
-from problems.biped import HALF_PI, Biped
+from problems.biped import Biped
 from problems.gait_law import GaitLaw
 from problems.gait_problem import (
     Gait,
     check_links,
     check_objective,
+    finish_gait_ocp,
+    gait_ocp,
+    keep_upright,
     objective_at_guess,
-    objective_integrand,
     torque_limits,
 )
 
@@ -288,16 +290,8 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
         _, lam, _ = impact(p.x[:n], p.x[n:])
         return ca.vertcat(mu * lam[1] - lam[0], mu * lam[1] + lam[0])
 
-    ocp = OCP(
-        dynamics,
-        T=step.step_time,
-        N=N,
-        transcription=transcription,
-        degree=degree,
-        formulation=formulation,
-    )
-    for name, limit in step.torque_limit.items():
-        ocp = ocp.bound(f"M_{name}", -limit, limit)
+    mesh = {"N": N, "transcription": transcription, "degree": degree, "formulation": formulation}
+    ocp = gait_ocp(dynamics, step.step_time, mesh, step.torque_limit)
     for name in step.passive:
         ocp = ocp.bound(f"M_{name}", 0.0, 0.0)
     speed = max(step.speed, 0.1)
@@ -318,21 +312,8 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
         .boundary("impulse", impulse, at="end", lower=0.0, scale=biped.total_mass * speed)
         .periodic(step.step_map)
     )
-    if step.upright:
-        ocp = ocp.constrain(
-            "posture",
-            lambda p: ca.vertcat(*[psi_of(p, name) - HALF_PI for name in step.upright]),
-            lower=-step.posture,
-            upper=step.posture,
-        )
-    ocp = ocp.minimize(integral=objective_integrand(linkage, step.objective))
-    # Nominal magnitudes: angles ~1 rad, rates a few rad/s, accelerations tens of rad/s^2,
-    # torques a third of their limit (the guess's inverse dynamics is of that size).
-    typical = float(np.median(list(step.torque_limit.values()))) / 3.0
-    ocp = ocp.scale(dpsi=3.0, M=typical)
-    if ocp.system.nz:
-        ocp = ocp.scale(ddpsi=30.0)
-    return ocp.guess(step.law)
+    ocp = keep_upright(ocp, step.upright, step.posture)
+    return finish_gait_ocp(ocp, linkage, step.objective, step.torque_limit, step.law)
 
 
 # ---- the solved gait ----------------------------------------------------------------------
