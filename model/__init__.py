@@ -3,20 +3,37 @@
 >>> from model import presets
 >>> dyn = presets.six_link_anthropoid().dynamics()
 >>> dyn.inverse_dynamics(psi, dpsi, ddpsi)        # hinge torques, N m
+>>> foot = dyn.point("swing_shank")               # the end hinge of the swing shank
+>>> dyn.floating.mass_matrix(psi)                 # q = (x0, y0, psi): (n + 2, n + 2)
+>>> dyn.impact(foot)(psi, dpsi)                   # heel strike: dpsi+, impulse, base velocity
+>>> swap = swap_legs(dyn.linkage)                 # re-rooted at the swing foot, legs renamed
 """
 
 from model import presets
 from model.dynamics import FUNCTIONS, Dynamics
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from model.floating import FLOATING_FUNCTIONS, FloatingBase
+from model.impact import ImpactMap
 from model.linkage import Link, Linkage
+from model.points import POINT_FUNCTIONS, LinkPoint, PointKinematics
+from model.rerooting import Rerooting, reroot, swap_legs
 
 __all__ = [
+    "FLOATING_FUNCTIONS",
     "FUNCTIONS",
+    "POINT_FUNCTIONS",
     "AnthropoidError",
     "DefinitionError",
     "DefinitionTypeError",
     "Dynamics",
+    "FloatingBase",
+    "ImpactMap",
     "Link",
+    "LinkPoint",
     "Linkage",
+    "PointKinematics",
+    "Rerooting",
     "presets",
+    "reroot",
+    "swap_legs",
 ]

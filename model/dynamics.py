@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import casadi as ca
@@ -34,8 +34,11 @@ import numpy as np
 
 from model.complex_sx import Constants, Cx, apply, expj, imag_of_conj_product, times_constants
 from model.errors import DefinitionError, DefinitionTypeError, check_states
+from model.floating import FloatingBase
+from model.impact import ImpactMap
 from model.linkage import Linkage
 from model.numpy_tape import NumpyTape
+from model.points import LinkPoint, PointKinematics
 
 logger = logging.getLogger(__name__)
 
@@ -62,8 +65,10 @@ FUNCTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], str]] = {
 
 #: Outputs that are one number per state: returned as float (one state) or (K,) (a batch).
 #: Every other output keeps its shape, even when it is 1x1 (a one-link tree).
-_SCALAR_OUTPUTS = frozenset({"kinetic", "potential", "Fx", "Fy"})
-_MATRIX_OUTPUTS = frozenset({"mass_matrix"})
+_SCALAR_OUTPUTS = frozenset(
+    {"kinetic", "potential", "Fx", "Fy", "x", "y", "vx", "vy", "ax", "ay", "px", "py"}
+)
+_MATRIX_OUTPUTS = frozenset({"mass_matrix", "jacobian"})
 
 
 def _output_shape(function: ca.Function, i: int) -> tuple[int, ...]:
@@ -128,18 +133,35 @@ class Dynamics:
         self._weight_dm = ca.DM(self._mass) * linkage.gravity
         self._inertia_dm = ca.DM(self._inertia)
 
+    def subtree_moments(self) -> tuple[list[float], list[complex]]:
+        """(mass of each link's subtree, kg; first moment K_m of each subtree about the link's
+        start hinge in the link's frame, kg m, complex).
+
+        K_m = m_m c_m + sum_{children c} o_c mass(subtree c): the subtree's momentum is
+        sum_i m_i dw_i/dt = sum_m j dpsi_m K_m e^{j psi_m}, which couples the links to a
+        moving base, and D_km = conj(o_km) K_m gives the mass matrix.
+        """
+
+        def build():
+            linkage = self._linkage
+            n = self.n
+            subtree_mass = [0.0] * n
+            for i in reversed(range(n)):
+                subtree_mass[i] = self._mass[i] + sum(subtree_mass[c] for c in linkage.children[i])
+            first_moment = [
+                self._mass[m] * self._com[m]
+                + sum(self._origin[c] * subtree_mass[c] for c in linkage.children[m])
+                for m in range(n)
+            ]
+            return subtree_mass, first_moment
+
+        return self._memo("subtree_moments", build)
+
     def _mass_constants(self) -> tuple[np.ndarray, ca.Sparsity, np.ndarray]:
         """Constant parts of the mass matrix: D_km (lower triangle), its pattern, diagonal."""
         linkage = self._linkage
         n = self.n
-        subtree_mass = [0.0] * n
-        for i in reversed(range(n)):
-            subtree_mass[i] = self._mass[i] + sum(subtree_mass[c] for c in linkage.children[i])
-        first_moment = [
-            self._mass[m] * self._com[m]
-            + sum(self._origin[c] * subtree_mass[c] for c in linkage.children[m])
-            for m in range(n)
-        ]
+        subtree_mass, first_moment = self.subtree_moments()
         coefficient = np.zeros((n, n), dtype=complex)
         diagonal = np.zeros(n)
         rows, cols = [], []
@@ -185,13 +207,41 @@ class Dynamics:
             raise DefinitionError(
                 f"`name`: unknown function {name!r}; available: {sorted(FUNCTIONS)}"
             )
+        inputs, outputs, _ = FUNCTIONS[name]
+        return self.cached_function(
+            name,
+            inputs,
+            [self._symbol(k) for k in inputs],
+            outputs,
+            getattr(self, "_build_" + name),
+        )
+
+    def cached_function(
+        self,
+        name: str,
+        input_names: Sequence[str],
+        inputs: Sequence[ca.SX],
+        output_names: Sequence[str],
+        build: Callable[[], list[ca.SX]],
+    ) -> ca.Function:
+        """The SX Function ``name`` of this model: built by ``build()`` on first use, cached.
+
+        Every Function of the model (the catalogue ``FUNCTIONS``, points on links, the
+        floating base, impact maps) is generated here, so that it is timed
+        (``generation_seconds``), listed in ``built`` and evaluated on numpy batches by
+        :meth:`evaluate` the same way. ``inputs`` are purely symbolic SX (this model's
+        symbols); names must be unique per model.
+        """
         if name not in self._functions:
             start = time.perf_counter()
-            inputs, outputs, _ = FUNCTIONS[name]
-            expressions = getattr(self, "_build_" + name)()
-            symbols = [self._symbol(k) for k in inputs]
+            expressions = build()
             self._functions[name] = ca.Function(
-                name, symbols, expressions, inputs, outputs, {"cse": self._cse}
+                name,
+                list(inputs),
+                expressions,
+                list(input_names),
+                list(output_names),
+                {"cse": self._cse},
             )
             self.generation_seconds[name] = time.perf_counter() - start
             logger.debug("generated %s in %.3f ms", name, 1e3 * self.generation_seconds[name])
@@ -202,7 +252,74 @@ class Dynamics:
             return ca.vertcat(self._psi, self._dpsi)
         if name == "u":
             return self._torque
-        return {"psi": self._psi, "dpsi": self._dpsi, "ddpsi": self._ddpsi, "M": self._torque}[name]
+        return self.symbols[name]
+
+    @property
+    def symbols(self) -> dict[str, ca.SX]:
+        """The model's SX symbols: psi, dpsi, ddpsi (n,) and the hinge torques M (n,).
+
+        Expressions built by the model's Functions are expressions of these; a Function of
+        another part of the model (points, floating base) takes them as its inputs.
+        """
+        return {"psi": self._psi, "dpsi": self._dpsi, "ddpsi": self._ddpsi, "M": self._torque}
+
+    # ---- points, floating base, impacts (built from the same description) --------------
+    def point(
+        self,
+        link: str | LinkPoint,
+        along: float = 1.0,
+        lateral: float = 0.0,
+        name: str | None = None,
+    ) -> PointKinematics:
+        """A point fixed on ``link`` (``along``, ``lateral``: fractions of its length; the
+        default is the end hinge), or a :class:`model.LinkPoint`; see :mod:`model.points`.
+
+        Points are cached by their label: asking twice for the same point returns the same
+        object; two different points under one name are refused.
+        """
+        if isinstance(link, LinkPoint):
+            if (along, lateral, name) != (1.0, 0.0, None):
+                raise DefinitionError(
+                    "`point`: give either a LinkPoint or link/along/lateral/name, not both"
+                )
+            point = link
+        else:
+            point = LinkPoint(link, along, lateral, name)
+        points = self._memo("points", dict)
+        known = points.get(point.label)
+        if known is not None:
+            if known.point != point:
+                raise DefinitionError(
+                    f"`name`: this model already has a point called {point.label!r} "
+                    f"({known.point}); give the new point another name"
+                )
+            return known
+        kinematics = PointKinematics(self, point)
+        taken = {known.identifier for known in points.values()}
+        suffix = 2
+        while kinematics.identifier in taken:  # labels that differ only in punctuation
+            kinematics = PointKinematics(self, point, f"{kinematics.identifier}_{suffix}")
+            suffix += 1
+        points[point.label] = kinematics
+        return kinematics
+
+    @property
+    def floating(self) -> FloatingBase:
+        """The same tree with its root hinge free in the plane (:mod:`model.floating`),
+        sharing this model's symbols and building blocks."""
+        return self._memo("floating", lambda: FloatingBase(self))
+
+    def impact(self, point: str | LinkPoint | PointKinematics) -> ImpactMap:
+        """The inelastic, non-sliding impact of ``point`` with the ground while the root hinge
+        H0 (the old contact) is at rest (:mod:`model.impact`). A link name means its end."""
+        if not isinstance(point, PointKinematics):
+            point = self.point(point)
+        elif point.dynamics is not self:
+            raise DefinitionError("`point`: the point belongs to another Dynamics")
+        impacts = self._memo("impacts", dict)
+        if point.label not in impacts:
+            impacts[point.label] = ImpactMap(point)
+        return impacts[point.label]
 
     # ---- tree operators (constant 0/1 matrices) ---------------------------------------
     def _operators(self) -> dict[str, ca.DM]:
@@ -286,10 +403,37 @@ class Dynamics:
 
     def _phasor_accelerations(self) -> Cx:
         """d^2/dt^2 e^{j psi} = (j ddpsi - dpsi^2) e^{j psi}."""
-        e = self._frames()
-        w2 = self._dpsi * self._dpsi
-        ddpsi = self._ddpsi
-        return Cx(-w2 * e.re - ddpsi * e.im, ddpsi * e.re - w2 * e.im)
+
+        def build():
+            e = self._frames()
+            w2 = self._dpsi * self._dpsi
+            ddpsi = self._ddpsi
+            return Cx(-w2 * e.re - ddpsi * e.im, ddpsi * e.re - w2 * e.im)
+
+        return self._memo("phasor_accelerations", build)
+
+    def _accelerations(self) -> tuple[Cx, Cx]:
+        return self._memo("accelerations", lambda: self._propagate(self._phasor_accelerations()))
+
+    def link_kinematics(self, order: int) -> tuple[Cx, Cx]:
+        """SX building blocks of any point fixed on a link, shared by every user of the model.
+
+        Returns (start, phasor), complex vectors (n,): for ``order`` 0 the world positions of
+        the links' start hinges (m) and e^{j psi}; for 1 their velocities (m/s) and
+        d/dt e^{j psi} = j dpsi e^{j psi}; for 2 their accelerations (m/s^2) and
+        (j ddpsi - dpsi^2) e^{j psi}. The point at offset c (complex, m, in link i's frame)
+        is start_i + c phasor_i and its rates are the same sum with the rates of the terms.
+        Expressions of :attr:`symbols` (psi; dpsi; ddpsi).
+        """
+        if order == 0:
+            return self._positions()[0], self._frames()
+        if order == 1:
+            return self._velocities()[0], self._phasor_rates()
+        if order == 2:
+            return self._accelerations()[0], self._phasor_accelerations()
+        raise DefinitionError(
+            f"`order`: must be 0, 1 or 2 (position, velocity, acceleration), got {order!r}"
+        )
 
     def _lagrange(self) -> tuple[ca.SX, Cx]:
         """Left-hand sides of Lagrange's equations in hinge-torque form, and the ground force.
@@ -303,7 +447,7 @@ class Dynamics:
         """
 
         def build():
-            _, acc = self._propagate(self._phasor_accelerations())
+            _, acc = self._accelerations()
             mass = self._mass_dm
             force = Cx(mass * acc.re, mass * acc.im + self._weight_dm)
             subtree_force = Cx(self._subtree_sum(force.re), self._subtree_sum(force.im))
@@ -320,7 +464,7 @@ class Dynamics:
 
         return self._memo("lagrange", build)
 
-    def _mass_matrix_entries(self) -> ca.SX:
+    def mass_matrix_expression(self) -> ca.SX:
         """M_km = Re( D_km conj(e^{j psi_k}) e^{j psi_m} ), D_km = conj(o_km) K_m, k ancestor of m.
 
         o_km: the hinge on link k through which m's subtree hangs (k's frame);
@@ -352,7 +496,7 @@ class Dynamics:
         O(sum of depth^2) factorisation as Featherstone's L^T D L (Rigid Body Dynamics
         Algorithms, sec. 6.3), built by CasADi in C++.
         """
-        diagonal, upper, order = ca.ldl(self._mass_matrix_entries(), True)
+        diagonal, upper, order = ca.ldl(self.mass_matrix_expression(), True)
         return ca.ldl_solve(rhs, diagonal, upper, order)
 
     def _generalized_from_torques(self, torque: ca.SX) -> ca.SX:
@@ -390,7 +534,7 @@ class Dynamics:
         return [kinetic, potential]
 
     def _build_mass_matrix(self):
-        return [self._mass_matrix_entries()]
+        return [self.mass_matrix_expression()]
 
     def _build_inverse_dynamics(self):
         torque, _ = self._lagrange()
@@ -427,18 +571,29 @@ class Dynamics:
         return [ca.vertcat(self._dpsi, self._forward_expression())]
 
     # ---- numeric evaluation ---------------------------------------------------------------
-    def _evaluate(self, name: str, *arrays: np.ndarray) -> list[np.ndarray]:
-        """Evaluate Function ``name`` on one state or a batch; returns per-output arrays with
-        the batch as the leading axis (dropped again for a single state). Finite inputs that
-        give a non-finite result (they overflow double precision) raise DefinitionError."""
+    def evaluate(self, name: str, *arrays) -> list:
+        """Evaluate the model's Function ``name`` on one state or a batch of numpy values.
+
+        ``name``: a catalogue Function (``FUNCTIONS``, built on demand) or one already built
+        through :meth:`cached_function` (points, floating base, impact maps). Each input is
+        (size,) or (K, size); returns one array per output with the batch as the leading axis
+        (dropped again for a single state): scalar outputs become floats or (K,), vectors
+        (size,) or (K, size), matrices (rows, cols) or (K, rows, cols). Finite inputs that
+        give a non-finite result (they overflow double precision) raise DefinitionError.
+        """
         results = self._evaluate_unchecked(name, *arrays)
         for result in results:
             if not np.all(np.isfinite(result)):
-                raise DefinitionError(_overflow_message(self.function(name), arrays, result))
+                function = self._functions[name] if name in self._functions else None
+                function = function if function is not None else self.function(name)
+                raise DefinitionError(_overflow_message(function, arrays, result))
         return results
 
-    def _evaluate_unchecked(self, name: str, *arrays: np.ndarray) -> list[np.ndarray]:
-        function = self.function(name)
+    def _evaluate_unchecked(self, name: str, *arrays) -> list:
+        if name in self._functions:
+            function = self._functions[name]
+        else:
+            function = self.function(name)
         batch, columns = _as_columns(function, arrays)
         if name not in self._layouts:
             self._layouts[name] = _OutputLayout.of(function)
@@ -448,7 +603,7 @@ class Dynamics:
         if batch is None and hasattr(function, "buffer"):
             return self._evaluate_one(name, function, columns, layouts)
         if columns[0].shape[1] >= NumpyTape.MIN_BATCH:
-            tape = self._tape(name)
+            tape = self._tape(name, function)
             if tape is not None:
                 return [
                     _restore(r, lay, batch) for r, lay in zip(tape(columns), layouts, strict=True)
@@ -475,54 +630,54 @@ class Dynamics:
         evaluate()
         return [_restore(r, lay, None) for r, lay in zip(results, layouts, strict=True)]
 
-    def _tape(self, name: str) -> NumpyTape | None:
+    def _tape(self, name: str, function: ca.Function) -> NumpyTape | None:
         if name not in self._tapes:
-            self._tapes[name] = NumpyTape.try_build(self.function(name))
+            self._tapes[name] = NumpyTape.try_build(function)
         return self._tapes[name]
 
     def mass_matrix(self, psi) -> np.ndarray:
         """Generalised mass matrix, kg m^2: (n, n) or (K, n, n)."""
-        return self._evaluate("mass_matrix", psi)[0]
+        return self.evaluate("mass_matrix", psi)[0]
 
     def inverse_dynamics(self, psi, dpsi, ddpsi) -> np.ndarray:
         """Hinge torques M, N m: (n,) or (K, n)."""
-        return self._evaluate("inverse_dynamics", psi, dpsi, ddpsi)[0]
+        return self.evaluate("inverse_dynamics", psi, dpsi, ddpsi)[0]
 
     def gravity_torques(self, psi) -> np.ndarray:
         """Hinge torques that hold the pose psi at rest, N m: (n,) or (K, n)."""
-        return self._evaluate("gravity_torques", psi)[0]
+        return self.evaluate("gravity_torques", psi)[0]
 
     def forward_dynamics(self, psi, dpsi, torques) -> np.ndarray:
         """Angular accelerations ddpsi, rad/s^2: (n,) or (K, n)."""
-        return self._evaluate("forward_dynamics", psi, dpsi, torques)[0]
+        return self.evaluate("forward_dynamics", psi, dpsi, torques)[0]
 
     def dynamics_residual(self, psi, dpsi, ddpsi, torques) -> np.ndarray:
         """inverse_dynamics(psi, dpsi, ddpsi) - torques, N m: (n,) or (K, n)."""
-        return self._evaluate("dynamics_residual", psi, dpsi, ddpsi, torques)[0]
+        return self.evaluate("dynamics_residual", psi, dpsi, ddpsi, torques)[0]
 
     def energy(self, psi, dpsi) -> tuple[np.ndarray, np.ndarray]:
         """(kinetic, potential) energy, J: scalars or (K,) arrays."""
-        kinetic, potential = self._evaluate("energy", psi, dpsi)
+        kinetic, potential = self.evaluate("energy", psi, dpsi)
         return kinetic, potential
 
     def hinge_positions(self, psi) -> np.ndarray:
         """Hinges H0..Hn as complex numbers x + j y, m: (n+1,) or (K, n+1)."""
-        x, y = self._evaluate("hinge_positions", psi)
+        x, y = self.evaluate("hinge_positions", psi)
         return x + 1j * y
 
     def hinge_velocities(self, psi, dpsi) -> np.ndarray:
         """Velocities of H0..Hn, complex, m/s: (n+1,) or (K, n+1)."""
-        x, y = self._evaluate("hinge_velocities", psi, dpsi)
+        x, y = self.evaluate("hinge_velocities", psi, dpsi)
         return x + 1j * y
 
     def com_positions(self, psi) -> np.ndarray:
         """Centres of mass w_i, complex, m: (n,) or (K, n)."""
-        x, y = self._evaluate("com_positions", psi)
+        x, y = self.evaluate("com_positions", psi)
         return x + 1j * y
 
     def com_velocities(self, psi, dpsi) -> np.ndarray:
         """dw_i/dt, complex, m/s: (n,) or (K, n)."""
-        x, y = self._evaluate("com_velocities", psi, dpsi)
+        x, y = self.evaluate("com_velocities", psi, dpsi)
         return x + 1j * y
 
     def ground_reaction(self, psi, dpsi, ddpsi) -> np.ndarray:
@@ -530,7 +685,7 @@ class Dynamics:
 
         F = sum_i m_i d^2w_i/dt^2 + j g sum_i m_i; Fy >= 0 means the ground pushes up.
         """
-        fx, fy = self._evaluate("ground_reaction", psi, dpsi, ddpsi)
+        fx, fy = self.evaluate("ground_reaction", psi, dpsi, ddpsi)
         return fx + 1j * fy
 
     def __repr__(self) -> str:

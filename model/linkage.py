@@ -41,7 +41,7 @@ class Link:
         kg (> 0).
     com : float
         Position of the centre of mass along the axis from the start hinge, as a fraction of
-        ``length`` (the paper's n_i), in [0, 1] (a merged body may lie outside).
+        ``length`` (the paper's n_i), in [0, 1] (a merged or re-rooted body may lie outside).
     inertia : float or None
         Moment of inertia about the centre of mass J_i, kg m^2 (>= 0). ``None``: uniform rod,
         m l^2 / 12.
@@ -53,6 +53,10 @@ class Link:
         hinge (root: the origin).
     merged : tuple of str
         Names of links locked into this one (set by :meth:`Linkage.lock`).
+    rerooted : bool
+        Set by :func:`model.reroot` on a link described from a point that is not one of its
+        ends (a heel, the middle of a link): its centre of mass fraction may lie outside
+        [0, 1].
     """
 
     name: str
@@ -64,6 +68,7 @@ class Link:
     com_lateral: float = 0.0
     origin: complex | None = None
     merged: tuple[str, ...] = field(default=())
+    rerooted: bool = False
 
     def __post_init__(self) -> None:
         where = f"Link {self.name!r}" if isinstance(self.name, str) else "Link"
@@ -83,7 +88,7 @@ class Link:
         if mass <= 0:
             raise DefinitionError(f"`{where}.mass`: must be > 0 kg, got {mass!r}")
         com = check_real(f"{where}.com", self.com)
-        if not self.merged and not 0.0 <= com <= 1.0:
+        if not self.merged and not self.rerooted and not 0.0 <= com <= 1.0:
             raise DefinitionError(
                 f"`{where}.com`: the centre of mass fraction must lie in [0, 1] "
                 f"(0 = start hinge, 1 = end hinge), got {com!r}"
@@ -115,6 +120,8 @@ class Link:
                 raise DefinitionError(f"`{where}.origin`: must be finite, got {origin!r}")
         if not isinstance(self.merged, tuple) or not all(isinstance(m, str) for m in self.merged):
             raise DefinitionTypeError(f"`{where}.merged`: must be a tuple of link names")
+        if not isinstance(self.rerooted, bool):
+            raise DefinitionTypeError(f"`{where}.rerooted`: must be True or False")
         # Store canonical floats so equality and hashing behave.
         object.__setattr__(self, "length", length)
         object.__setattr__(self, "mass", mass)
@@ -329,6 +336,7 @@ class Linkage:
                     "com_lateral": link.com_lateral,
                     "origin": None if link.origin is None else [link.origin.real, link.origin.imag],
                     "merged": list(link.merged),
+                    "rerooted": link.rerooted,
                 }
                 for link in self._links
             ],

@@ -1,10 +1,10 @@
 """The optimal control problem as a value: dynamics, horizon, mesh, bounds, constraints, cost.
 
 An :class:`OCP` is a frozen dataclass. Builder methods (``bound``, ``constrain``,
-``boundary``, ``initial``, ``final``, ``periodic``, ``minimize``, ``scale``, ``guess``) return a
-new OCP and never change the old one, so a definition can be printed, copied
-(``dataclasses.replace``, ``copy.copy``), refined (``ocp.refine(N=80)``) and solved any number
-of times. Every argument is validated when it is given: a mistake raises
+``constrain_at``, ``boundary``, ``initial``, ``final``, ``periodic``, ``minimize``, ``scale``,
+``guess``) return a new OCP and never change the old one, so a definition can be printed,
+copied (``dataclasses.replace``, ``copy.copy``), refined (``ocp.refine(N=80)``) and solved any
+number of times. Every argument is validated when it is given: a mistake raises
 :class:`model.errors.DefinitionError` (or ``DefinitionTypeError``) naming the field, the value
 and the fix, never a CasADi stack trace at solve time.
 
@@ -15,9 +15,12 @@ and the fix, never a CasADi stack trace at solve time.
 ...        .guess(gait_law))                             # t -> (psi, dpsi, ddpsi)
 >>> solution = ocp.solve()
 
-Expressions (path and boundary constraints, objective terms) are Python callables of a
-:class:`Point`, or CasADi Functions whose input names pick the Point's fields (``x``, ``u``,
-``z``, ``t``, ``T``, a group such as ``psi`` or ``M``, or a variable name).
+Expressions (path, keypoint and boundary constraints, objective terms) are Python callables
+of a :class:`Point`, or CasADi Functions whose input names pick the Point's fields (``x``,
+``u``, ``z``, ``t``, ``T``, a group such as ``psi`` or ``M``, or a variable name); a Function
+with several outputs gives a constraint one row block, rows named after the outputs. Besides
+the variables, a Point offers fields computed from them: a linkage's ``ddpsi`` in both
+formulations and control rates (``du``; a linkage's ``dM``, ``dM_<link>``).
 
 Variables. A system has states x (nx,), controls u (nu,) and, in the implicit formulation,
 auxiliary variables z (nz,) that stand for the state derivatives the residual needs. For a
@@ -49,6 +52,20 @@ DEFAULT_DEGREE = 3
 
 # ---- the system: what the transcription needs from any dynamics ------------------------------
 @dataclass(frozen=True, eq=False)
+class DerivedField:
+    """A group of Point fields that are expressions of the variables, not variables.
+
+    ``function``: SX Function (x (nx,), z (nz,), u (nu,), t (1,)) -> (m,); the Point offers
+    the column as ``group`` and its rows by ``names`` (units ``units``).
+    """
+
+    group: str
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    function: ca.Function
+
+
+@dataclass(frozen=True, eq=False)
 class System:
     """Dynamics in the planner's form: xdot = rate(x, z, u, t) and 0 = residual(x, z, u, t).
 
@@ -57,6 +74,12 @@ class System:
     serves re-simulation. ``groups`` maps group names (``psi``, ``M``, ``x``, ...) to variable
     names; ``residual_scale_group`` names the group whose nominal scales scale the residual
     rows (torques for a linkage: the residual is in N m).
+
+    Point fields that are no NLP variables, named by the system (see :class:`Point`):
+    ``derived`` groups of expressions of (x, z, u, t) (a linkage's ``ddpsi`` in the explicit
+    formulation: its forward dynamics), and the control rates du/dt, one name per control
+    (``control_rate_names``: ``dM_<link>``, or ``d<control>``) gathered in the groups
+    ``control_rate_groups`` (``dM`` and ``du``, or ``du``).
     """
 
     rate: ca.Function
@@ -72,6 +95,9 @@ class System:
     residual_scale_group: str
     formulation: str
     dynamics: Dynamics | None = None
+    derived: tuple[DerivedField, ...] = ()
+    control_rate_names: tuple[str, ...] = ()
+    control_rate_groups: tuple[str, ...] = ()
 
     @property
     def nx(self) -> int:
@@ -104,6 +130,16 @@ class System:
                 return members
         return None
 
+    @property
+    def point_only_fields(self) -> tuple[str, ...]:
+        """Names of the Point fields that are expressions, not NLP variables: derived groups
+        and their rows, control-rate groups and names."""
+        names: list[str] = []
+        for derived in self.derived:
+            names.extend((derived.group, *derived.names))
+        names.extend((*self.control_rate_groups, *self.control_rate_names))
+        return tuple(names)
+
     @staticmethod
     def from_dynamics(dynamics: Dynamics, formulation: str = "implicit") -> System:
         """The linkage system: x = [psi; dpsi], u = M, z = ddpsi (implicit only)."""
@@ -117,6 +153,8 @@ class System:
         t = ca.SX.sym("t")
         ode = dynamics.function("ode")
         ode_t = ca.Function("ode", [x, u, t], [ode(x, u)], ["x", "u", "t"], ["xdot"])
+        accelerations = tuple(f"ddpsi_{k}" for k in links)
+        derived: tuple[DerivedField, ...] = ()
         if formulation == "implicit":
             z = ca.SX.sym("z", n)
             residual_f = dynamics.function("dynamics_residual")
@@ -128,12 +166,19 @@ class System:
                 ["x", "z", "u", "t"],
                 ["residual"],
             )
-            aux = tuple(f"ddpsi_{k}" for k in links)
+            aux = accelerations
         else:
             z = ca.SX.sym("z", 0)
             rate = ode(x, u)
             residual = None
             aux = ()
+            # Explicit: ddpsi is no variable; the Point offers the forward dynamics instead,
+            # so that one constraint (a ground reaction, a foot acceleration) reads the same
+            # in both formulations.
+            forward = ca.Function(
+                "ddpsi", [x, z, u, t], [rate[n:]], ["x", "z", "u", "t"], ["ddpsi"]
+            )
+            derived = (DerivedField("ddpsi", accelerations, ("rad/s^2",) * n, forward),)
         rate_f = ca.Function("rate", [x, z, u, t], [rate], ["x", "z", "u", "t"], ["xdot"])
         groups = (
             ("psi", states[:n]),
@@ -158,6 +203,9 @@ class System:
             residual_scale_group="M",
             formulation=formulation,
             dynamics=dynamics,
+            derived=derived,
+            control_rate_names=tuple(f"dM_{k}" for k in links),
+            control_rate_groups=("dM", "du"),
         )
 
     @staticmethod
@@ -238,6 +286,8 @@ class System:
             groups=groups,
             residual_scale_group="x",
             formulation=formulation,
+            control_rate_names=tuple(f"d{name}" for name in controls),
+            control_rate_groups=("du",),
         )
 
 
@@ -265,9 +315,28 @@ class Point:
     or ``p["psi_torso"]``), all CasADi SX, in physical units (scaling is the planner's).
     At a boundary (``boundary``, ``terminal``), ``x`` is the state at t0 or tf and ``x0``,
     ``xf`` both ends.
+
+    Fields that are expressions, not variables, named by the :class:`System`:
+
+    * derived groups (a linkage's ``ddpsi`` / ``ddpsi_<link>`` in the explicit formulation:
+      forward dynamics of x and u; implicit, ddpsi is the variable z), built on first use;
+    * control rates du/dt (``du``, a linkage's ``dM`` / ``dM_<link>``, a Function system's
+      ``d<control>``), in control units per second, when ``du`` (nu,) is given: the time
+      derivative of the transcription's control polynomial (see :meth:`OCP.constrain`). A
+      rate name that is also a variable's name stays the variable; ``du`` always works.
     """
 
-    def __init__(self, system: System, x, u, z, t, T, extra: Mapping[str, Any] | None = None):
+    def __init__(
+        self,
+        system: System,
+        x,
+        u,
+        z,
+        t,
+        T,
+        extra: Mapping[str, Any] | None = None,
+        du=None,
+    ):
         values: dict[str, Any] = {"x": x, "u": u, "z": z, "t": t, "T": T}
         for i, name in enumerate(system.state_names):
             values[name] = x[i]
@@ -278,31 +347,71 @@ class Point:
         for group, members in system.groups:
             if group not in values:
                 values[group] = ca.vertcat(*[values[m] for m in members])
+        if du is not None:
+            for group in system.control_rate_groups:
+                values.setdefault(group, du)
+            for i, name in enumerate(system.control_rate_names):
+                values.setdefault(name, du[i])
         values.update(extra or {})
+        # Derived fields cost an expression (forward dynamics: a mass-matrix solve) that most
+        # problems never use: evaluated when first asked for.
+        lazy: dict[str, tuple[int, int | None]] = {}
+        for index, derived in enumerate(system.derived):
+            if derived.group not in values:
+                lazy[derived.group] = (index, None)
+            for row, name in enumerate(derived.names):
+                if name not in values:
+                    lazy[name] = (index, row)
+        object.__setattr__(self, "_system", system)
         object.__setattr__(self, "_values", values)
-        # Every field is an expression of x, u, z, t, T and the extras: their symbols are all
-        # the symbols an expression of the point may use (found once, when first asked).
-        object.__setattr__(self, "_sources", (x, u, z, t, T, *(extra or {}).values()))
+        object.__setattr__(self, "_lazy", lazy)
+        object.__setattr__(self, "_derived", {})
+        # Every field is an expression of x, u, z, t, T, du and the extras: their symbols are
+        # all the symbols an expression of the point may use (found once, when first asked).
+        sources = (x, u, z, t, T, *(() if du is None else (du,)), *(extra or {}).values())
+        object.__setattr__(self, "_sources", sources)
         object.__setattr__(self, "_symbols", None)
 
-    def __getattr__(self, name: str):
+    def _field(self, name: str):
         values = object.__getattribute__(self, "_values")
         if name in values:
             return values[name]
-        raise AttributeError(f"Point has no field {name!r}; fields: {sorted(values)}")
+        lazy = object.__getattribute__(self, "_lazy")
+        if name in lazy:
+            index, row = lazy[name]
+            cache = object.__getattribute__(self, "_derived")
+            if index not in cache:
+                derived = self._system.derived[index]
+                v = values
+                cache[index] = derived.function(v["x"], v["z"], v["u"], v["t"])
+            return cache[index] if row is None else cache[index][row]
+        raise KeyError(name)
+
+    def __getattr__(self, name: str):
+        try:
+            return self._field(name)
+        except KeyError:
+            raise AttributeError(
+                f"Point has no field {name!r}; fields: {sorted(self.fields)}"
+            ) from None
 
     def __getitem__(self, name: str):
         try:
-            return self._values[name]
+            return self._field(name)
         except KeyError:
-            raise KeyError(f"Point has no field {name!r}; fields: {sorted(self._values)}") from None
+            raise KeyError(f"Point has no field {name!r}; fields: {sorted(self.fields)}") from None
 
     def __setattr__(self, name, value):
         raise AttributeError("Point is read-only")
 
     @property
     def fields(self) -> tuple[str, ...]:
-        return tuple(self._values)
+        return (*self._values, *self._lazy)
+
+    @property
+    def uses_derived(self) -> bool:
+        """Whether an expression has asked for a derived field (e.g. explicit ddpsi)."""
+        return bool(self._derived)
 
     def _symbol_hashes(self) -> frozenset[int]:
         """Element hashes of the SX symbols the point's fields are built from."""
@@ -329,11 +438,14 @@ def evaluate_expression(label: str, expression, point: Point) -> ca.SX:
                 )
             args.append(point[name])
         try:
-            result = expression(*args)
+            outputs = expression.call(args)
         except RuntimeError as exc:
             raise DefinitionError(f"`{label}`: calling the Function failed: {exc}") from exc
-        if expression.n_out() != 1:
-            raise DefinitionError(f"`{label}`: the Function must have one output")
+        if not outputs:
+            raise DefinitionError(f"`{label}`: the Function has no output")
+        # Several outputs stack into one column, output by output (each vectorised
+        # column-major): rows named after the outputs (see expression_rows).
+        result = outputs[0] if len(outputs) == 1 else ca.vertcat(*[ca.vec(o) for o in outputs])
     elif callable(expression):
         try:
             result = expression(point)
@@ -369,6 +481,23 @@ def evaluate_expression(label: str, expression, point: Point) -> ca.SX:
             raise DefinitionError(f"`{label}`: must return a column vector, got {result.shape}")
     _check_symbols(label, result, point)
     return result
+
+
+def expression_rows(expression, size: int) -> tuple[str, ...]:
+    """Suffixes naming the ``size`` rows of an expression's value.
+
+    A Function with several outputs: ``[<output>]`` for a one-element output and
+    ``[<output>][i]`` for the elements of a longer one (column-major); otherwise ``""`` for a
+    scalar and ``[i]`` for the rows of a vector.
+    """
+    if isinstance(expression, ca.Function) and expression.n_out() > 1:
+        rows: list[str] = []
+        for i in range(expression.n_out()):
+            name, count = expression.name_out(i), expression.numel_out(i)
+            rows.extend([f"[{name}]"] if count == 1 else [f"[{name}][{j}]" for j in range(count)])
+        if len(rows) == size:
+            return tuple(rows)
+    return ("",) if size == 1 else tuple(f"[{i}]" for i in range(size))
 
 
 def _check_symbols(label: str, result: ca.SX, point: Point) -> None:
@@ -407,7 +536,12 @@ def _check_constants(label: str, result: ca.SX, subject: str) -> None:
 # ---- validated pieces of a definition ---------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class Constraint:
-    """A named constraint lower <= g <= upper; ``where`` is "path", "start" or "end"."""
+    """A named constraint lower <= g <= upper; ``where`` is "path", "start", "end" or "at".
+
+    ``rows``: suffixes naming the rows of g (see :func:`expression_rows`). For ``where`` =
+    "at", ``instants`` (K,) are the times (s) or, ``fraction`` True, the fractions of T where
+    g holds, and ``lower``, ``upper`` are (K, rows); otherwise they are (rows,).
+    """
 
     name: str
     expression: Any
@@ -415,13 +549,30 @@ class Constraint:
     upper: np.ndarray
     where: str
     scale: np.ndarray | None = None
+    rows: tuple[str, ...] = ()
+    instants: tuple[float, ...] = ()
+    fraction: bool = False
 
     @property
     def size(self) -> int:
-        return self.lower.size
+        """Rows of g at one point (one instant)."""
+        return self.lower.shape[-1]
+
+    def row_names(self) -> tuple[str, ...]:
+        """``where[name]<row>`` for each row of g at one point."""
+        rows = self.rows or expression_rows(None, self.size)
+        return tuple(f"{self.where}[{self.name}]{row}" for row in rows)
+
+    def instant_label(self, i: int) -> str:
+        """Instant i as a row name shows it: "t=0.25 s" or "t=0.5 T"."""
+        return f"t={self.instants[i]:.9g} " + ("T" if self.fraction else "s")
 
     def __repr__(self) -> str:
         bounds = _format_interval(self.lower, self.upper)
+        if self.where == "at":
+            times = ", ".join(f"{v:.9g}" for v in self.instants)
+            unit = "T" if self.fraction else "s"
+            return f"at[{self.name}] t = ({times}) {unit} in {bounds}"
         return f"{self.where}[{self.name}] in {bounds}"
 
 
@@ -455,7 +606,7 @@ def _source_duration(source) -> float:
 def _format_interval(lower, upper) -> str:
     lo, hi = np.atleast_1d(lower), np.atleast_1d(upper)
     if lo.size == 1:
-        return f"[{lo[0]:g}, {hi[0]:g}]"
+        return f"[{lo.flat[0]:g}, {hi.flat[0]:g}]"
     return f"[{lo.size} rows]"
 
 
@@ -495,6 +646,70 @@ def _as_bounds(label: str, lower, upper, size: int) -> tuple[np.ndarray, np.ndar
     if np.any(lo == np.inf) or np.any(hi == -np.inf):
         raise DefinitionError(f"`{label}`: a lower bound of +inf or upper of -inf is infeasible")
     return lo, hi
+
+
+def _per_output(label: str, side: str, expression, value):
+    """A bound given per output of a multi-output Function ({"Fy": 0.0}) as a flat row
+    array (outputs not named: unbounded); any other bound unchanged."""
+    if not isinstance(value, Mapping):
+        return value
+    if not (isinstance(expression, ca.Function) and expression.n_out() > 1):
+        raise DefinitionTypeError(
+            f"`{label}`: a {side} bound by output name needs a casadi.Function with several "
+            f"outputs; give a number or an array, got {value!r}"
+        )
+    outputs = expression.name_out()
+    unknown = sorted(set(value) - set(outputs))
+    if unknown:
+        raise DefinitionError(
+            f"`{label}`: {side} bound names unknown outputs {unknown}; the Function's outputs "
+            f"are {outputs}"
+        )
+    default = -np.inf if side == "lower" else np.inf
+    parts = []
+    for i, output in enumerate(outputs):
+        count = expression.numel_out(i)
+        given = value.get(output)
+        if given is None:
+            parts.append(np.full(count, default))
+            continue
+        bound_lo, bound_hi = (given, None) if side == "lower" else (None, given)
+        lo, hi = _as_bounds(f"{label}[{output}]", bound_lo, bound_hi, count)
+        parts.append(lo if side == "lower" else hi)
+    return np.concatenate(parts)
+
+
+def _instant_bounds(
+    label: str, lower, upper, rows: int, count: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of a constraint at ``count`` instants as (count, rows) arrays.
+
+    Each side: None (unbounded), a scalar, (rows,) (every instant alike), (count, rows) (per
+    instant), or (count,) for a scalar constraint (rows = 1)."""
+    out = []
+    for side, value in (("lower", lower), ("upper", upper)):
+        if value is None:
+            out.append(None)
+            continue
+        try:
+            array = np.asarray(value, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise DefinitionTypeError(
+                f"`{label}`: {side} bound must be numeric, got {value!r}"
+            ) from exc
+        if array.ndim == 0 or array.shape == (rows,):
+            array = np.broadcast_to(array, (count, rows))
+        elif rows == 1 and array.shape == (count,):
+            array = array[:, None]
+        if array.shape != (count, rows):
+            raise DefinitionError(
+                f"`{label}`: {side} bound has shape {np.shape(value)}; expected a scalar, "
+                f"({rows},) for every instant alike, or ({count}, {rows}) per instant "
+                f"({count} instants, {rows} rows)"
+            )
+        out.append(array.reshape(-1))
+    lo, hi = _as_bounds(label, out[0], out[1], count * rows)
+    return lo.reshape(count, rows), hi.reshape(count, rows)
 
 
 def default_scale(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -648,6 +863,12 @@ class OCP:
         group = system.group(name)
         if group is not None:
             return group
+        if name in system.point_only_fields:
+            raise DefinitionError(
+                f"`{what}`: {name!r} is a Point field computed from the variables (a control "
+                f"rate or a derived quantity), not a variable; write a constraint instead, "
+                f"e.g. constrain('{name} limit', lambda p: p.{name}, lower=..., upper=...)"
+            )
         groups = [g for g, _ in system.groups]
         raise DefinitionError(
             f"`{what}`: unknown name {name!r}; use a variable ({', '.join(system.variable_names)})"
@@ -662,9 +883,9 @@ class OCP:
         x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
         t, T = ca.SX.sym("t"), ca.SX.sym("T")
         extra = None
-        if where != "path":
+        if where in ("start", "end"):
             extra = {"x0": ca.SX.sym("x0", s.nx), "xf": ca.SX.sym("xf", s.nx)}
-        return Point(s, x, u, z, t, T, extra)
+        return Point(s, x, u, z, t, T, extra, du=ca.SX.sym("du", s.nu))
 
     # ---- builders ----------------------------------------------------------------------
     def bound(self, name: str, lower=None, upper=None) -> OCP:
@@ -687,22 +908,32 @@ class OCP:
                 return lo, hi
         return -np.inf, np.inf
 
-    def _add_constraint(self, name, expression, lower, upper, where, scale) -> OCP:
+    def _add_constraint(
+        self, name, expression, lower, upper, where, scale, instants=(), fraction=False
+    ) -> OCP:
         if not isinstance(name, str) or not name:
             raise DefinitionTypeError(f"`name`: a constraint needs a non-empty name, got {name!r}")
         if name in self._constraint_names():
             raise DefinitionError(
                 f"`name`: a constraint named {name!r} exists already; names must be unique"
             )
-        label = f"{where}[{name}]" if where != "path" else f"path[{name}]"
+        label = f"{where}[{name}]"
         value = evaluate_expression(label, expression, self._point(where))
         if lower is None and upper is None:
             raise DefinitionError(f"`{label}`: give lower and/or upper (equal: lower=upper)")
-        lo, hi = _as_bounds(label, lower, upper, value.size1())
+        rows = expression_rows(expression, value.size1())
+        lower = _per_output(label, "lower", expression, lower)
+        upper = _per_output(label, "upper", expression, upper)
+        if where == "at":
+            lo, hi = _instant_bounds(label, lower, upper, value.size1(), len(instants))
+        else:
+            lo, hi = _as_bounds(label, lower, upper, value.size1())
         scale_array = None
         if scale is not None:
             scale_array = _positive_array(f"{label} scale", scale, value.size1())
-        constraint = Constraint(name, expression, lo, hi, where, scale_array)
+        constraint = Constraint(
+            name, expression, lo, hi, where, scale_array, rows, tuple(instants), fraction
+        )
         return dataclasses.replace(self, constraints=(*self.constraints, constraint))
 
     def constrain(self, name: str, expression, lower=None, upper=None, scale=None) -> OCP:
@@ -710,8 +941,28 @@ class OCP:
 
         Dynamics points: the nodes (trapezoid), nodes and midpoints (Hermite-Simpson), the
         collocation points (radau, legendre). ``expression``: callable of a :class:`Point` or a
-        Function of Point fields, scalar or vector; ``scale``: nominal magnitude (default from
-        the finite bounds, else 1).
+        Function of Point fields, scalar or vector; a Function with several outputs stacks
+        them into one block of rows named after the outputs (``path[grf][Fy] node 3``), and
+        its bounds may then be given per output (``lower={"Fy": 0.0}``: outputs not named are
+        unbounded). Bounds: scalars or (rows,); ``scale``: nominal magnitude (default from the
+        finite bounds, else 1).
+
+        Control rates (``p.du``, a linkage's ``p.dM``) at a dynamics point are the time
+        derivative of the control polynomial of the interval that owns the point, the one the
+        Solution interpolates with there (:meth:`planner.solution.Solution.control_rate`):
+        intervals [t_k, t_k+1), the last one also owning T; Radau (t_k, t_k+1], its end node
+        included. A node shared by two intervals (trapezoid, Hermite-Simpson) has a slope on
+        each side: the point carries the slope of the interval starting there, and path rows
+        and integrands that read a rate are evaluated once more at each interior node with the
+        slope of the interval ending there (rows "path[c] node 3 (end of interval 2)"; on the
+        trapezoid, whose rate is constant per interval, not for rows that read only rates and T:
+        they would repeat a row). So a rate bound holds on both sides of every node, and the
+        integral of a rate term is every interval's own quadrature. Collocation controls are
+        separate polynomials per interval that may jump at the nodes, where no rate sees them:
+        when anything reads a rate, the transcription makes them continuous (rows
+        "continuity[u] node k"); degree 1 (piecewise-constant controls) is refused.
+        A rate term converges at order 2 p for controls of degree p (capped by the scheme's
+        order): 2 on the trapezoid and degree-2 collocation, 4 on Hermite-Simpson and degree 3.
 
         A constraint of the state, ``t`` and ``T`` only (no control, no z) also holds where
         no dynamics point lies: t = 0 for ``radau`` (its points are the interval ends) and the
@@ -721,6 +972,55 @@ class OCP:
         hold exactly at the nodes.
         """
         return self._add_constraint(name, expression, lower, upper, "path", scale)
+
+    def constrain_at(
+        self,
+        name: str,
+        expression,
+        *,
+        t=None,
+        fraction=None,
+        lower=None,
+        upper=None,
+        scale=None,
+    ) -> OCP:
+        """A constraint lower <= g(point) <= upper at given instants (keypoints).
+
+        ``t``: a time, s, or a sequence of them, in [0, T] (fixed T only); ``fraction``: a
+        fraction of the duration (or a sequence), in [0, 1]: t = fraction * T, also for a
+        free T. Give exactly one. An absolute t with a free duration is refused: the mesh
+        interval that contains it would change with T, a jump the NLP cannot follow.
+
+        The point is evaluated on the transcription's own interpolant of the interval that
+        contains the instant (the polynomials the Solution interpolates with, same interval
+        rule at nodes: see :meth:`constrain`), so an instant need not be a node: ``x``, ``u``,
+        ``z``, ``t``, ``T``, every group and variable, derived fields (explicit ``ddpsi``:
+        forward dynamics of the interpolated x and u) and control rates (the derivative of the
+        interval's control polynomial there).
+
+        Bounds: a scalar or (rows,) for every instant alike, or (K, rows) per instant (K
+        instants; (K,) for a scalar g). Rows are named "at[name] t=0.25 s (interval 12)"
+        (with ``fraction``: "t=0.5 T"). ``expression`` and ``scale`` as in :meth:`constrain`.
+
+        >>> ocp.constrain_at("foot", foot_xy, fraction=[0.25, 0.5], lower=targets, upper=targets)
+        """
+        label = f"at[{name}]"
+        if (t is None) == (fraction is None):
+            raise DefinitionError(
+                f"`{label}`: give exactly one of t (s, fixed T) and fraction (of T), got "
+                f"t={t!r}, fraction={fraction!r}"
+            )
+        if t is not None and self.free_time:
+            raise DefinitionError(
+                f"`{label}`: t={t!r} is an absolute time but the duration is free "
+                f"(T in [{self.T[0]:g}, {self.T[1]:g}] s): the mesh interval holding it would "
+                "change with T; give fraction=t/T instead (e.g. fraction=0.5 for T/2)"
+            )
+        key, value = ("t", t) if t is not None else ("fraction", fraction)
+        instants = _instants(label, key, value, self.T if t is not None else 1.0)
+        return self._add_constraint(
+            name, expression, lower, upper, "at", scale, instants, fraction is not None
+        )
 
     def boundary(self, name: str, expression, at: str, lower=None, upper=None, scale=None) -> OCP:
         """A boundary constraint lower <= g(point) <= upper at ``at`` = "start" or "end".
@@ -1013,6 +1313,37 @@ class OCP:
 
     def __repr__(self) -> str:
         return str(self)
+
+
+def _instants(label: str, key: str, value, end: float) -> tuple[float, ...]:
+    """Validated instants in [0, ``end``] (T in s, or 1 for fractions), distinct."""
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise DefinitionTypeError(
+            f"`{label}`: {key} must be a number or a sequence of numbers, got {value!r}"
+        ) from exc
+    if array.ndim > 1 or array.size == 0 or isinstance(value, bool):
+        raise DefinitionError(
+            f"`{label}`: {key} must be a number or a non-empty sequence of numbers, got {value!r}"
+        )
+    array = array.reshape(-1)
+    unit = " s" if key == "t" else ""
+    bad = ~np.isfinite(array) | (array < 0) | (array > end)
+    if np.any(bad):
+        what = f"[0, T] = [0, {end:g}] s" if key == "t" else "[0, 1]"
+        raise DefinitionError(
+            f"`{label}`: {key}={float(array[bad][0])!r}{unit} lies outside {what}; an instant "
+            "must lie in the horizon"
+        )
+    shown = [f"{v:.9g}" for v in array]
+    if len(set(shown)) != len(shown):
+        repeated = next(v for v in shown if shown.count(v) > 1)
+        raise DefinitionError(
+            f"`{label}`: {key}={repeated}{unit} is given twice; each instant once (a repeated "
+            "row makes the constraint Jacobian rank-deficient)"
+        )
+    return tuple(float(v) for v in array)
 
 
 def _positive_array(label: str, value, size: int) -> np.ndarray:

@@ -237,7 +237,8 @@ class Solution:
         u = self.control_values.T
         z = self.aux_values.T if self.system.nz else np.zeros((0, x.shape[1]))
         times = self.point_time[None, :]
-        rate = mapped(x, u, z, times, np.full_like(times, self.T))[0]
+        # By name: the control-rate input, when there is one, does not change the rates.
+        rate = mapped(x=x, u=u, z=z, t=times, T=np.full_like(times, self.T))["f"]
         return np.asarray(rate).T
 
     # ---- interpolation ---------------------------------------------------------------
@@ -282,6 +283,13 @@ class Solution:
     def control(self, t) -> np.ndarray:
         """Controls at times t, (K, nu): the transcription's control polynomial."""
         return self._point_values(self.control_values, t)
+
+    def control_rate(self, t) -> np.ndarray:
+        """Control rates du/dt at times t, (K, nu), control units per second: the time
+        derivative of the transcription's control polynomial of the interval holding t (the
+        value ``p.du`` of a constraint or cost had there; one-sided at nodes, see
+        :meth:`planner.ocp.OCP.constrain`)."""
+        return self._point_values(self.control_values, t, derivative=1)
 
     def aux(self, t) -> np.ndarray:
         """Auxiliary variables z (implicit: ddpsi) at times t, (K, nz)."""

@@ -29,6 +29,13 @@ stacked variables. Path constraints hold at the dynamics points; those of the st
 only hold also at the state points with no dynamics point (Radau: t = 0; Legendre: the
 nodes). Variables and constraints are scaled by their nominal magnitudes; every
 constraint row keeps a name ("defect[psi_torso] interval 12", "path[clearance] node 3").
+
+Keypoint constraints (``OCP.constrain_at``) evaluate the point on the interpolant of the
+interval holding each instant: sparse constant matrices of the weights Wx, Wf, Wu (and Wu'
+for control rates) applied to X, F and U. Control rates at the dynamics points are U_k
+Wu'(tau)^T / h of the owning interval; reading them adds, on schemes sharing nodes, the other
+side's slope at interior nodes, and on collocation, control continuity rows (see
+``OCP.constrain``).
 """
 
 from __future__ import annotations
@@ -324,6 +331,31 @@ class Mesh:
             return f"interval {k} midpoint"
         return f"interval {k} point {j}"
 
+    @cached_property
+    def dyn_owner(self) -> tuple[np.ndarray, np.ndarray]:
+        """(interval (n_dyn_points,), tau (n_dyn_points,)): each dynamics point in the interval
+        that owns it, the one :meth:`locate` gives for its time: a node shared by two
+        intervals (trapezoid, Hermite-Simpson) belongs to the interval starting there, T to
+        the last interval; a Radau end node to the interval it ends."""
+        c = np.arange(self.n_dyn_points)
+        k = np.minimum(c // self.scheme.mc, self.N - 1)
+        return k, self.scheme.interval_dyn_tau[c - k * self.scheme.mc]
+
+    def interval_matrix(self, k, weights, state: bool) -> ca.DM:
+        """Sparse (n_state_points or n_dyn_points, K): column i holds ``weights[i]`` (K, m) on
+        the state (``state``, m = ms + 1) or dynamics (m = ndc) columns of interval ``k[i]``,
+        so that V @ matrix evaluates the interval polynomials of values V at K places."""
+        cols = self.state_cols if state else self.dyn_cols
+        k = np.asarray(k, dtype=int).reshape(-1)
+        weights = np.asarray(weights, dtype=float).reshape(k.size, cols.shape[1])
+        rows = cols[k].reshape(-1)
+        columns = np.repeat(np.arange(k.size), cols.shape[1])
+        keep = weights.reshape(-1) != 0.0
+        size = self.n_state_points if state else self.n_dyn_points
+        sparsity = ca.Sparsity.triplet(size, k.size, rows[keep].tolist(), columns[keep].tolist())
+        # Triplets in column order; one interval never repeats a column, so no duplicates.
+        return ca.DM(sparsity, weights.reshape(-1)[keep][np.lexsort((rows[keep], columns[keep]))])
+
     def locate(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Interval index and tau of normalised times s = t / T.
 
@@ -425,6 +457,11 @@ def evaluate_guess_layer(ocp: OCP, layer, times: np.ndarray) -> dict[str, np.nda
 
 
 # ---- the NLP ------------------------------------------------------------------------------
+def _reads(expression: ca.SX, symbols: ca.SX) -> bool:
+    """Whether ``expression`` depends on any of ``symbols`` (False for no symbols)."""
+    return symbols.numel() > 0 and expression.numel() > 0 and ca.depends_on(expression, symbols)
+
+
 class Transcription:
     """The NLP of an OCP: symbols, bounds, scaling, row names, guess; built on construction.
 
@@ -555,7 +592,10 @@ class Transcription:
         return [c for c in self.ocp.constraints if c.where == "path"]
 
     def _boundary_constraints(self):
-        return [c for c in self.ocp.constraints if c.where != "path"]
+        return [c for c in self.ocp.constraints if c.where in ("start", "end")]
+
+    def _instant_constraints(self):
+        return [c for c in self.ocp.constraints if c.where == "at"]
 
     @cached_property
     def state_paths(self) -> tuple:
@@ -564,8 +604,9 @@ class Transcription:
         (``mesh.free_state_cols``), where controls are not variables."""
         s = self.system
         x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
-        point = Point(s, x, u, z, ca.SX.sym("t"), ca.SX.sym("T"))
-        others = ca.vertcat(u, z)
+        du = ca.SX.sym("du", s.nu)
+        point = Point(s, x, u, z, ca.SX.sym("t"), ca.SX.sym("T"), du=du)
+        others = ca.vertcat(u, z, du)
         kept = []
         for c in self._path_constraints():
             value = evaluate_expression(f"path[{c.name}]", c.expression, point)
@@ -577,8 +618,9 @@ class Transcription:
         """(x, t, T) -> the state-only path constraints at one state point, physical units."""
         s = self.system
         x, t, T = ca.SX.sym("x", s.nx), ca.SX.sym("t"), ca.SX.sym("T")
-        # The constraints do not depend on u and z; zeros keep their shapes.
-        point = Point(s, x, ca.SX.zeros(s.nu), ca.SX.zeros(s.nz), t, T)
+        # The constraints do not depend on u, z and du; zeros keep their shapes.
+        zeros = ca.SX.zeros(s.nu)
+        point = Point(s, x, zeros, ca.SX.zeros(s.nz), t, T, du=zeros)
         rows = [
             evaluate_expression(f"path[{c.name}]", c.expression, point) for c in self.state_paths
         ]
@@ -591,32 +633,72 @@ class Transcription:
         )
 
     def _point_function(self) -> ca.Function:
-        """SX Function at one dynamics point, in physical units (scaling is applied around
+        """SX Function at one dynamics point, in physical units (the scaling is applied around
         it, by the NLP parameters: see :meth:`_build`).
 
-        (x, u, z, t, T) -> (f (nx,), residual (nz,), path (np,), integrand (1,)).
+        (x, u, z, t, T[, du]) -> (f (nx,), residual (nz,), path (np,), integrand (1,)); du:
+        control rates, an input only when path constraints or the integrand read them.
+
+        Also sets ``node_side_function`` when path constraints or the integrand read the
+        control rate on a scheme whose nodes two intervals share (trapezoid, Hermite-Simpson):
+        (x, u, z, t, T, du) -> (those path rows, integrand) for the node's other side.
         """
-        s = self.system
-        x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
-        t, T = ca.SX.sym("t"), ca.SX.sym("T")
-        rate = s.rate(x, z, u, t)
-        residual = s.residual(x, z, u, t) if s.residual is not None else ca.SX(0, 1)
-        point = Point(s, x, u, z, t, T)
+        s, ocp = self.system, self.ocp
+        xs, us, zs = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
+        t, T, dus = ca.SX.sym("t"), ca.SX.sym("T"), ca.SX.sym("du", s.nu)
+        rate = s.rate(xs, zs, us, t)
+        residual = s.residual(xs, zs, us, t) if s.residual is not None else ca.SX(0, 1)
+        point = Point(s, xs, us, zs, t, T, du=dus)
         paths = [
             evaluate_expression(f"path[{c.name}]", c.expression, point)
             for c in self._path_constraints()
         ]
         path = ca.vertcat(*paths) if paths else ca.SX(0, 1)
-        if self.ocp.integral is not None:
-            integrand = evaluate_expression("integral", self.ocp.integral, point)
+        if ocp.integral is not None:
+            integrand = evaluate_expression("integral", ocp.integral, point)
         else:
             integrand = ca.SX(0)
+        # A derived field (explicit ddpsi) repeats the rate's forward dynamics: merge them.
+        options = {"cse": True} if point.uses_derived else {}
+        reads = [_reads(value, dus) for value in paths]
+        self._integrand_reads_rate = _reads(integrand, dus)
+        self._point_reads_rate = any(reads) or self._integrand_reads_rate
+        if self.scheme.ndc == 2:
+            # Linear controls (trapezoid): the rate is constant on an interval, so a row that
+            # reads nothing but the rate (and T) at the node ending an interval would repeat
+            # the row of the node starting it: only rows that also read the point get a side.
+            point_values = ca.vertcat(xs, us, zs, t)
+            sides = [
+                r and _reads(value, point_values) for value, r in zip(paths, reads, strict=True)
+            ]
+        else:
+            sides = reads
+        constraints = self._path_constraints()
+        self._rate_paths = tuple(c for c, r in zip(constraints, sides, strict=True) if r)
+        self.node_side_function = None
+        if self.scheme.shares_end and (self._rate_paths or self._integrand_reads_rate):
+            side_paths = [value for value, r in zip(paths, sides, strict=True) if r]
+            self.node_side_function = ca.Function(
+                "node_side",
+                [xs, us, zs, t, T, dus],
+                [
+                    ca.vertcat(*side_paths) if side_paths else ca.SX(0, 1),
+                    integrand if self._integrand_reads_rate else ca.SX(0),
+                ],
+                ["x", "u", "z", "t", "T", "du"],
+                ["path", "integrand"],
+                options,
+            )
+        # The rate input only when read: an unused input still costs IPOPT's setup time
+        # (derivative functions of the mapped call).
+        inputs = [xs, us, zs, t, T] + ([dus] if self._point_reads_rate else [])
         return ca.Function(
             "point",
-            [x, u, z, t, T],
+            inputs,
             [rate, residual, path, integrand],
-            ["x", "u", "z", "t", "T"],
+            ["x", "u", "z", "t", "T", "du"][: len(inputs)],
             ["f", "residual", "path", "integrand"],
+            options,
         )
 
     @property
@@ -627,16 +709,19 @@ class Transcription:
         return self.state_scale
 
     def _boundary_function(self) -> ca.Function:
-        """(x0, xf, u0, uf, z0, zf, T) -> (boundary rows, periodic defect x0 - Delta(xf),
-        Mayer term), physical units."""
+        """(x0, xf, u0, uf, z0, zf, T[, du0, duf]) -> (boundary rows, periodic defect
+        x0 - Delta(xf), Mayer term), physical units; the control rates at both ends only when
+        read."""
         s, ocp = self.system, self.ocp
-        x0, xf = ca.SX.sym("x0", s.nx), ca.SX.sym("xf", s.nx)
-        u0, uf = ca.SX.sym("u0", s.nu), ca.SX.sym("uf", s.nu)
-        z0, zf = ca.SX.sym("z0", s.nz), ca.SX.sym("zf", s.nz)
+        x0s, xfs = ca.SX.sym("x0", s.nx), ca.SX.sym("xf", s.nx)
+        u0s, ufs = ca.SX.sym("u0", s.nu), ca.SX.sym("uf", s.nu)
+        z0s, zfs = ca.SX.sym("z0", s.nz), ca.SX.sym("zf", s.nz)
+        du0s, dufs = ca.SX.sym("du0", s.nu), ca.SX.sym("duf", s.nu)
         T = ca.SX.sym("T")
+        x0, xf = x0s, xfs
         extra = {"x0": x0, "xf": xf}
-        start = Point(s, x0, u0, z0, ca.SX(0), T, extra)
-        end = Point(s, xf, uf, zf, T, T, extra)
+        start = Point(s, x0, u0s, z0s, ca.SX(0), T, extra, du=du0s)
+        end = Point(s, xf, ufs, zfs, T, T, extra, du=dufs)
         rows = []
         for c in self._boundary_constraints():
             point = start if c.where == "start" else end
@@ -651,10 +736,13 @@ class Transcription:
         mayer = ca.SX(0)
         if ocp.terminal is not None:
             mayer = evaluate_expression("terminal", ocp.terminal, end)
+        self._boundary_reads_rate = _reads(ca.vertcat(*rows, mayer), ca.vertcat(du0s, dufs))
+        rates = [du0s, dufs] if self._boundary_reads_rate else []
         return ca.Function(
             "boundary",
-            [x0, xf, u0, uf, z0, zf, T],
+            [x0s, xfs, u0s, ufs, z0s, zfs, T, *rates],
             [ca.vertcat(*rows) if rows else ca.SX(0, 1), periodic, mayer],
+            {"cse": True} if start.uses_derived or end.uses_derived else {},
         )
 
     def _build(self) -> None:
@@ -674,9 +762,10 @@ class Transcription:
         w = sym.sym("w", self.n_w)
         p_w = sym.sym("p_w", self.n_w)  # nominal scale of each variable
         v = w * p_w
-        X = ca.reshape(v[self._slices["X"]], s.nx, nX)
-        U = ca.reshape(v[self._slices["U"]], s.nu, nC)
-        Z = ca.reshape(v[self._slices["Z"]], s.nz, nC)
+        # Physical values (the names Xs, Us, Zs stay from the scaled version of this code).
+        Xs = ca.reshape(v[self._slices["X"]], s.nx, nX)
+        Us = ca.reshape(v[self._slices["U"]], s.nu, nC)
+        Zs = ca.reshape(v[self._slices["Z"]], s.nz, nC)
         p_T = sym.sym("p_T", 0 if ocp.free_time else 1)  # a fixed duration, s
         T = v[self._slices["T"]] if ocp.free_time else p_T
         h = T / N
@@ -684,33 +773,68 @@ class Transcription:
         self.point_function = point_f
         mapped = point_f.map(nC)
         times = T * ca.DM(mesh.s_dyn).T
-        Xd = X[:, mesh.dyn_state_cols.tolist()]
-        Fs, Rs, Ps, Ls = mapped(Xd, U, Z, times, ca.repmat(T, 1, nC))
+        Xd = Xs[:, mesh.dyn_state_cols.tolist()]
+        rate_input = []
+        if self._point_reads_rate:
+            # du/dt at each dynamics point from the polynomial of the interval owning it.
+            owner, tau = mesh.dyn_owner
+            rates = mesh.interval_matrix(owner, scheme.control_weights(tau, 1), state=False)
+            rate_input = [ca.mtimes(Us, rates) / h]
+        Fs, Rs, Ps, Ls = mapped(Xd, Us, Zs, times, ca.repmat(T, 1, nC), *rate_input)
         A_big, B_big = mesh.defect_matrices()
-        defects = ca.mtimes(X, A_big) - h * ca.mtimes(Fs, B_big)
+        defects = ca.mtimes(Xs, A_big) - h * ca.mtimes(Fs, B_big)
         # Boundary values of controls and aux come from the first/last interval's polynomial.
         w0 = scheme.control_weights([0.0])[0]
         w1 = scheme.control_weights([1.0])[0]
         first, last = mesh.dyn_cols[0].tolist(), mesh.dyn_cols[-1].tolist()
-        u0 = ca.mtimes(U[:, first], ca.DM(w0))
-        uf = ca.mtimes(U[:, last], ca.DM(w1))
-        z0 = ca.mtimes(Z[:, first], ca.DM(w0)) if s.nz else Z[:, :0]
-        zf = ca.mtimes(Z[:, last], ca.DM(w1)) if s.nz else Z[:, :0]
+        u0 = ca.mtimes(Us[:, first], ca.DM(w0))
+        uf = ca.mtimes(Us[:, last], ca.DM(w1))
+        z0 = ca.mtimes(Zs[:, first], ca.DM(w0)) if s.nz else Zs[:, :0]
+        zf = ca.mtimes(Zs[:, last], ca.DM(w1)) if s.nz else Zs[:, :0]
         boundary_f = self._boundary_function()
         self.boundary_function = boundary_f
-        gb, gper, mayer = boundary_f(X[:, 0], X[:, -1], u0, uf, z0, zf, T)
-        objective = h * ca.mtimes(Ls, ca.DM(mesh.quadrature)) + mayer
+        rate_input = []
+        if self._boundary_reads_rate:
+            rate_input = [
+                ca.mtimes(Us[:, first], ca.DM(scheme.control_weights([0.0], 1)[0])) / h,
+                ca.mtimes(Us[:, last], ca.DM(scheme.control_weights([1.0], 1)[0])) / h,
+            ]
+        gb, gper, mayer = boundary_f(Xs[:, 0], Xs[:, -1], u0, uf, z0, zf, T, *rate_input)
+        at_functions = [self._instant_function(c) for c in self._instant_constraints()]
+        self.reads_control_rate = (
+            self._point_reads_rate
+            or self._boundary_reads_rate
+            or any(reads for _, reads in at_functions)
+        )
+        quadrature, side_cost, Pside, continuity = self._control_rate_terms(
+            Xd, Us, Zs, times, T, h, sym
+        )
+        objective = h * ca.mtimes(Ls, ca.DM(quadrature)) + side_cost + mayer
         # State-only path constraints also where no dynamics point lies (Radau t = 0,
         # Legendre nodes): there the state is a variable, the control is not.
         free = mesh.free_state_cols
         if free.size and self.state_paths:
             state_path = self._state_path_function().map(free.size)
             Pfree = state_path(
-                X[:, free.tolist()], T * ca.DM(mesh.s_state[free]).T, ca.repmat(T, 1, free.size)
+                Xs[:, free.tolist()], T * ca.DM(mesh.s_state[free]).T, ca.repmat(T, 1, free.size)
             )
         else:
             Pfree = sym(0, 1)
-        g = ca.vertcat(ca.vec(defects), ca.vec(Rs), ca.vec(Ps), ca.vec(Pfree), gb, gper)
+        g_at = [
+            self._instant_rows(c, f, Xs, Us, Zs, Fs, T, h)
+            for c, (f, _) in zip(self._instant_constraints(), at_functions, strict=True)
+        ]
+        g = ca.vertcat(
+            ca.vec(defects),
+            ca.vec(Rs),
+            ca.vec(Ps),
+            ca.vec(Pfree),
+            ca.vec(Pside),
+            gb,
+            gper,
+            *g_at,
+            ca.vec(continuity),
+        )
         p_g = sym.sym("p_g", g.size1())  # 1 / nominal scale of each constraint row
         p_f = sym.sym("p_f")  # 1 / nominal scale of the objective
         #: The NLP IPOPT solves: scaled w, parameters p, scaled objective and rows.
@@ -722,6 +846,104 @@ class Transcription:
         }
         self._objective = objective
         self._bounds_and_names()
+
+    def _control_rate_terms(self, Xd, Us, Zs, times, T, h, sym):
+        """What reading control rates adds to the NLP.
+
+        Returns (quadrature (nC,), side cost, side path rows (m, N - 1), continuity rows).
+        A node that two intervals share (trapezoid, Hermite-Simpson) has a rate on each side;
+        the dynamics point carries the slope of the interval starting there, and the side
+        terms add the slope of the interval ending there (interior nodes 1..N-1): the path
+        rows that read rates hold on both sides, and the integral takes each interval's share
+        of the node with that interval's own slope (the quadrature of every interval's own
+        polynomial, as for collocation). Collocation controls are independent polynomials per
+        interval that may jump at the nodes, which a rate would not see: when anything reads
+        a rate, they are made continuous (u_k(1) = u_k+1(0), rows "continuity[u] node k").
+        """
+        s, mesh, scheme, N = self.system, self.mesh, self.scheme, self.ocp.N
+        quadrature = mesh.quadrature
+        side_cost, Pside, continuity = 0, sym(0, max(N - 1, 0)), sym(0, 1)
+        if not self.reads_control_rate:
+            return quadrature, side_cost, Pside, continuity
+        if scheme.degree == 1:
+            raise DefinitionError(
+                f"`transcription`: {scheme.name} of degree 1 has piecewise-constant controls, "
+                "so control rates (p.du) are zero inside the intervals and infinite at the "
+                "nodes; use degree >= 2, trapezoid or hermite-simpson"
+            )
+        nodes = np.arange(1, N)
+        if N > 1 and self.node_side_function is not None:
+            cols = (nodes * scheme.mc).tolist()
+            weights = np.tile(scheme.control_weights([1.0], 1), (N - 1, 1))
+            left = ca.mtimes(Us, mesh.interval_matrix(nodes - 1, weights, state=False)) / h
+            Pside, Lside = self.node_side_function.map(N - 1)(
+                Xd[:, cols], Us[:, cols], Zs[:, cols], times[:, cols], ca.repmat(T, 1, N - 1), left
+            )
+            if self._integrand_reads_rate:
+                end_weight = float(scheme.quadrature[-1])
+                quadrature = quadrature.copy()
+                quadrature[cols] -= end_weight
+                side_cost = h * end_weight * ca.sum2(Lside)
+        if N > 1 and not scheme.shares_end and s.nu:
+            ends = np.tile(scheme.control_weights([1.0]), (N - 1, 1))
+            starts = np.tile(scheme.control_weights([0.0]), (N - 1, 1))
+            continuity = ca.mtimes(Us, mesh.interval_matrix(nodes - 1, ends, state=False))
+            continuity -= ca.mtimes(Us, mesh.interval_matrix(nodes, starts, state=False))
+        return quadrature, side_cost, Pside, continuity
+
+    def _instant_places(self, constraint) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(s (K,), interval (K,), tau (K,)): the normalised times t / T of an "at"
+        constraint's instants and where they lie on the mesh (:meth:`Mesh.locate`)."""
+        instants = np.array(constraint.instants)
+        if constraint.fraction:
+            s = instants
+        else:
+            T = self.ocp.T
+            if np.any(instants > T):
+                raise DefinitionError(
+                    f"`at[{constraint.name}]`: t={instants.max():g} s lies after the end of the "
+                    f"horizon T = {T:g} s; give instants in [0, T] or fractions of T"
+                )
+            s = instants / T
+        k, tau = self.mesh.locate(s)
+        return s, k, tau
+
+    def _instant_function(self, constraint) -> tuple[ca.Function, bool]:
+        """(x, u, z, t, T, du) -> the constraint's rows at one instant (SX, physical units),
+        and whether they read the control rate."""
+        s = self.system
+        xs, us, zs = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
+        t, T, dus = ca.SX.sym("t"), ca.SX.sym("T"), ca.SX.sym("du", s.nu)
+        point = Point(s, xs, us, zs, t, T, du=dus)
+        label = f"at[{constraint.name}]"
+        value = evaluate_expression(label, constraint.expression, point)
+        function = ca.Function(
+            "at",
+            [xs, us, zs, t, T, dus],
+            [value],
+            ["x", "u", "z", "t", "T", "du"],
+            ["rows"],
+            {"cse": True} if point.uses_derived else {},
+        )
+        return function, _reads(value, dus)
+
+    def _instant_rows(self, constraint, function, Xs, Us, Zs, Fs, T, h):
+        """Rows of an "at" constraint at its K instants, (K rows,) instant by instant: the
+        point on the interpolant of the interval holding each instant (physical values:
+        x = X_k Wx^T + h F_k Wf^T with F the rates, u = U_k Wu^T, du = U_k Wu'^T / h)."""
+        mesh, scheme = self.mesh, self.scheme
+        s, k, tau = self._instant_places(constraint)
+        wx, wf = scheme.state_weights(tau)
+        x = ca.mtimes(Xs, mesh.interval_matrix(k, wx, state=True))
+        if np.any(wf != 0.0):
+            x = x + h * ca.mtimes(Fs, mesh.interval_matrix(k, wf, state=False))
+        u_matrix = mesh.interval_matrix(k, scheme.control_weights(tau), state=False)
+        u = ca.mtimes(Us, u_matrix)
+        z = ca.mtimes(Zs, u_matrix)
+        du = ca.mtimes(Us, mesh.interval_matrix(k, scheme.control_weights(tau, 1), state=False))
+        K = k.size
+        rows = function.map(K)(x, u, z, T * ca.DM(s).T, ca.repmat(T, 1, K), du / h)
+        return ca.vec(rows)
 
     def _bounds_and_names(self) -> None:
         s, ocp, mesh = self.system, self.ocp, self.mesh
@@ -791,6 +1013,15 @@ class Transcription:
                 lbg.append(np.tile(lo, len(columns)))
                 ubg.append(np.tile(hi, len(columns)))
                 g_scale.append(np.tile(scale, len(columns)))
+        if self.node_side_function is not None and self._rate_paths and N > 1:
+            # The rate-reading path rows again at each interior node, with the slope of the
+            # interval ending there.
+            row_names, lo, hi, scale = self._constraint_rows(self._rate_paths)
+            for k in range(1, N):
+                g_names.extend(f"{n} node {k} (end of interval {k - 1})" for n in row_names)
+            lbg.append(np.tile(lo, N - 1))
+            ubg.append(np.tile(hi, N - 1))
+            g_scale.append(np.tile(scale, N - 1))
         boundary = self._boundary_constraints()
         if boundary:
             row_names, lo, hi, scale = self._constraint_rows(boundary)
@@ -803,24 +1034,36 @@ class Transcription:
             lbg.append(np.zeros(s.nx))
             ubg.append(np.zeros(s.nx))
             g_scale.append(self.state_scale)
+        for c in self._instant_constraints():
+            _, intervals, _ = self._instant_places(c)
+            scale = ocp.constraint_scale(c)
+            for i, k in enumerate(intervals):
+                place = f"{c.instant_label(i)} (interval {k})"
+                g_names.extend(f"{row} {place}" for row in c.row_names())
+            lbg.append((c.lower / scale).reshape(-1))
+            ubg.append((c.upper / scale).reshape(-1))
+            g_scale.append(np.tile(scale, len(intervals)))
+        if self.reads_control_rate and not self.scheme.shares_end and N > 1 and s.nu:
+            for k in range(1, N):
+                g_names.extend(f"continuity[{n}] node {k}" for n in s.control_names)
+            lbg.append(np.zeros(s.nu * (N - 1)))
+            ubg.append(np.zeros(s.nu * (N - 1)))
+            g_scale.append(np.tile(self.control_scale, N - 1))
         self.g_names = tuple(g_names)
         self.g_scale = np.concatenate(g_scale)
         self.lbg = np.concatenate(lbg) if lbg else np.zeros(0)
         self.ubg = np.concatenate(ubg) if ubg else np.zeros(0)
-        if self.lbg.size != self.nlp["g"].size1():
+        if self.lbg.size != self.parametric_nlp["g"].size1():
             raise RuntimeError(
-                f"internal: {self.lbg.size} constraint bounds for {self.nlp['g'].size1()} rows"
+                f"internal: {self.lbg.size} constraint bounds for "
+                f"{self.parametric_nlp['g'].size1()} rows"
             )
 
     def _constraint_rows(self, constraints) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
         """Row names ("path[c]", "start[b][1]"), scaled lower and upper bounds and nominal
         scales of ``constraints`` at one point, stacked in order."""
         scales = [self.ocp.constraint_scale(c) for c in constraints]
-        names = [
-            f"{c.where}[{c.name}]" + (f"[{i}]" if c.size > 1 else "")
-            for c in constraints
-            for i in range(c.size)
-        ]
+        names = [row for c in constraints for row in c.row_names()]
         lower = np.concatenate([c.lower / s for c, s in zip(constraints, scales, strict=True)])
         upper = np.concatenate([c.upper / s for c, s in zip(constraints, scales, strict=True)])
         return names, lower, upper, np.concatenate(scales)

@@ -4,10 +4,14 @@
 * :func:`torques_along`: the first problem of dynamics (torques along a law).
 * :func:`simulate`: the second problem of dynamics (motion under given torques).
 * :func:`replay_law`: both together, with the deviation from the law measured.
+* :func:`periodic_gait`: the paper's periodic gait on a pinned stance foot, optimised.
+* :func:`walking_step`: the hybrid walking step (single support, heel strike, leg swap).
+* :func:`verify_gait`: a gait checked again in numpy from its samples.
 
 The command line is ``python -m problems`` (see ``problems.cli``).
 """
 
+from problems.biped import Biped
 from problems.dynamics_problems import (
     FIT_WINDOW,
     MAX_OUTPUT_SAMPLES,
@@ -24,21 +28,40 @@ from problems.dynamics_problems import (
     versions,
 )
 from problems.gait_law import LAW_PRESETS, GaitLaw
+from problems.gait_problem import OBJECTIVES, Gait
+from problems.periodic_gait import KEYPOINTS, PeriodicGait, PeriodicGaitProblem, periodic_gait
+from problems.verification import Check, GaitReport, GaitVerificationError, verify_gait
+from problems.walking import WalkingGait, WalkingStep, WorldMotion, walking_step
 
 __all__ = [
     "FIT_WINDOW",
+    "KEYPOINTS",
     "LAW_PRESETS",
     "MAX_OUTPUT_SAMPLES",
     "METHODS",
     "MIN_TOLERANCE",
+    "OBJECTIVES",
+    "Biped",
+    "Check",
+    "Gait",
     "GaitLaw",
+    "GaitReport",
+    "GaitVerificationError",
+    "PeriodicGait",
+    "PeriodicGaitProblem",
     "ReplayReport",
     "SimulationError",
+    "WalkingGait",
+    "WalkingStep",
+    "WorldMotion",
     "fit_growth_rate",
     "law_torque_function",
+    "periodic_gait",
     "replay_law",
     "simulate",
     "torques_along",
     "upright_instability_rate",
+    "verify_gait",
     "versions",
+    "walking_step",
 ]

@@ -2,6 +2,7 @@
 
 Subcommands
 -----------
+walk        plan a periodic walking step (the main job): torques for the drives, files, plots
 equations   print the equations of motion of a preset linkage, as text or LaTeX
 torques     first problem of dynamics: torques along a gait law, written to files and plots
 simulate    second problem of dynamics: integrate the motion under the torques of a file
@@ -52,6 +53,7 @@ from problems.dynamics_problems import (
     torques_along,
 )
 from problems.gait_law import LAW_PRESETS, GaitLaw
+from problems.walking import walking_step
 
 PROG = "anthropoid-planner"
 FORMATS = ("csv", "json", "npz")
@@ -264,6 +266,7 @@ def build_parser() -> argparse.ArgumentParser:
     commands.required = True
 
     preset_help = f"linkage preset, one of: {', '.join(PRESETS)} (default: six-link)"
+    _walk_parser(commands, common)
 
     equations = commands.add_parser(
         "equations",
@@ -428,6 +431,110 @@ def build_parser() -> argparse.ArgumentParser:
     )
     demo.add_argument("--no-equations", action="store_true", help="print the torque table only")
     return parser
+
+
+def _walk_parser(commands, common) -> None:
+    walk = commands.add_parser(
+        "walk",
+        parents=[common],
+        help="plan a periodic walking step: drive torques, files, plots (the main job)",
+        description=(
+            "Plan one periodic walking step of a biped by direct collocation on IPOPT: single "
+            "support on the stance foot, the swing foot from (-s, 0) behind to (s, 0), heel "
+            "strike (inelastic impact) and leg swap, periodic across steps; ground reaction "
+            "and impulse inside the friction cone, swing-foot clearance, knee and posture "
+            "limits, torque bounds; minimum integral of sum M_i^2. The gait law (22) fitted "
+            "to the step is the initial guess and the benchmark. Prints a summary (cost "
+            "against the law's, iterations, times, accuracy, an independent verification) and "
+            "writes to --output-dir: torques.csv and torques.json at --rate-hz (one step, N m, "
+            "for a drive controller; the next step repeats it with the legs exchanged), "
+            "solution.npz (the nodes at full precision, to warm-start from), gait.png "
+            "(angles, torques, ground reaction and friction use, foot path), walk.png and "
+            "walk.gif (--steps steps in world coordinates). Exit status 1 when IPOPT fails or "
+            "the verification fails."
+        ),
+    )
+    walk.add_argument("--preset", default="six-link", metavar="NAME",
+                      help="biped preset: six-link or five-link (default: six-link)")  # fmt: skip
+    walk.add_argument(
+        "--step-length-m",
+        type=positive("m", 2.0),
+        default=0.5,
+        metavar="S",
+        help="distance between the feet at heel strike, m (default: 0.5)",
+    )
+    walk.add_argument(
+        "--step-time-s",
+        type=positive("s", 10.0),
+        default=0.5,
+        metavar="T",
+        help="duration of one step, s (default: 0.5)",
+    )
+    walk.add_argument(
+        "--transcription",
+        default="hermite-simpson",
+        choices=("trapezoid", "hermite-simpson", "radau", "legendre"),
+        help="collocation scheme (default: hermite-simpson)",
+    )
+    walk.add_argument("-N", "--intervals", type=_count, default=None, metavar="N",
+                      help="mesh intervals (default: 30, 12 with --quick)")  # fmt: skip
+    walk.add_argument("--degree", type=_count, default=None, metavar="D",
+                      help="collocation degree for radau/legendre, 1..9 (default: 3)")  # fmt: skip
+    walk.add_argument(
+        "--formulation",
+        default="implicit",
+        choices=("implicit", "explicit"),
+        help="implicit: accelerations are variables (default); explicit: forward dynamics",
+    )
+    walk.add_argument("--mu", type=positive("(friction coefficient)", 10.0), default=0.8,
+                      help="friction coefficient of the ground (default: 0.8)")  # fmt: skip
+    walk.add_argument(
+        "--torque-limit-nm",
+        type=positive("N m", 1e5),
+        default=150.0,
+        metavar="M",
+        help="bound on every hinge torque |M_i|, N m (default: 150)",
+    )
+    walk.add_argument(
+        "--passive-ankle",
+        action="store_true",
+        help="no torque at the stance foot (a point foot's passive ankle)",
+    )
+    walk.add_argument(
+        "--clearance-m",
+        type=float,
+        default=0.05,
+        metavar="H",
+        help="mid-swing foot clearance h of the profile h sin^2(pi t/T), m (default: 0.05)",
+    )
+    walk.add_argument(
+        "--objective",
+        default="torque",
+        choices=("torque", "torque-rate", "work"),
+        help="integral of sum M^2 (default), of sum dM^2, or positive work",
+    )
+    walk.add_argument(
+        "--rate-hz",
+        type=positive("Hz", 1e5),
+        default=1000.0,
+        metavar="HZ",
+        help="samples per second of the torque files, Hz (default: 1000)",
+    )
+    walk.add_argument("--steps", type=_count, default=2,
+                      help="steps drawn in walk.png and walk.gif (default: 2)")  # fmt: skip
+    walk.add_argument(
+        "--output-dir",
+        default=None,
+        metavar="DIR",
+        help="output folder (created; default: a new folder walk_<date>_<time> here)",
+    )
+    walk.add_argument("--no-plots", action="store_true", help="write no PNG or GIF")
+    walk.add_argument("--no-gif", action="store_true", help="write the PNGs but no GIF")
+    walk.add_argument(
+        "--quick",
+        action="store_true",
+        help="a coarse, fast run (N = 12, a short GIF): a smoke test of the whole job",
+    )
 
 
 # ---- helpers --------------------------------------------------------------------------------
@@ -873,7 +980,135 @@ def _cmd_demo(args, out: TextIO, report: Reporter) -> int:
     return 0
 
 
+def _new_folder(stem: str) -> Path:
+    """A new folder ``<stem>_<date>_<time>`` (with a counter if taken) in the working dir."""
+    base = f"{stem}_{time.strftime('%Y%m%d_%H%M%S')}"
+    candidate, counter = Path(base), 1
+    while candidate.exists():
+        counter += 1
+        candidate = Path(f"{base}_{counter}")
+    return candidate
+
+
+def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
+    if args.preset not in ("six-link", "five-link"):
+        raise UsageError(f"--preset: {args.preset!r} is not a biped; use six-link or five-link")
+    if not math.isfinite(args.clearance_m) or args.clearance_m < 0:
+        raise UsageError(f"--clearance-m: must be a finite number >= 0 m, got {args.clearance_m}")
+    if args.degree is not None and args.transcription not in ("radau", "legendre"):
+        raise UsageError("--degree: applies to --transcription radau or legendre only")
+    linkage = _linkage(args.preset)
+    intervals = args.intervals or (12 if args.quick else 30)
+    folder = _output_folder(str(args.output_dir or _new_folder("walk")))
+    report.step(f"defining the walking step of {args.preset} ({linkage.n} links)")
+    step = walking_step(
+        linkage,
+        args.step_length_m,
+        args.step_time_s,
+        N=intervals,
+        transcription=args.transcription,
+        degree=args.degree,
+        formulation=args.formulation,
+        mu=args.mu,
+        torque_limit=args.torque_limit_nm,
+        passive=(linkage.names[0],) if args.passive_ankle else (),
+        clearance=args.clearance_m,
+        objective=args.objective,
+    )
+    last = [-math.inf]
+
+    def iteration(row) -> None:
+        now = time.perf_counter()
+        if now - last[0] >= 1.0:
+            last[0] = now
+            report.step(
+                f"  IPOPT iteration {row['iteration']}: objective {row['objective']:.6g}, "
+                f"max violation {row['infeasibility']:.2e}"
+            )
+
+    with report.working(f"solving with IPOPT ({args.transcription}, N = {intervals})"):
+        gait = step.solve(progress=iteration, raise_on_failure=False)
+    solution = gait.solution
+    stats = solution.stats
+    with report.working("estimating the accuracy (re-integration per interval)"):
+        accuracy = solution.integration_error()
+    with report.working("verifying the gait (numpy, independent of the planner)"):
+        check = gait.verify()
+    objective_words = {
+        "torque": "integral of sum M_i^2, N^2 m^2 s",
+        "torque-rate": "integral of sum dM_i^2 (+ 1e-3 sum M_i^2)",
+        "work": "positive work (+ 1e-3 sum M_i^2), J",
+    }[args.objective]
+    print(
+        f"walking step of {args.preset}: {step.step_length:g} m in {step.step_time:g} s "
+        f"({step.speed:.3g} m/s), {args.transcription} N = {intervals}, {args.formulation}",
+        file=out,
+    )
+    print(
+        f"IPOPT: {solution.status} in {solution.iterations} iterations; build "
+        f"{stats['build_seconds']:.3f} s, solve {stats['solve_seconds']:.3f} s",
+        file=out,
+    )
+    print(
+        f"cost ({objective_words}): {gait.cost:.6g}; the gait law (22) fitted to the step, "
+        f"same mesh: {gait.law_cost:.6g} ({gait.law_cost / gait.cost:.3g}x the optimum)",
+        file=out,
+    )
+    impact = gait.impact
+    peaks = ", ".join(
+        f"{name} {value:.1f}" for name, value in gait.summary()["peak_torque"].items()
+    )
+    print(
+        f"cost of transport {gait.cost_of_transport:.4f} (positive work "
+        f"{gait.positive_work:.2f} J per step); peak |M| (N m): {peaks}",
+        file=out,
+    )
+    print(
+        f"heel strike: impulse ({impact['impulse'][0]:.3f}, {impact['impulse'][1]:.3f}) N s, "
+        f"the old stance foot lifts off at ({impact['lift_off'][0]:.3f}, "
+        f"{impact['lift_off'][1]:.3f}) m/s",
+        file=out,
+    )
+    print(
+        f"accuracy: largest per-interval re-integration error {accuracy.max:.2e} "
+        f"({accuracy.worst_state}, interval {accuracy.worst_interval})",
+        file=out,
+    )
+    print(
+        f"verification: {'all' if check.ok else 'NOT all'} {len(check.checks)} checks passed"
+        + ("" if check.ok else " - " + "; ".join(c.name for c in check.failures)),
+        file=out,
+    )
+    written = []
+    with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
+        profile = gait.to_trajectory(args.rate_hz)
+        written += _save(profile, folder, "torques", ("csv", "json"))
+        written += _save(gait.to_trajectory(), folder, "solution", ("npz",))
+    if not args.no_plots:
+        from problems import walking_plots
+
+        with report.working("plotting gait.png"):
+            written.append(walking_plots.save_figure(walking_plots.gait_figure(gait),
+                                                     folder / "gait.png"))  # fmt: skip
+        motion = gait.world(steps=args.steps, rate_hz=30.0 if args.quick else 60.0)
+        with report.working("plotting walk.png"):
+            written.append(walking_plots.save_figure(walking_plots.world_strip(motion),
+                                                     folder / "walk.png"))  # fmt: skip
+        if not args.no_gif:
+            with report.working(f"writing walk.gif ({args.steps} steps)"):
+                fps = 15.0 if args.quick else 30.0
+                written.append(walking_plots.animate_walk(motion, folder / "walk.gif", fps=fps))
+    for path in written:
+        print(f"wrote {path}", file=out)
+    if not solution.success:
+        raise CommandFailed(f"IPOPT did not converge: {solution.status}")
+    if not check.ok:
+        raise CommandFailed(f"the gait failed its verification: {check.failures[0]}")
+    return 0
+
+
 COMMANDS = {
+    "walk": _cmd_walk,
     "equations": _cmd_equations,
     "torques": _cmd_torques,
     "simulate": _cmd_simulate,

@@ -816,3 +816,68 @@ def test_planner_progress_is_shown_on_stderr_unless_quiet(capsys, monkeypatch):
     # outside the command line nothing is configured: nothing on the streams
     ocp.solve()
     assert capsys.readouterr() == ("", "")
+
+
+# ---- walk: the main job -------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def walk_run(tmp_path_factory):
+    """`walk --quick` once for the module: its exit status, printed summary and folder."""
+    folder = tmp_path_factory.mktemp("walk") / "out"
+    import contextlib
+    import io
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["walk", "--quick", "--output-dir", str(folder)])
+    return code, out.getvalue(), err.getvalue(), folder
+
+
+def test_walk_quick_writes_the_torques_the_solution_and_the_pictures(walk_run):
+    code, out, err, folder = walk_run
+    assert code == 0, err
+    assert "Traceback" not in out + err
+    for name in ("torques.csv", "torques.json", "solution.npz", "gait.png", "walk.png", "walk.gif"):
+        assert (folder / name).stat().st_size > 0, name
+    assert re.search(r"IPOPT: Solve_Succeeded in \d+ iterations; build [\d.]+ s, solve", out)
+    law = re.search(r"same mesh: ([\d.e+]+) \(", out)
+    cost = re.search(r"cost \(integral of sum M_i\^2, N\^2 m\^2 s\): ([\d.e+]+);", out)
+    assert float(cost.group(1)) < float(law.group(1))
+    assert "verification: all 12 checks passed" in out
+    assert re.search(r"accuracy: largest per-interval re-integration error", out)
+    # Progress lines on stderr for the stages, the GIF among them.
+    assert "solving with IPOPT" in err and "writing walk.gif" in err
+    # The torque file is a 1 kHz profile of one step with the gait's settings, readable by
+    # numpy alone.
+    profile = Trajectory.load(folder / "torques.csv")
+    assert profile.metadata["gait"]["problem"] == "walking_step"
+    np.testing.assert_allclose(np.diff(profile.time), 1e-3, atol=1e-12)
+    assert profile.time[-1] == pytest.approx(0.5)
+    solution = Trajectory.load(folder / "solution.npz")
+    assert solution.n_samples == 13  # the 12 intervals' nodes
+    from PIL import Image
+
+    with Image.open(folder / "walk.gif") as gif:
+        assert gif.n_frames >= 10  # two steps of 0.5 s at 15 frames per second
+
+
+def test_walk_refuses_a_tree_that_is_not_a_biped(capsys):
+    assert_one_line_error(
+        capsys, r"--preset: 'exoskeleton-leg' is not a biped", "walk", "--preset", "exoskeleton-leg"
+    )
+    assert_one_line_error(
+        capsys, r"argument --step-length-m: must be at most 2 m", "walk", "--step-length-m", "3"
+    )
+    assert_one_line_error(
+        capsys, r"--degree: applies to --transcription radau or legendre", "walk", "--degree", "3"
+    )
+
+
+def test_walk_reports_a_failed_solve_with_status_1(capsys, tmp_path):
+    # 1 N m per hinge cannot hold the body up: IPOPT fails (infeasible or out of iterations).
+    status, out, err = run(
+        capsys, "walk", "--quick", "--no-plots", "--torque-limit-nm", "1",
+        "--output-dir", tmp_path / "failed",
+    )  # fmt: skip
+    assert status == 1
+    assert re.search(r"error: IPOPT did not converge: \w+", err)
+    assert "IPOPT:" in out  # the summary is still printed, with the status

@@ -34,6 +34,7 @@ import functools
 import numpy as np
 import pytest
 from reference import newton_euler as ne
+from reference.checks import TOL, mass_norm, relative_error
 from scipy.integrate import solve_ivp
 
 from model import (
@@ -48,61 +49,7 @@ from model import (
 )
 from model.numpy_tape import NumpyTape
 
-TOL = 1e-10
-FLOOR = 1e-30
 SIX_LINK_STATES = 128
-
-
-# ---- comparison machinery -------------------------------------------------------------------
-def relative_error(actual, reference) -> np.ndarray:
-    """Per-state relative error (K,) of batches with the state on the leading axis."""
-    actual = np.asarray(actual)
-    reference = np.asarray(reference)
-    assert actual.shape == reference.shape, (actual.shape, reference.shape)
-    k = reference.shape[0]
-    diff = np.linalg.norm((actual - reference).reshape(k, -1), axis=1)
-    return diff / (np.linalg.norm(reference.reshape(k, -1), axis=1) + FLOOR)
-
-
-def mass_norm(mass: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """sqrt(v^T M v) per state: the kinetic-energy norm of an angular velocity/acceleration."""
-    return np.sqrt(np.einsum("ki,kij,kj->k", v, mass, v))
-
-
-class Checker:
-    """Asserts per-state relative errors and counts the states it compared."""
-
-    def __init__(self) -> None:
-        self.count = 0
-        self.failed = False
-
-    def close(self, actual, reference, what: str, tol: float = TOL) -> None:
-        self._record(lambda: relative_error(actual, reference), what, tol)
-
-    def errors(self, errors: np.ndarray, what: str, tol: float = TOL) -> None:
-        self._record(lambda: np.asarray(errors), what, tol)
-
-    def _record(self, compute, what: str, tol: float) -> None:
-        try:
-            errors = compute()
-            assert errors.ndim == 1 and errors.size > 0, f"{what}: nothing compared"
-            assert np.all(np.isfinite(errors)), f"{what}: non-finite error"
-            worst = int(np.argmax(errors))
-            assert errors[worst] <= tol, (
-                f"{what}: relative error {errors[worst]:.3e} > {tol:.0e} at state {worst}"
-            )
-        except AssertionError:
-            self.failed = True  # reported by the test; no second report at teardown
-            raise
-        self.count += errors.size
-
-
-@pytest.fixture
-def check():
-    checker = Checker()
-    yield checker
-    # A test that asks for a checker and compares nothing is a broken test.
-    assert checker.failed or checker.count > 0, "no comparison was made"
 
 
 # ---- scenes and states ---------------------------------------------------------------------

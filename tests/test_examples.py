@@ -141,3 +141,21 @@ def test_convergence_orders_benchmark_prints_slopes_near_the_scheme_orders():
     for row in rows:
         order, slope = int(row[1]), float(row[2])
         assert order - 0.3 <= slope <= order + 0.5, row
+
+
+def test_gait_benchmark_quick_run():
+    """The benchmark behind README's walking numbers runs and prints its tables."""
+    result = _call("benchmarks/gait_bench.py", "--quick")
+    assert result.returncode == 0, result.stderr
+    out = result.stdout
+    for expected in (
+        "walking step    six-link HS N=30",
+        "fixed-base gait six-link HS N=50",
+        "Targets of the walking issue",
+        "Mesh refinement of the six-link walking step",
+        "Local optima of the six-link fixed-base gait",
+    ):
+        assert expected in out, expected
+    # Every gait of the table passed its verification.
+    rows = [line for line in out.splitlines() if line.startswith(("walking step", "fixed-base"))]
+    assert rows and all(line.rstrip().endswith("yes") for line in rows[:2])

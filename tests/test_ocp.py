@@ -345,8 +345,9 @@ def test_expression_errors():
     ocp = chain()
     psi = ca.SX.sym("psi", 2)
     two_out = ca.Function("two", [psi], [psi[0], psi[1]], ["psi"], ["a", "b"])
-    with pytest.raises(DefinitionError, match=r"`path\[c\]`: the Function must have one output"):
-        ocp.constrain("c", two_out, lower=0)
+    # Several outputs stack into rows (a constraint), so an objective term must be scalar.
+    with pytest.raises(DefinitionError, match=r"`integral`: must be scalar, got shape \(2, 1\)"):
+        ocp.minimize(integral=two_out)
     wrong = ca.Function("wrong", [ca.SX.sym("psi", 3)], [0], ["psi"], ["a"])
     with pytest.raises(DefinitionError, match=r"`path\[c\]`: calling the Function failed"):
         ocp.constrain("c", wrong, lower=0)
@@ -466,3 +467,92 @@ def test_singular_but_finite_expressions_are_accepted():
     # 1/q is inf at q = 0, but it has no NaN/inf constant: it must not be rejected
     ocp = _expression_ocp().constrain("c", lambda p: 1 / (1 + p.q**2) + p.a / p.v, upper=1.0)
     assert ocp.constraints[-1].name == "c"
+
+
+# ---- fields that are expressions; keypoints; several outputs --------------------------------
+
+
+def test_points_offer_ddpsi_in_both_formulations_and_control_rates_by_name():
+    for formulation in ("implicit", "explicit"):
+        point = chain(formulation=formulation)._point()
+        assert point.ddpsi.shape == (2, 1)
+        assert "ddpsi_link2" in point.fields and "dM_link1" in point.fields
+        assert ca.is_equal(point.dM, point.du) and ca.is_equal(point.dM_link2, point.du[1])
+    x, u = ca.SX.sym("x", 4), ca.SX.sym("u", 2)
+    explicit = Point(chain(formulation="explicit").system, x, u, ca.SX(0, 1), 0, 1)
+    # Explicit ddpsi is the forward dynamics of x and u: the oracle's at a random state.
+    from reference import newton_euler
+
+    rng = np.random.default_rng(3)
+    xv, uv = rng.normal(size=4), rng.normal(size=2)
+    value = ca.Function("a", [x, u], [explicit.ddpsi])(xv, uv)
+    expected = newton_euler.forward_dynamics(presets.n_link_chain(2), xv[:2], xv[2:], uv)
+    np.testing.assert_allclose(np.asarray(value).reshape(-1), expected, rtol=1e-10)
+    with pytest.raises(AttributeError, match="Point has no field 'du'"):
+        _ = explicit.du  # a Point built without control rates has none
+    generic = di()._point()
+    assert ca.is_equal(generic.da, generic.du[0]) and "ddpsi" not in generic.fields
+
+
+def test_derived_and_rate_fields_are_not_variables():
+    with pytest.raises(DefinitionError, match=r"`bound`: 'dM' is a Point field computed from"):
+        chain().bound("dM", -1, 1)
+    with pytest.raises(DefinitionError, match=r"`scale`: 'ddpsi_link1' is a Point field"):
+        chain(formulation="explicit").scale(ddpsi_link1=10.0)
+    with pytest.raises(DefinitionError, match=r"`guess`: 'da' is a Point field"):
+        di().guess(da=1.0)
+
+
+def test_keypoints_print_and_accept_bounds_per_instant():
+    ocp = di().constrain_at("key", lambda p: p.q, t=[0.25, 0.5], lower=[1.0, 2.0], upper=3.0)
+    (constraint,) = ocp.constraints
+    assert constraint.lower.shape == (2, 1) and constraint.lower[1, 0] == 2.0
+    assert "at[key] t = (0.25, 0.5) s in [2 rows]" in str(ocp)
+    both = di().constrain_at("pair", lambda p: p.x, fraction=0.5, lower=[[0.0, -1.0]], upper=1)
+    assert "at[pair] t = (0.5) T" in str(both)
+
+
+def test_keypoint_errors():
+    ocp = di()
+    with pytest.raises(DefinitionError, match=r"`at\[k\]`: give exactly one of t \(s, fixed T\)"):
+        ocp.constrain_at("k", lambda p: p.q, lower=0)
+    with pytest.raises(DefinitionError, match=r"`at\[k\]`: give exactly one of t"):
+        ocp.constrain_at("k", lambda p: p.q, t=0.5, fraction=0.5, lower=0)
+    with pytest.raises(
+        DefinitionError, match=r"`at\[k\]`: t=0.5 is an absolute time but the duration is free"
+    ):
+        di(T=(1.0, 2.0)).constrain_at("k", lambda p: p.q, t=0.5, lower=0)
+    with pytest.raises(
+        DefinitionError, match=r"`at\[k\]`: t=1.5 s lies outside \[0, T\] = \[0, 1\] s"
+    ):
+        ocp.constrain_at("k", lambda p: p.q, t=[0.5, 1.5], lower=0)
+    with pytest.raises(DefinitionError, match=r"`at\[k\]`: fraction=-0.1 lies outside \[0, 1\]"):
+        ocp.constrain_at("k", lambda p: p.q, fraction=-0.1, lower=0)
+    with pytest.raises(DefinitionError, match=r"`at\[k\]`: t=0.3 s is given twice"):
+        ocp.constrain_at("k", lambda p: p.q, t=[0.3, 0.5, 0.3], lower=0)
+    with pytest.raises(DefinitionError, match=r"`at\[k\]`: t must be a number or a non-empty"):
+        ocp.constrain_at("k", lambda p: p.q, t=[], lower=0)
+    with pytest.raises(DefinitionTypeError, match=r"`at\[k\]`: fraction must be a number"):
+        ocp.constrain_at("k", lambda p: p.q, fraction="half", lower=0)
+    with pytest.raises(DefinitionError, match=r"`at\[k\]`: lower bound has shape \(3,\); expected"):
+        ocp.constrain_at("k", lambda p: p.q, t=[0.2, 0.4], lower=[0, 1, 2])
+    with pytest.raises(DefinitionError, match=r"`at\[k\]`: lower bound 2 > upper bound 1"):
+        ocp.constrain_at("k", lambda p: p.q, t=[0.2, 0.4], lower=[0, 2], upper=1)
+    # A fixed horizon shortened after the keypoint was given: refused when transcribed.
+    short = dataclasses.replace(ocp.constrain_at("k", lambda p: p.q, t=0.8, lower=0), T=0.5)
+    with pytest.raises(DefinitionError, match=r"`at\[k\]`: t=0.8 s lies after the end"):
+        Transcription(short)
+
+
+def test_bounds_by_output_name_errors():
+    psi = ca.SX.sym("psi", 2)
+    two = ca.Function("two", [psi], [psi[0], psi], ["psi"], ["a", "b"])
+    with pytest.raises(DefinitionTypeError, match=r"`path\[c\]`: a lower bound by output name"):
+        chain().constrain("c", lambda p: p.psi, lower={"a": 0.0})
+    with pytest.raises(DefinitionError, match=r"`path\[c\]`: upper bound names unknown outputs"):
+        chain().constrain("c", two, upper={"z": 0.0})
+    with pytest.raises(DefinitionError, match=r"`path\[c\]\[b\]`: upper bound has shape \(3,\)"):
+        chain().constrain("c", two, upper={"b": [1.0, 2.0, 3.0]})
+    rows = chain().constrain("c", two, lower={"b": [0.0, 1.0]}).constraints[0]
+    np.testing.assert_array_equal(rows.lower, [-np.inf, 0.0, 1.0])
+    assert rows.row_names() == ("path[c][a]", "path[c][b][0]", "path[c][b][1]")

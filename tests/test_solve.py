@@ -258,6 +258,8 @@ def test_benchmark_quick_run():
         "trapezoid",
         "explicit / implicit",
         "same-mesh warm start with multipliers",
+        "walking pieces",
+        "+ all three",
     ):
         assert expected in result.stdout, expected
     assert "Maximum_Iterations" not in result.stdout

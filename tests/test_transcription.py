@@ -319,10 +319,18 @@ def fd_problem(expand, transcription="hermite-simpson", degree=None, formulation
             formulation=formulation,
         )
         .constrain("tilt", lambda p: ca.sin(p.psi_link1 - p.psi_link2) * p.dpsi_link1, upper=1)
+        .constrain("rate", lambda p: p.dM_link1 * ca.cos(p.psi_link2), lower=-5, upper=5)
         .boundary("start", lambda p: ca.cos(p.psi_link1) + p.M_link2 * p.dpsi_link2, "start", 0, 0)
+        .constrain_at(
+            "key",
+            lambda p: ca.vertcat(p.ddpsi_link1 * p.dpsi_link2, ca.sin(p.psi_link2) * p.dM_link2),
+            fraction=[0.3, 0.8],
+            lower=-1,
+            upper=1,
+        )
         .periodic(lambda x: ca.vertcat(x[1], x[0], x[3], x[2]))
         .minimize(
-            integral=lambda p: ca.sumsqr(p.M) + ca.sin(p.psi_link2) * p.t,
+            integral=lambda p: ca.sumsqr(p.M) + ca.sin(p.psi_link2) * p.t + ca.sumsqr(p.dM) * p.T,
             terminal=lambda p: p.T**2 + ca.sumsqr(p.x - p.x0),
         ),
         expand=expand,

@@ -23,6 +23,9 @@ model against the test suite's recursive Newton-Euler oracle (tests/reference/ne
 which the library never imports; this script runs from a clone, as the tests do) at random
 six-link states and on random trees, the energy drift of 2 s of passive six-link motion
 (cvodes at 1e-12), and the per-function operation counts of the six-link scene by kind.
+The walking pieces of the six-link scene (fixed and floating-base mass matrices, the heel
+strike's impact map by our sparse range-space solve and by a dense KKT ``casadi.solve``) get
+their own table: generation, instructions, one call and a batch.
 Timings depend on the machine and its load; nothing here asserts them.
 """
 
@@ -39,6 +42,7 @@ import numpy as np
 
 from model import FUNCTIONS, Dynamics, presets
 from model import equations as eq
+from model.numpy_tape import NumpyTape
 
 TESTS = Path(__file__).resolve().parents[2] / "tests"
 CHAINS = (2, 6, 10, 20, 40)
@@ -137,6 +141,108 @@ def map_us(dynamics: Dynamics, rng: np.random.Generator, size: int, repeats: int
     ddpsi = rng.normal(0, 10, (n, size))
     seconds = _median_seconds(lambda: mapped(psi, dpsi, ddpsi), repeats)
     return 1e6 * seconds / size
+
+
+def dense_kkt_impact(dynamics: Dynamics) -> ca.Function:
+    """The six-link heel strike written the plain way, for comparison: the dense
+    (n + 4) x (n + 4) KKT system [[M_e, -J^T], [J, 0]] [dq+; Lambda] = [M_e dq-; 0] solved by
+    ``casadi.solve`` (symbolic QR) on the same M_e and J expressions."""
+    psi, dpsi = dynamics.symbols["psi"], dynamics.symbols["dpsi"]
+    n = dynamics.n
+    mass = ca.densify(dynamics.floating.mass_matrix_expression())
+    jacobian = ca.densify(dynamics.point("swing_shank").expression("jacobian", psi))
+    kkt = ca.blockcat([[mass, -jacobian.T], [jacobian, ca.SX.zeros(2, 2)]])
+    rhs = ca.vertcat(ca.mtimes(mass, ca.vertcat(0, 0, dpsi)), 0, 0)
+    solution = ca.solve(kkt, rhs)
+    return ca.Function(
+        "dense_impact",
+        [psi, dpsi],
+        [solution[2 : n + 2], solution[n + 2 :], solution[:2]],
+        ["psi", "dpsi"],
+        ["dpsi_plus", "impulse", "base_velocity_plus"],
+    )
+
+
+def walking_pieces(options) -> list[dict]:
+    """Generation time (fresh Dynamics, median and best), SX instructions and evaluation speed
+    (one call through CasADi, and a batch through the numpy tape) of the six-link scene's
+    fixed- and floating-base mass matrices and heel-strike impact maps."""
+    six = presets.six_link_anthropoid()
+    rng = np.random.default_rng(3)
+    n = six.n
+    psi = rng.uniform(-3, 3, (options.batch, n))
+    dpsi = rng.normal(0, 3, (options.batch, n))
+
+    def fixed(dyn):
+        return dyn.function("mass_matrix"), lambda p, d: dyn.mass_matrix(p)
+
+    def floating(dyn):
+        return dyn.floating.function("floating_mass_matrix"), lambda p, d: dyn.floating.mass_matrix(
+            p
+        )
+
+    def impact(dyn):
+        return dyn.impact("swing_shank").function(), dyn.impact("swing_shank")
+
+    def dense(dyn):
+        function = dense_kkt_impact(dyn)
+        tape = NumpyTape.try_build(function)
+
+        def batch(p, d):
+            return tape([np.ascontiguousarray(p.T), np.ascontiguousarray(d.T)])
+
+        return function, batch
+
+    rows = []
+    for label, make in (
+        ("mass matrix, fixed base (n x n)", fixed),
+        ("mass matrix, floating base (n+2)^2", floating),
+        ("impact map: sparse LDL, range space", impact),
+        ("impact map: dense KKT, casadi.solve", dense),
+    ):
+        make(Dynamics(six))  # warm-up
+        times = _times(lambda make=make: make(Dynamics(six)), options.repeats)
+        function, batch = make(Dynamics(six))
+        inputs = [psi[0]] if function.n_in() == 1 else [psi[0], dpsi[0]]
+
+        def calls(function=function, inputs=inputs):
+            for _ in range(options.calls):
+                function.call(inputs)
+
+        batch(psi[:300], dpsi[:300])
+        rows.append(
+            {
+                "what": label,
+                "generation_ms": 1e3 * statistics.median(times),
+                "best_ms": 1e3 * min(times),
+                "instructions": function.n_instructions(),
+                "call_us": 1e6 * _median_seconds(calls, options.repeats) / options.calls,
+                "batch_us": 1e6
+                * _median_seconds(lambda batch=batch: batch(psi, dpsi), options.repeats)
+                / options.batch,
+            }
+        )
+    return rows
+
+
+def format_walking(rows) -> str:
+    lines = [
+        f"{'six-link, walking pieces':<38}{'generate':>9}{'best':>7}{'instr':>7}"
+        f"{'call':>8}{'batch':>11}",
+        f"{'':<38}{'(ms)':>9}{'(ms)':>7}{'':>7}{'(us)':>8}{'(us/state)':>11}",
+    ]
+    for r in rows:
+        lines.append(
+            f"{r['what']:<38}{r['generation_ms']:>9.2f}{r['best_ms']:>7.2f}"
+            f"{r['instructions']:>7d}{r['call_us']:>8.2f}{r['batch_us']:>11.3f}"
+        )
+    ours, dense = rows[2], rows[3]
+    lines.append(
+        f"impact map, dense KKT / ours: {dense['instructions'] / ours['instructions']:.1f}x "
+        f"instructions, {dense['generation_ms'] / ours['generation_ms']:.1f}x generation, "
+        f"{dense['batch_us'] / ours['batch_us']:.1f}x batch time"
+    )
+    return "\n".join(lines)
 
 
 def _per_state(difference: np.ndarray, reference: np.ndarray) -> np.ndarray:
@@ -303,6 +409,8 @@ def main(argv=None) -> int:
     six_dynamics = presets.six_link_anthropoid().dynamics()
     mapped = map_us(six_dynamics, np.random.default_rng(1), options.batch, options.repeats)
     print(format_targets(rows[0], mapped))
+    print()
+    print(format_walking(walking_pieces(options)))
     print()
     sys.path.insert(0, str(TESTS))
     from reference import newton_euler  # the test suite's oracle, written another way

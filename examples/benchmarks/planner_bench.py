@@ -25,6 +25,10 @@ so compare the ratios of a run, not runs):
    (its extra build divided by what it saves per solve);
 5. warm starts on the headline case: cold, re-solves from its own Solution with primal values
    only and with the multipliers, and a continuation step (band 0.10 -> 0.11 rad).
+6. what the planner's walking pieces cost on the headline case: keypoints (every angle
+   within 0.05 rad of the law at t = T/8, 3T/8, 5T/8, 7T/8, between nodes), the ground
+   reaction as a two-output Function (Fy >= 0), a torque-rate penalty (1e-4 integral of sum
+   dM_i^2), and all three, with ratios to the plain problem measured in the same run.
 
     python examples/benchmarks/planner_bench.py            # N = 10, 20, 40, 80, 160
     python examples/benchmarks/planner_bench.py --quick    # smoke run (N = 10, 20; once)
@@ -82,6 +86,36 @@ def paper22_gait(
         .minimize(integral=lambda p: ca.sumsqr(p.M))
         .guess(LAW)
     )
+
+
+def walking_pieces(N: int, dynamics) -> dict[str, OCP]:
+    """The headline gait with the planner's walking pieces added one by one, then together."""
+    base = paper22_gait(N, "hermite-simpson", None, dynamics=dynamics)
+    fractions = np.array([0.125, 0.375, 0.625, 0.875])
+    posture = LAW.psi(fractions * PERIOD)
+
+    def keypoints(ocp: OCP) -> OCP:
+        return ocp.constrain_at(
+            "posture",
+            lambda p: p.psi,
+            fraction=fractions,
+            lower=posture - 0.05,
+            upper=posture + 0.05,
+        )
+
+    def ground(ocp: OCP) -> OCP:
+        return ocp.constrain("grf", dynamics.function("ground_reaction"), lower={"Fy": 0.0})
+
+    def rates(ocp: OCP) -> OCP:
+        return ocp.minimize(integral=lambda p: ca.sumsqr(p.M) + 1e-4 * ca.sumsqr(p.dM))
+
+    return {
+        "plain": base,
+        "+ keypoints": keypoints(base),
+        "+ ground Fy>=0": ground(base),
+        "+ torque rates": rates(base),
+        "+ all three": rates(ground(keypoints(base))),
+    }
 
 
 #: The previous defaults, for the before/after table: IPOPT's monotone barrier update and
@@ -395,6 +429,22 @@ def main(argv=None) -> int:
     )
     if not (same["warm_start"] and wide["warm_start"]):
         lines.append("warning: the multipliers were not reused (stats['warm_start'] False)")
+    logger.info("\n".join(lines))
+
+    pieces = {
+        label: measure(ocp, repeat_warm) for label, ocp in walking_pieces(N, dynamics).items()
+    }
+    plain = pieces["plain"]
+    lines = [
+        f"\nwalking pieces: hermite-simpson N={N}, implicit; ratios to the plain problem "
+        "(the torque-rate penalty changes the optimum, so its iterations are another problem's)",
+        f"{'case':<17}" + HEADER[17:] + "  build x  solve x",
+    ]
+    for label, m in pieces.items():
+        lines.append(
+            row(label, N, m)
+            + f"  {m['build'] / plain['build']:>7.2f} {m['solve'] / plain['solve']:>8.2f}"
+        )
     logger.info("\n".join(lines))
     return 0
 

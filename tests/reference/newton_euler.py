@@ -35,17 +35,23 @@ import numpy as np
 from model import Link, Linkage
 
 __all__ = [
+    "angular_momentum",
     "closed_form_inverse_dynamics",
     "closed_form_mass_matrix",
     "com_positions",
     "com_velocities",
     "energy",
+    "floating_energy",
+    "floating_inverse_dynamics",
+    "floating_mass_matrix",
     "forward_dynamics",
     "ground_reaction",
     "hinge_positions",
     "hinge_velocities",
     "inverse_dynamics",
     "mass_matrix",
+    "point_jacobian",
+    "point_kinematics",
     "random_tree",
 ]
 
@@ -132,19 +138,24 @@ def _outward(linkage: Linkage, psi, dpsi=None, ddpsi=None):
         "start": start,
         "com": com,
         "end": end,
+        "v_start": v_start,
         "v_com": v_com,
         "v_end": v_end,
+        "a_start": a_start,
         "a_com": a_com,
     }
 
 
-def _rnea(linkage: Linkage, psi, dpsi, ddpsi, gravity: float):
+def _rnea(linkage: Linkage, psi, dpsi, ddpsi, gravity: float, base_acceleration=None):
     """Recursive Newton-Euler on batches (K, n): hinge torques (K, n), and the force (K, 2)
     the ground applies to the root at H0 (each link's f is the force its parent applies at
-    its start hinge; the root's parent is the ground)."""
+    its start hinge; the root's parent is the ground). ``base_acceleration`` (K, 2): H0
+    accelerates (a floating base); every point's acceleration gains it."""
     n = linkage.n
     kin = _outward(linkage, psi, dpsi, ddpsi)
     g = np.array([0.0, -gravity])
+    if base_acceleration is not None:
+        g = g - base_acceleration
     force = [None] * n
     torque = [None] * n
     for i in reversed(range(n)):
@@ -285,6 +296,114 @@ def com_velocities(linkage: Linkage, psi, dpsi) -> np.ndarray:
     """Centre-of-mass velocities (m/s), complex, (n,) or (K, n)."""
     single, (psi, dpsi) = _batch(linkage, psi, dpsi)
     return _unbatch(single, _as_complex(_outward(linkage, psi, dpsi)["v_com"]))
+
+
+# ---- points on links and the floating base -------------------------------------------------
+def point_kinematics(linkage: Linkage, link: int, offset: complex, psi, dpsi, ddpsi):
+    """Position (m), velocity (m/s) and acceleration (m/s^2) of the point at ``offset``
+    (complex, m, in link ``link``'s frame), complex, () or (K,): rigid-body kinematics from
+    the link's start hinge, r = R(psi) offset, v = v_start + dpsi e_z x r,
+    a = a_start + ddpsi e_z x r - dpsi^2 r."""
+    single, (psi, dpsi, ddpsi) = _batch(linkage, psi, dpsi, ddpsi)
+    kin = _outward(linkage, psi, dpsi, ddpsi)
+    r = _rotate(np.cos(psi[:, link]), np.sin(psi[:, link]), _vec(offset))
+    w, dw = dpsi[:, link, None], ddpsi[:, link, None]
+    position = kin["start"][link] + r
+    velocity = kin["v_start"][link] + w * _perp(r)
+    acceleration = kin["a_start"][link] + dw * _perp(r) - w**2 * r
+    out = [a[:, 0] + 1j * a[:, 1] for a in (position, velocity, acceleration)]
+    return tuple(complex(a[0]) for a in out) if single else tuple(out)
+
+
+def point_jacobian(linkage: Linkage, link: int, offset: complex, psi) -> np.ndarray:
+    """d(x, y)/dq of the point ``offset`` on link ``link`` for q = (x0, y0, psi): (2, n + 2)
+    or (K, 2, n + 2), columns = the point's velocity for a unit rate of one coordinate."""
+    single, (psi,) = _batch(linkage, psi)
+    k, n = psi.shape
+    out = np.zeros((k, 2, n + 2))
+    out[:, 0, 0] = 1.0
+    out[:, 1, 1] = 1.0
+    zero = np.zeros((k, n))
+    for m in range(n):
+        unit = zero.copy()
+        unit[:, m] = 1.0
+        _, velocity, _ = point_kinematics(linkage, link, offset, psi, unit, zero)
+        out[:, 0, 2 + m], out[:, 1, 2 + m] = velocity.real, velocity.imag
+    return _unbatch(single, out)
+
+
+def _split_floating(linkage: Linkage, *arrays):
+    """(K, n + 2) floating-base arrays -> base parts (K, 2) and psi parts (K, n)."""
+    out = []
+    single = None
+    for a in arrays:
+        a = np.asarray(a, dtype=float)
+        single = a.ndim == 1
+        a = np.atleast_2d(a)
+        if a.shape[-1] != linkage.n + 2:
+            raise ValueError(f"oracle: expected (n + 2,) = {linkage.n + 2} columns, got {a.shape}")
+        out.append((a[:, :2], a[:, 2:]))
+    return single, out
+
+
+def floating_energy(linkage: Linkage, q, dq):
+    """(T, V), J, with the root hinge at (x0, y0) moving at (dx0, dy0): every centre of
+    mass's velocity gains the base velocity, every height gains y0. q = (x0, y0, psi)."""
+    single, ((base, psi), (dbase, dpsi)) = _split_floating(linkage, q, dq)
+    kin = _outward(linkage, psi, dpsi)
+    kinetic = np.zeros(psi.shape[0])
+    potential = np.zeros(psi.shape[0])
+    for i, link in enumerate(linkage.links):
+        v = kin["v_com"][i] + dbase
+        kinetic += 0.5 * (link.mass * np.sum(v * v, axis=-1) + link.inertia * dpsi[:, i] ** 2)
+        potential += linkage.gravity * link.mass * (kin["com"][i][:, 1] + base[:, 1])
+    if single:
+        return float(kinetic[0]), float(potential[0])
+    return kinetic, potential
+
+
+def floating_inverse_dynamics(linkage: Linkage, q, dq, ddq):
+    """(force on the base at H0, N, complex; hinge torques M, N m) of a floating-base motion:
+    Newton-Euler with H0 accelerating at (ddx0, ddy0). () / (n,) or (K,) / (K, n)."""
+    single, ((_, psi), (_, dpsi), (ddbase, ddpsi)) = _split_floating(linkage, q, dq, ddq)
+    torque, force = _rnea(linkage, psi, dpsi, ddpsi, linkage.gravity, ddbase)
+    base = force[:, 0] + 1j * force[:, 1]
+    return (complex(base[0]), torque[0]) if single else (base, torque)
+
+
+def floating_mass_matrix(linkage: Linkage, psi) -> np.ndarray:
+    """Mass matrix of q = (x0, y0, psi), (n + 2, n + 2) or (K, ...): columns of the floating
+    Newton-Euler recursion with a unit acceleration of one coordinate, no velocity and no
+    gravity; rows: the base force (x, y) and the generalised forces Q = (I - C) M."""
+    single, (psi,) = _batch(linkage, psi)
+    n = linkage.n
+    k = psi.shape[0]
+    to_q = np.eye(n) - _children_matrix(linkage)
+    result = np.zeros((k, n + 2, n + 2))
+    for m in range(n + 2):
+        unit = np.zeros((k, n + 2))
+        unit[:, m] = 1.0
+        torque, force = _rnea(linkage, psi, np.zeros((k, n)), unit[:, 2:], 0.0, unit[:, :2])
+        result[:, :2, m] = force
+        result[:, 2:, m] = torque @ to_q.T
+    return _unbatch(single, result)
+
+
+def angular_momentum(linkage: Linkage, q, dq, about, links=None) -> np.ndarray:
+    """Angular momentum (kg m^2/s, counter-clockwise) of ``links`` (indices; default all)
+    about the fixed point ``about`` (complex, m, () or (K,)):
+    sum_i (w_i - about) x m_i v_i + J_i dpsi_i, with the floating base's q and dq."""
+    single, ((base, psi), (dbase, dpsi)) = _split_floating(linkage, q, dq)
+    kin = _outward(linkage, psi, dpsi)
+    about = np.atleast_1d(np.asarray(about, dtype=complex))
+    anchor = np.stack([about.real, about.imag], axis=-1)
+    total = np.zeros(psi.shape[0])
+    for i in range(linkage.n) if links is None else links:
+        link = linkage.links[i]
+        r = kin["com"][i] + base - anchor
+        v = kin["v_com"][i] + dbase
+        total += link.mass * _cross(r, v) + link.inertia * dpsi[:, i]
+    return float(total[0]) if single else total
 
 
 # ---- the closed form of DESIGN.md (paper-form links only) ---------------------------------

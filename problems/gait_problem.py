@@ -1,0 +1,252 @@
+"""What the gait problems share: objectives, torque limits, the law's benchmark cost, and the
+solved gait's common measurements (:class:`Gait`).
+
+Objectives (``OBJECTIVES``), integrated over the step or period:
+
+* ``"torque"``: sum M_i^2, N^2 m^2 (the paper's drive effort);
+* ``"torque-rate"``: sum dM_i^2 (dM the derivative of the transcription's torque polynomial,
+  ``planner`` Point field ``dM``), N^2 m^2/s^2, for smooth drive commands, plus
+  ``REGULARISATION`` s^-2 times the torque term so that the torque level stays determined;
+* ``"work"``: the positive mechanical power of the hinge drives sum max(0, M_i w_i) (w_i the
+  hinge's relative rate: dpsi_i - dpsi_parent), smoothed as (P + sqrt(P^2 + eps^2)) / 2 with
+  eps = ``WORK_EPSILON`` W, plus ``REGULARISATION`` W/(N m)^2 times the torque term.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from model.errors import DefinitionError, check_real
+from model.linkage import Linkage
+from planner.ocp import OCP
+from planner.solution import Solution
+from planner.trajectory import Trajectory
+from planner.transcription import Transcription
+from problems.verification import GaitReport, verify_gait
+
+OBJECTIVES = ("torque", "torque-rate", "work")
+HALF_PI = 0.5 * math.pi
+#: Smoothing of max(0, P) in the positive-work objective, W.
+WORK_EPSILON = 1.0
+#: Weight of the torque term added to the torque-rate and work objectives.
+REGULARISATION = 1e-3
+
+
+def check_objective(objective: str) -> str:
+    if objective not in OBJECTIVES:
+        raise DefinitionError(f"`objective`: unknown {objective!r}; use one of {OBJECTIVES}")
+    return objective
+
+
+def joint_rates(linkage: Linkage, dpsi):
+    """Each hinge's relative rate dpsi_i - dpsi_parent(i) (the root's: dpsi_root), rad/s:
+    a list of expressions (SX) or a numpy array (K, n), like ``dpsi``."""
+    parents = linkage.parents
+    if isinstance(dpsi, np.ndarray):
+        rates = dpsi.copy()
+        for i, p in enumerate(parents):
+            if p >= 0:
+                rates[:, i] -= dpsi[:, p]
+        return rates
+    return [dpsi[i] - (dpsi[p] if p >= 0 else 0) for i, p in enumerate(parents)]
+
+
+def objective_integrand(linkage: Linkage, objective: str):
+    """The integrand of ``objective`` as a callable of a planner Point."""
+    check_objective(objective)
+    if objective == "torque":
+        return lambda p: ca.sumsqr(p.M)
+    if objective == "torque-rate":
+        return lambda p: ca.sumsqr(p.dM) + REGULARISATION * ca.sumsqr(p.M)
+
+    def positive_work(p):
+        rates = joint_rates(linkage, p.dpsi)
+        power = [p.M[i] * rates[i] for i in range(linkage.n)]
+        smooth = [0.5 * (w + ca.sqrt(w * w + WORK_EPSILON**2)) for w in power]
+        return ca.sum1(ca.vertcat(*smooth)) + REGULARISATION * ca.sumsqr(p.M)
+
+    return positive_work
+
+
+def torque_limits(linkage: Linkage, torque_limit) -> dict[str, float]:
+    """|M_i| bounds, N m, per link name, from one number or a mapping over every link."""
+    names = linkage.names
+    if isinstance(torque_limit, Mapping):
+        unknown = [k for k in torque_limit if k not in names]
+        if unknown:
+            raise DefinitionError(
+                f"`torque_limit`: unknown links {unknown}; known links: {list(names)}"
+            )
+        limits = {k: check_real(f"torque_limit[{k}]", v) for k, v in torque_limit.items()}
+        missing = [k for k in names if k not in limits]
+        if missing:
+            raise DefinitionError(
+                f"`torque_limit`: give a limit for every link, missing {missing}; or one "
+                "number for all"
+            )
+    else:
+        value = check_real("torque_limit", torque_limit)
+        limits = dict.fromkeys(names, value)
+    for name, value in limits.items():
+        if value <= 0:
+            raise DefinitionError(f"`torque_limit`: must be > 0 N m, got {value!r} for {name!r}")
+    return {name: limits[name] for name in names}
+
+
+def check_links(field_name: str, names, linkage: Linkage) -> tuple[str, ...]:
+    """``names`` as a tuple of link names of ``linkage``, or a DefinitionError naming the
+    unknown one."""
+    if isinstance(names, str):
+        raise DefinitionError(f"`{field_name}`: give a sequence of link names, got {names!r}")
+    names = tuple(names)
+    for name in names:
+        if name not in linkage.names:
+            raise DefinitionError(
+                f"`{field_name}`: no link called {name!r}; known links: {list(linkage.names)}"
+            )
+    return names
+
+
+def gait_ocp(dynamics, duration: float, mesh: Mapping[str, Any], limits: Mapping[str, float]):
+    """The OCP both gait problems start from: the linkage's dynamics on [0, duration] with
+    ``mesh`` (N, transcription, degree, formulation) and |M_i| <= limits[name]."""
+    ocp = OCP(dynamics, T=duration, **mesh)
+    for name, limit in limits.items():
+        ocp = ocp.bound(f"M_{name}", -limit, limit)
+    return ocp
+
+
+def keep_upright(ocp: OCP, upright: Sequence[str], posture: float) -> OCP:
+    """``posture`` rows: each link of ``upright`` within ``posture`` rad of the vertical."""
+    if not upright:
+        return ocp
+    return ocp.constrain(
+        "posture",
+        lambda p: ca.vertcat(*[p[f"psi_{name}"] - HALF_PI for name in upright]),
+        lower=-posture,
+        upper=posture,
+    )
+
+
+def finish_gait_ocp(ocp: OCP, linkage: Linkage, objective: str, limits, law) -> OCP:
+    """The objective, nominal scales and the law as the guess, the same for both problems:
+    angles ~1 rad, rates a few rad/s, accelerations tens of rad/s^2, torques a third of
+    their limit (the law's inverse dynamics is of that size)."""
+    typical = float(np.median(list(limits.values()))) / 3.0
+    ocp = ocp.minimize(integral=objective_integrand(linkage, objective)).scale(dpsi=3.0, M=typical)
+    if ocp.system.nz:
+        ocp = ocp.scale(ddpsi=30.0)
+    return ocp.guess(law)
+
+
+def objective_at_guess(transcription: Transcription) -> float:
+    """The NLP's objective at its initial guess, in the objective's physical units."""
+    nlp = transcription.nlp
+    objective = ca.Function("objective_at_guess", [nlp["x"]], [nlp["f"]])
+    value = float(objective(transcription.initial_guess()))
+    return value * float(getattr(transcription, "objective_scale", 1.0))
+
+
+@dataclass(frozen=True, eq=False)
+class Gait:
+    """A solved gait problem: the planner Solution and the measurements a study records.
+
+    ``problem`` is the problem it solves (it provides ``linkage``, ``dynamics`` and
+    ``settings()``); ``law_cost`` is the fitted law's objective on the same mesh.
+    """
+
+    problem: Any
+    solution: Solution
+    law_cost: float
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def cost(self) -> float:
+        return self.solution.cost
+
+    @property
+    def success(self) -> bool:
+        return self.solution.success
+
+    def fine(self, count: int = 2001) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(times (K,), states (K, 2n), torques (K, n)) on a uniform grid through the
+        solution's interpolant (cached)."""
+        key = ("fine", count)
+        if key not in self._cache:
+            times = np.linspace(0.0, self.solution.T, count)
+            states, torques = self.solution(times)
+            self._cache[key] = (times, states, torques)
+        return self._cache[key]
+
+    @property
+    def positive_work(self) -> float:
+        """Positive mechanical work of the hinge drives over the step or period, J: the
+        integral of sum max(0, M_i w_i) on a 2001-point grid."""
+        times, states, torques = self.fine()
+        n = self.problem.linkage.n
+        power = np.maximum(torques * joint_rates(self.problem.linkage, states[:, n:]), 0.0)
+        return float(np.trapezoid(power.sum(axis=1), times))
+
+    def to_trajectory(self, rate_hz: float | None = None) -> Trajectory:
+        """The solution's interpolant at ``rate_hz`` (default the nodes), with the ground
+        reaction at H0 (Fx, Fy, N) and the problem's settings (``metadata["gait"]``)."""
+        trajectory = self.solution.to_trajectory(rate_hz)
+        n = self.problem.linkage.n
+        force = self.problem.dynamics.ground_reaction(
+            trajectory.states[:, :n], trajectory.states[:, n:], trajectory.ddpsi
+        )
+        trajectory = trajectory.with_extra("Fx", np.real(force), "N").with_extra(
+            "Fy", np.imag(force), "N"
+        )
+        return trajectory.with_metadata(
+            gait={**self.problem.settings(), "cost": self.cost, "law_cost": self.law_cost}
+        )
+
+    def verify(self, **options) -> GaitReport:
+        """:func:`problems.verify_gait` on the node trajectory (``options``: ``tolerance``,
+        ``settings`` overrides)."""
+        return verify_gait(self.to_trajectory(), self.problem.linkage, **options)
+
+    def summary(self) -> dict[str, Any]:
+        """Status, cost and law cost, positive work, peak and RMS torque per hinge (N m),
+        iterations, build and solve seconds."""
+        times, _, torques = self.fine()
+        names = self.problem.linkage.names
+        rms = np.sqrt(np.trapezoid(torques**2, times, axis=0) / times[-1])
+        stats = self.solution.stats
+        return {
+            "status": self.solution.status,
+            "success": self.success,
+            "cost": self.cost,
+            "law_cost": self.law_cost,
+            "positive_work": self.positive_work,
+            "peak_torque": dict(zip(names, np.max(np.abs(torques), axis=0).tolist(), strict=True)),
+            "rms_torque": dict(zip(names, rms.tolist(), strict=True)),
+            "iterations": self.solution.iterations,
+            "build_seconds": stats.get("build_seconds"),
+            "solve_seconds": stats.get("solve_seconds"),
+        }
+
+
+__all__ = [
+    "HALF_PI",
+    "OBJECTIVES",
+    "REGULARISATION",
+    "WORK_EPSILON",
+    "Gait",
+    "check_links",
+    "check_objective",
+    "finish_gait_ocp",
+    "gait_ocp",
+    "joint_rates",
+    "keep_upright",
+    "objective_at_guess",
+    "objective_integrand",
+    "torque_limits",
+]

@@ -1,0 +1,382 @@
+"""Gait verification, written again in numpy on the exported trajectory.
+
+:func:`verify_gait` checks a gait from its samples (psi, dpsi, ddpsi, M of a
+:class:`planner.Trajectory`, e.g. read back from a file) and the linkage, with kinematics
+written here in plain numpy (complex sums over the tree), not with the planner's constraint
+functions or the model's SX expressions. The leg relabelling is the model's
+(``model.swap_legs``): it defines what the next step's labels mean.
+
+Checks (each reports its worst margin, > 0 inside, and the node where it is reached; a
+failure names the node, its time and by how much the gait misses):
+
+walking step (``metadata["gait"]["problem"] == "walking_step"``)
+  * ``periodic angles``: psi(0) = the leg swap of psi(T) (mod 2 pi), rad;
+  * ``landing``: the swing foot at (step_length, 0) at T, m; ``heel strike``: it moves down;
+  * ``impact momentum``: across heel strike, from x(T) before and x(0) (relabelled back)
+    after, the angular momentum about the landing foot of the whole tree and about every
+    hinge of the part beyond it without the landing foot is conserved, kg m^2/s
+    (Westervelt-Grizzle: no impulse acts on those parts but at the landing foot or hinge);
+  * ``foot at rest``: the landing foot's velocity after impact, m/s;
+  * ``impulse cone``: the impulse Lambda = m (v_com+ - v_com-) with mu Ly - |Lx| >= 0, N s;
+  * ``lift off``: the old stance foot's vertical velocity after impact >= 0, m/s;
+  * ``friction cone``: mu Fy - |Fx| >= 0 at every sample, F = sum m_i (a_i + j g), N;
+  * ``clearance``: swing-foot height - the clearance profile >= 0 at every sample, m;
+  * ``torque bounds``, ``knees``, ``posture`` at every sample.
+fixed-base periodic gait (``"periodic_gait"``)
+  * ``periodic state``: x(0) = x(T); ``clearance`` above the law's minimum minus the margin;
+    ``torque bounds``, ``posture`` (the keypoints between samples are the planner's
+    interpolant's business: a sampled file cannot show them exactly).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from model.linkage import Linkage
+from model.rerooting import swap_legs
+from planner.trajectory import Trajectory
+
+HALF_PI = 0.5 * math.pi
+
+
+class GaitVerificationError(AnthropoidError):
+    """A gait failed :func:`verify_gait` (raised by :meth:`GaitReport.raise_if_failed`)."""
+
+
+@dataclass(frozen=True)
+class Check:
+    """One verified property: its worst margin (> 0 satisfied, in ``unit``), where it is
+    reached, and whether it passed within the tolerance."""
+
+    name: str
+    margin: float
+    unit: str
+    where: str
+    tolerance: float
+    samples: int
+
+    @property
+    def passed(self) -> bool:
+        return bool(self.margin >= -self.tolerance)
+
+    def __str__(self) -> str:
+        verdict = "ok  " if self.passed else "FAIL"
+        return (
+            f"{verdict} {self.name:<18} worst margin {self.margin:+.3e} {self.unit:<8} at "
+            f"{self.where} ({self.samples} checked, tolerance {self.tolerance:.0e})"
+        )
+
+
+@dataclass(frozen=True)
+class GaitReport:
+    """The result of :func:`verify_gait`: ``checks`` in order, ``ok`` when all passed."""
+
+    checks: tuple[Check, ...]
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    @property
+    def failures(self) -> tuple[Check, ...]:
+        return tuple(c for c in self.checks if not c.passed)
+
+    def __getitem__(self, name: str) -> Check:
+        for check in self.checks:
+            if check.name == name:
+                return check
+        raise KeyError(f"no check called {name!r}; checks: {[c.name for c in self.checks]}")
+
+    def raise_if_failed(self) -> None:
+        if not self.ok:
+            raise GaitVerificationError(
+                "gait verification failed: "
+                + "; ".join(
+                    f"{c.name} misses by {-c.margin:.3g} {c.unit} at {c.where}"
+                    for c in self.failures
+                )
+            )
+
+    def __str__(self) -> str:
+        head = "gait verified: all checks passed" if self.ok else "gait verification FAILED"
+        return "\n".join([head, *(f"  {c}" for c in self.checks)])
+
+
+# ---- numpy kinematics of the tree (complex sums, written again) ---------------------------
+class _Kinematics:
+    """Positions, velocities and accelerations of points of a linkage, in numpy.
+
+    Link i's start hinge is the sum over the path of o_k e^{j psi_parent(k)}; a point at c in
+    its frame is start_i + c e^{j psi_i}; rates differentiate each exponential.
+    """
+
+    def __init__(self, linkage: Linkage) -> None:
+        self.linkage = linkage
+        self.n = linkage.n
+        self.origins = [linkage.origin_in_parent(i) for i in range(self.n)]
+        self.com = np.array([link.com_offset for link in linkage.links])
+        self.mass = np.array([link.mass for link in linkage.links])
+        self.inertia = np.array([link.inertia for link in linkage.links])
+
+    def starts(self, psi, dpsi=None, ddpsi=None):
+        """(position, velocity, acceleration) of every start hinge, complex (K, n) each."""
+        psi = np.atleast_2d(psi)
+        e = np.exp(1j * psi)
+        k = psi.shape[0]
+        position = np.zeros((k, self.n), dtype=complex)
+        velocity = np.zeros_like(position)
+        acceleration = np.zeros_like(position)
+        for i, p in enumerate(self.linkage.parents):
+            if p < 0:
+                position[:, i] = self.origins[i]
+                continue
+            lever = self.origins[i] * e[:, p]
+            position[:, i] = position[:, p] + lever
+            if dpsi is not None:
+                velocity[:, i] = velocity[:, p] + 1j * dpsi[:, p] * lever
+            if ddpsi is not None:
+                acceleration[:, i] = (
+                    acceleration[:, p] + (1j * ddpsi[:, p] - dpsi[:, p] ** 2) * lever
+                )
+        return position, velocity, acceleration
+
+    def point(self, i: int, offset: complex, psi, dpsi=None, ddpsi=None):
+        """(position, velocity, acceleration) of the point ``offset`` on link i, (K,) each."""
+        psi = np.atleast_2d(psi)
+        start, v, a = self.starts(psi, dpsi, ddpsi)
+        lever = offset * np.exp(1j * psi[:, i])
+        position = start[:, i] + lever
+        velocity = v[:, i] + (0 if dpsi is None else 1j * dpsi[:, i] * lever)
+        acceleration = a[:, i] + (
+            0 if ddpsi is None else (1j * ddpsi[:, i] - dpsi[:, i] ** 2) * lever
+        )
+        return position, velocity, acceleration
+
+    def coms(self, psi, dpsi=None, ddpsi=None):
+        psi = np.atleast_2d(psi)
+        start, v, a = self.starts(psi, dpsi, ddpsi)
+        lever = self.com[None, :] * np.exp(1j * psi)
+        velocity = v + (0 if dpsi is None else 1j * dpsi * lever)
+        acceleration = a + (0 if ddpsi is None else (1j * ddpsi - dpsi**2) * lever)
+        return start + lever, velocity, acceleration
+
+    def ground_reaction(self, psi, dpsi, ddpsi) -> np.ndarray:
+        """Force of the ground on the root, complex (K,), N: sum m_i (a_i + j g)."""
+        _, _, acceleration = self.coms(psi, dpsi, ddpsi)
+        return (acceleration + 1j * self.linkage.gravity) @ self.mass
+
+    def angular_momentum(self, psi, dpsi, base_velocity, about, links) -> float:
+        """sum over ``links`` of (w_i - about) x m_i v_i + J_i dpsi_i, the base moving with
+        ``base_velocity`` (complex), about the fixed point ``about`` (complex)."""
+        position, velocity, _ = self.coms(psi[None], dpsi[None])
+        r = position[0] - about
+        v = velocity[0] + base_velocity
+        cross = (np.conj(r) * v).imag
+        return float(np.sum((self.mass * cross + self.inertia * dpsi)[list(links)]))
+
+
+def _worst(margins: np.ndarray, times: np.ndarray) -> tuple[float, str]:
+    """Smallest margin over samples (rows) and its place "node k (t = ... s)"."""
+    flat = margins.reshape(margins.shape[0], -1).min(axis=1)
+    k = int(np.argmin(flat))
+    return float(flat[k]), f"sample {k} (t = {times[k]:.4g} s)"
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    return (angle + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def verify_gait(
+    trajectory: Trajectory,
+    linkage: Linkage,
+    *,
+    settings: Mapping[str, Any] | None = None,
+    tolerance: float = 1e-6,
+) -> GaitReport:
+    """Verify a gait from its samples (see the module docstring).
+
+    Parameters
+    ----------
+    trajectory : a linkage Trajectory with ddpsi (``WalkingGait.to_trajectory()``,
+        ``Trajectory.load(...)`` of a file it wrote, or any at the nodes of a solution).
+    linkage : the linkage it was made for.
+    settings : the gait's parameters (the keys of ``metadata["gait"]``: problem, step_length,
+        mu, clearance, torque_limit, knee_range, posture, upright, ...); default the
+        trajectory's ``metadata["gait"]``; given keys override it.
+    tolerance : relative tolerance of every check: margins are in physical units and a check
+        passes when margin >= -tolerance * its scale (1 for angles, m and m/s; the weight m g
+        for forces; m * 1 m/s for impulses; the torque limit for torques).
+    """
+    if not isinstance(trajectory, Trajectory):
+        raise DefinitionTypeError(
+            f"`trajectory`: must be a planner.Trajectory, got {type(trajectory).__name__}"
+        )
+    if not isinstance(linkage, Linkage):
+        raise DefinitionTypeError(
+            f"`linkage`: must be a model.Linkage, got {type(linkage).__name__}"
+        )
+    if not trajectory.is_linkage or tuple(trajectory.link_names) != linkage.names:
+        raise DefinitionError(
+            f"`trajectory`: its links {getattr(trajectory, 'link_names', None)} are not the "
+            f"linkage's {list(linkage.names)}"
+        )
+    merged = dict(trajectory.metadata.get("gait") or {})
+    merged.update(settings or {})
+    problem = merged.get("problem")
+    if problem not in ("walking_step", "periodic_gait"):
+        raise DefinitionError(
+            "`settings`: say which gait this is: settings={'problem': 'walking_step' or "
+            f"'periodic_gait', ...}} (the trajectory's metadata has none), got {problem!r}"
+        )
+    if not (isinstance(tolerance, float | int) and 0 < tolerance < 1):
+        raise DefinitionError(f"`tolerance`: must be a number in (0, 1), got {tolerance!r}")
+    kin = _Kinematics(linkage)
+    psi, dpsi, ddpsi, torques = (
+        trajectory.psi,
+        trajectory.dpsi,
+        trajectory.ddpsi,
+        trajectory.torques,
+    )
+    times = trajectory.time
+    weight = float(np.sum(kin.mass)) * linkage.gravity
+    checks: list[Check] = []
+
+    def add(name, margins, unit, scale=1.0, where=None):
+        margins = np.atleast_1d(np.asarray(margins, dtype=float))
+        if where is None:
+            if margins.ndim == 1 and margins.size != times.size:
+                value, where = float(margins.min()), f"index {int(np.argmin(margins))}"
+            else:
+                value, where = _worst(margins, times)
+        else:
+            value = float(margins.min())
+        checks.append(Check(name, value, unit, where, tolerance * scale, margins.size))
+
+    if problem == "walking_step":
+        _verify_walking(add, kin, merged, psi, dpsi, ddpsi, times, weight)
+    else:
+        state = np.hstack([psi, dpsi])
+        add(
+            "periodic state",
+            -np.abs(state[0] - state[-1]),
+            "rad(/s)",
+            where=f"t = 0 and t = {times[-1]:.4g} s",
+        )
+        minimum = merged.get("foot_minimum")
+        if minimum is not None:
+            foot = _foot(kin, merged)
+            height = kin.point(*foot, psi)[0].imag
+            add("clearance", height - float(minimum), "m")
+    limits = merged.get("torque_limit")
+    if limits:
+        limit = np.array([float(limits[name]) for name in linkage.names])
+        add("torque bounds", limit[None, :] - np.abs(torques), "N m", float(np.max(limit)))
+    if merged.get("knee_range") and problem == "walking_step":
+        lower, upper = merged["knee_range"]
+        flexion = _knees(linkage, merged, psi)
+        add("knees", np.minimum(flexion - lower, upper - flexion), "rad")
+    if merged.get("upright"):
+        columns = [linkage.index(name) for name in merged["upright"]]
+        lean = np.abs(psi[:, columns] - HALF_PI)
+        add("posture", float(merged["posture"]) - lean, "rad")
+    return GaitReport(tuple(checks), merged)
+
+
+def _foot(kin: _Kinematics, settings) -> tuple[int, complex]:
+    name = settings.get("swing_foot")
+    if name is None:
+        raise DefinitionError("`settings`: give 'swing_foot', the link whose end is the foot")
+    i = kin.linkage.index(name)
+    return i, complex(kin.linkage.links[i].length)
+
+
+def _knees(linkage: Linkage, settings, psi) -> np.ndarray:
+    biped_links = swap_legs(linkage)
+    stance_shank = linkage.names[0]
+    stance_thigh = linkage.names[linkage.children[0][0]]
+    swing_shank = biped_links.root_point.link
+    swing_thigh = linkage.names[linkage.parents[linkage.index(swing_shank)]]
+    i = linkage.index
+    return np.column_stack(
+        [
+            psi[:, i(stance_thigh)] - psi[:, i(stance_shank)],
+            psi[:, i(swing_thigh)] - psi[:, i(swing_shank)],
+        ]
+    )
+
+
+def _verify_walking(add, kin: _Kinematics, settings, psi, dpsi, ddpsi, times, weight) -> None:
+    linkage = kin.linkage
+    n = linkage.n
+    mu = float(settings["mu"])
+    step_length = float(settings["step_length"])
+    swap = swap_legs(linkage)
+    foot_link, foot_offset = _foot(kin, settings)
+    source = list(swap.source)
+    # Angles: the next step starts from the swapped pose of this step's end.
+    swapped, _ = swap.map_state(psi[-1], dpsi[-1])
+    add("periodic angles", -np.abs(_wrap(psi[0] - swapped)), "rad", where="t = 0 vs swap(T)")
+    landing, approach, _ = kin.point(foot_link, foot_offset, psi[-1:], dpsi[-1:])
+    add("heel strike", np.array([-approach[0].imag]), "m/s", where="t = T (foot moving down)")
+    add(
+        "landing",
+        -np.abs(np.array([landing[0].real - step_length, landing[0].imag])),
+        "m",
+        where="t = T",
+    )
+    # After heel strike, in this step's labels: rates relabelled back from x(0); the old
+    # stance foot (H0) moves like the new swing foot does at t = 0.
+    dpsi_plus = np.empty(n)
+    dpsi_plus[source] = dpsi[0]
+    _, lift, _ = kin.point(foot_link, foot_offset, psi[:1], dpsi[:1])
+    base = complex(lift[0])
+    _, foot_after, _ = kin.point(foot_link, foot_offset, psi[-1:], dpsi_plus[None])
+    add("foot at rest", -np.array([abs(foot_after[0] + base)]), "m/s", where="after impact")
+    _, v_minus, _ = kin.coms(psi[-1:], dpsi[-1:])
+    _, v_plus, _ = kin.coms(psi[-1:], dpsi_plus[None])
+    impulse = complex(((v_plus[0] + base) - v_minus[0]) @ kin.mass)
+    momentum_scale = float(np.sum(kin.mass))
+    add(
+        "impulse cone",
+        np.array([mu * impulse.imag - abs(impulse.real)]),
+        "N s",
+        momentum_scale,
+        where="heel strike",
+    )
+    add("lift off", np.array([base.imag]), "m/s", where="after impact")
+    about = complex(landing[0])
+    parts = [("whole tree", about, range(n))]
+    starts, _, _ = kin.starts(psi[-1:])
+    for c in range(1, n):
+        subtree = set(linkage.subtree(c))
+        part = subtree if foot_link not in subtree else set(range(n)) - subtree
+        parts.append((f"hinge of {linkage.names[c]}", complex(starts[0, c]), sorted(part)))
+    worst, where = math.inf, ""
+    scale = max(
+        abs(kin.angular_momentum(psi[-1], dpsi[-1], 0j, about, range(n))),
+        momentum_scale * 1.0 * kin.linkage.links[0].length,
+    )
+    for label, point, part in parts:
+        before = kin.angular_momentum(psi[-1], dpsi[-1], 0j, point, part)
+        after = kin.angular_momentum(psi[-1], dpsi_plus, base, point, part)
+        margin = -abs(after - before)
+        if margin < worst:
+            worst, where = margin, f"about the {label}"
+    add("impact momentum", np.array([worst]), "kg m^2/s", scale, where=where)
+    force = kin.ground_reaction(psi, dpsi, ddpsi)
+    add("friction cone", mu * force.imag - np.abs(force.real), "N", weight)
+    height = kin.point(foot_link, foot_offset, psi)[0].imag
+    clearance = settings.get("clearance")
+    s = (times - times[0]) / (times[-1] - times[0])
+    profile = 0.0 if clearance is None else float(clearance) * np.sin(np.pi * s) ** 2
+    add("clearance", height - profile, "m")
+
+
+__all__ = ["Check", "GaitReport", "GaitVerificationError", "verify_gait"]

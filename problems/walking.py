@@ -1,0 +1,415 @@
+"""The hybrid walking step: single support, heel strike, leg swap, periodic across steps.
+
+One step of duration T (``step_time``) on the stance foot pinned at H0 (the origin): the swing
+foot leaves the ground behind at (-s, 0) and lands at (s, 0) (``step_length`` s: the distance
+between the feet at heel strike; the body advances s per step). At heel strike the landing
+foot sticks (inelastic, non-sliding impact, ``model.impact``), the old stance foot lifts off
+and the legs swap roles (``model.swap_legs``); the next step starts from the swapped state,
+so the gait is the periodic orbit x(0) = Delta(x(T)), Delta = relabel o impact
+(``OCP.periodic(Delta)``).
+
+Constraints (names as in the OCP, each row scaled by a nominal magnitude):
+
+* ``friction``: the stance foot's ground reaction F = Fx + j Fy (``ground_reaction``, from
+  psi, dpsi and ddpsi) inside the friction cone at every dynamics point, mu Fy -+ Fx >= 0
+  (which implies Fy >= 0: the foot pushes, it is not pulled);
+* ``clearance``: the swing foot's height >= the clearance profile at every dynamics point
+  (default h sin^2(pi t / T), h = ``clearance``: zero slope at lift-off and strike);
+* ``landing`` (t = T): the swing foot at (s, 0); ``lift off`` (t = 0): it moves up; ``heel
+  strike`` (t = T): it moves down;
+* ``impulse`` (t = T): the ground's impulse on the landing foot in the friction cone,
+  mu Ly -+ Lx >= 0. After the impact the old stance foot moves with the base velocity of the
+  impact map, which through the periodicity is the new swing foot's velocity at t = 0: the
+  ``lift off`` row is that old foot's vertical velocity >= 0 (one row, not two equal ones);
+* ``knees``: flexion psi_thigh - psi_shank of both legs in ``knee_range`` (0: straight; no
+  hyperextension);
+* ``posture``: each link of ``upright`` within ``posture`` rad of the vertical pi/2;
+* torque bounds |M_i| <= ``torque_limit``; ``passive`` hinges have M_i = 0 (a passive
+  ankle: ``passive=("stance_shank",)``, the torque at H0).
+
+Objective (``problems.gait_problem.OBJECTIVES``): ``"torque"`` (default) the integral of
+sum M_i^2, ``"torque-rate"`` or ``"work"`` (positive mechanical work).
+
+The guess is the law (22) fitted to the step (:meth:`problems.biped.Biped.step_law`); its cost
+on the same mesh, torques by inverse dynamics, is the benchmark to beat (``law_cost``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from functools import cached_property
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from model.dynamics import Dynamics
+from model.errors import DefinitionError, DefinitionTypeError, check_real
+from model.linkage import Linkage
+from model.presets import six_link_anthropoid
+from planner.ocp import OCP
+from planner.solver import solve
+from planner.transcription import Transcription
+from problems.biped import Biped
+from problems.gait_law import GaitLaw
+from problems.gait_problem import (
+    Gait,
+    check_links,
+    check_objective,
+    finish_gait_ocp,
+    gait_ocp,
+    keep_upright,
+    objective_at_guess,
+    torque_limits,
+)
+
+
+@dataclass(frozen=True, eq=False)
+class WalkingStep:
+    """A walking step as a problem: the :class:`planner.OCP` (``ocp``, a value the user can
+    still change with ``.bound``, ``.constrain``, ``.refine``, ...) and what a gait needs
+    around it (the biped, its model, the foot, the impact and step maps, the fitted law).
+
+    ``solve(ocp=None, **options)`` solves ``ocp`` (or a changed copy) and returns a
+    :class:`WalkingGait`.
+    """
+
+    biped: Biped
+    dynamics: Dynamics
+    step_length: float
+    step_time: float
+    mu: float
+    clearance: float | Callable
+    torque_limit: dict[str, float]
+    passive: tuple[str, ...]
+    knee_range: tuple[float, float]
+    posture: float
+    upright: tuple[str, ...]
+    objective: str
+    law: GaitLaw
+    ocp: OCP | None
+
+    @property
+    def linkage(self) -> Linkage:
+        return self.biped.linkage
+
+    @cached_property
+    def foot(self):
+        """The swing foot: the end of the swing shank (``model.PointKinematics``)."""
+        return self.dynamics.point(self.biped.swing_shank)
+
+    @cached_property
+    def impact(self):
+        """The heel strike of the swing foot (``model.ImpactMap``)."""
+        return self.dynamics.impact(self.foot)
+
+    @cached_property
+    def step_map(self) -> ca.Function:
+        """Delta: x(T) before heel strike -> x(0) of the next step (impact, then leg swap)."""
+        return self.impact.step_function(self.biped.swap)
+
+    @property
+    def speed(self) -> float:
+        """Average forward speed, m/s: step_length / step_time."""
+        return self.step_length / self.step_time
+
+    def clearance_at(self, s):
+        """The clearance profile at normalised times s = t / T (numpy or SX), m."""
+        if callable(self.clearance):
+            return self.clearance(s)
+        if isinstance(s, ca.SX | ca.MX):
+            return self.clearance * ca.sin(math.pi * s) ** 2
+        return self.clearance * np.sin(np.pi * np.asarray(s, dtype=float)) ** 2
+
+    def law_cost(self, ocp: OCP | None = None) -> float:
+        """The objective of the fitted law on ``ocp``'s mesh (default this step's): the law's
+        angles, rates and accelerations at the mesh points, torques by inverse dynamics,
+        integrated by the transcription's own quadrature."""
+        return objective_at_guess(Transcription(self.ocp if ocp is None else ocp))
+
+    def solve(self, ocp: OCP | None = None, **options) -> WalkingGait:
+        """Solve ``ocp`` (default this step's; pass a changed copy to solve that instead);
+        ``options`` go to :func:`planner.solve` (IPOPT options, progress, ...). Raises
+        :class:`planner.SolverError` on failure unless ``raise_on_failure=False``."""
+        ocp = self.ocp if ocp is None else ocp
+        if not isinstance(ocp, OCP):
+            raise DefinitionTypeError(f"`ocp`: must be a planner.OCP, got {type(ocp).__name__}")
+        transcription = Transcription(ocp)
+        law = objective_at_guess(transcription)
+        solution = solve(transcription, **options)
+        return WalkingGait(self, solution, law)
+
+    def settings(self) -> dict[str, Any]:
+        """The step's parameters as plain data (exported with the gait's files)."""
+        return {
+            "problem": "walking_step",
+            "step_length": self.step_length,
+            "step_time": self.step_time,
+            "mu": self.mu,
+            "clearance": None if callable(self.clearance) else self.clearance,
+            "torque_limit": dict(self.torque_limit),
+            "passive": list(self.passive),
+            "knee_range": list(self.knee_range),
+            "posture": self.posture,
+            "upright": list(self.upright),
+            "objective": self.objective,
+            "swing_foot": self.biped.swing_shank,
+            "law": self.law.to_dict(),
+        }
+
+
+def walking_step(
+    linkage: Linkage | None = None,
+    step_length: float = 0.5,
+    step_time: float = 0.5,
+    *,
+    N: int = 30,
+    transcription: str = "hermite-simpson",
+    degree: int | None = None,
+    formulation: str = "implicit",
+    mu: float = 0.8,
+    torque_limit: float | Mapping[str, float] = 150.0,
+    passive: Sequence[str] = (),
+    clearance: float | Callable = 0.05,
+    knee_range: tuple[float, float] = (0.0, 2.5),
+    posture: float = 0.2,
+    upright: Sequence[str] | None = None,
+    objective: str = "torque",
+    swing: tuple[str, str] | None = None,
+) -> WalkingStep:
+    """A periodic walking step of a biped (see the module docstring).
+
+    Parameters
+    ----------
+    linkage : a biped (``model.swap_legs`` accepts it); default the six-link anthropoid.
+    step_length : distance between the feet at heel strike, m (> 0).
+    step_time : duration of the step, s (> 0).
+    N, transcription, degree, formulation : the mesh (``planner.OCP``).
+    mu : friction coefficient of the ground (> 0).
+    torque_limit : |M_i| bound, N m: one number or one per link name.
+    passive : names of links whose hinge torque is 0 (a passive ankle: the stance shank).
+    clearance : mid-swing height h of the default profile h sin^2(pi t / T), m (>= 0), or a
+        callable of s = t / T (numpy or CasADi SX) giving the minimum height, m.
+    knee_range : (lower, upper) knee flexion psi_thigh - psi_shank, rad, both legs.
+    posture : largest deviation of an upright link from the vertical, rad.
+    upright : links kept near upright (default: every upper-body link).
+    objective : "torque" or "work" (see the module docstring).
+    swing : (swing thigh, swing shank) when several two-link chains hang at the hip.
+
+    Returns
+    -------
+    WalkingStep: ``.ocp`` to inspect or change, ``.solve()`` for the gait.
+    """
+    linkage = six_link_anthropoid() if linkage is None else linkage
+    biped = Biped.of(linkage, swing)
+    step_length = check_real("step_length", step_length)
+    step_time = check_real("step_time", step_time)
+    mu = check_real("mu", mu)
+    if mu <= 0:
+        raise DefinitionError(f"`mu`: the friction coefficient must be > 0, got {mu!r}")
+    check_objective(objective)
+    if callable(clearance):
+        height = 0.05
+        profile_probe = clearance(np.linspace(0.0, 1.0, 5))
+        if np.shape(profile_probe) != (5,) or not np.all(np.isfinite(profile_probe)):
+            raise DefinitionError(
+                "`clearance`: a profile must map s = t / T (K,) to finite heights (K,), m"
+            )
+    else:
+        height = check_real("clearance", clearance)
+        if height < 0:
+            raise DefinitionError(f"`clearance`: must be >= 0 m, got {height!r}")
+    limits = torque_limits(linkage, torque_limit)
+    passive = check_links("passive", passive, linkage)
+    if len(knee_range) != 2:
+        raise DefinitionError(f"`knee_range`: give (lower, upper) in rad, got {knee_range!r}")
+    knees = (check_real("knee_range[0]", knee_range[0]), check_real("knee_range[1]", knee_range[1]))
+    if knees[0] >= knees[1]:
+        raise DefinitionError(f"`knee_range`: lower must be < upper, got {knees}")
+    posture = check_real("posture", posture)
+    if posture <= 0:
+        raise DefinitionError(f"`posture`: must be > 0 rad, got {posture!r}")
+    upright = biped.upper_body if upright is None else check_links("upright", upright, linkage)
+    law = biped.step_law(step_length, step_time, clearance=max(height, 0.02) + 0.02)
+    dynamics = linkage.dynamics()
+    step = WalkingStep(
+        biped=biped,
+        dynamics=dynamics,
+        step_length=step_length,
+        step_time=step_time,
+        mu=mu,
+        clearance=clearance if callable(clearance) else height,
+        torque_limit=limits,
+        passive=passive,
+        knee_range=knees,
+        posture=posture,
+        upright=upright,
+        objective=objective,
+        law=law,
+        ocp=None,  # the OCP is built from the step's pieces (foot, impact, step map), below
+    )
+    return replace(step, ocp=_walking_ocp(step, N, transcription, degree, formulation))
+
+
+def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OCP:
+    biped, dynamics = step.biped, step.dynamics
+    linkage = biped.linkage
+    n = linkage.n
+    weight = biped.total_mass * linkage.gravity
+    mu = step.mu
+    position = step.foot.function("position")
+    velocity = step.foot.function("velocity")
+    reaction = dynamics.function("ground_reaction")
+    impact = step.impact.function()
+
+    def psi_of(p, name):
+        return p[f"psi_{name}"]
+
+    def friction(p):
+        fx, fy = reaction(p.psi, p.dpsi, p.ddpsi)
+        return ca.vertcat(mu * fy - fx, mu * fy + fx)
+
+    def clearance(p):
+        return position(p.psi)[1] - step.clearance_at(p.t / p.T)
+
+    def knees(p):
+        return ca.vertcat(
+            psi_of(p, biped.stance_thigh) - psi_of(p, biped.stance_shank),
+            psi_of(p, biped.swing_thigh) - psi_of(p, biped.swing_shank),
+        )
+
+    def landing(p):
+        return ca.vertcat(*position(p.x[:n]))
+
+    def foot_vertical_velocity(p):
+        return velocity(p.x[:n], p.x[n:])[1]
+
+    def impulse(p):
+        _, lam, _ = impact(p.x[:n], p.x[n:])
+        return ca.vertcat(mu * lam[1] - lam[0], mu * lam[1] + lam[0])
+
+    mesh = {"N": N, "transcription": transcription, "degree": degree, "formulation": formulation}
+    ocp = gait_ocp(dynamics, step.step_time, mesh, step.torque_limit)
+    for name in step.passive:
+        ocp = ocp.bound(f"M_{name}", 0.0, 0.0)
+    speed = max(step.speed, 0.1)
+    ocp = (
+        ocp.constrain("friction", friction, lower=0.0, scale=weight)
+        .constrain("clearance", clearance, lower=0.0, scale=0.05)
+        .constrain("knees", knees, lower=step.knee_range[0], upper=step.knee_range[1])
+        .boundary(
+            "landing",
+            landing,
+            at="end",
+            lower=[step.step_length, 0.0],
+            upper=[step.step_length, 0.0],
+            scale=step.step_length,
+        )
+        .boundary("lift off", foot_vertical_velocity, at="start", lower=0.0, scale=speed)
+        .boundary("heel strike", foot_vertical_velocity, at="end", upper=0.0, scale=speed)
+        .boundary("impulse", impulse, at="end", lower=0.0, scale=biped.total_mass * speed)
+        .periodic(step.step_map)
+    )
+    ocp = keep_upright(ocp, step.upright, step.posture)
+    return finish_gait_ocp(ocp, linkage, step.objective, step.torque_limit, step.law)
+
+
+# ---- the solved gait ----------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class WorldMotion:
+    """Several steps of a gait in world coordinates, for plots and animations.
+
+    time (K,) s; segments: physical link name (the first step's labels) -> (K, 2) complex
+    start and end of the link as in the first step (its start hinge there first), m;
+    step (K,) int: the step each sample belongs to;
+    footholds (steps + 1,) complex: where the stance feet stood.
+    """
+
+    time: np.ndarray
+    segments: dict[str, np.ndarray]
+    step: np.ndarray
+    footholds: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class WalkingGait(Gait):
+    """A solved walking step (:class:`problems.gait_problem.Gait`: cost, ``law_cost``,
+    ``positive_work``, ``summary()``, ``to_trajectory(rate_hz)``, ``verify()``) and what a
+    walking study reads from it: ``speed`` m/s, ``cost_of_transport``, ``impact`` and
+    ``world(steps)``."""
+
+    @property
+    def speed(self) -> float:
+        return self.problem.speed
+
+    @property
+    def cost_of_transport(self) -> float:
+        """Positive work per weight and distance, dimensionless: W+ / (m g s)."""
+        biped = self.problem.biped
+        weight = biped.total_mass * biped.linkage.gravity
+        return self.positive_work / (weight * self.problem.step_length)
+
+    @property
+    def impact(self) -> dict[str, np.ndarray]:
+        """At heel strike: ``impulse`` (2,) N s on the landing foot, ``lift_off`` (2,) m/s the
+        old stance foot's velocity, ``dpsi_plus`` (n,) rad/s (before the leg swap)."""
+        n = self.problem.linkage.n
+        x = self.solution.states[-1]
+        dpsi_plus, impulse, base = self.problem.impact(x[:n], x[n:])
+        return {"impulse": impulse, "lift_off": base, "dpsi_plus": dpsi_plus}
+
+    def world(self, steps: int = 2, rate_hz: float = 100.0) -> WorldMotion:
+        """``steps`` consecutive steps in world coordinates: step k stands on the foothold
+        k s, with the legs swapped at every heel strike. Samples at ``rate_hz`` per step (the
+        end of a step and the start of the next are one instant; it is kept once)."""
+        if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+            raise DefinitionError(f"`steps`: must be an integer >= 1, got {steps!r}")
+        problem = self.problem
+        linkage = problem.linkage
+        n = linkage.n
+        times = self.solution.sample_times(rate_hz)
+        states, _ = self.solution(times)
+        hinges_step = problem.dynamics.hinge_positions(states[:, :n])
+        starts = np.asarray(linkage.parents) + 1
+        swap = problem.biped.swap
+        source = list(swap.source)
+        segments: dict[str, list] = {name: [] for name in linkage.names}
+        all_times, which = [], []
+        for k in range(steps):
+            keep = slice(0 if k == 0 else 1, None)
+            hinges = hinges_step[keep] + k * problem.step_length
+            for i in range(n):
+                ends = [hinges[:, starts[i]], hinges[:, i + 1]]
+                if k % 2:
+                    # After an odd number of swaps link i is the body that was link
+                    # source[i], described from its other end if it is a leg.
+                    body = linkage.names[source[i]]
+                    if swap.angle_offsets[i] != 0.0:
+                        ends.reverse()
+                else:
+                    body = linkage.names[i]
+                segments[body].append(np.stack(ends, axis=1))
+            all_times.append(times[keep] + k * self.solution.T)
+            which.append(np.full(len(times[keep]), k))
+        return WorldMotion(
+            np.concatenate(all_times),
+            {name: np.concatenate(parts) for name, parts in segments.items()},
+            np.concatenate(which),
+            problem.step_length * np.arange(steps + 1) + 0j,
+        )
+
+    def summary(self) -> dict[str, Any]:
+        """:meth:`Gait.summary` plus speed, cost of transport, impulse and lift-off speed."""
+        impact = self.impact
+        return {
+            **super().summary(),
+            "speed": self.speed,
+            "cost_of_transport": self.cost_of_transport,
+            "impulse": impact["impulse"].tolist(),
+            "lift_off": impact["lift_off"].tolist(),
+        }
+
+
+__all__ = ["WalkingGait", "WalkingStep", "WorldMotion", "walking_step"]

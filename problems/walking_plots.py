@@ -1,0 +1,163 @@
+"""Pictures of a walking gait: angles, torques, ground reaction and friction use, the swing
+foot's path, several steps drawn in world coordinates, and a GIF of them.
+
+Figures are built directly (``matplotlib.figure.Figure``, no pyplot state); files are written
+atomically (``planner.files.atomic_path``). The legs keep their colour across steps: a body
+is named after the link it is in the first step, whatever its label after the leg swaps.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+from matplotlib.animation import PillowWriter
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from model.errors import DefinitionError, check_real
+from planner.files import atomic_path
+from problems.walking import WalkingGait, WorldMotion
+
+#: matplotlib's tab10, one colour per body.
+COLOURS = (
+    "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+    "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
+)  # fmt: skip
+
+
+def gait_figure(gait: WalkingGait, samples: int = 501) -> Figure:
+    """Four panels over one step: angles psi (rad), hinge torques M (N m), the stance foot's
+    ground reaction (N) with the friction use |Fx| / (mu Fy), and the swing foot's path (m)
+    with the clearance profile."""
+    problem, solution = gait.problem, gait.solution
+    names = problem.linkage.names
+    n = len(names)
+    t = np.linspace(0.0, solution.T, samples)
+    states, torques = solution(t)
+    ddpsi = solution.acceleration(t)
+    force = problem.dynamics.ground_reaction(states[:, :n], states[:, n:], ddpsi)
+    foot = problem.foot.position(states[:, :n])
+    figure = Figure(figsize=(11.0, 7.5), layout="constrained")
+    axes = figure.subplots(2, 2)
+    ax = axes[0, 0]
+    for i, name in enumerate(names):
+        ax.plot(t, states[:, i], color=COLOURS[i % len(COLOURS)], label=name)
+    ax.set(xlabel="t [s]", ylabel="psi [rad]", title="link angles (absolute, from +x)")
+    ax.legend(fontsize="small", ncol=2)
+    ax = axes[0, 1]
+    for i, name in enumerate(names):
+        ax.plot(t, torques[:, i], color=COLOURS[i % len(COLOURS)], label=f"M_{name}")
+    ax.set(xlabel="t [s]", ylabel="M [N m]", title="hinge torques")
+    ax.legend(fontsize="small", ncol=2)
+    ax = axes[1, 0]
+    ax.plot(t, force.real, label="Fx")
+    ax.plot(t, force.imag, label="Fy")
+    ax.set(xlabel="t [s]", ylabel="F [N]", title="ground reaction on the stance foot")
+    use = ax.twinx()
+    use.plot(t, np.abs(force.real) / (problem.mu * force.imag), color="0.3", linestyle="--")
+    use.set_ylabel(f"friction use |Fx| / (mu Fy), mu = {problem.mu:g}")
+    use.set_ylim(0.0, 1.05)
+    ax.legend(loc="upper left", fontsize="small")
+    ax = axes[1, 1]
+    ax.plot(foot.real, foot.imag, label="swing foot")
+    ax.plot(foot.real, problem.clearance_at(t / solution.T), color="0.5", linestyle=":",
+            label="clearance profile")  # fmt: skip
+    ax.plot([0.0], [0.0], "kv", label="stance foot")
+    ax.axhline(0.0, color="0.5", linewidth=0.8)
+    ax.set(xlabel="x [m]", ylabel="y [m]", title="swing foot path")
+    ax.legend(fontsize="small")
+    figure.suptitle(
+        f"walking step: {problem.step_length:g} m in {problem.step_time:g} s, cost "
+        f"{gait.cost:.4g} (law {gait.law_cost:.4g}), cost of transport "
+        f"{gait.cost_of_transport:.3f}"
+    )
+    return figure
+
+
+def _limits(motion: WorldMotion) -> tuple[float, float, float, float]:
+    points = np.concatenate([v.reshape(-1) for v in motion.segments.values()])
+    x0, x1 = points.real.min(), points.real.max()
+    y1 = points.imag.max()
+    pad = 0.08 * max(x1 - x0, y1)
+    return x0 - pad, x1 + pad, -pad, y1 + pad
+
+
+def world_strip(motion: WorldMotion, frames_per_step: int = 6) -> Figure:
+    """Poses of several steps drawn where they happen (world x), the footholds marked."""
+    steps = int(motion.step.max()) + 1
+    count = max(2, frames_per_step * steps)
+    picks = np.unique(np.linspace(0, motion.time.size - 1, count).round().astype(int))
+    x0, x1, y0, y1 = _limits(motion)
+    figure = Figure(figsize=(min(4.0 + 3.0 * (x1 - x0), 16.0), 4.0), layout="constrained")
+    ax = figure.add_subplot()
+    for j, (name, segment) in enumerate(motion.segments.items()):
+        for k, index in enumerate(picks):
+            ax.plot(segment[index].real, segment[index].imag, color=COLOURS[j % len(COLOURS)],
+                    linewidth=1.8, marker="o", markersize=2.5, alpha=0.35 + 0.65 * k / len(picks),
+                    label=name if k == len(picks) - 1 else None)  # fmt: skip
+    ax.plot([x0, x1], [0.0, 0.0], color="0.5", linewidth=0.8, zorder=0)
+    ax.plot(motion.footholds.real, motion.footholds.imag, "kv", label="footholds")
+    ax.set(xlim=(x0, x1), ylim=(y0, y1), xlabel="x [m]", ylabel="y [m]", aspect="equal")
+    ax.set_title(f"{steps} steps in world coordinates (later poses darker)")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize="small", frameon=False,
+              title="bodies, named\nas in step 1", title_fontsize="small")  # fmt: skip
+    return figure
+
+
+def animate_walk(
+    motion: WorldMotion,
+    path: str | os.PathLike,
+    fps: float = 30.0,
+    dpi: float = 80.0,
+) -> Path:
+    """A GIF of the steps of ``motion`` in world coordinates, one frame per 1/fps s of gait
+    time (real time), written atomically."""
+    path = Path(os.fspath(path))
+    if path.suffix.lower() != ".gif":
+        raise DefinitionError(f"`path`: an animation is a .gif file, got {str(path)!r}")
+    if check_real("fps", fps) <= 0:
+        raise DefinitionError(f"`fps`: must be > 0 frames per second, got {fps!r}")
+    duration = motion.time[-1] - motion.time[0]
+    frames = np.linspace(motion.time[0], motion.time[-1], max(2, round(duration * fps) + 1))
+    picks = np.searchsorted(motion.time, frames).clip(0, motion.time.size - 1)
+    x0, x1, y0, y1 = _limits(motion)
+    width = 6.0
+    figure = Figure(figsize=(width, width * (y1 - y0) / (x1 - x0) + 0.6), dpi=dpi,
+                    layout="constrained")  # fmt: skip
+    FigureCanvasAgg(figure)
+    ax = figure.add_subplot()
+    ax.set(xlim=(x0, x1), ylim=(y0, y1), aspect="equal", xlabel="x [m]", ylabel="y [m]")
+    ax.plot([x0, x1], [0.0, 0.0], color="0.5", linewidth=0.8, zorder=0)
+    ax.plot(motion.footholds.real, motion.footholds.imag, "kv")
+    lines = [
+        ax.plot([], [], color=COLOURS[j % len(COLOURS)], linewidth=2.5, marker="o",
+                markersize=3.0, solid_capstyle="round", label=name)[0]
+        for j, name in enumerate(motion.segments)
+    ]  # fmt: skip
+    ax.legend(loc="upper right", fontsize="x-small", frameon=False, title="named as in step 1",
+              title_fontsize="x-small")  # fmt: skip
+    clock = ax.set_title("")
+    segments = list(motion.segments.values())
+    with atomic_path(path, suffix=".gif") as temporary:
+        writer = PillowWriter(fps=fps)
+        with writer.saving(figure, temporary, dpi):
+            for index in picks:
+                for line, segment in zip(lines, segments, strict=True):
+                    line.set_data(segment[index].real, segment[index].imag)
+                clock.set_text(f"t = {motion.time[index]:.3f} s, step {motion.step[index] + 1}")
+                writer.grab_frame()
+    return path
+
+
+def save_figure(figure: Figure, path: str | os.PathLike, dpi: float = 100.0) -> Path:
+    """Write ``figure`` as PNG atomically."""
+    path = Path(os.fspath(path))
+    FigureCanvasAgg(figure)
+    with atomic_path(path, suffix=path.suffix) as temporary:
+        figure.savefig(temporary, dpi=dpi, format="png")
+    return path
+
+
+__all__ = ["animate_walk", "gait_figure", "save_figure", "world_strip"]

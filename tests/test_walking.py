@@ -1,0 +1,310 @@
+"""The hybrid walking step (problems.walking) checked with code written another way.
+
+Every property of the solved gaits is recomputed in numpy from the exported node trajectory
+through ``reference.newton_euler`` and ``reference.gait_oracle`` (a dense KKT impact, the
+leg swap written from the link names), never through the planner's constraint functions:
+periodicity under impact and relabelling, the landing foot at rest, lift-off, the impulse and
+the stance reaction in the friction cone, clearance, knee and posture limits, torque bounds,
+and the exported torques against the oracle's inverse dynamics. Both the six-link preset and
+the five-link biped without a head; mesh refinement; the law's cost as the benchmark.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+import pytest
+from reference import gait_oracle as go
+from reference import newton_euler as ne
+
+from model import DefinitionError, DefinitionTypeError, Link, Linkage, presets
+from planner import OCP, Trajectory
+from problems import (
+    Biped,
+    GaitVerificationError,
+    WalkingGait,
+    verify_gait,
+    walking_step,
+)
+
+SIX = presets.six_link_anthropoid()
+FIVE = presets.five_link_biped()
+
+
+@functools.cache
+def gait(linkage_name: str = "six", **options) -> WalkingGait:
+    linkage = {"six": SIX, "five": FIVE}[linkage_name]
+    return walking_step(linkage, **options).solve(progress=False)
+
+
+def node_data(result: WalkingGait):
+    trajectory = result.to_trajectory()
+    return trajectory, trajectory.psi, trajectory.dpsi, trajectory.ddpsi, trajectory.torques
+
+
+@pytest.mark.parametrize("name", ["six", "five"])
+def test_the_gait_is_periodic_through_impact_and_leg_swap(name):
+    result = gait(name)
+    linkage = result.problem.linkage
+    _, psi, dpsi, _, _ = node_data(result)
+    dpsi_plus, impulse, base = go.heel_strike(linkage, psi[-1], dpsi[-1])
+    next_psi, next_dpsi = go.relabel(linkage, psi[-1], dpsi_plus)
+    np.testing.assert_allclose(go.wrap(psi[0] - next_psi), 0.0, atol=1e-8)
+    np.testing.assert_allclose(dpsi[0], next_dpsi, atol=1e-7)
+    # The foot landed where it should, moving down; the old stance foot lifts off; the
+    # impulse points into the ground inside the friction cone.
+    foot = go.swing_foot(linkage, psi[-1])
+    assert abs(foot - complex(result.problem.step_length, 0.0)) < 1e-8
+    foot_velocity = ne.hinge_velocities(linkage, psi[-1], dpsi[-1])[
+        linkage.index("swing_shank") + 1
+    ]
+    assert foot_velocity.imag <= 1e-8
+    assert base.imag >= -1e-8
+    mu = result.problem.mu
+    assert impulse.imag > 0 and abs(impulse.real) <= mu * impulse.imag + 1e-8
+    # The landing foot at rest after impact (floating base: H0 moves with `base`).
+    i = linkage.index("swing_shank")
+    _, after, _ = ne.point_kinematics(
+        linkage, i, complex(linkage.links[i].length), psi[-1], dpsi_plus, np.zeros(linkage.n)
+    )
+    assert abs(after + base) < 1e-10
+
+
+@pytest.mark.parametrize("name", ["six", "five"])
+def test_path_constraints_hold_node_by_node(name):
+    result = gait(name)
+    problem = result.problem
+    linkage = problem.linkage
+    trajectory, psi, dpsi, ddpsi, torques = node_data(result)
+    weight = sum(link.mass for link in linkage.links) * linkage.gravity
+    force = ne.ground_reaction(linkage, psi, dpsi, ddpsi)
+    assert np.all(problem.mu * force.imag - np.abs(force.real) >= -1e-6 * weight)
+    assert np.all(force.imag > 0)
+    s = trajectory.time / trajectory.time[-1]
+    profile = problem.clearance * np.sin(np.pi * s) ** 2
+    assert np.all(go.swing_foot(linkage, psi).imag - profile >= -1e-8)
+    names = linkage.names
+    knees = np.column_stack(
+        [
+            psi[:, names.index("stance_thigh")] - psi[:, names.index("stance_shank")],
+            psi[:, names.index("swing_thigh")] - psi[:, names.index("swing_shank")],
+        ]
+    )
+    # IPOPT meets each scaled row to 1e-8 (tol); the knee rows are scaled by 2.5 rad.
+    assert np.all(knees >= problem.knee_range[0] - 1e-7)
+    assert np.all(knees <= problem.knee_range[1] + 1e-7)
+    upright = [names.index(n) for n in problem.upright]
+    assert np.all(np.abs(psi[:, upright] - math.pi / 2) <= problem.posture + 1e-7)
+    assert np.all(np.abs(torques) <= 150.0 + 1e-6)
+
+
+@pytest.mark.parametrize("name", ["six", "five"])
+def test_exported_torques_are_the_oracle_inverse_dynamics(name):
+    result = gait(name)
+    linkage = result.problem.linkage
+    _, psi, dpsi, ddpsi, torques = node_data(result)
+    oracle = ne.inverse_dynamics(linkage, psi, dpsi, ddpsi)
+    scale = np.max(np.abs(oracle))
+    assert np.max(np.abs(torques - oracle)) <= 1e-8 * scale
+
+
+def test_the_optimum_beats_the_law_and_the_law_is_its_guess():
+    result = gait("six")
+    assert result.success and result.solution.status == "Solve_Succeeded"
+    assert result.cost < result.law_cost
+    # The law's cost recomputed here: inverse dynamics along the law at the Hermite-Simpson
+    # points of the mesh, Simpson's rule on each interval.
+    problem = result.problem
+    N, T = problem.ocp.N, problem.step_time
+    h = T / N
+    nodes = np.arange(N + 1) * h
+    middles = nodes[:-1] + h / 2
+    law = problem.law
+
+    def effort(t):
+        return np.sum(ne.inverse_dynamics(SIX, *law(t)) ** 2, axis=1)
+
+    simpson = h / 6 * np.sum(effort(nodes[:-1]) + 4 * effort(middles) + effort(nodes[1:]))
+    assert result.law_cost == pytest.approx(simpson, rel=1e-10)
+    # The fitted law satisfies the step's periodicity exactly (zero rates at both ends).
+    psi0, dpsi0, _ = law(0.0)
+    psiT, dpsiT, _ = law(T)
+    start, _ = go.relabel(SIX, psiT, dpsiT)
+    np.testing.assert_allclose(go.wrap(psi0 - start), 0.0, atol=1e-12)
+    np.testing.assert_allclose(np.r_[dpsi0, dpsiT], 0.0, atol=1e-12)
+    assert abs(go.swing_foot(SIX, psiT) - complex(problem.step_length, 0.0)) < 1e-12
+
+
+def test_mesh_refinement_agrees_within_one_percent():
+    costs = [gait("six", N=N).cost for N in (30, 60, 120)]
+    assert max(costs) / min(costs) - 1.0 < 0.01, costs
+
+
+@pytest.mark.parametrize(
+    ("transcription", "degree", "formulation"),
+    [
+        ("trapezoid", None, "implicit"),
+        ("radau", 3, "implicit"),
+        ("hermite-simpson", None, "explicit"),
+    ],
+)
+def test_other_transcriptions_and_the_explicit_formulation(transcription, degree, formulation):
+    result = gait("six", transcription=transcription, degree=degree, formulation=formulation)
+    reference = gait("six")
+    tolerance = 1e-6 if formulation == "explicit" else 0.01  # the same mesh, or another one
+    assert result.cost == pytest.approx(reference.cost, rel=tolerance)
+    assert result.verify().ok
+
+
+def test_passive_ankle_and_other_objectives():
+    passive = gait("six", passive=("stance_shank",))
+    _, _, _, _, torques = node_data(passive)
+    np.testing.assert_array_equal(torques[:, 0], 0.0)
+    assert passive.cost > gait("six").cost  # a constraint more can only cost more
+    assert passive.verify().ok
+    rate = gait("six", objective="torque-rate")
+    assert rate.verify().ok
+
+    # Smoother commands: the torque profile's rates are smaller than the effort optimum's.
+    def peak_rate(result):
+        times, _, torques = result.fine()
+        return np.max(np.abs(np.diff(torques, axis=0) / np.diff(times)[:, None]))
+
+    assert peak_rate(rate) < 0.5 * peak_rate(gait("six"))
+
+
+def test_cost_of_transport_speed_and_world_motion():
+    result = gait("six")
+    problem = result.problem
+    assert result.speed == pytest.approx(problem.step_length / problem.step_time)
+    # Positive work recomputed from the node trajectory, by hand (coarser grid).
+    times, states, torques = result.fine(4001)
+    n = SIX.n
+    rates = states[:, n:].copy()
+    for i, p in enumerate(SIX.parents):
+        if p >= 0:
+            rates[:, i] -= states[:, n + p]
+    work = np.trapezoid(np.maximum(torques * rates, 0).sum(axis=1), times)
+    assert result.positive_work == pytest.approx(work, rel=1e-3)
+    weight = sum(link.mass for link in SIX.links) * SIX.gravity
+    assert result.cost_of_transport == pytest.approx(
+        result.positive_work / (weight * problem.step_length)
+    )
+    motion = result.world(steps=3, rate_hz=50)
+    assert motion.time[0] == 0.0 and motion.time[-1] == pytest.approx(3 * problem.step_time)
+    assert np.all(np.diff(motion.time) > 0)
+    np.testing.assert_allclose(motion.footholds.real, [0.0, 0.5, 1.0, 1.5])
+    # Each body is in one place at the junction of two steps: the same physical leg, seen
+    # from both sides of a heel strike.
+    for name, segment in motion.segments.items():
+        jumps = np.abs(np.diff(segment, axis=0)).max(axis=1)
+        assert np.max(jumps) < 0.1, name
+    # The stance foot of step k stands at k s: step 1's stance leg is the first swing leg.
+    second = motion.step == 1
+    foot_of = motion.segments["swing_shank"][second]
+    ends = np.concatenate([foot_of[:, 0], foot_of[:, 1]])
+    assert np.min(np.abs(ends - 0.5)) < 1e-12
+
+
+def test_verify_gait_finds_what_is_wrong_node_by_node():
+    result = gait("six")
+    trajectory = result.to_trajectory()
+    assert verify_gait(trajectory, SIX).ok
+    # Torques over the limit at node 7, by 5 N m.
+    torques = trajectory.torques.copy()
+    torques[7, 2] = 155.0
+    broken = Trajectory.from_linkage(
+        trajectory.time,
+        trajectory.psi,
+        trajectory.dpsi,
+        torques,
+        SIX.names,
+        ddpsi=trajectory.ddpsi,
+        metadata=trajectory.metadata,
+    )
+    report = verify_gait(broken, SIX)
+    assert not report.ok and [c.name for c in report.failures] == ["torque bounds"]
+    check = report["torque bounds"]
+    assert check.where == f"sample 7 (t = {trajectory.time[7]:.4g} s)"
+    assert check.margin == pytest.approx(-5.0)
+    with pytest.raises(GaitVerificationError, match=r"torque bounds misses by 5 N m at sample 7"):
+        report.raise_if_failed()
+    # A start that does not follow from the heel strike: the momentum check fails too.
+    dpsi = trajectory.dpsi.copy()
+    dpsi[0, 3] += 0.5
+    shifted = Trajectory.from_linkage(
+        trajectory.time, trajectory.psi, dpsi, trajectory.torques, SIX.names,
+        ddpsi=trajectory.ddpsi, metadata=trajectory.metadata,
+    )  # fmt: skip
+    failed = {c.name for c in verify_gait(shifted, SIX).failures}
+    assert "impact momentum" in failed
+    # A file read back verifies the same.
+    path = result.to_trajectory().save(pytest.importorskip("pathlib").Path("gait_check.npz"))
+    try:
+        assert verify_gait(Trajectory.load(path), SIX).ok
+    finally:
+        path.unlink()
+
+
+def test_the_ocp_is_a_value_the_user_can_change():
+    step = walking_step(N=20)
+    tighter = step.ocp.bound("M", -40.0, 40.0)
+    assert isinstance(tighter, OCP) and step.ocp.N == 20
+    result = step.solve(tighter, progress=False)
+    _, _, _, _, torques = node_data(result)
+    assert np.max(np.abs(torques)) <= 40.0 + 1e-6
+    assert result.cost >= step.solve(progress=False).cost - 1e-9
+    finer = step.solve(step.ocp.refine(N=40).guess(result.solution), progress=False)
+    assert finer.solution.N == 40 and finer.verify().ok
+
+
+def test_biped_detection_and_the_law_fit():
+    biped = Biped.of(SIX)
+    assert (biped.stance_shank, biped.stance_thigh, biped.swing_thigh, biped.swing_shank) == (
+        "stance_shank",
+        "stance_thigh",
+        "swing_thigh",
+        "swing_shank",
+    )
+    assert biped.upper_body == ("torso", "head")
+    # Inverse kinematics: the feet where asked, knees ahead of the legs.
+    psi = biped.posture(complex(0.2, 0.8), complex(0.45, 0.0))
+    hinges = ne.hinge_positions(SIX, psi)
+    assert abs(hinges[2] - complex(0.2, 0.8)) < 1e-12
+    assert abs(hinges[4] - complex(0.45, 0.0)) < 1e-12
+    assert psi[1] - psi[0] > 0 and psi[2] - psi[3] > 0
+
+
+def test_bad_walking_input_is_refused():
+    with pytest.raises(DefinitionError, match=r"swap_legs needs a biped"):
+        walking_step(presets.exoskeleton_leg())
+    with pytest.raises(DefinitionError, match=r"`step_length`: 2 m is too long for legs of 0.86 m"):
+        walking_step(step_length=2.0)
+    with pytest.raises(DefinitionError, match=r"`step_time`: must be > 0 s, got -0.5"):
+        walking_step(step_time=-0.5)
+    with pytest.raises(DefinitionError, match=r"`mu`: the friction coefficient must be > 0"):
+        walking_step(mu=0.0)
+    with pytest.raises(DefinitionError, match=r"`objective`: unknown 'speed'"):
+        walking_step(objective="speed")
+    with pytest.raises(DefinitionError, match=r"`passive`: no link called 'ankle'"):
+        walking_step(passive=("ankle",))
+    with pytest.raises(DefinitionError, match=r"`torque_limit`: give a limit for every link"):
+        walking_step(torque_limit={"torso": 100.0})
+    with pytest.raises(DefinitionError, match=r"`torque_limit`: must be > 0 N m, got -1.0"):
+        walking_step(torque_limit=-1.0)
+    with pytest.raises(DefinitionError, match=r"`knee_range`: lower must be < upper"):
+        walking_step(knee_range=(1.0, 0.5))
+    with pytest.raises(DefinitionError, match=r"`clearance`: must be >= 0 m"):
+        walking_step(clearance=-0.01)
+    with pytest.raises(DefinitionError, match=r"`along`|`step_length`: must be finite"):
+        walking_step(step_length=float("nan"))
+    with pytest.raises(DefinitionTypeError, match=r"`ocp`: must be a planner.OCP"):
+        walking_step(N=4).solve("ocp")
+    lopsided = presets.six_link_anthropoid(swing_thigh_length=0.5)
+    with pytest.raises(DefinitionError, match=r"swing_thigh\.length = 0\.5 m differs"):
+        walking_step(lopsided)
+    one_leg = Linkage([Link("shank", None, 0.4, 3.0), Link("thigh", "shank", 0.4, 7.0)])
+    with pytest.raises(DefinitionError, match=r"no two-link chain ending in a free link"):
+        walking_step(one_leg)
