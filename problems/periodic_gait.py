@@ -18,10 +18,11 @@ torques by inverse dynamics) is the benchmark (``PeriodicGait.law_cost``).
 
 Local optima: the problem is not convex and the defaults start from the law. With the
 six-link scene and the "walking" law (period 1 s, Hermite-Simpson N = 50, keypoints at 1/4,
-1/2, 3/4) the defaults reach the optimum that keeps the law's phase of the swing leg (the
-foot swings forward and back once per period, knee bent in swing, torso near upright);
-started from other guesses (``examples/benchmarks/gait_bench.py`` tries the law shifted by
-half a period and the standing pose) IPOPT finds others, listed there with their costs.
+1/2, 3/4) ``examples/benchmarks/gait_bench.py`` finds three optima by start: from the law
+(the default) cost 724.78, from the law shifted by half a period or the standing pose 692.13,
+from the "paper22" law 849.42. Which one a start reaches depends on IPOPT's barrier strategy
+too (with the monotone update the law reached 692.13): for the best of several, solve from
+several guesses and keep the lowest.
 """
 
 from __future__ import annotations
