@@ -7,6 +7,8 @@
 * :func:`periodic_gait`: the paper's periodic gait on a pinned stance foot, optimised.
 * :func:`walking_step`: the hybrid walking step (single support, heel strike, leg swap).
 * :func:`verify_gait`: a gait checked again in numpy from its samples.
+* :class:`Study` / :func:`run_study`: walking studies over a grid of values, with warm starts,
+  resumable, on a process pool or a Dask cluster (:class:`StudyResult` reads a study folder).
 
 The command line is ``python -m problems`` (see ``problems.cli``).
 """
@@ -30,6 +32,8 @@ from problems.dynamics_problems import (
 from problems.gait_law import LAW_PRESETS, GaitLaw
 from problems.gait_problem import OBJECTIVES, Gait
 from problems.periodic_gait import KEYPOINTS, PeriodicGait, PeriodicGaitProblem, periodic_gait
+from problems.study import Study, run_study
+from problems.study_result import StudyProgress, StudyResult
 from problems.verification import Check, GaitReport, GaitVerificationError, verify_gait
 from problems.walking import WalkingGait, WalkingStep, WorldMotion, walking_step
 
@@ -51,6 +55,9 @@ __all__ = [
     "PeriodicGaitProblem",
     "ReplayReport",
     "SimulationError",
+    "Study",
+    "StudyProgress",
+    "StudyResult",
     "WalkingGait",
     "WalkingStep",
     "WorldMotion",
@@ -58,6 +65,7 @@ __all__ = [
     "law_torque_function",
     "periodic_gait",
     "replay_law",
+    "run_study",
     "simulate",
     "torques_along",
     "upright_instability_rate",

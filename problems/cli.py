@@ -3,6 +3,7 @@
 Subcommands
 -----------
 walk        plan a periodic walking step (the main job): torques for the drives, files, plots
+study       a walking study: walking steps over a grid of values, resumable (problems.study_cli)
 equations   print the equations of motion of a preset linkage, as text or LaTeX
 torques     first problem of dynamics: torques along a gait law, written to files and plots
 simulate    second problem of dynamics: integrate the motion under the torques of a file
@@ -42,6 +43,7 @@ from model.presets import PRESETS, six_link_anthropoid
 from planner.files import atomic_path
 from planner.trajectory import Trajectory, TrajectoryFileError
 from planner.units import si_unit
+from problems import study_cli
 from problems.dynamics_problems import (
     FIT_WINDOW,
     METHODS,
@@ -267,6 +269,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     preset_help = f"linkage preset, one of: {', '.join(PRESETS)} (default: six-link)"
     _walk_parser(commands, common)
+    study_cli.add_parser(commands, common)
 
     equations = commands.add_parser(
         "equations",
@@ -1109,6 +1112,7 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
 
 COMMANDS = {
     "walk": _cmd_walk,
+    "study": study_cli.command,
     "equations": _cmd_equations,
     "torques": _cmd_torques,
     "simulate": _cmd_simulate,

@@ -1,0 +1,320 @@
+"""The study folder: what a study has solved, written so that nothing is lost or half-written.
+
+Layout::
+
+    study.json          the study's definition and its fingerprint (written once)
+    results.csv         one row per settled point, in grid order (rewritten as points arrive)
+    points/<id>.npz     a point's record: its table row (JSON) and, for a solved point, its
+                        NLP iterate and multipliers in physical units (exact warm starts)
+    solutions/<id>.npz  a solved point's gait at its nodes (``planner.Trajectory.load``: to
+                        plot, export, simulate, or guess another OCP from)
+    *.png               the plots (``problems.study_plots``)
+
+Every file is written to a temporary file in the same folder and renamed over its name when
+complete (``planner.files.atomic_path``), records and the table flushed to disk first. A
+point's record is written after its solution: a point is settled exactly when its record
+exists, so a run killed at any instant leaves settled points with complete files and
+unsettled ones to solve again (a solution file without a record is overwritten). Temporary
+files a killed run left behind are removed when the folder is opened again. One run at a time
+holds a folder (an advisory lock on ``study.lock``, released when the process ends).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import hashlib
+import io
+import json
+import os
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from model.errors import AnthropoidError, DefinitionError
+from planner.files import atomic_path
+
+try:  # POSIX advisory locks; elsewhere a folder is not locked
+    import fcntl
+except ImportError:  # pragma: no cover - Windows
+    fcntl = None  # type: ignore[assignment]
+
+FORMAT = "anthropoid-planner study 1"
+DEFINITION_FILE = "study.json"
+TABLE_FILE = "results.csv"
+LOCK_FILE = "study.lock"
+POINTS = "points"
+SOLUTIONS = "solutions"
+#: Columns before the outputs and after them, in this order; outputs come in between in the
+#: order the first rows give them.
+HEAD = ("point", "status", "success", "start", "attempts")
+TAIL = ("iterations", "build_seconds", "solve_seconds", "seconds", "worker", "notes")
+#: Temporary files of ``atomic_path``: ".<name>.<random><suffix>".
+_TEMPORARY = re.compile(r"^\.(.+)\.[A-Za-z0-9_]{8}(\.tmp|\.npz|\.csv|\.json|\.png)$")
+
+
+class StudyFolderError(DefinitionError):
+    """A study folder that cannot be used: it holds another study, or another run holds it."""
+
+
+class StudyFileError(AnthropoidError):
+    """A file of a study folder is malformed (its name and what is wrong in the message)."""
+
+
+def fingerprint(definition: Mapping[str, Any]) -> str:
+    """SHA-256 of the definition's canonical JSON."""
+    text = json.dumps(definition, sort_keys=True, separators=(",", ":"), allow_nan=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _differences(old: Any, new: Any, where: str = "") -> list[str]:
+    """Dotted paths where two JSON values differ (the first few)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = []
+        for key in sorted(set(old) | set(new), key=str):
+            path = f"{where}.{key}" if where else str(key)
+            if key not in old or key not in new:
+                out.append(path)
+            else:
+                out.extend(_differences(old[key], new[key], path))
+        return out
+    return [] if old == new else [where or "definition"]
+
+
+def _describe(value: Any) -> str:
+    if isinstance(value, list) and len(value) > 4:
+        return f"{len(value)} values {value[0]!r} .. {value[-1]!r}"
+    text = json.dumps(value, sort_keys=True)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _lookup(definition: Any, path: str) -> Any:
+    for key in path.split("."):
+        if isinstance(definition, dict) and key in definition:
+            definition = definition[key]
+        elif isinstance(definition, list) and key.isdigit() and int(key) < len(definition):
+            definition = definition[int(key)]
+        else:
+            return "(absent)"
+    return definition
+
+
+def _write_bytes(path: Path, data: bytes) -> None:
+    with atomic_path(path, suffix=path.suffix) as temporary, open(temporary, "wb") as handle:
+        handle.write(data)
+        handle.flush()
+        os.fsync(handle.fileno())
+
+
+class StudyFolder:
+    """A study's folder, opened for one run (or read by :meth:`read`).
+
+    ``StudyFolder(path, definition)`` creates the folder for a new study or checks that it
+    holds the same study (:class:`StudyFolderError` naming what changed otherwise), takes its
+    lock and removes the temporary files of a killed run. ``close()`` releases the lock.
+    """
+
+    def __init__(self, path: str | os.PathLike, definition: Mapping[str, Any]) -> None:
+        self.path = Path(os.fspath(path))
+        if self.path.exists() and not self.path.is_dir():
+            raise StudyFolderError(f"`folder`: {str(self.path)!r} exists and is not a folder")
+        self.path.mkdir(parents=True, exist_ok=True)
+        self._lock = self._take_lock()
+        try:
+            self.definition = dict(definition)
+            self._check_or_create()
+            (self.path / POINTS).mkdir(exist_ok=True)
+            (self.path / SOLUTIONS).mkdir(exist_ok=True)
+            self._remove_temporary_files()
+        except BaseException:
+            self.close()
+            raise
+
+    # ---- opening ---------------------------------------------------------------------
+    def _take_lock(self):
+        if fcntl is None:  # pragma: no cover - Windows
+            return None
+        handle = open(self.path / LOCK_FILE, "a+")
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.close()
+            raise StudyFolderError(
+                f"`folder`: another run is using {str(self.path)!r} (it holds {LOCK_FILE}); "
+                "wait for it to finish or stop it, or give another folder"
+            ) from None
+        return handle
+
+    def close(self) -> None:
+        """Release the folder's lock."""
+        if self._lock is not None:
+            with contextlib.suppress(OSError):
+                fcntl.flock(self._lock.fileno(), fcntl.LOCK_UN)
+            self._lock.close()
+            self._lock = None
+
+    def __enter__(self) -> StudyFolder:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _check_or_create(self) -> None:
+        path = self.path / DEFINITION_FILE
+        stamp = fingerprint(self.definition)
+        if not path.exists():
+            if any(self.path.iterdir()) and not self._only_lock():
+                raise StudyFolderError(
+                    f"`folder`: {str(self.path)!r} is not empty and holds no {DEFINITION_FILE}: "
+                    "it is not a study folder; give a new or empty folder"
+                )
+            content = {"format": FORMAT, "fingerprint": stamp, "definition": self.definition}
+            _write_bytes(path, (json.dumps(content, indent=1, sort_keys=True) + "\n").encode())
+            return
+        saved = read_definition(self.path)
+        if saved["fingerprint"] == stamp:
+            return
+        changed = _differences(saved["definition"], json.loads(json.dumps(self.definition)))
+        shown = "; ".join(
+            f"{key}: {_describe(_lookup(saved['definition'], key))} in the folder, "
+            f"{_describe(_lookup(self.definition, key))} now"
+            for key in changed[:3]
+        )
+        more = f" (and {len(changed) - 3} more)" if len(changed) > 3 else ""
+        raise StudyFolderError(
+            f"`folder`: {str(self.path)!r} holds another study ({shown or 'the definition'}"
+            f"{more}); results of two studies are not mixed: give another folder, or delete "
+            "this one to start over"
+        )
+
+    def _only_lock(self) -> bool:
+        return [p.name for p in self.path.iterdir()] == [LOCK_FILE]
+
+    def _remove_temporary_files(self) -> None:
+        for folder in (self.path, self.path / POINTS, self.path / SOLUTIONS):
+            for item in folder.iterdir():
+                if item.is_file() and _TEMPORARY.match(item.name):
+                    with contextlib.suppress(FileNotFoundError):
+                        item.unlink()
+
+    # ---- points ----------------------------------------------------------------------
+    def record_path(self, point_id: str) -> Path:
+        return self.path / POINTS / f"{point_id}.npz"
+
+    def solution_path(self, point_id: str) -> Path:
+        return self.path / SOLUTIONS / f"{point_id}.npz"
+
+    def rows(self, ids: Iterable[str] | None = None) -> dict[str, dict[str, Any]]:
+        """The table rows of the settled points (all, or those of ``ids`` that are)."""
+        return read_rows(self.path, ids)
+
+    def save(self, result: Mapping[str, Any]) -> None:
+        """Write a point's result (``problems.study_point.solve_point``): its solution,
+        then its record (which settles it)."""
+        point_id = result["id"]
+        if result.get("trajectory") is not None:
+            _write_bytes(self.solution_path(point_id), result["trajectory"])
+        arrays: dict[str, Any] = {"row": np.array(json.dumps(result["row"], allow_nan=True))}
+        record = result.get("record")
+        if record is not None:
+            for key, value in record.items():
+                arrays[key] = np.asarray(value)
+        buffer = io.BytesIO()
+        np.savez(buffer, **arrays)
+        _write_bytes(self.record_path(point_id), buffer.getvalue())
+
+    def start(self, point_id: str) -> dict[str, Any]:
+        """A solved point as a warm start: its record's arrays and its trajectory's bytes."""
+        with np.load(self.record_path(point_id), allow_pickle=False) as data:
+            start: dict[str, Any] = {key: data[key] for key in data.files if key != "row"}
+        start["signature"] = str(start["signature"])
+        start["objective_scale"] = float(start["objective_scale"])
+        start["cost"] = float(start["cost"])
+        start["trajectory"] = self.solution_path(point_id).read_bytes()
+        start["id"] = point_id
+        return start
+
+    def write_table(self, rows: Sequence[Mapping[str, Any]], axes: Sequence[str]) -> Path:
+        """Rewrite results.csv with ``rows`` (in grid order) atomically."""
+        return write_table(self.path / TABLE_FILE, rows, axes)
+
+
+def read_definition(folder: str | os.PathLike) -> dict[str, Any]:
+    """study.json of a study folder: {"format", "fingerprint", "definition"}."""
+    path = Path(os.fspath(folder)) / DEFINITION_FILE
+    try:
+        content = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise StudyFileError(f"{str(path)!r}: no such file; is this a study folder?") from None
+    except (OSError, ValueError) as exc:
+        raise StudyFileError(f"{str(path)!r}: cannot be read as JSON: {exc}") from exc
+    if not isinstance(content, dict) or content.get("format") != FORMAT:
+        raise StudyFileError(f"{str(path)!r}: not a study definition of format {FORMAT!r}")
+    return content
+
+
+def read_rows(
+    folder: str | os.PathLike, ids: Iterable[str] | None = None
+) -> dict[str, dict[str, Any]]:
+    """The rows of the settled points of a study folder, by point id (from the records)."""
+    points = Path(os.fspath(folder)) / POINTS
+    if ids is None:
+        paths = sorted(p for p in points.glob("*.npz") if not p.name.startswith("."))
+    else:
+        paths = [points / f"{i}.npz" for i in ids]
+    rows = {}
+    for path in paths:
+        if not path.exists():
+            continue
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                row = json.loads(str(data["row"]))
+        except (OSError, ValueError, KeyError) as exc:
+            raise StudyFileError(f"{str(path)!r}: not a study point record ({exc})") from exc
+        rows[path.stem] = row
+    return rows
+
+
+def columns(rows: Sequence[Mapping[str, Any]], axes: Sequence[str]) -> list[str]:
+    """The table's columns: point, the axes, status..., the outputs, iterations..., notes."""
+    fixed = [*HEAD[:1], *axes, *HEAD[1:]]
+    seen = dict.fromkeys(fixed)
+    middle = {}
+    for row in rows:
+        for key in row:
+            if key not in seen and key not in TAIL:
+                middle.setdefault(key, None)
+    return [*fixed, *middle, *TAIL]
+
+
+def write_table(path: Path, rows: Sequence[Mapping[str, Any]], axes: Sequence[str]) -> Path:
+    """``rows`` as CSV (header of column names, full-precision numbers, empty cells for
+    missing values), written atomically."""
+    names = columns(rows, axes)
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(names)
+    for row in rows:
+        writer.writerow(["" if row.get(name) is None else row.get(name) for name in names])
+    _write_bytes(Path(path), text.getvalue().encode())
+    return Path(path)
+
+
+__all__ = [
+    "DEFINITION_FILE",
+    "FORMAT",
+    "POINTS",
+    "SOLUTIONS",
+    "TABLE_FILE",
+    "StudyFileError",
+    "StudyFolder",
+    "StudyFolderError",
+    "columns",
+    "fingerprint",
+    "read_definition",
+    "read_rows",
+    "write_table",
+]
