@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from model.errors import DefinitionError, DefinitionTypeError
 from model.linkage import Linkage
 from problems import study_runner
 from problems.study_point import (
@@ -254,7 +254,7 @@ class Study:
     def _describe(self, point: GridPoint) -> dict[str, Any]:
         try:
             step = self.spec.step(point.values)
-        except AnthropoidError as exc:
+        except DefinitionError as exc:  # values refused there: a point that will fail
             return {"point": point.id, "error": str(exc).splitlines()[0]}
         settings = {k: v for k, v in step.settings().items() if k != "law"}  # derived data
         return {
@@ -309,7 +309,8 @@ class Study:
         scheduler : None (the local process pool), a Dask scheduler address
             (``"tcp://host:8786"``), ``"local"`` (a Dask LocalCluster for this run) or a
             ``distributed.Client``.
-        ordering : "lines", "coarse" or "auto" (``problems.study_schedule``).
+        ordering : "auto", "lines", "coarse" or "cold" (no warm starts)
+            (``problems.study_schedule``).
         line_axis : the axis along which lines run (default the last).
         retry_failed : solve the points recorded as failed again (after lost workers, or
             a failure that came from the machine rather than the problem).

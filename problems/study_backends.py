@@ -9,14 +9,14 @@ cluster.
   and a new pool starts.
 * :class:`DaskBackend`: ``dask.distributed`` (``pip install ".[cluster]"``): a scheduler
   address (``tcp://host:8786``), a ``distributed.Client``, or ``"local"`` for a
-  ``LocalCluster`` started for the run and closed after it. The study's :class:`PointSpec` is
-  scattered to the workers once; each task carries one point. Dask reschedules the tasks of a
+  ``LocalCluster`` started for the run and closed after it. Each task carries the study's
+  :class:`PointSpec` (a few kB) and one point. Dask reschedules the tasks of a
   lost worker by itself; a task whose workers died ``allowed-failures`` times comes back as
   lost (``KilledWorker``).
 
 Every backend offers ``submit(task) -> handle``, ``wait(handles, timeout) -> finished
 handles``, ``result(handle)`` (raises :class:`WorkerLost` when the worker died),
-``capacity`` (how many points to keep in flight) and ``close()``.
+``capacity`` (how many points to keep in flight), ``workers`` and ``close(cancel)``.
 """
 
 from __future__ import annotations
@@ -95,9 +95,6 @@ class SerialBackend:
     def result(self, handle) -> dict[str, Any]:
         return handle.result()
 
-    def recover(self) -> None:
-        pass
-
     def close(self, cancel: bool = False) -> None:
         pass
 
@@ -144,10 +141,12 @@ class PoolBackend:
 
     def submit(self, task: Mapping[str, Any]) -> concurrent.futures.Future:
         try:
-            return self._pool.submit(solve_installed, task)
+            future = self._pool.submit(solve_installed, task)
         except BrokenProcessPool:
-            self.recover()
-            return self._pool.submit(solve_installed, task)
+            self._replace(self._pool)
+            future = self._pool.submit(solve_installed, task)
+        future.study_pool = self._pool  # which pool broke, when it breaks
+        return future
 
     def wait(self, handles: Iterable, timeout: float) -> set:
         done, _ = concurrent.futures.wait(
@@ -159,10 +158,13 @@ class PoolBackend:
         try:
             return handle.result()
         except BrokenProcessPool as exc:
+            self._replace(getattr(handle, "study_pool", None))
             raise WorkerLost(f"a worker process died ({exc})") from exc
 
-    def recover(self) -> None:
-        """Replace a broken pool by a new one."""
+    def _replace(self, broken) -> None:
+        """A new pool for the broken one (once: every point in flight reports the breakage)."""
+        if broken is not self._pool:
+            return
         logger.warning("a study worker process died; starting a new process pool")
         self._pool.shutdown(wait=False, cancel_futures=True)
         self._pool = self._new_pool()
@@ -198,6 +200,11 @@ class DaskBackend:
     def __init__(self, spec: PointSpec, scheduler: Any, workers: int | None = None) -> None:
         distributed = _distributed()
         self._distributed = distributed
+        names = ("FutureCancelledError", "FuturesCancelledError")
+        self._cancelled = (
+            *(getattr(distributed.client, n) for n in names if hasattr(distributed.client, n)),
+            concurrent.futures.CancelledError,
+        )
         self._cluster = None
         self._own_client = True
         if isinstance(scheduler, distributed.Client):
@@ -230,11 +237,9 @@ class DaskBackend:
                 f"`scheduler`: give a scheduler address, 'local' or a distributed.Client, got "
                 f"{scheduler!r}"
             )
-        try:
-            self._spec = self._client.scatter(spec, broadcast=True, hash=False)
-        except BaseException:
-            self.close()
-            raise
+        # The spec goes with every task (a few kB): data scattered once is lost for good with
+        # the worker holding it, a task's arguments are not.
+        self._spec = spec
         self.description = where
         self._threads = 1
 
@@ -267,11 +272,10 @@ class DaskBackend:
             return handle.result()
         except self._distributed.KilledWorker as exc:
             raise WorkerLost(f"Dask lost the workers running it ({exc})", final=True) from exc
+        except self._cancelled as exc:
+            raise WorkerLost(f"Dask cancelled it ({type(exc).__name__})") from exc
         finally:
             handle.release()
-
-    def recover(self) -> None:
-        pass
 
     def close(self, cancel: bool = False) -> None:
         with contextlib.suppress(Exception):

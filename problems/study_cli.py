@@ -258,8 +258,8 @@ class ProgressBar:
         self._stream = stream
         self._enabled = enabled
         self._tty = bool(getattr(stream, "isatty", lambda: False)())
-        self._last_line = -math.inf
-        self._last_settled = -1
+        self._last_line = time.perf_counter()
+        self._last_settled = 0
         self._drawn = False
 
     def text(self, p: StudyProgress) -> str:

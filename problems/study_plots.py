@@ -28,9 +28,15 @@ FILES = ("cost_of_transport.png", "peak_torque.png", "cost_map.png")
 UNITS = {"step_length": "m", "step_time": "s", "mu": "", "torque_limit": "N m", "clearance": "m"}
 
 
+def _label(name: str) -> str:
+    """An axis label: "step length (m)"."""
+    unit = UNITS.get(name, "")
+    return name.replace("_", " ") + (f" ({unit})" if unit else "")
+
+
 def _value(name: str, value) -> str:
     unit = UNITS.get(name, "")
-    text = f"{value:g}" if isinstance(value, float) else str(value)
+    text = f"{value:.4g}" if isinstance(value, float) else str(value)
     return f"{name} = {text}{' ' + unit if unit else ''}"
 
 
@@ -54,7 +60,7 @@ def _x(result: StudyResult) -> tuple[np.ndarray, str]:
     values = np.asarray(result.axes[first], dtype=float)
     shape = result.shape
     grid = np.broadcast_to(values.reshape((-1,) + (1,) * (len(shape) - 1)), shape)
-    return np.array(grid), _value(first, "").rstrip(" =")
+    return np.array(grid), _label(first)
 
 
 def _colours(count: int):
@@ -142,9 +148,9 @@ def cost_map_figure(result: StudyResult, column: str = "cost") -> Figure:
     image = axes.imshow(
         np.ma.masked_invalid(values), origin="lower", aspect="auto", cmap="viridis", norm=norm
     )
-    figure.colorbar(
-        image, ax=axes, label=column + (" (log scale)" if isinstance(norm, LogNorm) else "")
-    )
+    scale = ", log scale" if isinstance(norm, LogNorm) else ""
+    what = "cost: the objective at the optimum" if column == "cost" else column
+    figure.colorbar(image, ax=axes, label=f"{what}{scale}")
     annotate = values.size <= 200
     for (i, j), state in np.ndenumerate(status):
         if state == "failed":
@@ -155,13 +161,13 @@ def cost_map_figure(result: StudyResult, column: str = "cost") -> Figure:
             shade = norm(values[i, j])
             axes.text(j, i, f"{values[i, j]:.4g}", ha="center", va="center", fontsize="x-small",
                       color="black" if shade > 0.5 else "white")  # fmt: skip
-    axes.set_yticks(range(len(first_values)), [f"{v:g}" if isinstance(v, float) else str(v)
+    axes.set_yticks(range(len(first_values)), [f"{v:.4g}" if isinstance(v, float) else str(v)
                                                 for v in first_values])  # fmt: skip
-    axes.set_ylabel(_value(first, "").rstrip(" ="))
-    axes.set_xticks(range(len(second_values)), [f"{v:g}" if isinstance(v, float) else str(v)
+    axes.set_ylabel(_label(first))
+    axes.set_xticks(range(len(second_values)), [f"{v:.4g}" if isinstance(v, float) else str(v)
                                                  for v in second_values])  # fmt: skip
     if second:
-        axes.set_xlabel(_value(second, "").rstrip(" ="))
+        axes.set_xlabel(_label(second))
     failed = int(np.sum(status == "failed"))
     missing = int(np.sum(status == "missing"))
     notes = []

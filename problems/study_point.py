@@ -45,14 +45,22 @@ WORKER_LOST = "Worker_Lost"
 
 
 # ---- outputs ----------------------------------------------------------------------------------
+#: Below this fraction of the body weight the stance foot counts as unloaded: friction use
+#: |Fx| / (mu Fy) means nothing there (both forces vanish within the solver's tolerance, as
+#: at the instant a long, fast step takes off: Fy ~ -1e-5 N, Fx ~ -1e-8 N).
+UNLOADED = 1e-3
+
+
 def _peak_friction_use(gait: WalkingGait, trajectory: Trajectory) -> float:
-    """max over the nodes of |Fx| / (mu Fy) of the stance foot (1: on the cone's edge)."""
+    """max over the loaded nodes of |Fx| / (mu Fy) of the stance foot (1: on the cone's
+    edge); NaN when no node carries UNLOADED x the weight."""
     fx = np.asarray(trajectory.extras["Fx"][0])
     fy = np.asarray(trajectory.extras["Fy"][0])
-    mu = gait.problem.mu
-    with np.errstate(divide="ignore", invalid="ignore"):
-        use = np.where(fy > 0, np.abs(fx) / (mu * fy), math.inf)
-    return float(np.max(use))
+    biped = gait.problem.biped
+    loaded = fy >= UNLOADED * biped.total_mass * biped.linkage.gravity
+    if not np.any(loaded):
+        return math.nan
+    return float(np.max(np.abs(fx[loaded]) / (gait.problem.mu * fy[loaded])))
 
 
 def _verification(gait: WalkingGait, trajectory: Trajectory) -> dict[str, Any]:
@@ -92,7 +100,8 @@ OUTPUTS: dict[str, tuple[Callable[[WalkingGait, Trajectory], Any], str, str]] = 
     "peak_friction_use": (
         _peak_friction_use,
         "1",
-        "largest |Fx| / (mu Fy) of the stance foot over the nodes (1: the cone's edge)",
+        "largest |Fx| / (mu Fy) of the stance foot over the nodes where it carries at least "
+        "0.1 % of the weight (1: the cone's edge)",
     ),
     "impulse": (
         lambda g, tr: dict(zip(("x", "y"), g.impact["impulse"].tolist(), strict=True)),

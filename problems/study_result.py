@@ -86,8 +86,9 @@ class StudyResult:
 
     folder : the study folder; axes : name -> values, as defined; rows : the settled points'
     rows in grid order (the table results.csv holds); run : what the run that returned this
-    measured (None for :meth:`load`): points solved and failed in it, seconds, points per
-    minute, IPOPT iterations, backend, ordering.
+    measured (None for :meth:`load`): points solved, failed and lost (worker deaths) in it,
+    seconds (wall time, with startup_seconds of starting the workers or the cluster), points
+    per minute over those seconds, IPOPT iterations, backend, ordering.
     """
 
     folder: Path

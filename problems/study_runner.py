@@ -76,7 +76,9 @@ def run(
             rows = {k: r for k, r in rows.items() if r.get("success")}
         solved = [p.index for p in points if rows.get(p.id, {}).get("success")]
         failed = [p.index for p in points if p.id in rows and not rows[p.id].get("success")]
+        begin = time.perf_counter()
         backend = make_backend(spec, workers, scheduler)
+        startup = time.perf_counter() - begin
         try:
             chosen = choose_ordering(ordering, shape, backend.workers, line_axis)
             schedule = Schedule(shape, chosen, solved, failed, line_axis=line_axis)
@@ -92,12 +94,13 @@ def run(
         finally:
             # An interruption that escaped the loop's own draining abandons what runs.
             backend.close(cancel=True)
-        seconds = time.perf_counter() - counts.begin
+        seconds = time.perf_counter() - begin
         stats = {
             "solved": counts.solved,
             "failed": counts.failed,
             "lost": counts.lost,
             "seconds": seconds,
+            "startup_seconds": startup,
             "points_per_minute": 60.0 * counts.done / seconds if counts.done else math.nan,
             "iterations": counts.iterations,
             "backend": backend.description,
@@ -134,7 +137,8 @@ def _loop(store, schedule, backend, by_index, rows, axes, progress, chosen) -> _
             )
         )
 
-    def settle(handle) -> None:
+    def settle(handle) -> dict[str, Any] | None:
+        """Write what came back; returns its row (None for a point queued again)."""
         index = in_flight.pop(handle)
         point = by_index[index]
         try:
@@ -144,9 +148,8 @@ def _loop(store, schedule, backend, by_index, rows, axes, progress, chosen) -> _
             losses[index] = losses.get(index, 0) + 1
             if not exc.final and losses[index] < MAX_LOSSES:
                 logger.warning("point %s lost with its worker (%s); queued again", point.id, exc)
-                backend.recover()
                 schedule.requeue(index)
-                return
+                return None
             result = {"id": point.id, "row": _lost_row(point, exc), "record": None}
         row = result["row"]
         store.save(result)
@@ -165,7 +168,7 @@ def _loop(store, schedule, backend, by_index, rows, axes, progress, chosen) -> _
             row.get("iterations"),
             row.get("start") or "-",
         )
-        report(row)
+        return row
 
     def fill() -> None:
         while len(in_flight) < backend.capacity:
@@ -189,8 +192,11 @@ def _loop(store, schedule, backend, by_index, rows, axes, progress, chosen) -> _
             fill()
             if not in_flight:
                 break
-            for handle in backend.wait(list(in_flight), TICK_SECONDS):
-                settle(handle)
+            rows = [settle(handle) for handle in backend.wait(list(in_flight), TICK_SECONDS)]
+            fill()  # before reporting: the report counts the points now running
+            for row in rows:
+                if row is not None:
+                    report(row)
             if time.perf_counter() - last_tick >= TICK_SECONDS:
                 last_tick = time.perf_counter()
                 report(None)

@@ -16,6 +16,8 @@ Orderings (``ORDERINGS``):
   grid neighbours is solved and starts from the nearest solved ones. More cold solves than
   ``"lines"`` (a quarter of a 2-D grid instead of one line), but as many points in parallel as
   the coarse grid holds from the start.
+* ``"cold"``: no continuation: every point starts from the gait law only, all of them in
+  parallel (the baseline of ``study_bench.py``, and a check for other local optima).
 * ``"auto"``: ``"lines"`` when the grid has at least as many lines as there are workers (all
   of them busy from the start), else ``"coarse"``. ``examples/benchmarks/study_bench.py``
   measures the two.
@@ -34,7 +36,7 @@ from collections.abc import Iterable, Sequence
 
 from model.errors import DefinitionError, DefinitionTypeError
 
-ORDERINGS = ("auto", "lines", "coarse")
+ORDERINGS = ("auto", "lines", "coarse", "cold")
 #: Solved neighbours a point may start from before the law (the issue: "retried from
 #: another neighbour and from the law's guess").
 MAX_STARTS = 2
@@ -79,7 +81,7 @@ class Schedule:
     Parameters
     ----------
     shape : the grid's size along each axis.
-    ordering : "lines" or "coarse" (resolve "auto" with :func:`choose_ordering` first).
+    ordering : "lines", "coarse" or "cold" (resolve "auto" with :func:`choose_ordering`).
     solved, failed : points already settled (a resumed study): solved ones serve as starts.
     line_axis : the axis along which lines run ("lines"), preferred for starts in both.
     stride : the coarse grid's spacing in indices ("coarse").
@@ -100,7 +102,7 @@ class Schedule:
         stride: int = 2,
         max_starts: int = MAX_STARTS,
     ) -> None:
-        if ordering not in ("lines", "coarse"):
+        if ordering not in ("lines", "coarse", "cold"):
             raise DefinitionError(f"`ordering`: {ordering!r}; resolve it with choose_ordering")
         self.shape = tuple(int(s) for s in shape)
         if not self.shape or any(s < 1 for s in self.shape):
@@ -215,6 +217,8 @@ class Schedule:
         of the coarse grid)."""
         if self.ordering == "lines":
             return point[self.axis] == 0
+        if self.ordering == "cold":
+            return True
         return all(
             i % self.stride == 0 or i == s - 1 for i, s in zip(point, self.shape, strict=True)
         )
@@ -237,7 +241,9 @@ class Schedule:
         point) starts from the law, then from solved neighbours; every other point from the
         nearest solved points (sum of index differences up to ``MAX_DISTANCE``, the line axis
         before the others; in "lines" its predecessor on the line first), then the law. At
-        most ``max_starts`` solved points."""
+        most ``max_starts`` solved points. In "cold", the law only."""
+        if self.ordering == "cold":
+            return [None]
         candidates = []
         for offset in self._offsets:
             other = tuple(a + b for a, b in zip(point, offset, strict=True))

@@ -81,10 +81,20 @@ def _differences(old: Any, new: Any, where: str = "") -> list[str]:
             else:
                 out.extend(_differences(old[key], new[key], path))
         return out
+    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new):
+        out = []
+        for k, (a, b) in enumerate(zip(old, new, strict=True)):
+            out.extend(_differences(a, b, f"{where}.{k}" if where else str(k)))
+        return out
     return [] if old == new else [where or "definition"]
 
 
+_ABSENT = object()
+
+
 def _describe(value: Any) -> str:
+    if value is _ABSENT:
+        return "(absent)"
     if isinstance(value, list) and len(value) > 4:
         return f"{len(value)} values {value[0]!r} .. {value[-1]!r}"
     text = json.dumps(value, sort_keys=True)
@@ -98,7 +108,7 @@ def _lookup(definition: Any, path: str) -> Any:
         elif isinstance(definition, list) and key.isdigit() and int(key) < len(definition):
             definition = definition[int(key)]
         else:
-            return "(absent)"
+            return _ABSENT
     return definition
 
 
