@@ -90,7 +90,9 @@ def run(
                 backend.description,
                 chosen,
             )
-            counts = _loop(store, schedule, backend, by_index, rows, axes, progress, chosen)
+            counts = _loop(
+                store, schedule, backend, by_index, rows, axes, progress, chosen, spec.multipliers
+            )
         finally:
             # An interruption that escaped the loop's own draining abandons what runs.
             backend.close(cancel=True)
@@ -109,7 +111,7 @@ def run(
         return StudyResult.load(store.path, run=stats)
 
 
-def _loop(store, schedule, backend, by_index, rows, axes, progress, chosen) -> _Run:
+def _loop(store, schedule, backend, by_index, rows, axes, progress, chosen, multipliers) -> _Run:
     counts = _Run(begin=time.perf_counter())
     in_flight: dict[Any, tuple[int, ...]] = {}
     losses: dict[tuple[int, ...], int] = {}
@@ -179,7 +181,8 @@ def _loop(store, schedule, backend, by_index, rows, axes, progress, chosen) -> _
                 return
             point = by_index[index]
             starts = [
-                None if s is None else store.start(by_index[s].id) for s in schedule.starts(index)
+                None if s is None else store.start(by_index[s].id, multipliers)
+                for s in schedule.starts(index)
             ]
             schedule.start(index)
             handle = backend.submit({"id": point.id, "values": point.values, "starts": starts})

@@ -236,10 +236,12 @@ class StudyFolder:
         np.savez(buffer, **arrays)
         _write_bytes(self.record_path(point_id), buffer.getvalue())
 
-    def start(self, point_id: str) -> dict[str, Any]:
-        """A solved point as a warm start: its record's arrays and its trajectory's bytes."""
+    def start(self, point_id: str, multipliers: bool = True) -> dict[str, Any]:
+        """A solved point as a warm start: its record's arrays (without the multipliers
+        unless ``multipliers``) and its trajectory's bytes."""
+        skip = {"row"} if multipliers else {"row", "lam_x", "lam_g"}
         with np.load(self.record_path(point_id), allow_pickle=False) as data:
-            start: dict[str, Any] = {key: data[key] for key in data.files if key != "row"}
+            start: dict[str, Any] = {key: data[key] for key in data.files if key not in skip}
         start["signature"] = str(start["signature"])
         start["objective_scale"] = float(start["objective_scale"])
         start["cost"] = float(start["cost"])
