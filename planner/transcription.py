@@ -54,6 +54,7 @@ import numpy as np
 from model.errors import DefinitionError, DefinitionTypeError, as_float_array
 from planner.collocation import collocation_roots, integration_weights, lagrange_matrix
 from planner.ocp import OCP, Point, evaluate_expression
+from planner.solution import Solution
 
 logger = logging.getLogger(__name__)
 
@@ -606,6 +607,30 @@ class Transcription:
         return ca.Function(
             "nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]], ["x", "p"], ["f", "g"]
         )
+
+    # ---- what the solver reads besides the NLP (planner.phases has the same) ---------------
+    @property
+    def label(self) -> str:
+        """The mesh in words, for logs."""
+        degree = f"({self.scheme.degree})" if self.scheme.degree else ""
+        return f"{self.scheme.name}{degree} N={self.ocp.N}"
+
+    @property
+    def given_objective_scale(self) -> float | None:
+        """``ocp.scale(objective=...)``, or None."""
+        return self.ocp.objective_scale
+
+    def guess_solution(self):
+        """The Solution the OCP's last guess comes from (warm starts read its multipliers
+        and objective scale), or None."""
+        guesses = self.ocp.guesses
+        if guesses and guesses[-1].kind == "solution":
+            return guesses[-1].source
+        return None
+
+    def solution(self, w, cost, status, success, stats, lam_g, lam_x):
+        """The :class:`planner.solution.Solution` of a solve of this NLP."""
+        return Solution(self, w, cost, status, success, stats, lam_g, lam_x)
 
     @cached_property
     def terms_function(self) -> ca.Function:
@@ -1211,10 +1236,9 @@ class Transcription:
         self.g_scale = np.concatenate(g_scale)
         self.lbg = np.concatenate(lbg) if lbg else np.zeros(0)
         self.ubg = np.concatenate(ubg) if ubg else np.zeros(0)
-        if self.lbg.size != self.parametric_nlp["g"].size1():
+        if self.lbg.size != self.rows.size1():
             raise RuntimeError(
-                f"internal: {self.lbg.size} constraint bounds for "
-                f"{self.parametric_nlp['g'].size1()} rows"
+                f"internal: {self.lbg.size} constraint bounds for {self.rows.size1()} rows"
             )
 
     def _constraint_rows(self, constraints) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
