@@ -820,9 +820,10 @@ class Transcription:
     @property
     def residual_scale(self) -> np.ndarray:
         s = self.system
-        if s.residual_scale_group == "M":
-            return self.control_scale
-        return self.state_scale
+        members = s.group(s.residual_scale_group)
+        if members is None or members == s.state_names:
+            return self.state_scale
+        return np.array([self.ocp.variable_scale(name) for name in members])
 
     def _boundary_function(self) -> ca.Function:
         """(x0, xf, u0, uf, z0, zf, T, params[, du0, duf]) -> (boundary rows, periodic defect
@@ -1322,9 +1323,9 @@ class Transcription:
                 dpsi = np.column_stack([at_dyn[k] for k in dpsi_names])
                 ddpsi = np.column_stack([at_dyn[k] for k in ddpsi_names])
                 torques = np.atleast_2d(s.dynamics.inverse_dynamics(psi, dpsi, ddpsi))
-                for i, name in enumerate(s.control_names):
+                for i, name in enumerate(s.group("M")):
                     if name in missing:
-                        U[:, i] = torques[:, i]
+                        U[:, s.control_names.index(name)] = torques[:, i]
         # Static parameters: their own guesses, or the values of a Solution guessed from.
         P: dict[str, float] = {}
         for layer in ocp.guesses:
