@@ -152,11 +152,19 @@ class Solution:
         self.state_values = values["X"]
         self.control_values = values["U"]
         self.aux_values = values["Z"]
+        #: The static parameters' values, name -> value (``OCP.param``).
+        self.params = values["P"]
         self.state_time = self.mesh.s_state * self.T
         self.point_time = self.mesh.s_dyn * self.T
         self.rate_values = self._rates()
         #: Interval integrators by (rtol, atol), built on first use.
         self._integrators: dict[tuple[float, float], ca.Function] = {}
+
+    @cached_property
+    def cost_terms(self) -> dict[str, float]:
+        """Each objective term's value at the solution, name -> value (``OCP.minimize``'s
+        ``name``); they add up to ``cost``."""
+        return self.transcription.cost_terms(self.w)
 
     # ---- basic views -----------------------------------------------------------------
     @property
@@ -165,7 +173,17 @@ class Solution:
 
     @property
     def h(self) -> float:
+        """The interval length of a uniform mesh, T / N, s (see :attr:`interval_lengths`)."""
+        if not self.mesh.uniform:
+            raise DefinitionError(
+                "`h`: the mesh is not uniform; read interval_lengths (N,) instead"
+            )
         return self.T / self.N
+
+    @property
+    def interval_lengths(self) -> np.ndarray:
+        """(N,) interval lengths h_k, s (T / N each on a uniform mesh)."""
+        return (self.T / self.N) * self.mesh.relative
 
     @property
     def nlp_signature(self) -> str:
@@ -200,7 +218,9 @@ class Solution:
     @property
     def time(self) -> np.ndarray:
         """(N+1,) node times, s."""
-        return np.arange(self.N + 1) * self.h
+        if self.mesh.uniform:
+            return np.arange(self.N + 1) * (self.T / self.N)
+        return self.mesh.breaks * self.T
 
     @property
     def states(self) -> np.ndarray:
@@ -215,9 +235,10 @@ class Solution:
 
     @property
     def torques(self) -> np.ndarray:
-        """(N+1, n) hinge torques at the nodes, N m (a linkage's controls)."""
+        """(N+1, n) hinge torques at the nodes, N m (a linkage's controls; contact forces,
+        when there are any, follow them among the controls)."""
         self._require_linkage("torques")
-        return self.controls
+        return self.controls[:, : self.system.dynamics.n]
 
     @property
     def ddpsi(self) -> np.ndarray | None:
@@ -237,7 +258,8 @@ class Solution:
         u = self.control_values.T
         z = self.aux_values.T if self.system.nz else np.zeros((0, x.shape[1]))
         times = self.point_time[None, :]
-        # By name: the control-rate input, when there is one, does not change the rates.
+        # By name: the control-rate input, when there is one, does not change the rates
+        # (nor do the static parameters: they do not enter the dynamics).
         rate = mapped(x=x, u=u, z=z, t=times, T=np.full_like(times, self.T))["f"]
         return np.asarray(rate).T
 
@@ -262,9 +284,9 @@ class Solution:
         _, k, tau = self._locate(t)
         scheme, mesh = self.scheme, self.mesh
         out = np.zeros((k.size, self.system.nx))
-        h = self.h
         for kk in np.unique(k):
             sel = k == kk
+            h = self.T / self.N * mesh.relative[kk]
             wx, wf = scheme.state_weights(tau[sel], derivative)
             xk = self.state_values[mesh.state_cols[kk]]
             fk = self.rate_values[mesh.dyn_cols[kk]]
@@ -277,7 +299,8 @@ class Solution:
         for kk in np.unique(k):
             sel = k == kk
             weights = self.scheme.control_weights(tau[sel], derivative)
-            out[sel] = weights @ values[self.mesh.dyn_cols[kk]] / self.h**derivative
+            h = self.T / self.N * self.mesh.relative[kk]
+            out[sel] = weights @ values[self.mesh.dyn_cols[kk]] / h**derivative
         return out
 
     def control(self, t) -> np.ndarray:
@@ -303,8 +326,13 @@ class Solution:
             return self.aux(t)
         n = self.system.dynamics.n
         x = self.state(t)
-        result = self.system.dynamics.forward_dynamics(x[:, :n], x[:, n:], self.control(t))
-        return np.atleast_2d(result)
+        u = self.control(t)
+        if self.system.nu == n:
+            return np.atleast_2d(self.system.dynamics.forward_dynamics(x[:, :n], x[:, n:], u))
+        # Contact forces too: the system's own rate (forward dynamics with their moments).
+        times = np.atleast_1d(np.asarray(t, dtype=float))
+        rate = self.system.ode.map(times.size)(x.T, u.T, times[None, :])
+        return np.asarray(rate).T[:, n:]
 
     def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
         """(states (K, nx), controls (K, nu)) at times t through the transcription's polynomials."""
@@ -483,7 +511,7 @@ class Solution:
         # ca.vec is column-major over (nu, ndc): entry (i, c) at c * nu + i.
         vec_u = uk.reshape(self.N, -1)
         t0 = self.time[:-1, None]
-        h = np.full((self.N, 1), self.h)
+        h = self.interval_lengths[:, None]
         return np.hstack([vec_u, t0, h]).T  # (np, N)
 
     def integration_error(self, rtol: float = 1e-12, atol: float = 1e-12) -> IntegrationError:
@@ -504,7 +532,8 @@ class Solution:
         (N, nx), state units; Gauss-Legendre quadrature with ``points`` points per interval.
         """
         tau, weights = gauss_legendre(points)
-        t = (np.arange(self.N)[:, None] + tau[None, :]).reshape(-1) * self.h
+        h = self.interval_lengths
+        t = (self.time[:-1, None] + tau[None, :] * h[:, None]).reshape(-1)
         # Points never hit a node, so the interval of each is unambiguous.
         x = self.state(t)
         dx = self.state(t, derivative=1)
@@ -512,7 +541,7 @@ class Solution:
         f = self._rates_at(x, u, t, dx)
         gap = np.abs(f - dx).reshape(self.N, points, -1)
         return IntegrationError(
-            self.h * np.einsum("p,kpn->kn", weights, gap), self.system.state_names
+            h[:, None] * np.einsum("p,kpn->kn", weights, gap), self.system.state_names
         )
 
     def replay(self, rtol: float = 1e-10, atol: float = 1e-10) -> Replay:
@@ -591,15 +620,19 @@ class Solution:
         system = self.system
         if system.is_linkage:
             n = system.dynamics.n
-            return Trajectory.from_linkage(
+            trajectory = Trajectory.from_linkage(
                 times,
                 states[:, :n],
                 states[:, n:],
-                controls,
+                controls[:, :n],
                 system.dynamics.names,
                 ddpsi=self.acceleration(times),
                 metadata=self.metadata,
             )
+            # Contact forces (controls after the torques): derived channels, N.
+            for i, name in enumerate(system.control_names[n:]):
+                trajectory = trajectory.with_extra(name, controls[:, n + i], "N")
+            return trajectory
         extras = {}
         if system.nz:
             aux = self.aux(times)
