@@ -261,7 +261,7 @@ class Study:
             "point": point.id,
             "settings": jsonable("settings", settings),
             "linkage": step.linkage.parameters(),
-            "ocp": str(step.ocp),
+            "ocp": str(step.problem),
         }
 
     @cached_property

@@ -8,8 +8,8 @@ dispatches here).
 
 A value option takes one value (``0.5``), a list (``0.4,0.5,0.6``) or a range
 ``start:stop:count`` (``count`` values from start to stop, both included). Step length and
-step time are always axes (in that order); ``--mu``, ``--torque-limit-nm`` and
-``--clearance-m`` become axes when given more than one value. The study goes to
+step time are always axes (in that order); ``--mu``, ``--torque-limit-nm``, ``--clearance-m``
+and ``--double-support-s`` become axes when given more than one value. The study goes to
 ``--output-dir`` (default ``study_out``): the same command again resumes it, solving only the
 points it does not hold; a folder of another study is refused. A progress bar on stderr shows
 the points done, failed and the time left; the summary and the files written go to stdout.
@@ -140,6 +140,13 @@ def add_parser(commands, common: argparse.ArgumentParser) -> None:
         help="mid-swing foot clearances, m (default: 0.05)",
     )
     study.add_argument(
+        "--double-support-s",
+        type=value_list("s", 10.0, zero=True),
+        default=(0.0,),
+        metavar="SPEC",
+        help="double-support durations within the step time, s (default: 0, none)",
+    )
+    study.add_argument(
         "--preset",
         default="six-link",
         choices=("six-link", "five-link"),
@@ -224,6 +231,7 @@ def _axes_and_fixed(args) -> tuple[dict[str, tuple], dict[str, Any]]:
         ("mu", args.mu),
         ("torque_limit", args.torque_limit_nm),
         ("clearance", args.clearance_m),
+        ("double_support", args.double_support_s),
     ):
         if len(values) > 1:
             axes[name] = values
@@ -306,7 +314,8 @@ class _Warnings(logging.Handler):
 
 
 def _span(name: str, values: tuple) -> str:
-    unit = {"step_length": " m", "step_time": " s", "torque_limit": " N m", "clearance": " m"}
+    unit = {"step_length": " m", "step_time": " s", "torque_limit": " N m", "clearance": " m",
+            "double_support": " s"}  # fmt: skip
     if len(values) == 1:
         return f"{name} {values[0]:g}{unit.get(name, '')}"
     return f"{name} {values[0]:g}..{values[-1]:g}{unit.get(name, '')} ({len(values)})"

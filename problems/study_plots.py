@@ -25,7 +25,14 @@ from problems.walking_plots import save_figure
 
 #: File names of :func:`save_plots`.
 FILES = ("cost_of_transport.png", "peak_torque.png", "cost_map.png")
-UNITS = {"step_length": "m", "step_time": "s", "mu": "", "torque_limit": "N m", "clearance": "m"}
+UNITS = {
+    "step_length": "m",
+    "step_time": "s",
+    "mu": "",
+    "torque_limit": "N m",
+    "clearance": "m",
+    "double_support": "s",
+}
 
 
 def _label(name: str) -> str:

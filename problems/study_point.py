@@ -32,6 +32,8 @@ from typing import Any
 import numpy as np
 
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from planner.ocp import OCP
+from planner.phases import Phases, PhasesSolution, PhasesTranscription
 from planner.solution import Solution
 from planner.trajectory import Trajectory
 from planner.transcription import Transcription
@@ -181,7 +183,7 @@ def output_name(output) -> str:
 
 
 # ---- warm-start records -----------------------------------------------------------------------
-def warm_record(solution: Solution) -> dict[str, Any]:
+def warm_record(solution: Solution | PhasesSolution) -> dict[str, Any]:
     """The solution's NLP point in physical units, for exact warm starts elsewhere: w (n_w,),
     lam_x (n_w,), lam_g (n_g,) (multipliers times the objective scale over the variable or
     row scales), objective_scale, signature, cost."""
@@ -199,28 +201,39 @@ def warm_record(solution: Solution) -> dict[str, Any]:
     return record
 
 
-def guess_from(step: WalkingStep, start: Mapping[str, Any]):
-    """A guess for ``step.ocp`` from a neighbour's record: a :class:`Solution` of this
-    step's transcription when the NLP layouts agree (exactly the neighbour's values, its
-    objective scale and, when present, its multipliers), else the neighbour's trajectory."""
-    transcription = Transcription(step.ocp)
+def _transcribe(problem: OCP | Phases) -> Transcription | PhasesTranscription:
+    if isinstance(problem, Phases):
+        return PhasesTranscription(problem)
+    return Transcription(problem)
+
+
+def guess_from(step: WalkingStep, start: Mapping[str, Any]) -> OCP | Phases | None:
+    """``step.problem`` (the OCP, or the phases with a double support) guessed from a
+    neighbour's record: from the neighbour's NLP point rebuilt as a solution of this step's
+    transcription when the layouts agree (exactly its values, its objective scale and, when
+    present, its multipliers), else from its trajectory (one phase; None for phases: the law
+    stays the guess)."""
+    problem = step.problem
+    transcription = _transcribe(problem)
     if str(start["signature"]) == transcription.signature:
         scale = float(start["objective_scale"])
         lam_x = lam_g = None
         if "lam_x" in start and "lam_g" in start:
             lam_x = np.asarray(start["lam_x"]) * transcription.w_scale / scale
             lam_g = np.asarray(start["lam_g"]) * transcription.g_scale / scale
-        return Solution(
-            transcription,
+        solution = transcription.solution(
             np.asarray(start["w"]) / transcription.w_scale,
-            cost=float(start["cost"]),
-            status="Solve_Succeeded",
-            success=True,
-            stats={"objective_scale": scale},
-            lam_g=lam_g,
-            lam_x=lam_x,
+            float(start["cost"]),
+            "Solve_Succeeded",
+            True,
+            {"objective_scale": scale},
+            lam_g,
+            lam_x,
         )
-    return trajectory_from_bytes(start["trajectory"])
+        return problem.guess(solution)
+    if isinstance(problem, Phases):
+        return None
+    return problem.guess(trajectory_from_bytes(start["trajectory"]))
 
 
 def trajectory_bytes(trajectory: Trajectory) -> bytes:
@@ -289,12 +302,15 @@ def solve_point(spec: PointSpec, task: Mapping[str, Any]) -> dict[str, Any]:
     attempts = 0
     iterations = 0
     for start in task["starts"]:
-        attempts += 1
         label = "law" if start is None else start["id"]
         try:
-            ocp = step.ocp if start is None else step.ocp.guess(guess_from(step, start))
+            problem = step.problem if start is None else guess_from(step, start)
+            if problem is None:
+                notes.append(f"from {label}: another NLP layout, no guess")
+                continue
+            attempts += 1
             gait = step.solve(
-                ocp,
+                problem,
                 progress=False,
                 raise_on_failure=False,
                 warm_start=spec.multipliers,

@@ -35,7 +35,14 @@ from problems.study_backends import (
 )
 from problems.study_cli import ProgressBar, value_list
 from problems.study_plots import FILES, cost_map_figure, save_plots
-from problems.study_point import DEFINITION_FAILED, PointSpec, check_outputs
+from problems.study_point import (
+    DEFINITION_FAILED,
+    PointSpec,
+    check_outputs,
+    guess_from,
+    trajectory_bytes,
+    warm_record,
+)
 from problems.study_schedule import Schedule, choose_ordering
 from problems.study_store import (
     StudyFileError,
@@ -191,13 +198,12 @@ def test_study_on_a_dask_local_cluster_with_a_killed_worker(tmp_path):
 def test_warm_start_transfer_equals_the_in_memory_solution():
     """A neighbour's record rebuilt in another step's transcription is the neighbour's guess
     in physical units, with its objective scale and multipliers."""
-    from problems.study_point import guess_from, trajectory_bytes, warm_record
-
     first = walking_step(step_length=0.5, step_time=0.5, N=N)
     gait = first.solve(progress=False)
     record = {**warm_record(gait.solution), "trajectory": trajectory_bytes(gait.to_trajectory())}
     other = walking_step(step_length=0.55, step_time=0.45, N=N)
-    rebuilt = guess_from(other, record)
+    guessed = guess_from(other, record)
+    rebuilt = guessed.guesses[-1].source
     assert rebuilt.nlp_signature == gait.solution.nlp_signature
     np.testing.assert_allclose(rebuilt.state_values, gait.solution.state_values, rtol=1e-15)
     np.testing.assert_allclose(rebuilt.control_values, gait.solution.control_values, rtol=1e-15)
@@ -209,9 +215,27 @@ def test_warm_start_transfer_equals_the_in_memory_solution():
         gait.solution.lam_g * scale / gait.solution.transcription.g_scale,
         rtol=1e-14,
     )
+    assert other.solve(guessed, progress=False).cost == pytest.approx(
+        other.solve(other.ocp.guess(gait.solution), progress=False).cost, rel=1e-9
+    )
     # Another mesh: the neighbour's trajectory is the guess instead.
     coarse = walking_step(step_length=0.5, step_time=0.5, N=8)
-    assert isinstance(guess_from(coarse, record), Trajectory)
+    assert isinstance(guess_from(coarse, record).guesses[-1].source, Trajectory)
+
+
+def test_a_study_over_the_double_support(tmp_path):
+    """Steps with and without a double support (phases): across the change of NLP layout a
+    point starts from the law; each point equals its one-by-one solve."""
+    study = Study({"double_support": [0.0, 0.05]}, fixed={"N": 8, "step_time": 0.5})
+    result = study.run(tmp_path / "study", workers=1)
+    assert len(result.solved) == 2
+    phases = result.rows[1]
+    assert phases["start"] == "law" and "another NLP layout" in phases["notes"]
+    for row in result.rows:
+        step = walking_step(step_time=0.5, N=8, double_support=row["double_support"])
+        assert row["cost"] == pytest.approx(step.solve(progress=False).cost, rel=1e-6)
+        assert row["verified"] is True
+    assert len(result.solution("p1").time) > len(result.solution("p0").time)
 
 
 # ---- nothing lost --------------------------------------------------------------------------
