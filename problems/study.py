@@ -272,6 +272,8 @@ class Study:
         return {
             "version": FORMAT_VERSION,
             "axes": {name: list(values) for name, values in self.axes.items()},
+            # JSON objects have no order; the grid (and its point ids) has.
+            "axis_order": list(self.axes),
             "problem": "problems.walking.walking_step"
             if spec.problem is None
             else f"{getattr(spec.problem, '__module__', '?')}.{_qualname(spec.problem)}",

@@ -103,7 +103,8 @@ class StudyResult:
         not one)."""
         folder = Path(os.fspath(folder))
         definition = read_definition(folder)["definition"]
-        axes = {name: tuple(values) for name, values in definition["axes"].items()}
+        order = definition.get("axis_order", list(definition["axes"]))
+        axes = {name: tuple(definition["axes"][name]) for name in order}
         points = grid_points(axes)
         rows = read_rows(folder)
         ordered = tuple(rows[p.id] for p in points if p.id in rows)

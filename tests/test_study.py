@@ -617,3 +617,16 @@ def test_the_walking_study_example_runs(tmp_path):
     assert rows["passive"]["peak_ankle_power"] <= 1e-5 < rows["actuated"]["peak_ankle_power"]
     for name in FILES:
         assert (tmp_path / "speed" / name).stat().st_size > 0
+
+
+def test_the_axes_keep_their_order(tmp_path):
+    """The grid's order (and so its point ids) survives the definition file, whose JSON
+    objects have none; another order is another study."""
+    study = Study({"step_time": [0.5], "step_length": [0.45, 0.5]}, fixed={"N": 6})
+    result = study.run(tmp_path / "s", workers=1)
+    assert list(result.axes) == ["step_time", "step_length"]
+    assert [(r["point"], r["step_length"]) for r in result.rows] == [("p0_0", 0.45), ("p0_1", 0.5)]
+    assert result.grid("cost").shape == (1, 2)
+    swapped = Study({"step_length": [0.45, 0.5], "step_time": [0.5]}, fixed={"N": 6})
+    with pytest.raises(StudyFolderError, match=r"axis_order.0: \"step_time\" in the folder, \"step_length\" now"):
+        swapped.run(tmp_path / "s", workers=1)
