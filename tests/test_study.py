@@ -628,5 +628,7 @@ def test_the_axes_keep_their_order(tmp_path):
     assert [(r["point"], r["step_length"]) for r in result.rows] == [("p0_0", 0.45), ("p0_1", 0.5)]
     assert result.grid("cost").shape == (1, 2)
     swapped = Study({"step_length": [0.45, 0.5], "step_time": [0.5]}, fixed={"N": 6})
-    with pytest.raises(StudyFolderError, match=r"axis_order.0: \"step_time\" in the folder, \"step_length\" now"):
+    with pytest.raises(
+        StudyFolderError, match=r"axis_order.0: \"step_time\" in the folder, \"step_length\" now"
+    ):
         swapped.run(tmp_path / "s", workers=1)
