@@ -324,7 +324,9 @@ def _span(name: str, values: tuple) -> str:
 def summary(result: StudyResult, out: TextIO) -> None:
     """The study's summary lines."""
     run = result.run or {}
-    if run:
+    if run and not run["solved"] + run["failed"]:
+        print(f"this run: nothing left to solve ({run['backend']})", file=out)
+    elif run:
         print(
             f"this run: {run['solved']} solved, {run['failed']} failed in {run['seconds']:.1f} s "
             f"({run['points_per_minute']:.1f} points/min; {run['backend']}, ordering "

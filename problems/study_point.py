@@ -26,6 +26,7 @@ import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -53,49 +54,66 @@ WORKER_LOST = "Worker_Lost"
 UNLOADED = 1e-3
 
 
-def _peak_friction_use(gait: WalkingGait, trajectory: Trajectory) -> float:
+@dataclass
+class Measured:
+    """A solved point as the outputs read it: the gait, its node trajectory (with the ground
+    reaction) and its summary (computed once: it integrates the positive work)."""
+
+    gait: WalkingGait
+    trajectory: Trajectory
+
+    @cached_property
+    def summary(self) -> dict[str, Any]:
+        return self.gait.summary()
+
+
+def _peak_friction_use(point: Measured) -> float:
     """max over the loaded nodes of |Fx| / (mu Fy) of the stance foot (1: on the cone's
     edge); NaN when no node carries UNLOADED x the weight."""
-    fx = np.asarray(trajectory.extras["Fx"][0])
-    fy = np.asarray(trajectory.extras["Fy"][0])
-    biped = gait.problem.biped
+    fx = np.asarray(point.trajectory.extras["Fx"][0])
+    fy = np.asarray(point.trajectory.extras["Fy"][0])
+    biped = point.gait.problem.biped
     loaded = fy >= UNLOADED * biped.total_mass * biped.linkage.gravity
     if not np.any(loaded):
         return math.nan
-    return float(np.max(np.abs(fx[loaded]) / (gait.problem.mu * fy[loaded])))
+    return float(np.max(np.abs(fx[loaded]) / (point.gait.problem.mu * fy[loaded])))
 
 
-def _verification(gait: WalkingGait, trajectory: Trajectory) -> dict[str, Any]:
-    report = gait.verify()
+def _verification(point: Measured) -> dict[str, Any]:
+    report = point.gait.verify()
     return {
         "verified": bool(report.ok),
         "verification_failures": ";".join(c.name for c in report.failures),
     }
 
 
-#: Outputs a study can record per point: name -> (function of (gait, node trajectory) giving
-#: a number, a bool, a string or a dict of column suffix -> value; unit; what it is).
-OUTPUTS: dict[str, tuple[Callable[[WalkingGait, Trajectory], Any], str, str]] = {
-    "cost": (lambda g, tr: g.cost, "objective", "the objective at the optimum"),
+#: Outputs a study can record per point: name -> (function of the :class:`Measured` point
+#: giving a number, a bool, a string or a dict of column suffix -> value; unit; what it is).
+OUTPUTS: dict[str, tuple[Callable[[Measured], Any], str, str]] = {
+    "cost": (lambda m: m.gait.cost, "objective", "the objective at the optimum"),
     "law_cost": (
-        lambda g, tr: g.problem.law_cost(),
+        lambda m: m.gait.problem.law_cost(),
         "objective",
         "the fitted gait law's objective on the same mesh (the benchmark)",
     ),
-    "speed": (lambda g, tr: g.speed, "m/s", "step length / step time"),
+    "speed": (lambda m: m.gait.speed, "m/s", "step length / step time"),
     "cost_of_transport": (
-        lambda g, tr: g.cost_of_transport,
+        lambda m: m.summary["cost_of_transport"],
         "1",
         "positive work / (weight x step length)",
     ),
-    "positive_work": (lambda g, tr: g.positive_work, "J", "positive work of the drives per step"),
+    "positive_work": (
+        lambda m: m.summary["positive_work"],
+        "J",
+        "positive work of the drives per step",
+    ),
     "peak_torque": (
-        lambda g, tr: g.summary()["peak_torque"],
+        lambda m: m.summary["peak_torque"],
         "N m",
         "largest |M_i| per hinge (columns peak_torque_<link>)",
     ),
     "rms_torque": (
-        lambda g, tr: g.summary()["rms_torque"],
+        lambda m: m.summary["rms_torque"],
         "N m",
         "root mean square of M_i over the step per hinge (columns rms_torque_<link>)",
     ),
@@ -106,12 +124,12 @@ OUTPUTS: dict[str, tuple[Callable[[WalkingGait, Trajectory], Any], str, str]] = 
         "0.1 % of the weight (1: the cone's edge)",
     ),
     "impulse": (
-        lambda g, tr: dict(zip(("x", "y"), g.impact["impulse"].tolist(), strict=True)),
+        lambda m: dict(zip(("x", "y"), m.summary["impulse"], strict=True)),
         "N s",
         "the heel strike's impulse on the landing foot (columns impulse_x, impulse_y)",
     ),
     "accuracy": (
-        lambda g, tr: g.solution.integration_error().max,
+        lambda m: m.gait.solution.integration_error().max,
         "rad, rad/s",
         "largest per-interval re-integration error of the states (planner accuracy estimate)",
     ),
@@ -259,10 +277,11 @@ def _first_line(exc: BaseException) -> str:
 
 def _outputs(spec: PointSpec, gait: WalkingGait, trajectory: Trajectory) -> dict[str, Any]:
     row: dict[str, Any] = {}
+    measured = Measured(gait, trajectory)
     for output in spec.outputs:
         if isinstance(output, str):
             name, function = output, OUTPUTS[output][0]
-            value = function(gait, trajectory)
+            value = function(measured)
         else:
             name, function = output
             value = function(gait)

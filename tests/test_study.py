@@ -545,7 +545,7 @@ def test_command_line_study_runs_resumes_and_refuses_another(tmp_path, capsys):
         assert (folder / name).stat().st_size > 0
     assert len(list((folder / "solutions").glob("p*.npz"))) == 4
     assert cli.main([*argv, "--no-plots"]) == 0
-    assert "this run: 0 solved, 0 failed" in capsys.readouterr().out
+    assert "this run: nothing left to solve" in capsys.readouterr().out
     assert cli.main([*argv, "--step-time", "0.4,0.5"]) == 2
     assert "holds another study (axes.step_time" in capsys.readouterr().err
     assert cli.main(["study", "--step-length", "0.3:0.7"]) == 2
