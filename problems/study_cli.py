@@ -365,7 +365,10 @@ def command(args, out: TextIO, report) -> int:
     axes, fixed = _axes_and_fixed(args)
     study = Study(axes, fixed=fixed, ipopt={"max_iter": args.max_iter})
     spans = " x ".join(_span(name, values) for name, values in axes.items())
-    report.step(f"study of the {args.preset} walking step over {spans}: {len(study)} points")
+    report.step(
+        f"study of the {args.preset} walking step over {spans}: {len(study)} points into "
+        f"{args.output_dir} (the same command resumes it)"
+    )
     bar = ProgressBar(sys.stderr, enabled=not args.quiet)
     logger = logging.getLogger("problems.study")
     handler = _Warnings(report)

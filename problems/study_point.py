@@ -307,6 +307,7 @@ def solve_point(spec: PointSpec, task: Mapping[str, Any]) -> dict[str, Any]:
     (an exception that is not the library's) propagates.
     """
     begin = time.perf_counter()
+    cpu = time.process_time()
     row: dict[str, Any] = {"point": task["id"], **task["values"]}
     row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
     notes: list[str] = []
@@ -316,6 +317,7 @@ def solve_point(spec: PointSpec, task: Mapping[str, Any]) -> dict[str, Any]:
         row.update(status=DEFINITION_FAILED, success=False, start="", attempts=0)
         row["notes"] = _first_line(exc)
         row["seconds"] = time.perf_counter() - begin
+        row["cpu_seconds"] = time.process_time() - cpu
         return {"id": task["id"], "row": row, "record": None, "trajectory": None}
     gait = None
     attempts = 0
@@ -355,6 +357,7 @@ def solve_point(spec: PointSpec, task: Mapping[str, Any]) -> dict[str, Any]:
             row["solve_seconds"] = gait.solution.stats.get("solve_seconds")
         row["notes"] = "; ".join(notes)
         row["seconds"] = time.perf_counter() - begin
+        row["cpu_seconds"] = time.process_time() - cpu
         return {"id": task["id"], "row": row, "record": None, "trajectory": None}
     stats = gait.solution.stats
     row.update(status=gait.solution.status, success=True)
@@ -362,14 +365,12 @@ def solve_point(spec: PointSpec, task: Mapping[str, Any]) -> dict[str, Any]:
     row["solve_seconds"] = stats.get("solve_seconds")
     trajectory = gait.to_trajectory()
     row.update(_outputs(spec, gait, trajectory))
+    record = warm_record(gait.solution)
+    data = trajectory_bytes(trajectory)
     row["notes"] = "; ".join(notes)
     row["seconds"] = time.perf_counter() - begin
-    return {
-        "id": task["id"],
-        "row": row,
-        "record": warm_record(gait.solution),
-        "trajectory": trajectory_bytes(trajectory),
-    }
+    row["cpu_seconds"] = time.process_time() - cpu
+    return {"id": task["id"], "row": row, "record": record, "trajectory": data}
 
 
 # ---- the spec installed in a pool worker --------------------------------------------------------

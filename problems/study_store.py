@@ -51,7 +51,15 @@ SOLUTIONS = "solutions"
 #: Columns before the outputs and after them, in this order; outputs come in between in the
 #: order the first rows give them.
 HEAD = ("point", "status", "success", "start", "attempts")
-TAIL = ("iterations", "build_seconds", "solve_seconds", "seconds", "worker", "notes")
+TAIL = (
+    "iterations",
+    "build_seconds",
+    "solve_seconds",
+    "seconds",
+    "cpu_seconds",
+    "worker",
+    "notes",
+)
 #: Temporary files of ``atomic_path``: ".<name>.<random><suffix>".
 _TEMPORARY = re.compile(r"^\.(.+)\.[A-Za-z0-9_]{8}(\.tmp|\.npz|\.csv|\.json|\.png)$")
 

@@ -16,14 +16,18 @@ the cluster. Rows:
 * pool: the local process pool with 2 workers, ordering "lines" and "coarse";
 * Dask: a LocalCluster of 2 single-threaded worker processes started for the run, "lines".
 
-Printed: points per minute (median), the ratio to serial cold, IPOPT iterations over the grid,
-the failed points, and how far each row's costs lie from serial warm (0 where the same
-continuation ran: the transfer of warm starts between processes is exact).
+Printed: points per minute (median, and the best run, the least disturbed on a shared
+machine), their ratios to serial cold, the wall and startup times, the processor time per
+point (in the workers: what a point costs whatever else runs), IPOPT iterations over the
+grid, the failed points, and how far each row's costs lie from serial warm (0 where the same
+continuation ran: the transfer of warm starts between processes is exact); the load average
+before and after.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import statistics
 import sys
@@ -46,7 +50,13 @@ def _run(study: Study, folder: Path, **options) -> dict:
     shutil.rmtree(folder, ignore_errors=True)
     result = study.run(folder, **options)
     costs = {row["point"]: row["cost"] for row in result.solved}
-    return {**result.run, "costs": costs, "failed_points": [r["point"] for r in result.failed]}
+    cpu = sum(row["cpu_seconds"] for row in result.rows)
+    return {
+        **result.run,
+        "costs": costs,
+        "failed_points": [r["point"] for r in result.failed],
+        "cpu": cpu,
+    }
 
 
 def main(argv=None) -> int:
@@ -77,10 +87,11 @@ def main(argv=None) -> int:
             )
         )
     points = len(study)
+    load = os.getloadavg()[0]
     print(
         f"study_bench: {'x'.join(str(len(v)) for v in axes.values())} grid ({points} points) of "
         f"six-link walking steps, hermite-simpson N = {N}; {available_cores()} cores; medians "
-        f"of {repeat} run(s)",
+        f"of {repeat} run(s); load average {load:.2f} before",
         flush=True,
     )
     results = {}
@@ -100,23 +111,31 @@ def main(argv=None) -> int:
     reference = results["serial warm (primal)"][-1]["costs"]
     base = statistics.median(r["points_per_minute"] for r in results["serial cold"])
     print()
+    best_base = max(r["points_per_minute"] for r in results["serial cold"])
     print(
-        f"{'configuration':<28} {'points/min':>10} {'ratio':>6} {'wall s':>7} {'startup s':>9} "
-        f"{'iterations':>10} {'it/point':>8} {'failed':>6} {'max |dcost|/cost':>16}"
+        f"{'configuration':<28} {'points/min':>10} {'ratio':>6} {'best':>6} {'ratio':>6} "
+        f"{'wall s':>7} {'startup s':>9} {'CPU s/pt':>8} {'iterations':>10} {'it/point':>8} "
+        f"{'failed':>6} {'max |dcost|/cost':>16}"
     )
     for label, runs in results.items():
         rate = statistics.median(r["points_per_minute"] for r in runs)
+        best = max(r["points_per_minute"] for r in runs)
         wall = statistics.median(r["seconds"] for r in runs)
         startup = statistics.median(r["startup_seconds"] for r in runs)
+        cpu = statistics.median(r["cpu"] for r in runs) / points
         iterations = runs[-1]["iterations"]
         costs = runs[-1]["costs"]
         common = [p for p in costs if p in reference]
         spread = max((abs(costs[p] - reference[p]) / reference[p] for p in common), default=0.0)
         print(
-            f"{label:<28} {rate:10.1f} {rate / base:6.2f} {wall:7.2f} {startup:9.2f} "
-            f"{iterations:10d} {iterations / points:8.1f} {len(runs[-1]['failed_points']):6d} "
-            f"{spread:16.1e}"
+            f"{label:<28} {rate:10.1f} {rate / base:6.2f} {best:6.1f} {best / best_base:6.2f} "
+            f"{wall:7.2f} {startup:9.2f} {cpu:8.3f} {iterations:10d} {iterations / points:8.1f} "
+            f"{len(runs[-1]['failed_points']):6d} {spread:16.1e}"
         )
+    print(
+        f"load average {os.getloadavg()[0]:.2f} after (the machine is shared: wall times move "
+        "with it, iterations and CPU s per point hardly)"
+    )
     cold = results["serial cold"][-1]["costs"]
     other = [
         p for p in cold if p in reference and abs(cold[p] - reference[p]) > 1e-6 * reference[p]
