@@ -632,3 +632,21 @@ def test_the_axes_keep_their_order(tmp_path):
         StudyFolderError, match=r"axis_order.0: \"step_time\" in the folder, \"step_length\" now"
     ):
         swapped.run(tmp_path / "s", workers=1)
+
+
+def test_the_study_benchmark_smoke_run():
+    """study_bench.py --quick: every configuration runs; the same continuation on the pool
+    gives the serial run's costs to the last bit (the warm-start transfer is exact)."""
+    script = Path(__file__).resolve().parents[1] / "examples" / "benchmarks" / "study_bench.py"
+    run = subprocess.run(
+        [sys.executable, str(script), "--quick", "--no-dask"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env=dict(os.environ, MPLBACKEND="Agg"),
+    )
+    assert run.returncode == 0, run.stderr
+    rows = {line[:28].strip(): line.split() for line in run.stdout.splitlines() if "  " in line}
+    assert rows["pool 2 workers, lines"][-1] == "0.0e+00"
+    assert rows["serial cold"][-2] == "0"  # no failed point
+    assert "ordering on the pool: lines" in run.stdout

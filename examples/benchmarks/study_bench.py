@@ -143,7 +143,7 @@ def main(argv=None) -> int:
     print(
         f"\ncold and warm reach different local optima at {len(other)} of {points} points"
         + (
-            ": " + ", ".join(f"{p} {cold[p]:.2f} cold / {reference[p]:.2f} warm" for p in other[:6])
+            ": " + ", ".join(f"{p} {cold[p]:.6f} cold / {reference[p]:.6f} warm" for p in other[:6])
             if other
             else ""
         )
