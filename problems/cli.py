@@ -40,6 +40,7 @@ from model import equations
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.presets import PRESETS, six_link_anthropoid
 from planner.files import atomic_path
+from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory, TrajectoryFileError
 from planner.units import si_unit
 from problems.dynamics_problems import (
@@ -56,7 +57,8 @@ from problems.gait_law import LAW_PRESETS, GaitLaw
 from problems.walking import walking_step
 
 PROG = "anthropoid-planner"
-FORMATS = ("csv", "json", "npz")
+#: File formats of --formats: the trajectory package's suffixes, without the dot.
+FORMATS = tuple(suffix.lstrip(".") for suffix in TRAJECTORY_FORMATS)
 LAWS = tuple(LAW_PRESETS)
 #: Highest --rate-hz, Hz, and most samples a command makes even with --force (memory).
 MAX_RATE_HZ = 1e6
@@ -150,6 +152,11 @@ class Reporter:
         elapsed = time.perf_counter() - begin
         if elapsed >= 1.0 or beats:
             self.step(f"done {message} in {elapsed:.1f} s")
+
+
+def _one_of(items: Sequence[str]) -> str:
+    """ "a, b or c": the items in words."""
+    return ", ".join(items[:-1]) + f" or {items[-1]}" if len(items) > 1 else "".join(items)
 
 
 # ---- argument types (each raises a one-line message naming the unit) -----------------------
@@ -360,7 +367,7 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     simulate.add_argument(
-        "torque_file", metavar="TORQUE_FILE", help="torque profile: .csv, .json or .npz"
+        "torque_file", metavar="TORQUE_FILE", help=f"torque profile: {_one_of(TRAJECTORY_FORMATS)}"
     )
     simulate.add_argument("--preset", default="six-link", metavar="NAME", help=preset_help)
     simulate.add_argument(
@@ -744,9 +751,10 @@ def _load_profile(path_text: str):
         raise UsageError(f"torque file {path_text!r} does not exist")
     if path.is_dir():
         raise UsageError(f"torque file {path_text!r} is a folder, not a file")
-    if path.suffix.lower() not in tuple("." + f for f in FORMATS):
+    if path.suffix.lower() not in TRAJECTORY_FORMATS:
         raise UsageError(
-            f"torque file {path_text!r}: unknown format {path.suffix!r}; use .csv, .json or .npz"
+            f"torque file {path_text!r}: unknown format {path.suffix!r}; use "
+            f"{_one_of(TRAJECTORY_FORMATS)}"
         )
     try:
         profile = Trajectory.load(path)
