@@ -13,7 +13,8 @@ Accuracy estimates (all in the states' physical units):
 
 * :meth:`Solution.integration_error`: each interval re-integrated from its start node with the
   interpolated controls at tight tolerance (CVODES; IDAS on the DAE x' = z, r(x, z, u, t) = 0
-  for dynamics given as a generic implicit residual), compared with its end node;
+  for dynamics given as a generic implicit residual), compared with its end node (the
+  project's one interval simulator, :class:`planner.simulation.Simulator`);
 * :meth:`Solution.residual_error`: the integral over each interval of |f(x, u, t) - dx/dt|
   along the interpolant (the error OptimTraj reports; for a generic implicit residual, f is
   the root of r(x, f, u, t) = 0 by Newton's method from dx/dt);
@@ -25,7 +26,6 @@ Accuracy estimates (all in the states' physical units):
 from __future__ import annotations
 
 import importlib.metadata
-import re
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -33,23 +33,19 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError, check_real
-from planner.collocation import gauss_legendre, lagrange_coefficients
+from model.errors import AnthropoidError, DefinitionError
+from planner.collocation import gauss_legendre
+from planner.simulation import (
+    SimulationError,
+    Simulator,
+    check_tolerance,
+    monomial_coefficients,
+)
 
 #: Gauss-Legendre points per interval for residual_error. The integrand |f - dx/dt| has kinks
 #: where f - dx/dt changes sign, so the rule is not exact (its degree 2 * 12 - 1 exactness
 #: holds for smooth polynomials only): an estimate, whose error is not bounded by that degree.
 RESIDUAL_QUADRATURE_POINTS = 12
-
-
-def _tolerance(name: str, value) -> float:
-    """An integrator tolerance: a real number in (0, 1)."""
-    number = check_real(name, value)
-    if not 0 < number < 1:
-        raise DefinitionError(
-            f"`{name}`: must lie in (0, 1), got {number!r}; give e.g. 1e-10 (1e-12 for a tight run)"
-        )
-    return number
 
 
 @dataclass(frozen=True)
@@ -364,76 +360,60 @@ class Solution:
                 "residual"
             )
 
-    def _interval_integrator(self, rtol, atol, what: str) -> ca.Function:
-        """One interval in tau: dx/dtau = h f(x, u(tau), t_k + h tau), built once per
-        tolerance pair.
+    def _interval_integrator(self, rtol, atol, what: str) -> Simulator:
+        """The :class:`planner.simulation.Simulator` of one mesh interval with the
+        transcription's control polynomial, built once per tolerance pair.
 
         An explicit ODE integrates with CVODES. A generic implicit residual r(x, xdot, u, t)
-        integrates as the semi-explicit index-1 DAE dx/dtau = h z, 0 = r(x, z, u, t) with IDAS
-        (z = xdot algebraic, made consistent at tau = 0 from a guess); r must determine xdot
-        (dr/dxdot nonsingular), as it must for the OCP to be well posed.
-        The control polynomial enters as parameters: the interval's dynamics-point controls,
-        combined with the monomial coefficients of the scheme's Lagrange basis.
+        integrates as the semi-explicit index-1 DAE dx/dt = z, 0 = r(x, z, u, t) with IDAS
+        (z = xdot algebraic, made consistent at each interval's start from a guess); r must
+        determine xdot (dr/dxdot nonsingular), as it must for the OCP to be well posed.
         """
-        key = (_tolerance("rtol", rtol), _tolerance("atol", atol))
+        key = (check_tolerance("rtol", rtol), check_tolerance("atol", atol))
         self._require_rate(what)
         if key in self._integrators:
             return self._integrators[key]
         s = self.system
-        ndc = self.scheme.ndc
-        coefficients = lagrange_coefficients(self.scheme.interval_dyn_tau)  # (ndc, ndc)
-        x = ca.SX.sym("x", s.nx)
-        tau = ca.SX.sym("tau")
-        uk = ca.SX.sym("uk", s.nu, ndc)
-        t0 = ca.SX.sym("t0")
-        h = ca.SX.sym("h")
-        monomials = ca.vertcat(*[tau**p for p in range(ndc)])
-        u = ca.mtimes(ca.mtimes(uk, ca.DM(coefficients)), monomials)
-        p = ca.vertcat(ca.vec(uk), t0, h)
-        options = {"abstol": key[1], "reltol": key[0], "max_num_steps": 100000}
-        if not self._implicit_only:
-            dae = {"x": x, "p": p, "t": tau, "ode": h * s.ode(x, u, t0 + h * tau)}
-            integrator = ca.integrator("interval", "cvodes", dae, 0.0, 1.0, options)
-        else:
-            z = ca.SX.sym("z", s.nz)
-            t = t0 + h * tau
-            dae = {
-                "x": x,
-                "z": z,
-                "p": p,
-                "t": tau,
-                "ode": h * s.rate(x, z, u, t),
-                "alg": s.residual(x, z, u, t),
-            }
-            integrator = ca.integrator("interval", "idas", dae, 0.0, 1.0, options)
-        self._integrators[key] = integrator
-        return integrator
-
-    def _integrate(self, integrator: ca.Function, x0: np.ndarray, p: np.ndarray, z0, where: str):
-        """Call an interval integrator, (nx, K) x0 and (np, K) p; returns (xf, zf).
-
-        A failure of the integrator raises AnthropoidError naming ``where`` (the interval(s))
-        and the SUNDIALS flag."""
-        arguments = {"x0": x0, "p": p}
+        degree = self.scheme.ndc - 1  # the polynomial through the interval's dynamics points
         if self._implicit_only:
-            arguments["z0"] = z0
-        try:
-            result = integrator(**arguments)
-        except RuntimeError as exc:
-            found = re.search(r'returned "([A-Z_]+)"', str(exc))
-            flag = found.group(1) if found else str(exc).strip().splitlines()[-1]
-            if self._implicit_only:
-                raise AnthropoidError(
-                    f"re-integration of the implicit residual failed (IDAS, {flag}) {where}: "
-                    "the residual r(x, xdot, u, t) must determine xdot (dr/dxdot nonsingular "
-                    "along the solution)"
-                ) from exc
-            raise AnthropoidError(
+            simulator = Simulator(
+                s.rate, s.residual, degree=degree, method="idas", rtol=key[0], atol=key[1]
+            )
+        else:
+            x, z, u, t = (
+                ca.SX.sym("x", s.nx),
+                ca.SX.sym("z", 0),
+                ca.SX.sym("u", s.nu),
+                ca.SX.sym("t"),
+            )
+            ode = ca.Function("ode", [x, z, u, t], [s.ode(x, u, t)], ["x", "z", "u", "t"], ["xdot"])
+            simulator = Simulator(ode, degree=degree, method="cvodes", rtol=key[0], atol=key[1])
+        self._integrators[key] = simulator
+        return simulator
+
+    def _reintegration_failure(self, error: SimulationError, where: str) -> SimulationError:
+        """The simulator's error in the words of a re-integration of this solution."""
+        flag = error.flag or str(error)
+        if self._implicit_only:
+            message = (
+                f"re-integration of the implicit residual failed (IDAS, {flag}) {where}: "
+                "the residual r(x, xdot, u, t) must determine xdot (dr/dxdot nonsingular "
+                "along the solution)"
+            )
+        else:
+            message = (
                 f"re-integration of the ODE failed (CVODES, {flag}) {where}: the interpolated "
                 "motion diverges or is too stiff for rtol/atol; loosen them, or check the "
                 "solution (its status, a finer mesh)"
-            ) from exc
-        return np.asarray(result["xf"]), np.asarray(result["zf"])
+            )
+        return SimulationError(
+            message,
+            method=error.method,
+            interval=error.interval,
+            flag=error.flag,
+            details=error.details,
+            index=error.index,
+        )
 
     def _interval_start_rates(self) -> np.ndarray:
         """(nz, N) guesses of xdot at each interval's start: its own aux polynomial at tau = 0
@@ -477,26 +457,31 @@ class Solution:
         rate = s.rate.map(K)(x.T, z_root, u.T, t[None, :])
         return np.asarray(rate).T
 
-    def _interval_parameters(self) -> np.ndarray:
-        mesh = self.mesh
-        uk = self.control_values[mesh.dyn_cols]  # (N, ndc, nu)
-        # ca.vec is column-major over (nu, ndc): entry (i, c) at c * nu + i.
-        vec_u = uk.reshape(self.N, -1)
-        t0 = self.time[:-1, None]
-        h = np.full((self.N, 1), self.h)
-        return np.hstack([vec_u, t0, h]).T  # (np, N)
+    def _interval_coefficients(self) -> np.ndarray:
+        """(N, nu, ndc) monomial coefficients in tau of each interval's control polynomial."""
+        values = self.control_values[self.mesh.dyn_cols]  # (N, ndc, nu)
+        return monomial_coefficients(self.scheme.interval_dyn_tau, values)
 
     def integration_error(self, rtol: float = 1e-12, atol: float = 1e-12) -> IntegrationError:
         """Re-integrate every interval from its start node with the interpolated controls.
 
         Returns the (N, nx) absolute difference from the end nodes (state units).
         """
-        integrator = self._interval_integrator(rtol, atol, "integration_error").map(self.N)
+        simulator = self._interval_integrator(rtol, atol, "integration_error")
         nodes = self.states
-        z0 = self._interval_start_rates() if self._implicit_only else None
-        where = f"on one of the {self.N} intervals"
-        end, _ = self._integrate(integrator, nodes[:-1].T, self._interval_parameters(), z0, where)
-        return IntegrationError(np.abs(end.T - nodes[1:]), self.system.state_names)
+        z0 = self._interval_start_rates().T if self._implicit_only else None
+        parameters = simulator.parameters(
+            self.time[:-1], np.diff(self.time), self._interval_coefficients()
+        )
+        try:
+            run = simulator.across(nodes[:-1], parameters, z0)
+        except SimulationError as error:
+            where = f"on one of the {self.N} intervals"
+            if error.index is not None:
+                k = error.index
+                where += f" (first: {k}, t = {self.time[k]:.6g} .. {self.time[k + 1]:.6g} s)"
+            raise self._reintegration_failure(error, where) from error
+        return IntegrationError(np.abs(run.states - nodes[1:]), self.system.state_names)
 
     def residual_error(self, points: int = RESIDUAL_QUADRATURE_POINTS) -> IntegrationError:
         """Integral over each interval of |f(x(t), u(t), t) - dx/dt(t)| along the interpolant.
@@ -521,18 +506,23 @@ class Solution:
         A stability probe, not an accuracy measure: the deviation grows with the motion's
         own instability (for an unstable gait it is large however accurate the solution).
         """
-        integrator = self._interval_integrator(rtol, atol, "replay")
-        parameters = self._interval_parameters()
-        x = self.states[0].copy()
-        z = self._interval_start_rates()[:, 0] if self._implicit_only else None
-        out = [x]
-        for k in range(self.N):
-            where = f"on interval {k} (t = {self.time[k]:.6g} .. {self.time[k + 1]:.6g} s)"
-            xf, zf = self._integrate(integrator, x, parameters[:, k], z, where)
-            x, z = xf.reshape(-1), zf.reshape(-1)
-            out.append(x)
-        states = np.array(out)
-        return Replay(self.time, states, states - self.states)
+        simulator = self._interval_integrator(rtol, atol, "replay")
+        z0 = self._interval_start_rates().T if self._implicit_only else None
+        try:
+            # Restarted at every node, as the per-interval re-integration: the replay's first
+            # interval is the first re-integration.
+            run = simulator.along(
+                self.states[0], self.time, self._interval_coefficients(), z0, restart=True
+            )
+        except SimulationError as error:
+            k = error.index
+            where = (
+                "on one of the intervals"
+                if k is None
+                else f"on interval {k} (t = {self.time[k]:.6g} .. {self.time[k + 1]:.6g} s)"
+            )
+            raise self._reintegration_failure(error, where) from error
+        return Replay(self.time, run.states, run.states - self.states)
 
     # ---- export ------------------------------------------------------------------------
     @property

@@ -40,6 +40,7 @@ from model import equations
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.presets import PRESETS, six_link_anthropoid
 from planner.files import atomic_path
+from planner.simulation import tolerance_problem
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory, TrajectoryFileError
 from planner.units import si_unit
@@ -50,7 +51,6 @@ from problems.dynamics_problems import (
     fit_growth_rate,
     linkage_profile,
     simulate,
-    tolerance_problem,
     torques_along,
 )
 from problems.gait_law import LAW_PRESETS, GaitLaw
