@@ -48,6 +48,8 @@ from model.errors import DefinitionError, DefinitionTypeError, as_float_array, c
 TRANSCRIPTIONS = ("trapezoid", "hermite-simpson", "radau", "legendre")
 FORMULATIONS = ("implicit", "explicit")
 DEFAULT_DEGREE = 3
+#: The name of an objective term given without one (``OCP.minimize``).
+DEFAULT_TERM = "objective"
 
 
 # ---- the system: what the transcription needs from any dynamics ------------------------------
@@ -577,6 +579,61 @@ class Constraint:
 
 
 @dataclass(frozen=True, eq=False)
+class ObjectiveTerm:
+    """A named term of the objective: the integral of ``integral(p)`` plus ``terminal(p)``
+    at T (either may be None)."""
+
+    name: str
+    integral: Any = None
+    terminal: Any = None
+
+    def __repr__(self) -> str:
+        parts = " + ".join(
+            label for label in ("integral", "terminal") if getattr(self, label) is not None
+        )
+        return parts if self.name == DEFAULT_TERM else f"{self.name}: {parts}"
+
+
+@dataclass(frozen=True, eq=False)
+class Param:
+    """A static parameter: bounds, guess (None: default) and nominal scale (None: default)."""
+
+    name: str
+    lower: float
+    upper: float
+    guess: float | None = None
+    scale: float | None = None
+
+    @property
+    def initial(self) -> float:
+        """The guess, or the middle of finite bounds, or the bound nearest 0, or 0."""
+        if self.guess is not None:
+            return self.guess
+        if math.isfinite(self.lower) and math.isfinite(self.upper):
+            return 0.5 * (self.lower + self.upper)
+        return float(np.clip(0.0, self.lower, self.upper))
+
+    @property
+    def nominal(self) -> float:
+        if self.scale is not None:
+            return self.scale
+        return float(default_scale(np.array([self.lower]), np.array([self.upper]))[0])
+
+
+def _fractions(mesh, N: int) -> tuple[float, ...]:
+    """Relative interval lengths as fractions of T (sum 1), checked against N."""
+    array = as_float_array("mesh", mesh, "a sequence of N positive interval lengths")
+    if array.ndim != 1 or array.size != N:
+        raise DefinitionError(
+            f"`mesh`: give N = {N} relative interval lengths, got shape {array.shape}"
+        )
+    if not np.all(np.isfinite(array)) or np.any(array <= 0):
+        raise DefinitionError(f"`mesh`: interval lengths must be finite and > 0, got {array}")
+    fractions = array / np.sum(array)
+    return tuple(float(f) for f in fractions)
+
+
+@dataclass(frozen=True, eq=False)
 class GuessLayer:
     """One source of initial guesses; later layers override earlier ones variable by variable.
 
@@ -739,13 +796,15 @@ class OCP:
     dynamics : model.Dynamics, or a casadi.Function f(x, u[, t]) -> xdot (``formulation``
         "explicit", the default for Functions) or r(x, xdot, u[, t]) -> (nx,) ("implicit").
     T : duration, s: a number (fixed) or a pair (lower, upper) (free; guess with ``guess(T=)``).
-    N : number of mesh intervals (uniform, h = T / N), >= 1.
+    N : number of mesh intervals, >= 1 (uniform, h = T / N, unless ``mesh`` is given).
     transcription : "trapezoid", "hermite-simpson" (separated form, midpoint controls are
         variables), "radau" or "legendre" (orthogonal collocation of ``degree`` 1..9,
         default 3; controls and, implicit, ddpsi at the collocation points).
     formulation : "implicit" (default for a Dynamics: ddpsi are variables, dynamics_residual = 0
         at every dynamics point, no mass-matrix solve) or "explicit" (forward dynamics).
     state_names, control_names, state_units, control_units : for a Function only.
+    mesh : relative lengths of the N intervals (a sequence of N positive numbers, scaled to sum
+        to 1: the fractions of T), for a non-uniform mesh; None (default): uniform.
 
     The remaining fields are filled by the builder methods; treat them as read-only.
     """
@@ -763,11 +822,12 @@ class OCP:
     bounds: tuple[tuple[str, float, float], ...] = ()
     constraints: tuple[Constraint, ...] = ()
     periodicity: tuple[Any, ...] | None = None  # (mapping or None,) when periodic
-    integral: Any = None
-    terminal: Any = None
+    objective: tuple[ObjectiveTerm, ...] = ()
     scales: tuple[tuple[str, float], ...] = ()
     guesses: tuple[GuessLayer, ...] = ()
     T_guess: float | None = None
+    mesh: tuple[float, ...] | None = None
+    params: tuple[Param, ...] = ()
 
     def __post_init__(self) -> None:
         dynamics = self.dynamics
@@ -802,6 +862,8 @@ class OCP:
         object.__setattr__(self, "formulation", formulation)
         object.__setattr__(self, "system", system)
         object.__setattr__(self, "N", _positive_int("N", self.N))
+        if self.mesh is not None:
+            object.__setattr__(self, "mesh", _fractions(self.mesh, self.N))
         if self.transcription not in TRANSCRIPTIONS:
             raise DefinitionError(
                 f"`transcription`: unknown {self.transcription!r}; use one of {TRANSCRIPTIONS}"
@@ -882,10 +944,23 @@ class OCP:
         s = self.system
         x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
         t, T = ca.SX.sym("t"), ca.SX.sym("T")
-        extra = None
+        extra = self.param_fields(ca.SX.sym("params", len(self.params)))
         if where in ("start", "end"):
-            extra = {"x0": ca.SX.sym("x0", s.nx), "xf": ca.SX.sym("xf", s.nx)}
+            extra.update({"x0": ca.SX.sym("x0", s.nx), "xf": ca.SX.sym("xf", s.nx)})
         return Point(s, x, u, z, t, T, extra, du=ca.SX.sym("du", s.nu))
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.params)
+
+    def param_fields(self, values) -> dict[str, Any]:
+        """The Point fields of the static parameters: each by name, and ``params`` (np,), from
+        ``values`` (np,) (symbols or expressions)."""
+        if not self.params:
+            return {}
+        fields = {p.name: values[i] for i, p in enumerate(self.params)}
+        fields["params"] = values
+        return fields
 
     # ---- builders ----------------------------------------------------------------------
     def bound(self, name: str, lower=None, upper=None) -> OCP:
@@ -1090,10 +1165,18 @@ class OCP:
                 )
         return dataclasses.replace(self, periodicity=(mapping,))
 
-    def minimize(self, integral=None, terminal=None) -> OCP:
-        """Objective = integral of ``integral(p)`` over [0, T] (the transcription's quadrature)
-        + ``terminal(p)`` at t = T (``p.x`` = x(T), ``p.x0``, ``p.T``). Replaces any earlier
-        objective; both are scalar expressions of a :class:`Point`."""
+    def minimize(self, integral=None, terminal=None, name: str = DEFAULT_TERM) -> OCP:
+        """An objective term: the integral of ``integral(p)`` over [0, T] (the transcription's
+        quadrature) + ``terminal(p)`` at t = T (``p.x`` = x(T), ``p.x0``, ``p.T``); both
+        scalar expressions of a :class:`Point`.
+
+        The objective is the sum of the terms. ``name`` identifies a term: a term of the same
+        name is replaced (so ``minimize(integral=...)`` twice keeps the last, as the default
+        name is the same), a new name adds a term; the Solution reports each term's value
+        (``Solution.cost_terms``).
+        """
+        if not isinstance(name, str) or not name:
+            raise DefinitionTypeError(f"`name`: an objective term needs a name, got {name!r}")
         if integral is None and terminal is None:
             raise DefinitionError("`minimize`: give an integral and/or a terminal term")
         for label, term, where in (("integral", integral, "path"), ("terminal", terminal, "end")):
@@ -1101,7 +1184,50 @@ class OCP:
                 value = evaluate_expression(label, term, self._point(where))
                 if value.shape != (1, 1):
                     raise DefinitionError(f"`{label}`: must be scalar, got shape {value.shape}")
-        return dataclasses.replace(self, integral=integral, terminal=terminal)
+        term = ObjectiveTerm(name, integral, terminal)
+        kept = tuple(t for t in self.objective if t.name != name)
+        if len(kept) == len(self.objective):
+            return dataclasses.replace(self, objective=(*self.objective, term))
+        terms = tuple(term if t.name == name else t for t in self.objective)
+        return dataclasses.replace(self, objective=terms)
+
+    def param(self, name: str, lower=None, upper=None, guess=None, scale=None) -> OCP:
+        """A static parameter: one decision variable for the whole horizon (a free step
+        length, a design quantity), a Point field ``p.<name>`` (and ``p.params``, all of
+        them) in every expression: constraints, objective terms, the periodicity map.
+
+        ``lower``/``upper``: bounds (None: none); ``guess``: its initial value (default: the
+        middle of finite bounds, else the bound nearest 0, else 0); ``scale``: its nominal
+        magnitude (default from the bounds). A parameter of the same name is replaced.
+        Parameters do not enter the dynamics (a model's parameters are numbers).
+        """
+        if not isinstance(name, str) or not name.isidentifier():
+            raise DefinitionError(
+                f"`param`: a parameter's name must be an identifier (a Point field), got {name!r}"
+            )
+        if name in self._point().fields and name not in self.param_names:
+            raise DefinitionError(
+                f"`param`: {name!r} is already a field of the Point (a variable, group or "
+                "built-in field); choose another name"
+            )
+        lo, hi = _as_bounds(f"param[{name}]", lower, upper, 1)
+        value = None
+        if guess is not None:
+            value = float(as_float_array(f"param[{name}] guess", guess, "a number"))
+            if not math.isfinite(value) or not lo[0] <= value <= hi[0]:
+                raise DefinitionError(
+                    f"`param[{name}]`: the guess {value!r} must be finite and within the bounds "
+                    f"[{lo[0]:g}, {hi[0]:g}]"
+                )
+        nominal = None
+        if scale is not None:
+            nominal = float(_positive_array(f"param[{name}] scale", scale, 1)[0])
+        parameter = Param(name, float(lo[0]), float(hi[0]), value, nominal)
+        kept = tuple(p for p in self.params if p.name != name)
+        if len(kept) == len(self.params):
+            return dataclasses.replace(self, params=(*self.params, parameter))
+        params = tuple(parameter if p.name == name else p for p in self.params)
+        return dataclasses.replace(self, params=params)
 
     def scale(self, **scales) -> OCP:
         """Nominal magnitudes of variables, groups or constraints: ``scale(M=100, clearance=0.05)``.
@@ -1256,11 +1382,18 @@ class OCP:
         return GuessLayer("grid" if times is not None else "constant", resolved, times)
 
     # ---- mesh, solving ------------------------------------------------------------------
-    def refine(self, N: int | None = None, transcription: str | None = None, degree=None) -> OCP:
-        """The same problem on another mesh (N, transcription, degree)."""
+    def refine(
+        self, N: int | None = None, transcription: str | None = None, degree=None, mesh=None
+    ) -> OCP:
+        """The same problem on another mesh (N, transcription, degree; ``mesh``: relative
+        interval lengths, see :class:`OCP`; a new N without a ``mesh`` is uniform)."""
         changes: dict[str, Any] = {}
-        if N is not None:
+        if mesh is not None:
+            changes["mesh"] = tuple(np.asarray(mesh, dtype=float).reshape(-1))
+            changes["N"] = len(changes["mesh"]) if N is None else N
+        elif N is not None:
             changes["N"] = N
+            changes["mesh"] = None
         if transcription is not None:
             changes["transcription"] = transcription
             if transcription not in ("radau", "legendre") and degree is None:
@@ -1301,11 +1434,12 @@ class OCP:
         if self.periodicity is not None:
             mapping = self.periodicity[0]
             lines.append("  periodic: x(0) = " + ("x(T)" if mapping is None else "Delta(x(T))"))
-        objective = [
-            label
-            for label, term in (("integral", self.integral), ("terminal", self.terminal))
-            if term is not None
-        ]
+        if self.params:
+            lines.append(
+                "  params:   "
+                + ", ".join(f"{p.name} in [{p.lower:g}, {p.upper:g}]" for p in self.params)
+            )
+        objective = [repr(term) for term in self.objective]
         lines.append(f"  minimize: {' + '.join(objective) or 'nothing (feasibility)'}")
         if self.guesses:
             lines.append(f"  guesses:  {', '.join(repr(g) for g in self.guesses)}")
@@ -1357,4 +1491,13 @@ def _positive_array(label: str, value, size: int) -> np.ndarray:
     return array
 
 
-__all__ = ["FORMULATIONS", "OCP", "TRANSCRIPTIONS", "Constraint", "Point", "System"]
+__all__ = [
+    "FORMULATIONS",
+    "OCP",
+    "TRANSCRIPTIONS",
+    "Constraint",
+    "ObjectiveTerm",
+    "Param",
+    "Point",
+    "System",
+]

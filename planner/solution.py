@@ -148,11 +148,19 @@ class Solution:
         self.state_values = values["X"]
         self.control_values = values["U"]
         self.aux_values = values["Z"]
+        #: The static parameters' values, name -> value (``OCP.param``).
+        self.params = values["P"]
         self.state_time = self.mesh.s_state * self.T
         self.point_time = self.mesh.s_dyn * self.T
         self.rate_values = self._rates()
         #: Interval integrators by (rtol, atol), built on first use.
-        self._integrators: dict[tuple[float, float], ca.Function] = {}
+        self._integrators: dict[tuple[float, float], Simulator] = {}
+
+    @cached_property
+    def cost_terms(self) -> dict[str, float]:
+        """Each objective term's value at the solution, name -> value (``OCP.minimize``'s
+        ``name``); they add up to ``cost``."""
+        return self.transcription.cost_terms(self.w)
 
     # ---- basic views -----------------------------------------------------------------
     @property
@@ -161,7 +169,17 @@ class Solution:
 
     @property
     def h(self) -> float:
+        """The interval length of a uniform mesh, T / N, s (see :attr:`interval_lengths`)."""
+        if not self.mesh.uniform:
+            raise DefinitionError(
+                "`h`: the mesh is not uniform; read interval_lengths (N,) instead"
+            )
         return self.T / self.N
+
+    @property
+    def interval_lengths(self) -> np.ndarray:
+        """(N,) interval lengths h_k, s (T / N each on a uniform mesh)."""
+        return (self.T / self.N) * self.mesh.relative
 
     @property
     def nlp_signature(self) -> str:
@@ -196,7 +214,9 @@ class Solution:
     @property
     def time(self) -> np.ndarray:
         """(N+1,) node times, s."""
-        return np.arange(self.N + 1) * self.h
+        if self.mesh.uniform:
+            return np.arange(self.N + 1) * (self.T / self.N)
+        return self.mesh.breaks * self.T
 
     @property
     def states(self) -> np.ndarray:
@@ -233,7 +253,8 @@ class Solution:
         u = self.control_values.T
         z = self.aux_values.T if self.system.nz else np.zeros((0, x.shape[1]))
         times = self.point_time[None, :]
-        # By name: the control-rate input, when there is one, does not change the rates.
+        # By name: the control-rate input, when there is one, does not change the rates
+        # (nor do the static parameters: they do not enter the dynamics).
         rate = mapped(x=x, u=u, z=z, t=times, T=np.full_like(times, self.T))["f"]
         return np.asarray(rate).T
 
@@ -258,9 +279,9 @@ class Solution:
         _, k, tau = self._locate(t)
         scheme, mesh = self.scheme, self.mesh
         out = np.zeros((k.size, self.system.nx))
-        h = self.h
         for kk in np.unique(k):
             sel = k == kk
+            h = self.T / self.N * mesh.relative[kk]
             wx, wf = scheme.state_weights(tau[sel], derivative)
             xk = self.state_values[mesh.state_cols[kk]]
             fk = self.rate_values[mesh.dyn_cols[kk]]
@@ -273,7 +294,8 @@ class Solution:
         for kk in np.unique(k):
             sel = k == kk
             weights = self.scheme.control_weights(tau[sel], derivative)
-            out[sel] = weights @ values[self.mesh.dyn_cols[kk]] / self.h**derivative
+            h = self.T / self.N * self.mesh.relative[kk]
+            out[sel] = weights @ values[self.mesh.dyn_cols[kk]] / h**derivative
         return out
 
     def control(self, t) -> np.ndarray:
@@ -471,7 +493,7 @@ class Solution:
         nodes = self.states
         z0 = self._interval_start_rates().T if self._implicit_only else None
         parameters = simulator.parameters(
-            self.time[:-1], np.diff(self.time), self._interval_coefficients()
+            self.time[:-1], self.interval_lengths, self._interval_coefficients()
         )
         try:
             run = simulator.across(nodes[:-1], parameters, z0)
@@ -489,7 +511,8 @@ class Solution:
         (N, nx), state units; Gauss-Legendre quadrature with ``points`` points per interval.
         """
         tau, weights = gauss_legendre(points)
-        t = (np.arange(self.N)[:, None] + tau[None, :]).reshape(-1) * self.h
+        h = self.interval_lengths
+        t = (self.time[:-1, None] + tau[None, :] * h[:, None]).reshape(-1)
         # Points never hit a node, so the interval of each is unambiguous.
         x = self.state(t)
         dx = self.state(t, derivative=1)
@@ -497,7 +520,7 @@ class Solution:
         f = self._rates_at(x, u, t, dx)
         gap = np.abs(f - dx).reshape(self.N, points, -1)
         return IntegrationError(
-            self.h * np.einsum("p,kpn->kn", weights, gap), self.system.state_names
+            h[:, None] * np.einsum("p,kpn->kn", weights, gap), self.system.state_names
         )
 
     def replay(self, rtol: float = 1e-10, atol: float = 1e-10) -> Replay:

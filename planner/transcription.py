@@ -1,6 +1,7 @@
 """Transcription of an :class:`planner.ocp.OCP` into a nonlinear program (NLP).
 
-The horizon [0, T] is cut into N intervals of length h = T / N; in each, tau = (t - t_k) / h.
+The horizon [0, T] is cut into N intervals of lengths h_k = T f_k (uniform: f_k = 1 / N; a
+non-uniform mesh gives the fractions f_k); in each, tau = (t - t_k) / h_k.
 A :class:`Scheme` fixes, for one interval,
 
 * where the state variables live (``state_tau``; the interval's last state is the next
@@ -225,10 +226,49 @@ def make_scheme(name: str, degree: int | None = None) -> Scheme:
 # ---- the mesh -----------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class Mesh:
-    """Index bookkeeping of a scheme on N uniform intervals (times normalised by T)."""
+    """Index bookkeeping of a scheme on N intervals (times normalised by T).
+
+    ``fractions`` (N,): each interval's length as a fraction of T (None: uniform 1/N); interval
+    k spans [breaks[k], breaks[k+1]] of the normalised time and has length h_k = T f_k.
+    """
 
     scheme: Scheme
     N: int
+    fractions: tuple[float, ...] | None = None
+
+    @cached_property
+    def widths(self) -> np.ndarray:
+        """(N,) interval lengths as fractions of T (sum 1)."""
+        if self.fractions is None:
+            return np.full(self.N, 1.0 / self.N)
+        return np.asarray(self.fractions, dtype=float)
+
+    @cached_property
+    def uniform(self) -> bool:
+        return self.fractions is None
+
+    @cached_property
+    def relative(self) -> np.ndarray:
+        """(N,) interval lengths in units of the mean length h = T / N: h_k = h r_k (exactly
+        ones on a uniform mesh, so its NLP is the same to the last bit)."""
+        if self.uniform:
+            return np.ones(self.N)
+        return self.widths * self.N
+
+    @cached_property
+    def breaks(self) -> np.ndarray:
+        """(N+1,) normalised times of the nodes, 0 = breaks[0] < ... < breaks[N] = 1."""
+        if self.uniform:
+            return np.arange(self.N + 1) / self.N
+        breaks = np.concatenate([[0.0], np.cumsum(self.widths)])
+        breaks[-1] = 1.0
+        return breaks
+
+    def _times(self, taus: np.ndarray) -> np.ndarray:
+        """(N, len(taus)) normalised times of the points at ``taus`` of every interval."""
+        if self.uniform:  # (k + tau) / N, bit for bit as before non-uniform meshes
+            return (np.arange(self.N)[:, None] + taus[None, :]) / self.N
+        return self.breaks[:-1, None] + taus[None, :] * self.widths[:, None]
 
     @cached_property
     def n_state_points(self) -> int:
@@ -258,15 +298,12 @@ class Mesh:
     @cached_property
     def s_state(self) -> np.ndarray:
         """(n_state_points,) normalised times t / T of the state points."""
-        k = np.arange(self.N)[:, None]
-        s = ((k + self.scheme.state_tau[None, :]) / self.N).reshape(-1)
-        return np.append(s, 1.0)
+        return np.append(self._times(self.scheme.state_tau).reshape(-1), 1.0)
 
     @cached_property
     def s_dyn(self) -> np.ndarray:
         """(n_dyn_points,) normalised times of the dynamics points."""
-        k = np.arange(self.N)[:, None]
-        s = ((k + self.scheme.dyn_tau[None, :]) / self.N).reshape(-1)
+        s = self._times(self.scheme.dyn_tau).reshape(-1)
         return np.append(s, 1.0) if self.scheme.shares_end else s
 
     @cached_property
@@ -285,13 +322,16 @@ class Mesh:
 
     @cached_property
     def quadrature(self) -> np.ndarray:
-        """(n_dyn_points,) weights q with integral ~= h sum q_c L_c."""
+        """(n_dyn_points,) weights q with integral ~= h sum q_c L_c, h = T / N (each interval's
+        weights times its relative length r_k)."""
         q = np.zeros(self.n_dyn_points)
-        np.add.at(q, self.dyn_cols.reshape(-1), np.tile(self.scheme.quadrature, self.N))
+        weights = self.scheme.quadrature[None, :] * self.relative[:, None]
+        np.add.at(q, self.dyn_cols.reshape(-1), weights.reshape(-1))
         return q
 
     def defect_matrices(self) -> tuple[ca.DM, ca.DM]:
-        """Sparse (n_state_points, N r) and (n_dyn_points, N r): D = X A_big - h F B_big."""
+        """Sparse (n_state_points, N r) and (n_dyn_points, N r): D = X A_big - h F B_big with
+        h = T / N, the rate weights of interval k times its relative length r_k (h_k = h r_k)."""
         r = self.scheme.A.shape[0]
         rows_a, cols_a, vals_a, rows_b, cols_b, vals_b = [], [], [], [], [], []
         for k in range(self.N):
@@ -306,7 +346,7 @@ class Mesh:
                     if value != 0.0:
                         rows_b.append(int(self.dyn_cols[k, i]))
                         cols_b.append(col)
-                        vals_b.append(float(value))
+                        vals_b.append(float(value) * float(self.relative[k]))
         a = ca.DM(ca.Sparsity.triplet(self.n_state_points, self.N * r, rows_a, cols_a), vals_a)
         b = ca.DM(ca.Sparsity.triplet(self.n_dyn_points, self.N * r, rows_b, cols_b), vals_b)
         return a, b
@@ -341,13 +381,19 @@ class Mesh:
         k = np.minimum(c // self.scheme.mc, self.N - 1)
         return k, self.scheme.interval_dyn_tau[c - k * self.scheme.mc]
 
-    def interval_matrix(self, k, weights, state: bool) -> ca.DM:
+    def interval_matrix(self, k, weights, state: bool, power: int = 0) -> ca.DM:
         """Sparse (n_state_points or n_dyn_points, K): column i holds ``weights[i]`` (K, m) on
         the state (``state``, m = ms + 1) or dynamics (m = ndc) columns of interval ``k[i]``,
-        so that V @ matrix evaluates the interval polynomials of values V at K places."""
+        so that V @ matrix evaluates the interval polynomials of values V at K places.
+        ``power``: the weights of column i are multiplied by r_k^power (r_k the interval's
+        length relative to h = T / N): 1 for the h F terms of a state, -1 for a derivative
+        d/dt = d/dtau / h_k.
+        """
         cols = self.state_cols if state else self.dyn_cols
         k = np.asarray(k, dtype=int).reshape(-1)
         weights = np.asarray(weights, dtype=float).reshape(k.size, cols.shape[1])
+        if power and not self.uniform:
+            weights = weights * self.relative[k, None] ** power
         rows = cols[k].reshape(-1)
         columns = np.repeat(np.arange(k.size), cols.shape[1])
         keep = weights.reshape(-1) != 0.0
@@ -364,7 +410,12 @@ class Mesh:
         node, so that a node's value is an NLP variable, not an extrapolation.
         """
         s = np.asarray(s, dtype=float)
-        scaled = s * self.N
+        if self.uniform:
+            scaled = s * self.N
+        else:
+            # The interval's index plus the fraction of it, as on a uniform mesh.
+            j = np.clip(np.searchsorted(self.breaks, s, side="right") - 1, 0, self.N - 1)
+            scaled = j + (s - self.breaks[j]) / self.widths[j]
         # A node time t_k = k h divided by T and multiplied by N can land a few ulps off the
         # integer k; snap it, or the node would be assigned to the neighbouring interval and
         # read from an extrapolated polynomial instead of its own NLP variable.
@@ -474,14 +525,19 @@ class Transcription:
     transcription is solved many times).
     """
 
-    def __init__(self, ocp: OCP, expand: bool | None = None) -> None:
+    def __init__(self, ocp: OCP, expand: bool | None = None, *, phase_symbols=None) -> None:
         if not isinstance(ocp, OCP):
             raise DefinitionTypeError(f"`ocp`: must be a planner.OCP, got {type(ocp).__name__}")
         start = time.perf_counter()
         self.ocp = ocp
+        #: None for a standalone NLP; for one phase of several (planner.phases), a callable of
+        #: this transcription (its layout known) returning {"v": the physical values of its
+        #: variables, "T": a fixed duration, "params": the static parameters} as expressions.
+        self._phase_symbols = None
+        self._provide = phase_symbols
         self.system = system = ocp.system
         self.scheme = make_scheme(ocp.transcription, ocp.degree)
-        self.mesh = Mesh(self.scheme, ocp.N)
+        self.mesh = Mesh(self.scheme, ocp.N, ocp.mesh)
         # MX with mapped SX point functions builds ~5-10x faster than a fully expanded SX NLP
         # and solves ~1.5x slower (planner_bench.py): the better total for a one-off solve.
         self.expand = False if expand is None else bool(expand)
@@ -552,6 +608,17 @@ class Transcription:
         )
 
     @cached_property
+    def terms_function(self) -> ca.Function:
+        """(w, p) -> each objective term's value (n_terms,), physical units."""
+        nlp = self.parametric_nlp
+        return ca.Function("terms", [nlp["x"], nlp["p"]], [self.term_values], ["x", "p"], ["terms"])
+
+    def cost_terms(self, w: np.ndarray) -> dict[str, float]:
+        """Each objective term's value at the scaled decision vector ``w``, by name."""
+        values = np.asarray(self.terms_function(w, self.parameter_values())).reshape(-1)
+        return {term.name: float(v) for term, v in zip(self.ocp.objective, values, strict=True)}
+
+    @cached_property
     def nlp(self) -> dict[str, Any]:
         """This OCP's NLP in the decision vector alone: {"x": w, "f": the objective in its
         physical units (unscaled), "g": the scaled constraint rows}, the parameters replaced
@@ -585,7 +652,15 @@ class Transcription:
             offset += size
         self._slices["T"] = slice(offset, offset + (1 if self.ocp.free_time else 0))
         offset += 1 if self.ocp.free_time else 0
+        self._slices["P"] = slice(offset, offset + len(self.own_params))
+        offset += len(self.own_params)
         self._n_w = offset
+
+    @property
+    def own_params(self) -> tuple:
+        """The static parameters that are variables of this NLP: the OCP's, or none when it
+        is one phase of several (the whole problem holds them)."""
+        return self.ocp.params if self._provide is None else ()
 
     # ---- symbolic construction --------------------------------------------------------
     def _path_constraints(self):
@@ -605,7 +680,8 @@ class Transcription:
         s = self.system
         x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
         du = ca.SX.sym("du", s.nu)
-        point = Point(s, x, u, z, ca.SX.sym("t"), ca.SX.sym("T"), du=du)
+        params = self.ocp.param_fields(ca.SX.sym("params", len(self.ocp.params)))
+        point = Point(s, x, u, z, ca.SX.sym("t"), ca.SX.sym("T"), params, du=du)
         others = ca.vertcat(u, z, du)
         kept = []
         for c in self._path_constraints():
@@ -615,20 +691,22 @@ class Transcription:
         return tuple(kept)
 
     def _state_path_function(self) -> ca.Function:
-        """(x, t, T) -> the state-only path constraints at one state point, physical units."""
+        """(x, t, T, params) -> the state-only path constraints at one state point, physical
+        units."""
         s = self.system
         x, t, T = ca.SX.sym("x", s.nx), ca.SX.sym("t"), ca.SX.sym("T")
+        P = ca.SX.sym("params", len(self.ocp.params))
         # The constraints do not depend on u, z and du; zeros keep their shapes.
         zeros = ca.SX.zeros(s.nu)
-        point = Point(s, x, zeros, ca.SX.zeros(s.nz), t, T, du=zeros)
+        point = Point(s, x, zeros, ca.SX.zeros(s.nz), t, T, self.ocp.param_fields(P), du=zeros)
         rows = [
             evaluate_expression(f"path[{c.name}]", c.expression, point) for c in self.state_paths
         ]
         return ca.Function(
             "state_path",
-            [x, t, T],
+            [x, t, T, P],
             [ca.vertcat(*rows) if rows else ca.SX(0, 1)],
-            ["x", "t", "T"],
+            ["x", "t", "T", "params"],
             ["path"],
         )
 
@@ -636,28 +714,31 @@ class Transcription:
         """SX Function at one dynamics point, in physical units (the scaling is applied around
         it, by the NLP parameters: see :meth:`_build`).
 
-        (x, u, z, t, T[, du]) -> (f (nx,), residual (nz,), path (np,), integrand (1,)); du:
-        control rates, an input only when path constraints or the integrand read them.
+        (x, u, z, t, T, params[, du]) -> (f (nx,), residual (nz,), path (np,), integrand
+        (n_terms,): one per objective term with an integral); du: control rates, an input only
+        when path constraints or the integrand read them.
 
         Also sets ``node_side_function`` when path constraints or the integrand read the
         control rate on a scheme whose nodes two intervals share (trapezoid, Hermite-Simpson):
-        (x, u, z, t, T, du) -> (those path rows, integrand) for the node's other side.
+        (x, u, z, t, T, params, du) -> (those path rows, integrand) for the node's other side.
         """
         s, ocp = self.system, self.ocp
         xs, us, zs = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
         t, T, dus = ca.SX.sym("t"), ca.SX.sym("T"), ca.SX.sym("du", s.nu)
+        P = ca.SX.sym("params", len(ocp.params))
         rate = s.rate(xs, zs, us, t)
         residual = s.residual(xs, zs, us, t) if s.residual is not None else ca.SX(0, 1)
-        point = Point(s, xs, us, zs, t, T, du=dus)
+        point = Point(s, xs, us, zs, t, T, ocp.param_fields(P), du=dus)
         paths = [
             evaluate_expression(f"path[{c.name}]", c.expression, point)
             for c in self._path_constraints()
         ]
         path = ca.vertcat(*paths) if paths else ca.SX(0, 1)
-        if ocp.integral is not None:
-            integrand = evaluate_expression("integral", ocp.integral, point)
-        else:
-            integrand = ca.SX(0)
+        integrands = [
+            evaluate_expression(f"integral[{term.name}]", term.integral, point)
+            for term in self.integral_terms
+        ]
+        integrand = ca.vertcat(*integrands) if integrands else ca.SX(0, 1)
         # A derived field (explicit ddpsi) repeats the rate's forward dynamics: merge them.
         options = {"cse": True} if point.uses_derived else {}
         reads = [_reads(value, dus) for value in paths]
@@ -680,26 +761,36 @@ class Transcription:
             side_paths = [value for value, r in zip(paths, sides, strict=True) if r]
             self.node_side_function = ca.Function(
                 "node_side",
-                [xs, us, zs, t, T, dus],
+                [xs, us, zs, t, T, P, dus],
                 [
                     ca.vertcat(*side_paths) if side_paths else ca.SX(0, 1),
-                    integrand if self._integrand_reads_rate else ca.SX(0),
+                    integrand if self._integrand_reads_rate else ca.SX.zeros(integrand.size1()),
                 ],
-                ["x", "u", "z", "t", "T", "du"],
+                ["x", "u", "z", "t", "T", "params", "du"],
                 ["path", "integrand"],
                 options,
             )
         # The rate input only when read: an unused input still costs IPOPT's setup time
         # (derivative functions of the mapped call).
-        inputs = [xs, us, zs, t, T] + ([dus] if self._point_reads_rate else [])
+        inputs = [xs, us, zs, t, T, P] + ([dus] if self._point_reads_rate else [])
         return ca.Function(
             "point",
             inputs,
             [rate, residual, path, integrand],
-            ["x", "u", "z", "t", "T", "du"][: len(inputs)],
+            ["x", "u", "z", "t", "T", "params", "du"][: len(inputs)],
             ["f", "residual", "path", "integrand"],
             options,
         )
+
+    @property
+    def integral_terms(self) -> tuple:
+        """The objective terms with an integral, in order (rows of the point's integrand)."""
+        return tuple(term for term in self.ocp.objective if term.integral is not None)
+
+    @property
+    def terminal_terms(self) -> tuple:
+        """The objective terms with a terminal part, in order."""
+        return tuple(term for term in self.ocp.objective if term.terminal is not None)
 
     @property
     def residual_scale(self) -> np.ndarray:
@@ -709,17 +800,18 @@ class Transcription:
         return self.state_scale
 
     def _boundary_function(self) -> ca.Function:
-        """(x0, xf, u0, uf, z0, zf, T[, du0, duf]) -> (boundary rows, periodic defect
-        x0 - Delta(xf), Mayer term), physical units; the control rates at both ends only when
-        read."""
+        """(x0, xf, u0, uf, z0, zf, T, params[, du0, duf]) -> (boundary rows, periodic defect
+        x0 - Delta(xf), terminal parts of the objective terms (n_terminal,)), physical units;
+        the control rates at both ends only when read."""
         s, ocp = self.system, self.ocp
         x0s, xfs = ca.SX.sym("x0", s.nx), ca.SX.sym("xf", s.nx)
         u0s, ufs = ca.SX.sym("u0", s.nu), ca.SX.sym("uf", s.nu)
         z0s, zfs = ca.SX.sym("z0", s.nz), ca.SX.sym("zf", s.nz)
         du0s, dufs = ca.SX.sym("du0", s.nu), ca.SX.sym("duf", s.nu)
         T = ca.SX.sym("T")
+        P = ca.SX.sym("params", len(ocp.params))
         x0, xf = x0s, xfs
-        extra = {"x0": x0, "xf": xf}
+        extra = {"x0": x0, "xf": xf, **ocp.param_fields(P)}
         start = Point(s, x0, u0s, z0s, ca.SX(0), T, extra, du=du0s)
         end = Point(s, xf, ufs, zfs, T, T, extra, du=dufs)
         rows = []
@@ -733,14 +825,16 @@ class Transcription:
             if isinstance(image, list | tuple):
                 image = ca.vertcat(*image)
             periodic = x0 - image
-        mayer = ca.SX(0)
-        if ocp.terminal is not None:
-            mayer = evaluate_expression("terminal", ocp.terminal, end)
+        terminals = [
+            evaluate_expression(f"terminal[{term.name}]", term.terminal, end)
+            for term in self.terminal_terms
+        ]
+        mayer = ca.vertcat(*terminals) if terminals else ca.SX(0, 1)
         self._boundary_reads_rate = _reads(ca.vertcat(*rows, mayer), ca.vertcat(du0s, dufs))
         rates = [du0s, dufs] if self._boundary_reads_rate else []
         return ca.Function(
             "boundary",
-            [x0s, xfs, u0s, ufs, z0s, zfs, T, *rates],
+            [x0s, xfs, u0s, ufs, z0s, zfs, T, P, *rates],
             [ca.vertcat(*rows) if rows else ca.SX(0, 1), periodic, mayer],
             {"cse": True} if start.uses_derived or end.uses_derived else {},
         )
@@ -758,17 +852,26 @@ class Transcription:
         s, ocp, mesh, scheme = self.system, self.ocp, self.mesh, self.scheme
         self._layout()
         nX, nC, N = mesh.n_state_points, mesh.n_dyn_points, ocp.N
-        sym = ca.SX if self.expand else ca.MX
-        w = sym.sym("w", self.n_w)
-        p_w = sym.sym("p_w", self.n_w)  # nominal scale of each variable
-        v = w * p_w
+        external = None if self._provide is None else self._provide(self)
+        self._phase_symbols = external
+        if external is None:
+            sym = ca.SX if self.expand else ca.MX
+            w = sym.sym("w", self.n_w)
+            p_w = sym.sym("p_w", self.n_w)  # nominal scale of each variable
+            v = w * p_w
+            p_T = sym.sym("p_T", 0 if ocp.free_time else 1)  # a fixed duration, s
+            params = v[self._slices["P"]]
+        else:
+            # One phase of several (planner.phases): its variables' physical values, a fixed
+            # duration and the static parameters are given as expressions of the whole NLP.
+            sym = ca.MX
+            v, p_T, params = external["v"], external["T"], external["params"]
         # Physical values (the names Xs, Us, Zs stay from the scaled version of this code).
         Xs = ca.reshape(v[self._slices["X"]], s.nx, nX)
         Us = ca.reshape(v[self._slices["U"]], s.nu, nC)
         Zs = ca.reshape(v[self._slices["Z"]], s.nz, nC)
-        p_T = sym.sym("p_T", 0 if ocp.free_time else 1)  # a fixed duration, s
         T = v[self._slices["T"]] if ocp.free_time else p_T
-        h = T / N
+        h = T / N  # the mean interval length; interval k has h r_k (mesh.relative)
         point_f = self._point_function()
         self.point_function = point_f
         mapped = point_f.map(nC)
@@ -778,9 +881,13 @@ class Transcription:
         if self._point_reads_rate:
             # du/dt at each dynamics point from the polynomial of the interval owning it.
             owner, tau = mesh.dyn_owner
-            rates = mesh.interval_matrix(owner, scheme.control_weights(tau, 1), state=False)
+            rates = mesh.interval_matrix(
+                owner, scheme.control_weights(tau, 1), state=False, power=-1
+            )
             rate_input = [ca.mtimes(Us, rates) / h]
-        Fs, Rs, Ps, Ls = mapped(Xd, Us, Zs, times, ca.repmat(T, 1, nC), *rate_input)
+        Fs, Rs, Ps, Ls = mapped(
+            Xd, Us, Zs, times, ca.repmat(T, 1, nC), ca.repmat(params, 1, nC), *rate_input
+        )
         A_big, B_big = mesh.defect_matrices()
         defects = ca.mtimes(Xs, A_big) - h * ca.mtimes(Fs, B_big)
         # Boundary values of controls and aux come from the first/last interval's polynomial.
@@ -795,11 +902,14 @@ class Transcription:
         self.boundary_function = boundary_f
         rate_input = []
         if self._boundary_reads_rate:
+            relative = mesh.relative
             rate_input = [
-                ca.mtimes(Us[:, first], ca.DM(scheme.control_weights([0.0], 1)[0])) / h,
-                ca.mtimes(Us[:, last], ca.DM(scheme.control_weights([1.0], 1)[0])) / h,
+                ca.mtimes(Us[:, first], ca.DM(scheme.control_weights([0.0], 1)[0] / relative[0]))
+                / h,
+                ca.mtimes(Us[:, last], ca.DM(scheme.control_weights([1.0], 1)[0] / relative[-1]))
+                / h,
             ]
-        gb, gper, mayer = boundary_f(Xs[:, 0], Xs[:, -1], u0, uf, z0, zf, T, *rate_input)
+        gb, gper, mayer = boundary_f(Xs[:, 0], Xs[:, -1], u0, uf, z0, zf, T, params, *rate_input)
         at_functions = [self._instant_function(c) for c in self._instant_constraints()]
         self.reads_control_rate = (
             self._point_reads_rate
@@ -807,21 +917,38 @@ class Transcription:
             or any(reads for _, reads in at_functions)
         )
         quadrature, side_cost, Pside, continuity = self._control_rate_terms(
-            Xd, Us, Zs, times, T, h, sym
+            Xd, Us, Zs, times, T, h, params, sym
         )
-        objective = h * ca.mtimes(Ls, ca.DM(quadrature)) + side_cost + mayer
+        integrals = h * ca.mtimes(Ls, ca.DM(quadrature)) + side_cost
+        # Each objective term's value: its integral part plus its terminal part.
+        integral_rows = {term.name: i for i, term in enumerate(self.integral_terms)}
+        terminal_rows = {term.name: i for i, term in enumerate(self.terminal_terms)}
+        terms = []
+        for term in ocp.objective:
+            value = 0
+            if term.name in integral_rows:
+                value = value + integrals[integral_rows[term.name]]
+            if term.name in terminal_rows:
+                value = value + mayer[terminal_rows[term.name]]
+            terms.append(value)
+        #: Each objective term's value (n_terms,), physical units, in ``ocp.objective`` order.
+        self.term_values = ca.vertcat(*terms) if terms else sym(0, 1)
+        objective = ca.sum1(self.term_values) if terms else sym(0)
         # State-only path constraints also where no dynamics point lies (Radau t = 0,
         # Legendre nodes): there the state is a variable, the control is not.
         free = mesh.free_state_cols
         if free.size and self.state_paths:
             state_path = self._state_path_function().map(free.size)
             Pfree = state_path(
-                Xs[:, free.tolist()], T * ca.DM(mesh.s_state[free]).T, ca.repmat(T, 1, free.size)
+                Xs[:, free.tolist()],
+                T * ca.DM(mesh.s_state[free]).T,
+                ca.repmat(T, 1, free.size),
+                ca.repmat(params, 1, free.size),
             )
         else:
             Pfree = sym(0, 1)
         g_at = [
-            self._instant_rows(c, f, Xs, Us, Zs, Fs, T, h)
+            self._instant_rows(c, f, Xs, Us, Zs, Fs, T, h, params)
             for c, (f, _) in zip(self._instant_constraints(), at_functions, strict=True)
         ]
         g = ca.vertcat(
@@ -835,22 +962,27 @@ class Transcription:
             *g_at,
             ca.vec(continuity),
         )
-        p_g = sym.sym("p_g", g.size1())  # 1 / nominal scale of each constraint row
-        p_f = sym.sym("p_f")  # 1 / nominal scale of the objective
-        #: The NLP IPOPT solves: scaled w, parameters p, scaled objective and rows.
-        self.parametric_nlp = {
-            "x": w,
-            "p": ca.vertcat(p_w, p_g, p_T, p_f),
-            "f": objective * p_f,
-            "g": g * p_g,
-        }
-        self._objective = objective
+        #: Physical constraint rows, objective, boundary states and duration: what a
+        #: multi-phase problem assembles (planner.phases).
+        self.rows, self._objective = g, objective
+        self.x0, self.xf, self.duration = Xs[:, 0], Xs[:, -1], T
+        if external is None:
+            p_g = sym.sym("p_g", g.size1())  # 1 / nominal scale of each constraint row
+            p_f = sym.sym("p_f")  # 1 / nominal scale of the objective
+            #: The NLP IPOPT solves: scaled w, parameters p, scaled objective and rows.
+            self.parametric_nlp = {
+                "x": w,
+                "p": ca.vertcat(p_w, p_g, p_T, p_f),
+                "f": objective * p_f,
+                "g": g * p_g,
+            }
         self._bounds_and_names()
 
-    def _control_rate_terms(self, Xd, Us, Zs, times, T, h, sym):
+    def _control_rate_terms(self, Xd, Us, Zs, times, T, h, params, sym):
         """What reading control rates adds to the NLP.
 
-        Returns (quadrature (nC,), side cost, side path rows (m, N - 1), continuity rows).
+        Returns (quadrature (nC,), side cost (per integral term), side path rows
+        (m, N - 1), continuity rows).
         A node that two intervals share (trapezoid, Hermite-Simpson) has a rate on each side;
         the dynamics point carries the slope of the interval starting there, and the side
         terms add the slope of the interval ending there (interior nodes 1..N-1): the path
@@ -875,15 +1007,22 @@ class Transcription:
         if N > 1 and self.node_side_function is not None:
             cols = (nodes * scheme.mc).tolist()
             weights = np.tile(scheme.control_weights([1.0], 1), (N - 1, 1))
-            left = ca.mtimes(Us, mesh.interval_matrix(nodes - 1, weights, state=False)) / h
+            left = ca.mtimes(Us, mesh.interval_matrix(nodes - 1, weights, False, power=-1)) / h
             Pside, Lside = self.node_side_function.map(N - 1)(
-                Xd[:, cols], Us[:, cols], Zs[:, cols], times[:, cols], ca.repmat(T, 1, N - 1), left
+                Xd[:, cols],
+                Us[:, cols],
+                Zs[:, cols],
+                times[:, cols],
+                ca.repmat(T, 1, N - 1),
+                ca.repmat(params, 1, N - 1),
+                left,
             )
             if self._integrand_reads_rate:
-                end_weight = float(scheme.quadrature[-1])
+                # The node's share of the interval ending there (weight times its width).
+                ending = float(scheme.quadrature[-1]) * mesh.relative[nodes - 1]
                 quadrature = quadrature.copy()
-                quadrature[cols] -= end_weight
-                side_cost = h * end_weight * ca.sum2(Lside)
+                quadrature[cols] -= ending
+                side_cost = h * ca.mtimes(Lside, ca.DM(ending))
         if N > 1 and not scheme.shares_end and s.nu:
             ends = np.tile(scheme.control_weights([1.0]), (N - 1, 1))
             starts = np.tile(scheme.control_weights([0.0]), (N - 1, 1))
@@ -909,40 +1048,46 @@ class Transcription:
         return s, k, tau
 
     def _instant_function(self, constraint) -> tuple[ca.Function, bool]:
-        """(x, u, z, t, T, du) -> the constraint's rows at one instant (SX, physical units),
-        and whether they read the control rate."""
+        """(x, u, z, t, T, params, du) -> the constraint's rows at one instant (SX, physical
+        units), and whether they read the control rate."""
         s = self.system
         xs, us, zs = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
         t, T, dus = ca.SX.sym("t"), ca.SX.sym("T"), ca.SX.sym("du", s.nu)
-        point = Point(s, xs, us, zs, t, T, du=dus)
+        P = ca.SX.sym("params", len(self.ocp.params))
+        point = Point(s, xs, us, zs, t, T, self.ocp.param_fields(P), du=dus)
         label = f"at[{constraint.name}]"
         value = evaluate_expression(label, constraint.expression, point)
         function = ca.Function(
             "at",
-            [xs, us, zs, t, T, dus],
+            [xs, us, zs, t, T, P, dus],
             [value],
-            ["x", "u", "z", "t", "T", "du"],
+            ["x", "u", "z", "t", "T", "params", "du"],
             ["rows"],
             {"cse": True} if point.uses_derived else {},
         )
         return function, _reads(value, dus)
 
-    def _instant_rows(self, constraint, function, Xs, Us, Zs, Fs, T, h):
+    def _instant_rows(self, constraint, function, Xs, Us, Zs, Fs, T, h, params):
         """Rows of an "at" constraint at its K instants, (K rows,) instant by instant: the
         point on the interpolant of the interval holding each instant (physical values:
-        x = X_k Wx^T + h F_k Wf^T with F the rates, u = U_k Wu^T, du = U_k Wu'^T / h)."""
+        x = X_k Wx^T + h_k F_k Wf^T with F the rates, u = U_k Wu^T, du = U_k Wu'^T / h_k,
+        h_k = h r_k the length of interval k)."""
         mesh, scheme = self.mesh, self.scheme
         s, k, tau = self._instant_places(constraint)
         wx, wf = scheme.state_weights(tau)
         x = ca.mtimes(Xs, mesh.interval_matrix(k, wx, state=True))
         if np.any(wf != 0.0):
-            x = x + h * ca.mtimes(Fs, mesh.interval_matrix(k, wf, state=False))
+            x = x + h * ca.mtimes(Fs, mesh.interval_matrix(k, wf, state=False, power=1))
         u_matrix = mesh.interval_matrix(k, scheme.control_weights(tau), state=False)
         u = ca.mtimes(Us, u_matrix)
         z = ca.mtimes(Zs, u_matrix)
-        du = ca.mtimes(Us, mesh.interval_matrix(k, scheme.control_weights(tau, 1), state=False))
+        du = ca.mtimes(
+            Us, mesh.interval_matrix(k, scheme.control_weights(tau, 1), state=False, power=-1)
+        )
         K = k.size
-        rows = function.map(K)(x, u, z, T * ca.DM(s).T, ca.repmat(T, 1, K), du / h)
+        rows = function.map(K)(
+            x, u, z, T * ca.DM(s).T, ca.repmat(T, 1, K), ca.repmat(params, 1, K), du / h
+        )
         return ca.vec(rows)
 
     def _bounds_and_names(self) -> None:
@@ -966,9 +1111,16 @@ class Transcription:
             ubx[sl] = np.tile(hi, count)
             names.extend(f"bound[{n}] {label(c)}" for c in range(count) for n in var_names)
         if ocp.free_time:
-            lbx[-1] = ocp.T[0] / self.T_scale
-            ubx[-1] = ocp.T[1] / self.T_scale
+            index = self._slices["T"].start
+            lbx[index] = ocp.T[0] / self.T_scale
+            ubx[index] = ocp.T[1] / self.T_scale
             names.append("bound[T]")
+        own = self.own_params
+        for i, param in enumerate(own):
+            index = self._slices["P"].start + i
+            lbx[index] = param.lower / param.nominal
+            ubx[index] = param.upper / param.nominal
+            names.append(f"bound[{param.name}]")
         self.lbx, self.ubx, self.w_names = lbx, ubx, tuple(names)
         w_scale = [
             np.tile(sc, count)
@@ -978,7 +1130,13 @@ class Transcription:
                 (self.aux_scale, nC),
             )
         ]
-        self.w_scale = np.concatenate([*w_scale, [self.T_scale] if ocp.free_time else []])
+        self.w_scale = np.concatenate(
+            [
+                *w_scale,
+                [self.T_scale] if ocp.free_time else [],
+                [param.nominal for param in own],
+            ]
+        )
         # constraint rows
         g_names: list[str] = []
         lbg: list[np.ndarray] = []
@@ -1072,7 +1230,8 @@ class Transcription:
     def unpack(self, w: np.ndarray) -> dict[str, Any]:
         """Physical values from a scaled decision vector.
 
-        Returns dict with X (nX, nx), U (nC, nu), Z (nC, nz), T (s).
+        Returns dict with X (nX, nx), U (nC, nu), Z (nC, nz), T (s), P (the static
+        parameters this NLP holds, name -> value).
         """
         s, mesh = self.system, self.mesh
         w = np.asarray(w, dtype=float).reshape(-1)
@@ -1080,16 +1239,22 @@ class Transcription:
         U = w[self._slices["U"]].reshape(mesh.n_dyn_points, s.nu) * self.control_scale
         Z = w[self._slices["Z"]].reshape(mesh.n_dyn_points, s.nz) * self.aux_scale
         T = float(w[self._slices["T"]][0] * self.T_scale) if self.ocp.free_time else self.ocp.T
-        return {"X": X, "U": U, "Z": Z, "T": T}
+        values = w[self._slices["P"]]
+        P = {p.name: float(values[i] * p.nominal) for i, p in enumerate(self.own_params)}
+        return {"X": X, "U": U, "Z": Z, "T": T, "P": P}
 
-    def pack(self, X: np.ndarray, U: np.ndarray, Z: np.ndarray, T: float) -> np.ndarray:
-        """Scaled decision vector from physical X (nX, nx), U (nC, nu), Z (nC, nz), T."""
+    def pack(self, X: np.ndarray, U: np.ndarray, Z: np.ndarray, T: float, P=None) -> np.ndarray:
+        """Scaled decision vector from physical X (nX, nx), U (nC, nu), Z (nC, nz), T and
+        the static parameters P (name -> value; default their guesses)."""
         w = np.zeros(self.n_w)
         w[self._slices["X"]] = (np.asarray(X) / self.state_scale).reshape(-1)
         w[self._slices["U"]] = (np.asarray(U) / self.control_scale).reshape(-1)
         w[self._slices["Z"]] = (np.asarray(Z) / self.aux_scale).reshape(-1)
         if self.ocp.free_time:
-            w[-1] = T / self.T_scale
+            w[self._slices["T"]] = T / self.T_scale
+        P = P or {}
+        for i, param in enumerate(self.own_params):
+            w[self._slices["P"].start + i] = P.get(param.name, param.initial) / param.nominal
         return w
 
     def initial_guess(self) -> np.ndarray:
@@ -1136,4 +1301,9 @@ class Transcription:
                 for i, name in enumerate(s.control_names):
                     if name in missing:
                         U[:, i] = torques[:, i]
-        return self.pack(X, U, Z, T)
+        # Static parameters: their own guesses, or the values of a Solution guessed from.
+        P: dict[str, float] = {}
+        for layer in ocp.guesses:
+            if layer.kind == "solution":
+                P.update(getattr(layer.source, "params", None) or {})
+        return self.pack(X, U, Z, T, P)

@@ -161,7 +161,12 @@ def _objective_functions(ocp, method: str, n_free: int, input_order: list[int]):
     n, nx, nu, N = system.dynamics.n, system.nx, system.nu, ocp.N
     nodes, h, T = N + 1, ocp.T / N, ocp.T
     x, u, z, t = ca.SX.sym("x", nx), ca.SX.sym("u", nu), ca.SX.sym("z", system.nz), ca.SX.sym("t")
-    integrand = evaluate_expression("integral", ocp.integral, Point(system, x, u, z, t, T))
+    point = Point(system, x, u, z, t, T)
+    integrand = sum(
+        evaluate_expression("integral", term.integral, point)
+        for term in ocp.objective
+        if term.integral is not None
+    )
     L = ca.Function("L", [x, u, z, t], [integrand]).map(N)
     w = ca.SX.sym("w", n_free)
     X = ca.reshape(w[: nx * nodes], nodes, nx).T  # (nx, nodes): opty stores state by state
@@ -177,10 +182,12 @@ def _objective_functions(ocp, method: str, n_free: int, input_order: list[int]):
         Xk, Uk = X[:, 1:], U[:, 1:]
         tk = (k + 1.0) * h
     J = h * ca.sum2(L(Xk, Uk, Zk, ca.DM(tk).T))
-    if ocp.terminal is not None:
+    for objective_term in ocp.objective:
+        if objective_term.terminal is None:
+            continue
         xT = ca.SX.sym("xT", nx)
         point = Point(system, xT, U[:, -1], ca.SX.zeros(system.nz), T, T, {"x0": X[:, 0]})
-        term = evaluate_expression("terminal", ocp.terminal, point)
+        term = evaluate_expression("terminal", objective_term.terminal, point)
         J = J + ca.substitute(term, xT, X[:, -1])
     value = ca.Function("J", [w], [J])
     gradient = ca.Function("dJ", [w], [ca.gradient(J, w)])
