@@ -22,7 +22,13 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from model.errors import DefinitionError, DefinitionTypeError, check_real
+from model.errors import (
+    DefinitionError,
+    DefinitionTypeError,
+    check_integer,
+    check_positive,
+    check_real,
+)
 from planner.files import atomic_path
 from planner.trajectory import (
     Trajectory,
@@ -141,14 +147,6 @@ def _check_linkage(dynamics: Dynamics, trajectory: Trajectory) -> None:
         )
 
 
-def _count(where: str, value: object, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise DefinitionTypeError(f"`{where}`: must be an integer, got {value!r}")
-    if value < minimum:
-        raise DefinitionError(f"`{where}`: must be >= {minimum}, got {value!r}")
-    return int(value)
-
-
 def _poses(dynamics: Dynamics, trajectory: Trajectory, times: np.ndarray) -> np.ndarray:
     """(F, n+1) complex hinge positions H0..Hn, m, at ``times`` (s) through the interpolant."""
     n = len(trajectory.link_names)
@@ -203,7 +201,7 @@ def stick_figure_strip(
     The figure holding the axes.
     """
     _check_linkage(dynamics, trajectory)
-    frames = _count("n_frames", n_frames, 1)
+    frames = check_integer("n_frames", n_frames, 1)
     times = (
         np.array([trajectory.t0])
         if frames == 1
@@ -303,12 +301,11 @@ def animate(
         raise TrajectoryFileNotFoundError(
             f"{path}: cannot save, the folder {str(path.parent)!r} does not exist; create it first"
         )
-    if check_real("fps", fps) <= 0:
-        raise DefinitionError(f"`fps`: must be > 0 frames per second, got {fps!r}")
+    fps = check_positive("fps", fps, "frames per second")
     if n_frames is None:
         frames = max(2, round(trajectory.duration * fps) + 1)
     else:
-        frames = _count("n_frames", n_frames, 2)
+        frames = check_integer("n_frames", n_frames, 2)
     times = np.linspace(trajectory.t0, trajectory.tf, frames)
     hinges = _poses(dynamics, trajectory, times)
     starts = _segment_starts(dynamics)

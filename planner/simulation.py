@@ -46,7 +46,13 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError, check_real
+from model.errors import (
+    AnthropoidError,
+    DefinitionError,
+    DefinitionTypeError,
+    check_integer,
+    check_real,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -352,11 +358,10 @@ class Simulator:
                 f"`method`: {method!r} integrates ODEs only; a DAE (a residual with "
                 f"algebraic variables) needs one of {DAE_METHODS}"
             )
-        for name, value, low in (("degree", degree, 0), ("steps", steps, 1)):
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
-                raise DefinitionError(f"`{name}`: must be an integer >= {low}, got {value!r}")
         self.rate, self.residual, self.quadrature = rate, residual, quadrature
-        self.degree, self.method, self.steps = int(degree), method, int(steps)
+        self.degree = check_integer("degree", degree, 0)
+        self.steps = check_integer("steps", steps, 1)
+        self.method = method
         self.rtol = check_tolerance("rtol", rtol)
         self.atol = check_tolerance("atol", atol)
         self.nx = rate.size1_in(0)

@@ -33,7 +33,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError
+from model.errors import AnthropoidError, DefinitionError, check_positive
 from planner.collocation import gauss_legendre
 from planner.simulation import (
     SimulationError,
@@ -582,9 +582,7 @@ class Solution:
         """The nodes (rate_hz None) or a uniform grid 0, 1/rate, ... with T appended."""
         if rate_hz is None:
             return self.time
-        rate = float(rate_hz)
-        if not np.isfinite(rate) or rate <= 0:
-            raise DefinitionError(f"`rate_hz`: must be a finite rate > 0 Hz, got {rate_hz!r}")
+        rate = check_positive("rate_hz", rate_hz, "Hz")
         count = int(np.floor(self.T * rate + 1e-9))
         times = np.arange(count + 1) / rate
         if self.T - times[-1] > 1e-9 * self.T:

@@ -35,6 +35,8 @@ from model.errors import (
     DefinitionTypeError,
     as_float_array,
     check_finite,
+    check_integer,
+    check_positive,
     check_real,
 )
 from model.linkage import Linkage
@@ -110,11 +112,7 @@ def _as_dynamics(dynamics: Dynamics | Linkage) -> Dynamics:
 def _check_law(dynamics: Dynamics, law: GaitLaw) -> None:
     if not isinstance(law, GaitLaw):
         raise DefinitionTypeError(f"`law`: must be a problems.GaitLaw, got {type(law).__name__}")
-    if law.n != dynamics.n:
-        raise DefinitionError(
-            f"`law`: drives {law.n} links but the linkage has {dynamics.n} "
-            f"({', '.join(dynamics.names)}); give one zeta, varpi and center per link"
-        )
+    law.check_links(dynamics.names)
 
 
 def _time_grid(name: str, t, minimum: int = 1) -> np.ndarray:
@@ -584,15 +582,10 @@ def simulate(
         )
     rtol = check_tolerance("rtol", rtol)
     atol = check_tolerance("atol", atol)
-    for name, value, low in (("steps", steps, 1), ("degree", degree, 1)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-            raise DefinitionError(f"`{name}`: must be an integer >= {low}, got {value!r}")
-    max_interval = check_real("max_interval", max_interval)
-    if max_interval <= 0:
-        raise DefinitionError(f"`max_interval`: must be > 0 s, got {max_interval!r}")
-    solution_rate_hz = check_real("solution_rate_hz", solution_rate_hz)
-    if solution_rate_hz <= 0:
-        raise DefinitionError(f"`solution_rate_hz`: must be > 0 Hz, got {solution_rate_hz!r}")
+    steps = check_integer("steps", steps, 1)
+    degree = check_integer("degree", degree, 1)
+    max_interval = check_positive("max_interval", max_interval, "s")
+    solution_rate_hz = check_positive("solution_rate_hz", solution_rate_hz, "Hz")
     source = _torque_source(
         torques, dynamics.names, interpolation, solution_rate_hz, states=x0 is None
     )
@@ -616,9 +609,7 @@ def simulate(
             f"[{low:g}, {high:g}] s; shorten t_span (a profile is not extrapolated)"
         )
     if t_eval is None:
-        rate_hz = check_real("rate_hz", rate_hz)
-        if rate_hz <= 0:
-            raise DefinitionError(f"`rate_hz`: must be > 0 Hz, got {rate_hz!r}")
+        rate_hz = check_positive("rate_hz", rate_hz, "Hz")
         count = max(1, math.ceil((tf - t0) * rate_hz - 1e-9))
         if count + 1 > MAX_OUTPUT_SAMPLES:
             raise DefinitionError(

@@ -30,6 +30,7 @@ from model.errors import (
     DefinitionTypeError,
     as_float_array,
     check_finite,
+    check_positive,
     check_real,
 )
 
@@ -79,9 +80,7 @@ class GaitLaw:
     name: str = field(default="custom")
 
     def __post_init__(self) -> None:
-        period = check_real("GaitLaw.period", self.period)
-        if period <= 0:
-            raise DefinitionError(f"`GaitLaw.period`: must be > 0 s, got {period!r}")
+        period = check_positive("GaitLaw.period", self.period, "s")
         zeta = _vector("zeta", self.zeta)
         varpi = _vector("varpi", self.varpi)
         center = (HALF_PI,) * len(zeta) if self.center is None else _vector("center", self.center)
@@ -155,6 +154,16 @@ class GaitLaw:
     def n(self) -> int:
         """Number of links the law drives."""
         return len(self.zeta)
+
+    def check_links(self, names: Sequence[str]) -> GaitLaw:
+        """This law, if it drives one link per name in ``names`` (a linkage's links); else a
+        DefinitionError naming both counts and the links."""
+        if self.n != len(names):
+            raise DefinitionError(
+                f"`law`: drives {self.n} links but the linkage has {len(names)} "
+                f"({', '.join(names)}); give one zeta, varpi and center per link"
+            )
+        return self
 
     # ---- evaluation ---------------------------------------------------------------------------
     def _phase(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:

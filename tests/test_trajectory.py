@@ -583,7 +583,7 @@ def test_resample_at_given_times_and_errors():
         traj.resample()
     with pytest.raises(DefinitionError, match="give exactly one of rate_hz"):
         traj.resample(rate_hz=10, times=times)
-    with pytest.raises(DefinitionError, match=r"`rate_hz`: must be a finite number > 0"):
+    with pytest.raises(DefinitionError, match=r"`rate_hz`: must be > 0 Hz"):
         traj.resample(rate_hz=-1)
     with pytest.raises(DefinitionTypeError, match=r"`rate_hz`: must be a real number"):
         traj.resample(rate_hz="10")

@@ -4,9 +4,7 @@ JSON-serialisable metadata. Each check raises :class:`model.errors.DefinitionErr
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
-from numbers import Real
 from typing import Any
 
 import numpy as np
@@ -138,20 +136,10 @@ def jsonable(value: Any, where: str) -> Any:
     )
 
 
-def check_positive(where: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, Real):
-        raise DefinitionTypeError(f"`{where}`: must be a real number, got {value!r}")
-    number = float(value)
-    if not math.isfinite(number) or number <= 0:
-        raise DefinitionError(f"`{where}`: must be a finite number > 0, got {number!r}")
-    return number
-
-
 __all__ = [
     "FORBIDDEN",
     "check_finite_array",
     "check_label",
-    "check_positive",
     "float_array",
     "jsonable",
     "labels",

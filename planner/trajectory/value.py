@@ -50,13 +50,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
+from model.errors import DefinitionError, DefinitionTypeError, check_positive
 from planner import interpolation
 from planner.trajectory import formats
 from planner.trajectory.checks import (
     check_finite_array,
     check_label,
-    check_positive,
     float_array,
     jsonable,
     labels,
@@ -377,7 +376,7 @@ class Trajectory(LinkageViews):
                 f"rate_hz={rate_hz!r} and times={'None' if times is None else 'an array'}"
             )
         if rate_hz is not None:
-            rate = check_positive("rate_hz", rate_hz)
+            rate = check_positive("rate_hz", rate_hz, "Hz")
             # One more than needed; the filter below drops what lands at or past the end.
             count = math.floor(self.duration * rate) + 2
             grid = self.t0 + np.arange(count) / rate
