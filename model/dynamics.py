@@ -254,6 +254,12 @@ class Dynamics:
             return self._torque
         return self.symbols[name]
 
+    def symbols_of(self, name: str) -> ca.SX:
+        """One of :attr:`symbols`, or ``force`` (2,): a force (Fx, Fy) on a point, N."""
+        if name == "force":
+            return self._memo("force", lambda: ca.SX.sym("force", 2))
+        return self.symbols[name]
+
     @property
     def symbols(self) -> dict[str, ca.SX]:
         """The model's SX symbols: psi, dpsi, ddpsi (n,) and the hinge torques M (n,).
@@ -309,17 +315,22 @@ class Dynamics:
         sharing this model's symbols and building blocks."""
         return self._memo("floating", lambda: FloatingBase(self))
 
-    def impact(self, point: str | LinkPoint | PointKinematics) -> ImpactMap:
+    def impact(
+        self, point: str | LinkPoint | PointKinematics, root_pinned: bool = False
+    ) -> ImpactMap:
         """The inelastic, non-sliding impact of ``point`` with the ground while the root hinge
-        H0 (the old contact) is at rest (:mod:`model.impact`). A link name means its end."""
+        H0 (the old contact) is at rest (:mod:`model.impact`). A link name means its end.
+        ``root_pinned``: H0 stays held through the impact (a double support begins) instead
+        of being free to lift off."""
         if not isinstance(point, PointKinematics):
             point = self.point(point)
         elif point.dynamics is not self:
             raise DefinitionError("`point`: the point belongs to another Dynamics")
         impacts = self._memo("impacts", dict)
-        if point.label not in impacts:
-            impacts[point.label] = ImpactMap(point)
-        return impacts[point.label]
+        key = (point.label, bool(root_pinned))
+        if key not in impacts:
+            impacts[key] = ImpactMap(point, root_pinned)
+        return impacts[key]
 
     # ---- tree operators (constant 0/1 matrices) ---------------------------------------
     def _operators(self) -> dict[str, ca.DM]:

@@ -19,6 +19,10 @@ leaves first has no fill-in; then
     X = M_e^{-1} J^T (two sparse solves),  G = J X (2 x 2, SPD),
     Lambda = -G^{-1} J dq-  (Cramer's rule on 2 x 2),   dq+ = dq- + X Lambda.
 
+With ``root_pinned`` the old contact holds too (a double support begins): the same solve on
+the fixed-base mass matrix M(psi) and the psi columns of J, M (dpsi+ - dpsi-) = J^T Lambda,
+J dpsi+ = 0; the pin takes what impulse it must and the base velocity after impact is zero.
+
 Every step is an SX expression, so the map and its derivatives enter an NLP like any other
 expression (``OCP.periodic(step_map)``). Composed with a relabelling of the tree
 (:mod:`model.rerooting`, e.g. ``swap_legs``) it is the step-to-step map Delta(x) of a walking
@@ -57,10 +61,15 @@ class ImpactMap:
     batch through ``__call__``; ``step_function(rerooting)``: the composed map x- -> x+.
     """
 
-    def __init__(self, point: PointKinematics) -> None:
+    def __init__(self, point: PointKinematics, root_pinned: bool = False) -> None:
         self.point = point
         self._dynamics = point.dynamics
-        self._name = f"impact_{point.identifier}"
+        #: True: the root hinge H0 stays pinned through the impact (both contacts hold: a
+        #: double support begins); the fixed-base equations M (dpsi+ - dpsi-) = J^T Lambda,
+        #: J dpsi+ = 0 apply and the base velocity after impact is zero.
+        self.root_pinned = bool(root_pinned)
+        prefix = "impact_pinned" if self.root_pinned else "impact"
+        self._name = f"{prefix}_{point.identifier}"
 
     @property
     def name(self) -> str:
@@ -78,20 +87,29 @@ class ImpactMap:
         dyn = self._dynamics
         n = dyn.n
         dpsi = dyn.symbols["dpsi"]
-        mass_matrix = dyn.floating.mass_matrix_expression()
         jacobian = self.point.expression("jacobian", dyn.symbols["psi"])
+        if self.root_pinned:
+            # H0 held: the fixed-base mass matrix and the psi columns of J (no base rows).
+            return self._solve(dyn.mass_matrix_expression(), jacobian[:, 2:], dpsi, 0)
+        return self._solve(dyn.floating.mass_matrix_expression(), jacobian, dpsi, 2)
+
+    def _solve(self, mass_matrix, jacobian, dpsi, base: int) -> list[ca.SX]:
+        """dq+ = dq- + M^-1 J^T Lambda with J dq+ = 0, dq = (base velocity (``base``,), dpsi),
+        the base at rest before; returns (dpsi+, Lambda, base velocity after (2,))."""
+        n = dpsi.size1()
         diagonal, upper, order = ca.ldl(mass_matrix, True)
         lever = ca.ldl_solve(jacobian.T, diagonal, upper, order)  # X = M_e^{-1} J^T
         gram = ca.mtimes(jacobian, lever)  # G = J M_e^{-1} J^T, 2 x 2 SPD
         # Velocity of the landing point before impact (H0 at rest: the fixed-base rows).
-        approach = ca.mtimes(jacobian[:, 2:], dpsi)
+        approach = ca.mtimes(jacobian[:, base:], dpsi)
         det = gram[0, 0] * gram[1, 1] - gram[0, 1] * gram[1, 0]
         impulse = ca.vertcat(
             -(gram[1, 1] * approach[0] - gram[0, 1] * approach[1]) / det,
             -(gram[0, 0] * approach[1] - gram[1, 0] * approach[0]) / det,
         )
         jump = ca.mtimes(lever, impulse)  # dq+ - dq-
-        return [dpsi + jump[2 : 2 + n], impulse, jump[:2]]
+        base_velocity = jump[:2] if base else ca.SX.zeros(2)
+        return [dpsi + jump[base : base + n], impulse, base_velocity]
 
     def __call__(self, psi, dpsi) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(dpsi_plus (n,) rad/s, impulse (2,) N s, base_velocity_plus (2,) m/s) for one state,

@@ -45,6 +45,12 @@ POINT_FUNCTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], str]] = {
         ("jacobian",),
         "d(x, y)/dq for q = (x0, y0, psi_1..psi_n): (2, n + 2), m/rad (1 for the base)",
     ),
+    "hinge_moments": (
+        ("psi", "force"),
+        ("M",),
+        "hinge torques a force (Fx, Fy) N at the point stands for: its moment about each "
+        "hinge on the path to the point, 0 elsewhere, (n,) N m",
+    ),
 }
 
 
@@ -153,11 +159,10 @@ class PointKinematics:
                 f"`kind`: unknown point function {kind!r}; available: {list(POINT_FUNCTIONS)}"
             )
         inputs, outputs, _ = POINT_FUNCTIONS[kind]
-        symbols = self._dynamics.symbols
         return self._dynamics.cached_function(
             self.function_name(kind),
             inputs,
-            [symbols[k] for k in inputs],
+            [self._dynamics.symbols_of(k) for k in inputs],
             outputs,
             lambda: self._build(kind),
         )
@@ -176,6 +181,8 @@ class PointKinematics:
         i = self.index
         if kind == "jacobian":
             return [self._jacobian()]
+        if kind == "hinge_moments":
+            return [self._hinge_moments()]
         order = ("position", "velocity", "acceleration").index(kind)
         start, phasor = dyn.link_kinematics(order)
         here = Cx(start.re[i], start.im[i]) + Cx(phasor.re[i], phasor.im[i]) * self.offset
@@ -194,6 +201,23 @@ class PointKinematics:
             jacobian[1, 2 + k] = column.im
         return jacobian
 
+    def _hinge_moments(self) -> ca.SX:
+        """M_k = Im(conj(z_P - z_start,k) F) for k on the path to the point's link, else 0.
+
+        A force F on the point does the virtual work F . dz_P = sum_k M_k (dpsi_k -
+        dpsi_parent(k)) with these M: the hinge torques that stand for it in the model's
+        equations (inverse dynamics with the force = inverse dynamics without it - M)."""
+        dyn = self._dynamics
+        i = self.index
+        force = dyn.symbols_of("force")
+        start, frames = dyn.link_kinematics(0)
+        here = Cx(start.re[i], start.im[i]) + Cx(frames.re[i], frames.im[i]) * self.offset
+        moments = ca.SX(dyn.n, 1)
+        for k in (*dyn.linkage.ancestors(i), i):
+            lever = Cx(here.re - start.re[k], here.im - start.im[k])
+            moments[k] = lever.re * force[1] - lever.im * force[0]
+        return moments
+
     # ---- numeric ------------------------------------------------------------------------
     def _complex(self, kind: str, *arrays) -> np.ndarray | complex:
         self.function(kind)
@@ -211,6 +235,12 @@ class PointKinematics:
     def acceleration(self, psi, dpsi, ddpsi) -> np.ndarray | complex:
         """ax + j ay, m/s^2 (fixed base): complex scalar or (K,)."""
         return self._complex("acceleration", psi, dpsi, ddpsi)
+
+    def hinge_moments(self, psi, force) -> np.ndarray:
+        """Hinge torques (n,) or (K, n), N m, that the force (Fx, Fy) (2,) or (K, 2), N, on
+        the point stands for (see ``POINT_FUNCTIONS``)."""
+        self.function("hinge_moments")
+        return self._dynamics.evaluate(self.function_name("hinge_moments"), psi, force)[0]
 
     def jacobian(self, psi, floating: bool = True) -> np.ndarray:
         """d(x, y)/dq: (2, n + 2) for q = (x0, y0, psi) (``floating``), else d(x, y)/dpsi

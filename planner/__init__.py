@@ -8,6 +8,7 @@
 """
 
 from planner.ocp import OCP, TRANSCRIPTIONS, Point, System
+from planner.phases import EventPoint, Phases, PhasesSolution, PhasesTranscription
 from planner.solution import IntegrationError, Replay, Solution
 from planner.solver import SolverError, solve
 from planner.trajectory import Trajectory
@@ -16,7 +17,11 @@ from planner.transcription import Scheme, Transcription, make_scheme
 __all__ = [
     "OCP",
     "TRANSCRIPTIONS",
+    "EventPoint",
     "IntegrationError",
+    "Phases",
+    "PhasesSolution",
+    "PhasesTranscription",
     "Point",
     "Replay",
     "Scheme",

@@ -81,7 +81,9 @@ class System:
     ``derived`` groups of expressions of (x, z, u, t) (a linkage's ``ddpsi`` in the explicit
     formulation: its forward dynamics), and the control rates du/dt, one name per control
     (``control_rate_names``: ``dM_<link>``, or ``d<control>``) gathered in the groups
-    ``control_rate_groups`` (``dM`` and ``du``, or ``du``).
+    ``control_rate_groups`` (``dM`` and ``du``, or ``du``); a group given as (name, count)
+    holds the first ``count`` rates only (a linkage with contact forces: ``dM``, the
+    torques').
     """
 
     rate: ca.Function
@@ -99,7 +101,7 @@ class System:
     dynamics: Dynamics | None = None
     derived: tuple[DerivedField, ...] = ()
     control_rate_names: tuple[str, ...] = ()
-    control_rate_groups: tuple[str, ...] = ()
+    control_rate_groups: tuple[str | tuple[str, int], ...] = ()
 
     @property
     def nx(self) -> int:
@@ -139,22 +141,40 @@ class System:
         names: list[str] = []
         for derived in self.derived:
             names.extend((derived.group, *derived.names))
-        names.extend((*self.control_rate_groups, *self.control_rate_names))
+        groups = [g if isinstance(g, str) else g[0] for g in self.control_rate_groups]
+        names.extend((*groups, *self.control_rate_names))
         return tuple(names)
 
     @staticmethod
-    def from_dynamics(dynamics: Dynamics, formulation: str = "implicit") -> System:
-        """The linkage system: x = [psi; dpsi], u = M, z = ddpsi (implicit only)."""
+    def from_dynamics(
+        dynamics: Dynamics, formulation: str = "implicit", contacts: Sequence = ()
+    ) -> System:
+        """The linkage system: x = [psi; dpsi], u = M, z = ddpsi (implicit only).
+
+        ``contacts``: points of the linkage (``model.LinkPoint``) held by the ground, whose
+        ground forces (Fx, Fy), N, are more controls (``F_<point>_x``, ``F_<point>_y``; group
+        ``F``): the equations of motion are those of the tree with these forces applied
+        (their hinge moments, ``PointKinematics.hinge_moments``), so a closed chain (a
+        double support) is the tree plus a constraint holding the point and these forces.
+        """
         n = dynamics.n
         links = dynamics.names
         psi, dpsi = (f"psi_{k}" for k in links), (f"dpsi_{k}" for k in links)
         states = (*psi, *dpsi)
-        controls = tuple(f"M_{k}" for k in links)
+        torques = tuple(f"M_{k}" for k in links)
+        points = [dynamics.point(c) for c in contacts]
+        forces = tuple(f"F_{p.identifier}_{axis}" for p in points for axis in ("x", "y"))
+        controls = (*torques, *forces)
         x = ca.SX.sym("x", 2 * n)
-        u = ca.SX.sym("u", n)
+        u = ca.SX.sym("u", len(controls))
         t = ca.SX.sym("t")
+        # The hinge torques the contact forces stand for, added to the drives' (N m).
+        applied = u[:n]
+        for j, p in enumerate(points):
+            moments = p.function("hinge_moments")
+            applied = applied + moments(x[:n], u[n + 2 * j : n + 2 * j + 2])
         ode = dynamics.function("ode")
-        ode_t = ca.Function("ode", [x, u, t], [ode(x, u)], ["x", "u", "t"], ["xdot"])
+        ode_t = ca.Function("ode", [x, u, t], [ode(x, applied)], ["x", "u", "t"], ["xdot"])
         accelerations = tuple(f"ddpsi_{k}" for k in links)
         derived: tuple[DerivedField, ...] = ()
         if formulation == "implicit":
@@ -164,14 +184,14 @@ class System:
             residual = ca.Function(
                 "residual",
                 [x, z, u, t],
-                [residual_f(x[:n], x[n:], z, u)],
+                [residual_f(x[:n], x[n:], z, applied)],
                 ["x", "z", "u", "t"],
                 ["residual"],
             )
             aux = accelerations
         else:
             z = ca.SX.sym("z", 0)
-            rate = ode(x, u)
+            rate = ode(x, applied)
             residual = None
             aux = ()
             # Explicit: ddpsi is no variable; the Point offers the forward dynamics instead,
@@ -185,10 +205,12 @@ class System:
         groups = (
             ("psi", states[:n]),
             ("dpsi", states[n:]),
-            ("M", controls),
+            ("M", torques),
             ("x", states),
             ("u", controls),
         )
+        if forces:
+            groups = (*groups, ("F", forces))
         if aux:
             groups = (*groups, ("ddpsi", aux), ("z", aux))
         return System(
@@ -198,7 +220,7 @@ class System:
             state_names=states,
             state_units=("rad",) * n + ("rad/s",) * n,
             control_names=controls,
-            control_units=("N m",) * n,
+            control_units=("N m",) * n + ("N",) * len(forces),
             aux_names=aux,
             aux_units=("rad/s^2",) * len(aux),
             groups=groups,
@@ -206,8 +228,8 @@ class System:
             formulation=formulation,
             dynamics=dynamics,
             derived=derived,
-            control_rate_names=tuple(f"dM_{k}" for k in links),
-            control_rate_groups=("dM", "du"),
+            control_rate_names=tuple(f"d{c}" for c in controls),
+            control_rate_groups=(("dM", n), "du"),
         )
 
     @staticmethod
@@ -351,7 +373,10 @@ class Point:
                 values[group] = ca.vertcat(*[values[m] for m in members])
         if du is not None:
             for group in system.control_rate_groups:
-                values.setdefault(group, du)
+                if isinstance(group, str):
+                    values.setdefault(group, du)
+                else:
+                    values.setdefault(group[0], du[: group[1]])
             for i, name in enumerate(system.control_rate_names):
                 values.setdefault(name, du[i])
         values.update(extra or {})
@@ -805,6 +830,9 @@ class OCP:
     state_names, control_names, state_units, control_units : for a Function only.
     mesh : relative lengths of the N intervals (a sequence of N positive numbers, scaled to sum
         to 1: the fractions of T), for a non-uniform mesh; None (default): uniform.
+    contacts : points of a linkage held by the ground (link names for their end hinges, or
+        ``model.LinkPoint``): their ground forces become controls ``F_<point>_x/_y`` (group
+        ``F``, N) acting on the tree (:meth:`System.from_dynamics`); a model.Dynamics only.
 
     The remaining fields are filled by the builder methods; treat them as read-only.
     """
@@ -828,6 +856,7 @@ class OCP:
     T_guess: float | None = None
     mesh: tuple[float, ...] | None = None
     params: tuple[Param, ...] = ()
+    contacts: tuple[Any, ...] = ()
 
     def __post_init__(self) -> None:
         dynamics = self.dynamics
@@ -842,6 +871,13 @@ class OCP:
             raise DefinitionError(
                 f"`formulation`: unknown {formulation!r}; use one of {FORMULATIONS}"
             )
+        if self.contacts and not linkage:
+            raise DefinitionError(
+                "`contacts`: contact forces need a model.Dynamics (points of a linkage); a "
+                "casadi.Function takes its forces as controls of its own"
+            )
+        if not isinstance(self.contacts, tuple):
+            object.__setattr__(self, "contacts", tuple(self.contacts))
         if linkage:
             for name in ("state_names", "control_names", "state_units", "control_units"):
                 if getattr(self, name) is not None:
@@ -849,7 +885,7 @@ class OCP:
                         f"`{name}`: a model.Dynamics names its own variables (psi_<link>, ...); "
                         "give names only with a casadi.Function"
                     )
-            system = System.from_dynamics(dynamics, formulation)
+            system = System.from_dynamics(dynamics, formulation, self.contacts)
         else:
             system = System.from_function(
                 dynamics,

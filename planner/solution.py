@@ -231,9 +231,10 @@ class Solution:
 
     @property
     def torques(self) -> np.ndarray:
-        """(N+1, n) hinge torques at the nodes, N m (a linkage's controls)."""
+        """(N+1, n) hinge torques at the nodes, N m (a linkage's controls; contact forces,
+        when there are any, follow them among the controls)."""
         self._require_linkage("torques")
-        return self.controls
+        return self.controls[:, : self.system.dynamics.n]
 
     @property
     def ddpsi(self) -> np.ndarray | None:
@@ -321,8 +322,13 @@ class Solution:
             return self.aux(t)
         n = self.system.dynamics.n
         x = self.state(t)
-        result = self.system.dynamics.forward_dynamics(x[:, :n], x[:, n:], self.control(t))
-        return np.atleast_2d(result)
+        u = self.control(t)
+        if self.system.nu == n:
+            return np.atleast_2d(self.system.dynamics.forward_dynamics(x[:, :n], x[:, n:], u))
+        # Contact forces too: the system's own rate (forward dynamics with their moments).
+        times = np.atleast_1d(np.asarray(t, dtype=float))
+        rate = self.system.ode.map(times.size)(x.T, u.T, times[None, :])
+        return np.asarray(rate).T[:, n:]
 
     def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
         """(states (K, nx), controls (K, nu)) at times t through the transcription's polynomials."""
@@ -602,15 +608,19 @@ class Solution:
         system = self.system
         if system.is_linkage:
             n = system.dynamics.n
-            return Trajectory.from_linkage(
+            trajectory = Trajectory.from_linkage(
                 times,
                 states[:, :n],
                 states[:, n:],
-                controls,
+                controls[:, :n],
                 system.dynamics.names,
                 ddpsi=self.acceleration(times),
                 metadata=self.metadata,
             )
+            # Contact forces (controls after the torques): derived channels, N.
+            for i, name in enumerate(system.control_names[n:]):
+                trajectory = trajectory.with_extra(name, controls[:, n + i], "N")
+            return trajectory
         extras = {}
         if system.nz:
             aux = self.aux(times)

@@ -43,6 +43,7 @@ import numpy as np
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.native_output import captured
 from planner.ocp import OCP
+from planner.phases import Phases, PhasesSolution, PhasesTranscription
 from planner.solution import Solution
 from planner.solver_cache import SOLVERS, CachedSolver
 from planner.transcription import Transcription
@@ -260,11 +261,8 @@ def warm_start_multipliers(
     Trajectory, a failed solve, a later guess over the Solution's) None: the guess is primal
     only.
     """
-    guesses = transcription.ocp.guesses
-    if not guesses or guesses[-1].kind != "solution":
-        return None
-    source = guesses[-1].source
-    if not isinstance(source, Solution):
+    source = transcription.guess_solution()
+    if not isinstance(source, Solution | PhasesSolution):
         return None
     if source.lam_x is None or source.lam_g is None or not source.success:
         logger.debug("multipliers not reused: the guess Solution has none or failed")
@@ -414,12 +412,14 @@ def objective_scale(transcription: Transcription, solver: ca.Function, w0: np.nd
     1.26e6, its optimum 4.56e4, and with f / f(w0) the optimum came out 0.21 too high at
     ``tol`` 1e-8.
     """
-    given = transcription.ocp.objective_scale
+    given = transcription.given_objective_scale
     if given is not None:
         return given
-    guesses = transcription.ocp.guesses
-    source = guesses[-1].source if guesses and guesses[-1].kind == "solution" else None
-    if isinstance(source, Solution) and source.nlp_signature == transcription.signature:
+    source = transcription.guess_solution()
+    if (
+        isinstance(source, Solution | PhasesSolution)
+        and source.nlp_signature == transcription.signature
+    ):
         previous = source.stats.get("objective_scale")
         if isinstance(previous, float) and math.isfinite(previous) and previous > 0:
             return previous
@@ -495,13 +495,16 @@ def solve(
         # Always the MX transcription: it builds in milliseconds and its structure key is
         # cheap; the expansion to SX happens once, inside the (cached) solver.
         transcription = Transcription(problem)
-    elif isinstance(problem, Transcription):
+    elif isinstance(problem, Phases):
+        transcription = PhasesTranscription(problem)
+    elif isinstance(problem, Transcription | PhasesTranscription):
         if expand is not None:
             raise DefinitionError("`expand`: applies when solving an OCP, not a Transcription")
         transcription = problem
     else:
         raise DefinitionTypeError(
-            f"`problem`: must be a planner.OCP or a Transcription, got {type(problem).__name__}"
+            "`problem`: must be a planner.OCP, a planner.Phases or a transcription of one, "
+            f"got {type(problem).__name__}"
         )
     if progress is True:
         report = _log_progress if progress_logger.isEnabledFor(logging.INFO) else None
@@ -604,8 +607,7 @@ def solve(
     }
     w = np.asarray(result["x"]).reshape(-1)
     g = np.asarray(result["g"]).reshape(-1)
-    solution = Solution(
-        transcription,
+    solution = transcription.solution(
         w,
         cost=float(result["f"]) * f_scale,
         status=status,
@@ -615,9 +617,8 @@ def solve(
         lam_x=np.asarray(result["lam_x"]).reshape(-1),
     )
     logger.debug(
-        "%s N=%d: %s in %d iterations, build %.3f s (solver %s), solve %.3f s",
-        transcription.scheme.name,
-        transcription.ocp.N,
+        "%s: %s in %d iterations, build %.3f s (solver %s), solve %.3f s",
+        transcription.label,
         status,
         iterations,
         summary["build_seconds"],

@@ -54,6 +54,7 @@ import numpy as np
 from model.errors import DefinitionError, DefinitionTypeError, as_float_array
 from planner.collocation import collocation_roots, integration_weights, lagrange_matrix
 from planner.ocp import OCP, Point, evaluate_expression
+from planner.solution import Solution
 
 logger = logging.getLogger(__name__)
 
@@ -607,6 +608,30 @@ class Transcription:
             "nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]], ["x", "p"], ["f", "g"]
         )
 
+    # ---- what the solver reads besides the NLP (planner.phases has the same) ---------------
+    @property
+    def label(self) -> str:
+        """The mesh in words, for logs."""
+        degree = f"({self.scheme.degree})" if self.scheme.degree else ""
+        return f"{self.scheme.name}{degree} N={self.ocp.N}"
+
+    @property
+    def given_objective_scale(self) -> float | None:
+        """``ocp.scale(objective=...)``, or None."""
+        return self.ocp.objective_scale
+
+    def guess_solution(self):
+        """The Solution the OCP's last guess comes from (warm starts read its multipliers
+        and objective scale), or None."""
+        guesses = self.ocp.guesses
+        if guesses and guesses[-1].kind == "solution":
+            return guesses[-1].source
+        return None
+
+    def solution(self, w, cost, status, success, stats, lam_g, lam_x):
+        """The :class:`planner.solution.Solution` of a solve of this NLP."""
+        return Solution(self, w, cost, status, success, stats, lam_g, lam_x)
+
     @cached_property
     def terms_function(self) -> ca.Function:
         """(w, p) -> each objective term's value (n_terms,), physical units."""
@@ -795,9 +820,10 @@ class Transcription:
     @property
     def residual_scale(self) -> np.ndarray:
         s = self.system
-        if s.residual_scale_group == "M":
-            return self.control_scale
-        return self.state_scale
+        members = s.group(s.residual_scale_group)
+        if members is None or members == s.state_names:
+            return self.state_scale
+        return np.array([self.ocp.variable_scale(name) for name in members])
 
     def _boundary_function(self) -> ca.Function:
         """(x0, xf, u0, uf, z0, zf, T, params[, du0, duf]) -> (boundary rows, periodic defect
@@ -1211,10 +1237,9 @@ class Transcription:
         self.g_scale = np.concatenate(g_scale)
         self.lbg = np.concatenate(lbg) if lbg else np.zeros(0)
         self.ubg = np.concatenate(ubg) if ubg else np.zeros(0)
-        if self.lbg.size != self.parametric_nlp["g"].size1():
+        if self.lbg.size != self.rows.size1():
             raise RuntimeError(
-                f"internal: {self.lbg.size} constraint bounds for "
-                f"{self.parametric_nlp['g'].size1()} rows"
+                f"internal: {self.lbg.size} constraint bounds for {self.rows.size1()} rows"
             )
 
     def _constraint_rows(self, constraints) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
@@ -1298,9 +1323,9 @@ class Transcription:
                 dpsi = np.column_stack([at_dyn[k] for k in dpsi_names])
                 ddpsi = np.column_stack([at_dyn[k] for k in ddpsi_names])
                 torques = np.atleast_2d(s.dynamics.inverse_dynamics(psi, dpsi, ddpsi))
-                for i, name in enumerate(s.control_names):
+                for i, name in enumerate(s.group("M")):
                     if name in missing:
-                        U[:, i] = torques[:, i]
+                        U[:, s.control_names.index(name)] = torques[:, i]
         # Static parameters: their own guesses, or the values of a Solution guessed from.
         P: dict[str, float] = {}
         for layer in ocp.guesses:

@@ -319,3 +319,31 @@ def test_stiff_contact_converges_to_the_impact_map():
     assert np.all(np.diff(errors) < 0), errors
     assert errors[-1] < 0.01, errors
     assert slope < -0.4, (errors, slope)
+
+
+# ---- both contacts held: the impact into a double support ------------------------------------
+@pytest.mark.parametrize("label", ["six foot", "five foot", "tree2-10"])
+def test_pinned_root_impact_against_a_dense_kkt_solve(label, check):
+    _, linkage, point = CASES[IDS.index(label)]
+    impact = linkage.dynamics().impact(point, root_pinned=True)
+    assert impact.function().name().startswith("impact_pinned_")
+    psi, dpsi = states(linkage, COUNT, 5)
+    dpsi_plus, impulse, base = impact(psi, dpsi)
+    np.testing.assert_array_equal(base, 0.0)
+    i, offset = offset_of(linkage, point)
+    mass = ne.mass_matrix(linkage, psi)
+    jacobian = ne.point_jacobian(linkage, i, offset, psi)[:, :, 2:]
+    zero = np.zeros_like(psi)
+    for k in range(COUNT):
+        kkt = np.block([[mass[k], -jacobian[k].T], [jacobian[k], np.zeros((2, 2))]])
+        x = np.linalg.solve(kkt, np.r_[mass[k] @ dpsi[k], 0.0, 0.0])
+        check.close(np.r_[dpsi_plus[k], impulse[k]][None], x[None], f"{label} state {k}")
+    # The landing point at rest after it, and the energy lost is 1/2 jump' M jump >= 0.
+    _, after, _ = ne.point_kinematics(linkage, i, offset, psi, dpsi_plus, zero)
+    assert np.max(np.abs(after)) < 1e-10
+    jump = dpsi_plus - dpsi
+    lost = 0.5 * np.einsum("ki,kij,kj->k", jump, mass, jump)
+    t_minus, _ = ne.energy(linkage, psi, dpsi)
+    t_plus, _ = ne.energy(linkage, psi, dpsi_plus)
+    np.testing.assert_allclose(t_minus - t_plus, lost, rtol=1e-9, atol=1e-12 * t_minus.max())
+    assert np.all(lost >= 0)

@@ -213,3 +213,29 @@ def test_bad_points_are_refused():
         dyn.point("torso").function("jerk")
     with pytest.raises(DefinitionError, match=r"give either a LinkPoint or link/along"):
         dyn.point(LinkPoint("torso"), along=0.5)
+
+
+@pytest.mark.parametrize(("label", "linkage"), list(scenes()), ids=[s[0] for s in scenes()])
+def test_hinge_moments_do_the_work_of_the_force(label, linkage, check):
+    # A force F on the point and the hinge torques standing for it do the same virtual work
+    # for every motion: M . w_rel = F . v_P (v_P from the oracle). The joint rates span every
+    # direction, so this pins the whole linear map.
+    dyn = linkage.dynamics()
+    psi, dpsi, _ = states(linkage, 32, 7)
+    rng = np.random.default_rng(8)
+    force = rng.normal(0.0, 100.0, (32, 2))
+    i = linkage.n - 1
+    point = dyn.point(linkage.names[i], 0.7, 0.2)
+    moments = point.hinge_moments(psi, force)
+    relative = dpsi.copy()
+    for c, p in enumerate(linkage.parents):
+        if p >= 0:
+            relative[:, c] -= dpsi[:, p]
+    _, velocity, _ = ne.point_kinematics(
+        linkage, i, linkage.links[i].length * complex(0.7, 0.2), psi, dpsi, np.zeros_like(dpsi)
+    )
+    power = velocity.real * force[:, 0] + velocity.imag * force[:, 1]
+    check.close(np.sum(moments * relative, axis=1)[:, None], power[:, None], f"{label} power")
+    # Off the path to the point, no moment.
+    off = [k for k in range(linkage.n) if k not in (*linkage.ancestors(i), i)]
+    np.testing.assert_array_equal(moments[:, off], 0.0)
