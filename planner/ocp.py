@@ -43,11 +43,17 @@ import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
-from model.errors import DefinitionError, DefinitionTypeError, as_float_array, check_finite
+from model.errors import (
+    DefinitionError,
+    DefinitionTypeError,
+    as_float_array,
+    check_finite,
+    check_integer,
+)
+from planner import schemes
+from planner.schemes import TRANSCRIPTIONS
 
-TRANSCRIPTIONS = ("trapezoid", "hermite-simpson", "radau", "legendre")
 FORMULATIONS = ("implicit", "explicit")
-DEFAULT_DEGREE = 3
 #: The name of an objective term given without one (``OCP.minimize``).
 DEFAULT_TERM = "objective"
 
@@ -803,14 +809,6 @@ def default_scale(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     return scale
 
 
-def _positive_int(name: str, value, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise DefinitionTypeError(f"`{name}`: must be an integer, got {value!r}")
-    if value < minimum:
-        raise DefinitionError(f"`{name}`: must be >= {minimum}, got {value}")
-    return int(value)
-
-
 # ---- the OCP ------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class OCP:
@@ -822,9 +820,10 @@ class OCP:
         "explicit", the default for Functions) or r(x, xdot, u[, t]) -> (nx,) ("implicit").
     T : duration, s: a number (fixed) or a pair (lower, upper) (free; guess with ``guess(T=)``).
     N : number of mesh intervals, >= 1 (uniform, h = T / N, unless ``mesh`` is given).
-    transcription : "trapezoid", "hermite-simpson" (separated form, midpoint controls are
-        variables), "radau" or "legendre" (orthogonal collocation of ``degree`` 1..9,
-        default 3; controls and, implicit, ddpsi at the collocation points).
+    transcription : a name of the registry :mod:`planner.schemes`: "trapezoid",
+        "hermite-simpson" (separated form, midpoint controls are variables), "radau" or
+        "legendre" (orthogonal collocation of ``degree`` 1..9, default 3; controls and,
+        implicit, ddpsi at the collocation points).
     formulation : "implicit" (default for a Dynamics: ddpsi are variables, dynamics_residual = 0
         at every dynamics point, no mass-matrix solve) or "explicit" (forward dynamics).
     state_names, control_names, state_units, control_units : for a Function only.
@@ -897,27 +896,11 @@ class OCP:
             )
         object.__setattr__(self, "formulation", formulation)
         object.__setattr__(self, "system", system)
-        object.__setattr__(self, "N", _positive_int("N", self.N))
+        object.__setattr__(self, "N", check_integer("N", self.N, 1))
         if self.mesh is not None:
             object.__setattr__(self, "mesh", _fractions(self.mesh, self.N))
-        if self.transcription not in TRANSCRIPTIONS:
-            raise DefinitionError(
-                f"`transcription`: unknown {self.transcription!r}; use one of {TRANSCRIPTIONS}"
-            )
-        if self.transcription in ("radau", "legendre"):
-            degree = DEFAULT_DEGREE if self.degree is None else self.degree
-            if isinstance(degree, bool) or not isinstance(degree, int | np.integer):
-                raise DefinitionTypeError(f"`degree`: must be an integer in 1..9, got {degree!r}")
-            if not 1 <= degree <= 9:
-                raise DefinitionError(
-                    f"`degree`: must be in 1..9 for {self.transcription} collocation, got {degree}"
-                )
-            object.__setattr__(self, "degree", int(degree))
-        elif self.degree is not None:
-            raise DefinitionError(
-                f"`degree`: applies to 'radau' and 'legendre' only; {self.transcription!r} has "
-                "a fixed polynomial degree, leave degree=None"
-            )
+        # The registry of transcriptions knows the names, degree ranges and defaults.
+        object.__setattr__(self, "degree", schemes.check_degree(self.transcription, self.degree))
         T = self.T
         if isinstance(T, tuple | list):
             if len(T) != 2:
@@ -1432,7 +1415,7 @@ class OCP:
             changes["mesh"] = None
         if transcription is not None:
             changes["transcription"] = transcription
-            if transcription not in ("radau", "legendre") and degree is None:
+            if transcription not in schemes.WITH_DEGREE and degree is None:
                 changes["degree"] = None
         if degree is not None:
             changes["degree"] = degree

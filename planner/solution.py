@@ -2,7 +2,7 @@
 
 A :class:`Solution` keeps the NLP's values where they live (states at the state points,
 controls, ddpsi and rates at the dynamics points) and interpolates with exactly the
-polynomials of its transcription (:class:`planner.transcription.Scheme`): trapezoid, linear
+polynomials of its transcription (:class:`planner.schemes.Scheme`): trapezoid, linear
 controls and quadratic states; Hermite-Simpson, quadratic controls and cubic states;
 collocation, the Lagrange polynomials of each interval. Between intervals the interpolant is
 right-continuous (intervals [t_k, t_k+1), the last one closed at T), except for Radau, which
@@ -644,8 +644,7 @@ class Solution:
         return self.to_trajectory(rate_hz).save(path)
 
     def __repr__(self) -> str:
-        mesh = self.scheme.name + (f"({self.scheme.degree})" if self.scheme.degree else "")
         return (
-            f"Solution({mesh}, N={self.N}, T={self.T:g} s, {self.system.formulation}, "
+            f"Solution({self.scheme.label}, N={self.N}, T={self.T:g} s, {self.system.formulation}, "
             f"status={self.status}, cost={self.cost:.6g}, iterations={self.iterations})"
         )

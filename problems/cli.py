@@ -40,6 +40,7 @@ from model import equations
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.presets import PRESETS, six_link_anthropoid
 from planner.files import atomic_path
+from planner.schemes import REGISTRY, TRANSCRIPTIONS, WITH_DEGREE
 from planner.simulation import tolerance_problem
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory, TrajectoryFileError
@@ -60,6 +61,9 @@ PROG = "anthropoid-planner"
 #: File formats of --formats: the trajectory package's suffixes, without the dot.
 FORMATS = tuple(suffix.lstrip(".") for suffix in TRAJECTORY_FORMATS)
 LAWS = tuple(LAW_PRESETS)
+#: What --degree takes, from the registry of transcriptions: "radau 1..9, legendre 1..9".
+_DEGREES = ", ".join(f"{name} {REGISTRY[name].degree_range}" for name in WITH_DEGREE)
+_DEFAULT_DEGREES = ", ".join(f"{name} {REGISTRY[name].default_degree}" for name in WITH_DEGREE)
 #: Highest --rate-hz, Hz, and most samples a command makes even with --force (memory).
 MAX_RATE_HZ = 1e6
 MAX_SAMPLES = 2_000_000
@@ -480,13 +484,13 @@ def _walk_parser(commands, common) -> None:
     walk.add_argument(
         "--transcription",
         default="hermite-simpson",
-        choices=("trapezoid", "hermite-simpson", "radau", "legendre"),
+        choices=TRANSCRIPTIONS,
         help="collocation scheme (default: hermite-simpson)",
     )
     walk.add_argument("-N", "--intervals", type=_count, default=None, metavar="N",
                       help="mesh intervals (default: 30, 12 with --quick)")  # fmt: skip
     walk.add_argument("--degree", type=_count, default=None, metavar="D",
-                      help="collocation degree for radau/legendre, 1..9 (default: 3)")  # fmt: skip
+                      help=f"degree of {_DEGREES} (default: {_DEFAULT_DEGREES})")  # fmt: skip
     walk.add_argument(
         "--formulation",
         default="implicit",
@@ -1003,8 +1007,8 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         raise UsageError(f"--preset: {args.preset!r} is not a biped; use six-link or five-link")
     if not math.isfinite(args.clearance_m) or args.clearance_m < 0:
         raise UsageError(f"--clearance-m: must be a finite number >= 0 m, got {args.clearance_m}")
-    if args.degree is not None and args.transcription not in ("radau", "legendre"):
-        raise UsageError("--degree: applies to --transcription radau or legendre only")
+    if args.degree is not None and args.transcription not in WITH_DEGREE:
+        raise UsageError(f"--degree: applies to --transcription {_one_of(WITH_DEGREE)} only")
     linkage = _linkage(args.preset)
     intervals = args.intervals or (12 if args.quick else 30)
     folder = _output_folder(str(args.output_dir or _new_folder("walk")))
