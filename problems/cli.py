@@ -512,6 +512,14 @@ def _walk_parser(commands, common) -> None:
         help="no torque at the stance foot (a point foot's passive ankle)",
     )
     walk.add_argument(
+        "--double-support-s",
+        type=float,
+        default=0.0,
+        metavar="D",
+        help="a double support of D s after heel strike, within the step time (two phases; "
+        "default: 0, the legs swap at heel strike)",
+    )
+    walk.add_argument(
         "--clearance-m",
         type=float,
         default=0.05,
@@ -1007,6 +1015,10 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         raise UsageError(f"--preset: {args.preset!r} is not a biped; use six-link or five-link")
     if not math.isfinite(args.clearance_m) or args.clearance_m < 0:
         raise UsageError(f"--clearance-m: must be a finite number >= 0 m, got {args.clearance_m}")
+    if not math.isfinite(args.double_support_s) or not 0 <= args.double_support_s:
+        raise UsageError(
+            f"--double-support-s: must be a number >= 0 s, got {args.double_support_s}"
+        )
     if args.degree is not None and args.transcription not in WITH_DEGREE:
         raise UsageError(f"--degree: applies to --transcription {_one_of(WITH_DEGREE)} only")
     linkage = _linkage(args.preset)
@@ -1026,6 +1038,7 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         passive=(linkage.names[0],) if args.passive_ankle else (),
         clearance=args.clearance_m,
         objective=args.objective,
+        double_support=args.double_support_s,
     )
     last = [-math.inf]
 
@@ -1043,7 +1056,11 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
     solution = gait.solution
     stats = solution.stats
     with report.working("estimating the accuracy (re-integration per interval)"):
-        accuracy = solution.integration_error()
+        # The largest error of any phase (each phase's own intervals).
+        accuracy = max(
+            (segment.integration_error() for segment, _ in gait.segments()),
+            key=lambda error: error.max,
+        )
     with report.working("verifying the gait (numpy, independent of the planner)"):
         check = gait.verify()
     objective_words = {
@@ -1051,9 +1068,11 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         "torque-rate": "integral of sum dM_i^2 (+ 1e-3 sum M_i^2)",
         "work": "positive work (+ 1e-3 sum M_i^2), J",
     }[args.objective]
+    phases = f", double support {step.double_support:g} s" if step.double_support > 0 else ""
     print(
         f"walking step of {args.preset}: {step.step_length:g} m in {step.step_time:g} s "
-        f"({step.speed:.3g} m/s), {args.transcription} N = {intervals}, {args.formulation}",
+        f"({step.speed:.3g} m/s){phases}, {args.transcription} N = {intervals}, "
+        f"{args.formulation}",
         file=out,
     )
     print(
@@ -1075,10 +1094,15 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         f"{gait.positive_work:.2f} J per step); peak |M| (N m): {peaks}",
         file=out,
     )
+    after = (
+        "both feet stay on the ground"
+        if step.double_support > 0
+        else f"the old stance foot lifts off at ({impact['lift_off'][0]:.3f}, "
+        f"{impact['lift_off'][1]:.3f}) m/s"
+    )
     print(
         f"heel strike: impulse ({impact['impulse'][0]:.3f}, {impact['impulse'][1]:.3f}) N s, "
-        f"the old stance foot lifts off at ({impact['lift_off'][0]:.3f}, "
-        f"{impact['lift_off'][1]:.3f}) m/s",
+        f"{after}",
         file=out,
     )
     print(

@@ -25,9 +25,9 @@ import numpy as np
 from model.errors import DefinitionError, check_real
 from model.linkage import Linkage
 from planner.ocp import OCP
+from planner.phases import PhasesSolution
 from planner.solution import Solution
 from planner.trajectory import Trajectory
-from planner.transcription import Transcription
 from problems.verification import GaitReport, verify_gait
 
 OBJECTIVES = ("torque", "torque-rate", "work")
@@ -145,12 +145,12 @@ def finish_gait_ocp(ocp: OCP, linkage: Linkage, objective: str, limits, law) -> 
     return ocp.guess(law)
 
 
-def objective_at_guess(transcription: Transcription) -> float:
-    """The NLP's objective at its initial guess, in the objective's physical units."""
-    nlp = transcription.nlp
-    objective = ca.Function("objective_at_guess", [nlp["x"]], [nlp["f"]])
-    value = float(objective(transcription.initial_guess()))
-    return value * float(getattr(transcription, "objective_scale", 1.0))
+def objective_at_guess(transcription) -> float:
+    """The NLP's objective at its initial guess, in the objective's physical units (a
+    :class:`planner.Transcription` or a :class:`planner.PhasesTranscription`)."""
+    nlp = transcription.parametric_nlp
+    objective = ca.Function("objective_at_guess", [nlp["x"], nlp["p"]], [transcription._objective])
+    return float(objective(transcription.initial_guess(), transcription.parameter_values()))
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,39 +174,111 @@ class Gait:
     def success(self) -> bool:
         return self.solution.success
 
+    def segments(self) -> list[tuple[Solution, float]]:
+        """(Solution, start time s) of each phase: the solution itself, or each phase of a
+        multi-phase solution on the common time axis."""
+        if isinstance(self.solution, PhasesSolution):
+            return list(zip(self.solution.phases, self.solution.starts.tolist(), strict=True))
+        return [(self.solution, 0.0)]
+
+    @property
+    def duration(self) -> float:
+        """The step's or period's duration, s."""
+        return float(self.solution.T)
+
     def fine(self, count: int = 2001) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(times (K,), states (K, 2n), torques (K, n)) on a uniform grid through the
-        solution's interpolant (cached)."""
+        solution's interpolant (each phase's own on a multi-phase solution; cached)."""
         key = ("fine", count)
         if key not in self._cache:
-            times = np.linspace(0.0, self.solution.T, count)
-            states, torques = self.solution(times)
-            self._cache[key] = (times, states, torques)
+            n = self.problem.linkage.n
+            parts = []
+            for solution, t0 in self.segments():
+                share = max(2, round(count * solution.T / self.duration))
+                local = np.linspace(0.0, solution.T, share)
+                states, controls = solution(local)
+                parts.append((local + t0, states, controls[:, :n]))
+            self._cache[key] = tuple(np.concatenate(column) for column in zip(*parts, strict=True))
         return self._cache[key]
 
     @property
     def positive_work(self) -> float:
         """Positive mechanical work of the hinge drives over the step or period, J: the
-        integral of sum max(0, M_i w_i) on a 2001-point grid."""
-        times, states, torques = self.fine()
-        n = self.problem.linkage.n
-        power = np.maximum(torques * joint_rates(self.problem.linkage, states[:, n:]), 0.0)
-        return float(np.trapezoid(power.sum(axis=1), times))
+        integral of sum max(0, M_i w_i) on a 2001-point grid (per phase)."""
+        total = 0.0
+        for solution, _ in self.segments():
+            count = max(2, round(2001 * solution.T / self.duration))
+            times = np.linspace(0.0, solution.T, count)
+            states, controls = solution(times)
+            n = self.problem.linkage.n
+            rates = joint_rates(self.problem.linkage, states[:, n:])
+            power = np.maximum(controls[:, :n] * rates, 0.0)
+            total += float(np.trapezoid(power.sum(axis=1), times))
+        return total
 
     def to_trajectory(self, rate_hz: float | None = None) -> Trajectory:
         """The solution's interpolant at ``rate_hz`` (default the nodes), with the ground
-        reaction at H0 (Fx, Fy, N) and the problem's settings (``metadata["gait"]``)."""
-        trajectory = self.solution.to_trajectory(rate_hz)
+        reaction on the root's foot (Fx, Fy, N), the contact forces of a phase with more
+        contacts (zero where they are not held), and the problem's settings
+        (``metadata["gait"]``). On a multi-phase solution the phases follow each other; where
+        two meet, the later phase's first sample is kept (after an impact) and the state just
+        before it goes into ``metadata["gait"]["before_events"]``."""
         n = self.problem.linkage.n
-        force = self.problem.dynamics.ground_reaction(
-            trajectory.states[:, :n], trajectory.states[:, n:], trajectory.ddpsi
+        names = self.problem.linkage.names
+        columns: dict[str, list] = {}
+        contacts: list[str] = []
+        for solution, _ in self.segments():
+            contacts.extend(c for c in solution.system.control_names[n:] if c not in contacts)
+        parts, before = [], []
+        segments = self.segments()
+        for k, (solution, t0) in enumerate(segments):
+            piece = solution.to_trajectory(rate_hz)
+            keep = slice(None) if k == len(segments) - 1 else slice(None, -1)
+            if k < len(segments) - 1:
+                before.append({"t": float(t0 + solution.T), "x": piece.states[-1].tolist()})
+            force = self.problem.dynamics.ground_reaction(
+                piece.states[:, :n], piece.states[:, n:], piece.ddpsi
+            )
+            for name in contacts:  # the root's foot takes what the other contacts do not
+                if name in piece.extras:
+                    value = np.asarray(piece.extras[name][0])
+                    force = force - (value if name.endswith("_x") else 1j * value)
+            parts.append((piece, force, keep, t0))
+        for piece, force, keep, t0 in parts:
+            columns.setdefault("time", []).append(piece.time[keep] + t0)
+            columns.setdefault("psi", []).append(piece.psi[keep])
+            columns.setdefault("dpsi", []).append(piece.dpsi[keep])
+            columns.setdefault("torques", []).append(piece.torques[keep])
+            columns.setdefault("ddpsi", []).append(piece.ddpsi[keep])
+            columns.setdefault("force", []).append(np.asarray(force)[keep])
+            for name in contacts:
+                values = (
+                    piece.extras[name][0] if name in piece.extras else np.zeros(piece.n_samples)
+                )
+                columns.setdefault(name, []).append(np.asarray(values)[keep])
+        joined = {key: np.concatenate(value) for key, value in columns.items()}
+        metadata = {
+            **parts[0][0].metadata,
+            "gait": {
+                **self.problem.settings(),
+                "cost": self.cost,
+                "law_cost": self.law_cost,
+                "before_events": before,
+            },
+        }
+        trajectory = Trajectory.from_linkage(
+            joined["time"],
+            joined["psi"],
+            joined["dpsi"],
+            joined["torques"],
+            names,
+            ddpsi=joined["ddpsi"],
+            ground_reaction=joined["force"],
+            metadata=metadata,
         )
-        trajectory = trajectory.with_extra("Fx", np.real(force), "N").with_extra(
-            "Fy", np.imag(force), "N"
-        )
-        return trajectory.with_metadata(
-            gait={**self.problem.settings(), "cost": self.cost, "law_cost": self.law_cost}
-        )
+        for name in contacts:
+            trajectory = trajectory.with_extra(name, joined[name], "N")
+        return trajectory
 
     def verify(self, **options) -> GaitReport:
         """:func:`problems.verify_gait` on the node trajectory (``options``: ``tolerance``,
@@ -218,7 +290,7 @@ class Gait:
         iterations, build and solve seconds."""
         times, _, torques = self.fine()
         names = self.problem.linkage.names
-        rms = np.sqrt(np.trapezoid(torques**2, times, axis=0) / times[-1])
+        rms = np.sqrt(np.trapezoid(torques**2, times, axis=0) / self.duration)
         stats = self.solution.stats
         return {
             "status": self.solution.status,

@@ -199,6 +199,7 @@ def verify_gait(
     *,
     settings: Mapping[str, Any] | None = None,
     tolerance: float = 1e-6,
+    hold_tolerance: float = 1e-3,
 ) -> GaitReport:
     """Verify a gait from its samples (see the module docstring).
 
@@ -213,6 +214,10 @@ def verify_gait(
     tolerance : relative tolerance of every check: margins are in physical units and a check
         passes when margin >= -tolerance * its scale (1 for angles, m and m/s; the weight m g
         for forces; m * 1 m/s for impulses; the torque limit for torques).
+    hold_tolerance : m and m/s: how far the front foot of a double support may drift from
+        its foothold and from rest. The planner holds it through its acceleration (the
+        closed chain as a constraint on ddpsi), so position and velocity drift with the
+        collocation error (0.1 mm and 0.7 mm/s on the default mesh, fourth order in h).
     """
     if not isinstance(trajectory, Trajectory):
         raise DefinitionTypeError(
@@ -235,8 +240,9 @@ def verify_gait(
             "`settings`: say which gait this is: settings={'problem': 'walking_step' or "
             f"'periodic_gait', ...}} (the trajectory's metadata has none), got {problem!r}"
         )
-    if not (isinstance(tolerance, float | int) and 0 < tolerance < 1):
-        raise DefinitionError(f"`tolerance`: must be a number in (0, 1), got {tolerance!r}")
+    for name, value in (("tolerance", tolerance), ("hold_tolerance", hold_tolerance)):
+        if isinstance(value, bool) or not (isinstance(value, float | int) and 0 < value < 1):
+            raise DefinitionError(f"`{name}`: must be a number in (0, 1), got {value!r}")
     kin = _Kinematics(linkage)
     psi, dpsi, ddpsi, torques = (
         trajectory.psi,
@@ -259,7 +265,9 @@ def verify_gait(
             value = float(margins.min())
         checks.append(Check(name, value, unit, where, tolerance * scale, margins.size))
 
-    if problem == "walking_step":
+    if problem == "walking_step" and float(merged.get("double_support") or 0.0) > 0.0:
+        _verify_double_support(add, kin, merged, trajectory, weight, hold_tolerance / tolerance)
+    elif problem == "walking_step":
         _verify_walking(add, kin, merged, psi, dpsi, ddpsi, times, weight)
     else:
         state = np.hstack([psi, dpsi])
@@ -377,6 +385,103 @@ def _verify_walking(add, kin: _Kinematics, settings, psi, dpsi, ddpsi, times, we
     s = (times - times[0]) / (times[-1] - times[0])
     profile = 0.0 if clearance is None else float(clearance) * np.sin(np.pi * s) ** 2
     add("clearance", height - profile, "m")
+
+
+def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, hold) -> None:
+    """A step with a double support: single support until T_s = step_time - double_support,
+    the impact with both feet held (its pre-impact state in ``before_events``), both feet on
+    the ground until T, the legs swap without an impact."""
+    linkage = kin.linkage
+    n = linkage.n
+    mu = float(settings["mu"])
+    step_length = float(settings["step_length"])
+    psi, dpsi, ddpsi, times = trajectory.psi, trajectory.dpsi, trajectory.ddpsi, trajectory.time
+    swap = swap_legs(linkage)
+    foot_link, foot_offset = _foot(kin, settings)
+    events = settings.get("before_events") or []
+    if not events:
+        raise DefinitionError(
+            "`settings`: a step with a double support needs the state before its impact "
+            "(metadata['gait']['before_events'], written by WalkingGait.to_trajectory)"
+        )
+    strike_time = float(events[0]["t"])
+    pre = np.asarray(events[0]["x"], dtype=float)
+    j = int(np.argmin(np.abs(times - strike_time)))  # the double support's first sample
+    double = times >= times[j]
+    # Periodicity: the legs swap when the double support ends, the rates unchanged.
+    swapped, swapped_rates = swap.map_state(psi[-1], dpsi[-1])
+    add("periodic angles", -np.abs(_wrap(psi[0] - swapped)), "rad", where="t = 0 vs swap(T)")
+    add("periodic rates", -np.abs(dpsi[0] - swapped_rates), "rad/s", where="t = 0 vs swap(T)")
+    landing, approach, _ = kin.point(foot_link, foot_offset, pre[None, :n], pre[None, n:])
+    add("heel strike", np.array([-approach[0].imag]), "m/s", where=f"t = {strike_time:.4g} s")
+    target = complex(step_length, 0.0)
+    add("landing", -np.array([abs(landing[0] - target)]), "m", where=f"t = {strike_time:.4g} s")
+    add("impact pose", -np.abs(psi[j] - pre[:n]), "rad", where=f"t = {strike_time:.4g} s")
+    # Through the impact both feet stay: impulses L0 at H0 and LP at the foot, found from the
+    # momentum balances by least squares; a consistent impact leaves no residual.
+    dpsi_minus, dpsi_plus = pre[n:], dpsi[j]
+    _, v_minus, _ = kin.coms(psi[j : j + 1], dpsi_minus[None])
+    _, v_plus, _ = kin.coms(psi[j : j + 1], dpsi_plus[None])
+    starts, _, _ = kin.starts(psi[j : j + 1])
+    momentum = complex((v_plus[0] - v_minus[0]) @ kin.mass)
+    lever = complex(landing[0] - starts[0, 0])
+    rows = [[1.0, 0.0, 1.0, 0.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, -lever.imag, lever.real]]
+    right = [momentum.real, momentum.imag]
+    whole = kin.angular_momentum(psi[j], dpsi_plus, 0j, starts[0, 0], range(n)) - (
+        kin.angular_momentum(psi[j], dpsi_minus, 0j, starts[0, 0], range(n))
+    )
+    right.append(whole)
+    for c in range(1, n):
+        part = linkage.subtree(c)
+        about = complex(starts[0, c])
+        change = kin.angular_momentum(psi[j], dpsi_plus, 0j, about, part) - (
+            kin.angular_momentum(psi[j], dpsi_minus, 0j, about, part)
+        )
+        arm = complex(landing[0] - about) if foot_link in part else 0j
+        rows.append([0.0, 0.0, -arm.imag, arm.real])
+        right.append(change)
+    impulses, *_ = np.linalg.lstsq(np.array(rows), np.array(right), rcond=None)
+    residual = np.array(rows) @ impulses - np.array(right)
+    scale = float(np.sum(kin.mass)) * linkage.links[0].length
+    add("impact momentum", -np.abs(residual), "kg m^2/s", scale, where="heel strike")
+    rear, front = complex(*impulses[:2]), complex(*impulses[2:])
+    add(
+        "impulse cones",
+        np.array([mu * front.imag - abs(front.real), mu * rear.imag - abs(rear.real)]),
+        "N s",
+        float(np.sum(kin.mass)),
+        where="heel strike (front, rear)",
+    )
+    # The front foot held from the impact on: at (s, 0), at rest.
+    held, moving, _ = kin.point(foot_link, foot_offset, psi[double], dpsi[double])
+    add("foot held", -np.abs(held - target), "m", hold, where="double support")
+    add("foot at rest", -np.abs(moving), "m/s", hold, where="double support")
+    # Lift-off of the rear foot: the next step's swing foot starts upwards (or at rest).
+    _, lift, _ = kin.point(foot_link, foot_offset, psi[:1], dpsi[:1])
+    add("lift off", np.array([lift[0].imag]), "m/s", where="t = 0")
+    # Reactions: the whole tree's, less the front foot's ground force (a control), is the
+    # rear foot's; both in their cones.
+    total = kin.ground_reaction(psi, dpsi, ddpsi)
+    names = [k for k in trajectory.extras if k.startswith("F_") and k.endswith("_x")]
+    front_force = np.zeros(times.size, dtype=complex)
+    for name in names:
+        front_force += trajectory.extras[name][0] + 1j * trajectory.extras[name[:-1] + "y"][0]
+    rear_force = total - front_force
+    cones = np.column_stack(
+        [
+            mu * rear_force.imag - np.abs(rear_force.real),
+            np.where(double, mu * front_force.imag - np.abs(front_force.real), 0.0),
+        ]
+    )
+    add("friction cone", cones, "N", weight)
+    single = ~double
+    height = kin.point(foot_link, foot_offset, psi[single])[0].imag
+    clearance = settings.get("clearance")
+    s = times[single] / strike_time
+    profile = 0.0 if clearance is None else float(clearance) * np.sin(np.pi * s) ** 2
+    margins = np.full(times.size, np.inf)
+    margins[single] = height - profile
+    add("clearance", margins, "m")
 
 
 __all__ = ["Check", "GaitReport", "GaitVerificationError", "verify_gait"]

@@ -56,6 +56,7 @@ from model.errors import (
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
 from planner.ocp import OCP
+from planner.phases import Phases, PhasesTranscription
 from planner.solver import solve
 from planner.transcription import Transcription
 from problems.biped import Biped
@@ -70,6 +71,9 @@ from problems.gait_problem import (
     objective_at_guess,
     torque_limits,
 )
+
+#: The largest part of the weight on the rear foot when a double support ends.
+UNLOADED = 0.05
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,6 +100,8 @@ class WalkingStep:
     objective: str
     law: GaitLaw
     ocp: OCP | None
+    double_support: float = 0.0
+    phases: Phases | None = None
 
     @property
     def linkage(self) -> Linkage:
@@ -108,13 +114,32 @@ class WalkingStep:
 
     @cached_property
     def impact(self):
-        """The heel strike of the swing foot (``model.ImpactMap``)."""
-        return self.dynamics.impact(self.foot)
+        """The heel strike of the swing foot (``model.ImpactMap``): the old stance foot free
+        to lift off, or held when a double support follows."""
+        return self.dynamics.impact(self.foot, root_pinned=self.double_support > 0)
 
     @cached_property
     def step_map(self) -> ca.Function:
-        """Delta: x(T) before heel strike -> x(0) of the next step (impact, then leg swap)."""
+        """Delta: x(T) before heel strike -> x(0) of the next step (impact, then leg swap);
+        with a double support, x(T_single) -> x of the double support at its start (the
+        impact with both feet held; the legs swap when the double support ends)."""
+        if self.double_support > 0:
+            n = self.linkage.n
+            x = ca.SX.sym("x", 2 * n)
+            dpsi_plus, _, _ = self.impact.function().call([x[:n], x[n:]])
+            return ca.Function("strike", [x], [ca.vertcat(x[:n], dpsi_plus)], ["x"], ["x_plus"])
         return self.impact.step_function(self.biped.swap)
+
+    @property
+    def single_support_time(self) -> float:
+        """Duration of the single support, s: the step time less the double support."""
+        return self.step_time - self.double_support
+
+    @property
+    def problem(self) -> OCP | Phases:
+        """What :meth:`solve` solves: the single-support OCP, or the phases with a double
+        support."""
+        return self.ocp if self.phases is None else self.phases
 
     @property
     def speed(self) -> float:
@@ -129,20 +154,34 @@ class WalkingStep:
             return self.clearance * ca.sin(math.pi * s) ** 2
         return self.clearance * np.sin(np.pi * np.asarray(s, dtype=float)) ** 2
 
-    def law_cost(self, ocp: OCP | None = None) -> float:
-        """The objective of the fitted law on ``ocp``'s mesh (default this step's): the law's
-        angles, rates and accelerations at the mesh points, torques by inverse dynamics,
-        integrated by the transcription's own quadrature."""
-        return objective_at_guess(Transcription(self.ocp if ocp is None else ocp))
+    def _transcription(self, problem: OCP | Phases | None):
+        problem = self.problem if problem is None else problem
+        if isinstance(problem, OCP) and self.phases is not None:
+            # A changed single-support OCP replaces that phase of the double-support problem.
+            index = self.phases.index("single")
+            phases = list(self.phases.phases)
+            phases[index] = ("single", problem)
+            problem = replace(self.phases, phases=tuple(phases))
+        if isinstance(problem, Phases):
+            return PhasesTranscription(problem)
+        if isinstance(problem, OCP):
+            return Transcription(problem)
+        raise DefinitionTypeError(
+            f"`ocp`: must be a planner.OCP (or planner.Phases), got {type(problem).__name__}"
+        )
 
-    def solve(self, ocp: OCP | None = None, **options) -> WalkingGait:
-        """Solve ``ocp`` (default this step's; pass a changed copy to solve that instead);
-        ``options`` go to :func:`planner.solve` (IPOPT options, progress, ...). Raises
-        :class:`planner.SolverError` on failure unless ``raise_on_failure=False``."""
-        ocp = self.ocp if ocp is None else ocp
-        if not isinstance(ocp, OCP):
-            raise DefinitionTypeError(f"`ocp`: must be a planner.OCP, got {type(ocp).__name__}")
-        transcription = Transcription(ocp)
+    def law_cost(self, problem: OCP | Phases | None = None) -> float:
+        """The objective of the fitted law on the problem's mesh (default this step's): the
+        law's angles, rates and accelerations at the mesh points, torques by inverse
+        dynamics, integrated by the transcription's own quadrature."""
+        return objective_at_guess(self._transcription(problem))
+
+    def solve(self, ocp: OCP | Phases | None = None, **options) -> WalkingGait:
+        """Solve this step's problem, or ``ocp`` (a changed copy of :attr:`ocp`, or of
+        :attr:`phases` with a double support); ``options`` go to :func:`planner.solve`
+        (IPOPT options, progress, ...). Raises :class:`planner.SolverError` on failure unless
+        ``raise_on_failure=False``."""
+        transcription = self._transcription(ocp)
         law = objective_at_guess(transcription)
         solution = solve(transcription, **options)
         return WalkingGait(self, solution, law)
@@ -162,6 +201,7 @@ class WalkingStep:
             "upright": list(self.upright),
             "objective": self.objective,
             "swing_foot": self.biped.swing_shank,
+            "double_support": self.double_support,
             "law": self.law.to_dict(),
         }
 
@@ -184,6 +224,8 @@ def walking_step(
     upright: Sequence[str] | None = None,
     objective: str = "torque",
     swing: tuple[str, str] | None = None,
+    double_support: float = 0.0,
+    N_double: int | None = None,
 ) -> WalkingStep:
     """A periodic walking step of a biped (see the module docstring).
 
@@ -203,10 +245,19 @@ def walking_step(
     upright : links kept near upright (default: every upper-body link).
     objective : "torque" or "work" (see the module docstring).
     swing : (swing thigh, swing shank) when several two-link chains hang at the hip.
+    double_support : duration of a double support after heel strike, s (0: none, the legs
+        swap at heel strike). With one, the step is two phases (``planner.Phases``): single
+        support for step_time - double_support, the impact with both feet held, then both
+        feet on the ground (the landing foot's ground force a control, held at rest by its
+        acceleration; both reactions in their friction cones) until the rear foot lifts off
+        and the legs swap.
+    N_double : mesh intervals of the double support (default: 1.5 times as dense as the
+        single support, at least 12).
 
     Returns
     -------
-    WalkingStep: ``.ocp`` to inspect or change, ``.solve()`` for the gait.
+    WalkingStep: ``.ocp`` (the single-support OCP) or ``.phases`` (with a double support)
+    to inspect or change, ``.solve()`` for the gait.
     """
     linkage = six_link_anthropoid() if linkage is None else linkage
     biped = Biped.of(linkage, swing)
@@ -236,7 +287,18 @@ def walking_step(
         raise DefinitionError(f"`knee_range`: lower must be < upper, got {knees}")
     posture = check_positive("posture", posture, "rad")
     upright = biped.upper_body if upright is None else check_links("upright", upright, linkage)
-    law = biped.step_law(step_length, step_time, clearance=max(height, 0.02) + 0.02)
+    if step_time <= 0:
+        raise DefinitionError(f"`step_time`: must be > 0 s, got {step_time!r}")
+    double_support = check_real("double_support", double_support)
+    if not 0.0 <= double_support < step_time:
+        raise DefinitionError(
+            f"`double_support`: must lie in [0, step_time) = [0, {step_time:g}) s, got "
+            f"{double_support!r}"
+        )
+    single_time = step_time - double_support
+    # The law lands the foot when the single support ends; a double support holds the pose
+    # the law lands in (periodicity: the law starts from that pose with the legs swapped).
+    law = biped.step_law(step_length, single_time, clearance=max(height, 0.02) + 0.02)
     dynamics = linkage.dynamics()
     step = WalkingStep(
         biped=biped,
@@ -253,8 +315,24 @@ def walking_step(
         objective=objective,
         law=law,
         ocp=None,  # the OCP is built from the step's pieces (foot, impact, step map), below
+        double_support=double_support,
     )
-    return replace(step, ocp=_walking_ocp(step, N, transcription, degree, formulation))
+    step = replace(step, ocp=_walking_ocp(step, N, transcription, degree, formulation))
+    if double_support == 0.0:
+        return step
+    if N_double is None:
+        # Denser than the single support, at least 12: the front foot is held through its
+        # acceleration and drifts with the collocation error (fourth order: 0.1 mm and
+        # 1 mm/s at 8 intervals of 0.1 s, 20 um and 0.2 mm/s at 12).
+        N_double = max(12, round(1.5 * N * double_support / single_time))
+    mesh = {"N": N_double, "transcription": transcription, "degree": degree,
+            "formulation": formulation}  # fmt: skip
+    phases = (
+        Phases.sequence(("single", step.ocp))
+        .then("double", _double_support_ocp(step, mesh), mapping=step.step_map)
+        .periodic(step.biped.swap.state_function())
+    )
+    return replace(step, phases=phases)
 
 
 def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OCP:
@@ -290,12 +368,22 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
     def foot_vertical_velocity(p):
         return velocity(p.x[:n], p.x[n:])[1]
 
+    momentum = dynamics.floating.function("linear_momentum")
+
     def impulse(p):
-        _, lam, _ = impact(p.x[:n], p.x[n:])
-        return ca.vertcat(mu * lam[1] - lam[0], mu * lam[1] + lam[0])
+        dpsi_plus, lam, _ = impact(p.x[:n], p.x[n:])
+        rows = [mu * lam[1] - lam[0], mu * lam[1] + lam[0]]
+        if step.double_support > 0:
+            # Both feet held through the impact: the rear foot's impulse is what the change
+            # of momentum leaves, and it must push too (inside its cone).
+            before = ca.vertcat(*momentum(p.x[:n], ca.vertcat(0, 0, p.x[n:])))
+            after = ca.vertcat(*momentum(p.x[:n], ca.vertcat(0, 0, dpsi_plus)))
+            rear = after - before - lam
+            rows += [mu * rear[1] - rear[0], mu * rear[1] + rear[0]]
+        return ca.vertcat(*rows)
 
     mesh = {"N": N, "transcription": transcription, "degree": degree, "formulation": formulation}
-    ocp = gait_ocp(dynamics, step.step_time, mesh, step.torque_limit)
+    ocp = gait_ocp(dynamics, step.single_support_time, mesh, step.torque_limit)
     for name in step.passive:
         ocp = ocp.bound(f"M_{name}", 0.0, 0.0)
     speed = max(step.speed, 0.1)
@@ -314,10 +402,75 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
         .boundary("lift off", foot_vertical_velocity, at="start", lower=0.0, scale=speed)
         .boundary("heel strike", foot_vertical_velocity, at="end", upper=0.0, scale=speed)
         .boundary("impulse", impulse, at="end", lower=0.0, scale=biped.total_mass * speed)
-        .periodic(step.step_map)
     )
+    if step.double_support == 0.0:
+        ocp = ocp.periodic(step.step_map)
     ocp = keep_upright(ocp, step.upright, step.posture)
     return finish_gait_ocp(ocp, linkage, step.objective, step.torque_limit, step.law)
+
+
+def _double_support_ocp(step: WalkingStep, mesh: dict) -> OCP:
+    """Both feet on the ground: the stance foot pinned at H0, the landing foot a contact
+    whose ground force is a control (``F_<foot>_x/_y``), held at rest by its acceleration
+    (its position and velocity are right when the phase begins: the landing and the
+    impact); both feet's reactions in the friction cone, knees, posture, torque bounds."""
+    biped, dynamics = step.biped, step.dynamics
+    linkage = biped.linkage
+    weight = biped.total_mass * linkage.gravity
+    mu = step.mu
+    acceleration = step.foot.function("acceleration")
+    reaction = dynamics.function("ground_reaction")
+    ocp = gait_ocp(dynamics, step.double_support, mesh, step.torque_limit)
+    ocp = replace(ocp, contacts=(step.foot.point,))
+    for name in step.passive:
+        ocp = ocp.bound(f"M_{name}", 0.0, 0.0)
+
+    def cones(p):
+        fx, fy = reaction(p.psi, p.dpsi, p.ddpsi)  # both feet together
+        front_x, front_y = p.F[0], p.F[1]
+        rear_x, rear_y = fx - front_x, fy - front_y
+        return ca.vertcat(
+            mu * rear_y - rear_x,
+            mu * rear_y + rear_x,
+            mu * front_y - front_x,
+            mu * front_y + front_x,
+        )
+
+    def knees(p):
+        return ca.vertcat(
+            p[f"psi_{biped.stance_thigh}"] - p[f"psi_{biped.stance_shank}"],
+            p[f"psi_{biped.swing_thigh}"] - p[f"psi_{biped.swing_shank}"],
+        )
+
+    ocp = (
+        ocp.constrain(
+            "foot held",
+            lambda p: ca.vertcat(*acceleration(p.psi, p.dpsi, p.ddpsi)),
+            lower=0.0,
+            upper=0.0,
+            scale=10.0,
+        )
+        .constrain("friction", cones, lower=0.0, scale=weight)
+        .constrain("knees", knees, lower=step.knee_range[0], upper=step.knee_range[1])
+        # The rear foot unloads before it lifts off, as real feet roll off: its normal force
+        # under a cap falling linearly over the double support from twice the weight to
+        # UNLOADED of it (a foot leaving the ground loaded would need the drives to jump).
+        .constrain(
+            "rear unloads",
+            lambda p: (
+                cones(p)[0:2].T @ ca.DM([0.5, 0.5]) / mu
+                - weight * (2.0 - (2.0 - UNLOADED) * p.t / p.T)
+            ),
+            upper=0.0,
+            scale=weight,
+        )
+        .scale(F=weight / 2)
+    )
+    ocp = keep_upright(ocp, step.upright, step.posture)
+    # The guess holds the pose the law lands in; the feet share the weight.
+    strike = step.law(step.single_support_time)
+    ocp = finish_gait_ocp(ocp, linkage, step.objective, step.torque_limit, step.law)
+    return replace(ocp, guesses=()).guess(psi=strike[0], dpsi=0.0, ddpsi=0.0, F=[0.0, weight / 2])
 
 
 # ---- the solved gait ----------------------------------------------------------------------
@@ -358,9 +511,10 @@ class WalkingGait(Gait):
     @property
     def impact(self) -> dict[str, np.ndarray]:
         """At heel strike: ``impulse`` (2,) N s on the landing foot, ``lift_off`` (2,) m/s the
-        old stance foot's velocity, ``dpsi_plus`` (n,) rad/s (before the leg swap)."""
+        old stance foot's velocity (zero when a double support follows: it stays),
+        ``dpsi_plus`` (n,) rad/s (before the leg swap)."""
         n = self.problem.linkage.n
-        x = self.solution.states[-1]
+        x = self.segments()[0][0].states[-1]  # the single support's end
         dpsi_plus, impulse, base = self.problem.impact(x[:n], x[n:])
         return {"impulse": impulse, "lift_off": base, "dpsi_plus": dpsi_plus}
 
@@ -372,8 +526,15 @@ class WalkingGait(Gait):
         problem = self.problem
         linkage = problem.linkage
         n = linkage.n
-        times = self.solution.sample_times(rate_hz)
-        states, _ = self.solution(times)
+        pieces = []
+        for k, (solution, t0) in enumerate(self.segments()):
+            local = solution.sample_times(rate_hz)
+            pieces.append((local + t0)[1:] if k else local + t0)
+            pieces.append(None)  # placeholder for the states below
+            states, _ = solution(local[1:] if k else local)
+            pieces[-1] = states
+        times = np.concatenate(pieces[0::2])
+        states = np.vstack(pieces[1::2])
         hinges_step = problem.dynamics.hinge_positions(states[:, :n])
         starts = np.asarray(linkage.parents) + 1
         swap = problem.biped.swap
@@ -394,7 +555,7 @@ class WalkingGait(Gait):
                 else:
                     body = linkage.names[i]
                 segments[body].append(np.stack(ends, axis=1))
-            all_times.append(times[keep] + k * self.solution.T)
+            all_times.append(times[keep] + k * self.duration)
             which.append(np.full(len(times[keep]), k))
         return WorldMotion(
             np.concatenate(all_times),

@@ -27,18 +27,35 @@ COLOURS = (
 )  # fmt: skip
 
 
+def _sampled(gait: WalkingGait, samples: int):
+    """Times (K,), states (K, 2n), torques (K, n), the rear (stance) foot's and the front
+    foot's ground forces (K,) complex, N, through each phase's interpolant."""
+    n = gait.problem.linkage.n
+    parts = []
+    for solution, t0 in gait.segments():
+        count = max(2, round(samples * solution.T / gait.duration))
+        local = np.linspace(0.0, solution.T, count)
+        states, controls = solution(local)
+        total = gait.problem.dynamics.ground_reaction(
+            states[:, :n], states[:, n:], solution.acceleration(local)
+        )
+        front = np.zeros(count, dtype=complex)
+        if controls.shape[1] > n:  # a double support: the front foot's force is a control
+            front = controls[:, n] + 1j * controls[:, n + 1]
+        parts.append((local + t0, states, controls[:, :n], total - front, front))
+    return tuple(np.concatenate(column) for column in zip(*parts, strict=True))
+
+
 def gait_figure(gait: WalkingGait, samples: int = 501) -> Figure:
-    """Four panels over one step: angles psi (rad), hinge torques M (N m), the stance foot's
-    ground reaction (N) with the friction use |Fx| / (mu Fy), and the swing foot's path (m)
-    with the clearance profile."""
-    problem, solution = gait.problem, gait.solution
+    """Four panels over one step: angles psi (rad), hinge torques M (N m), the feet's ground
+    reactions (N) with the friction use |Fx| / (mu Fy), and the swing foot's path (m) with
+    the clearance profile. A double support's phases follow each other on one time axis."""
+    problem = gait.problem
     names = problem.linkage.names
     n = len(names)
-    t = np.linspace(0.0, solution.T, samples)
-    states, torques = solution(t)
-    ddpsi = solution.acceleration(t)
-    force = problem.dynamics.ground_reaction(states[:, :n], states[:, n:], ddpsi)
+    t, states, torques, force, front = _sampled(gait, samples)
     foot = problem.foot.position(states[:, :n])
+    single = t <= problem.single_support_time + 1e-12
     figure = Figure(figsize=(11.0, 7.5), layout="constrained")
     axes = figure.subplots(2, 2)
     ax = axes[0, 0]
@@ -52,24 +69,31 @@ def gait_figure(gait: WalkingGait, samples: int = 501) -> Figure:
     ax.set(xlabel="t [s]", ylabel="M [N m]", title="hinge torques")
     ax.legend(fontsize="small", ncol=2)
     ax = axes[1, 0]
-    ax.plot(t, force.real, label="Fx")
-    ax.plot(t, force.imag, label="Fy")
-    ax.set(xlabel="t [s]", ylabel="F [N]", title="ground reaction on the stance foot")
+    ax.plot(t, force.real, label="Fx stance foot")
+    ax.plot(t, force.imag, label="Fy stance foot")
     use = ax.twinx()
     use.plot(t, np.abs(force.real) / (problem.mu * force.imag), color="0.3", linestyle="--")
+    if np.any(front != 0):
+        held = ~single
+        ax.plot(t[held], front.real[held], label="Fx front foot")
+        ax.plot(t[held], front.imag[held], label="Fy front foot")
+        use.plot(t[held], np.abs(front.real[held]) / (problem.mu * front.imag[held]),
+                 color="0.6", linestyle="--")  # fmt: skip
+    ax.set(xlabel="t [s]", ylabel="F [N]", title="ground reactions")
     use.set_ylabel(f"friction use |Fx| / (mu Fy), mu = {problem.mu:g}")
     use.set_ylim(0.0, 1.05)
     ax.legend(loc="upper left", fontsize="small")
     ax = axes[1, 1]
     ax.plot(foot.real, foot.imag, label="swing foot")
-    ax.plot(foot.real, problem.clearance_at(t / solution.T), color="0.5", linestyle=":",
-            label="clearance profile")  # fmt: skip
+    profile = problem.clearance_at(t[single] / problem.single_support_time)
+    ax.plot(foot.real[single], profile, color="0.5", linestyle=":", label="clearance profile")
     ax.plot([0.0], [0.0], "kv", label="stance foot")
     ax.axhline(0.0, color="0.5", linewidth=0.8)
     ax.set(xlabel="x [m]", ylabel="y [m]", title="swing foot path")
     ax.legend(fontsize="small")
+    double = f", double support {problem.double_support:g} s" if problem.double_support else ""
     figure.suptitle(
-        f"walking step: {problem.step_length:g} m in {problem.step_time:g} s, cost "
+        f"walking step: {problem.step_length:g} m in {problem.step_time:g} s{double}, cost "
         f"{gait.cost:.4g} (law {gait.law_cost:.4g}), cost of transport "
         f"{gait.cost_of_transport:.3f}"
     )

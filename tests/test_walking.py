@@ -308,3 +308,101 @@ def test_bad_walking_input_is_refused():
     one_leg = Linkage([Link("shank", None, 0.4, 3.0), Link("thigh", "shank", 0.4, 7.0)])
     with pytest.raises(DefinitionError, match=r"no two-link chain ending in a free link"):
         walking_step(one_leg)
+
+
+# ---- a double support between the steps (planner.Phases) ---------------------------------------
+@functools.cache
+def double(N_double: int | None = None) -> WalkingGait:
+    return walking_step(double_support=0.1, N_double=N_double).solve(progress=False)
+
+
+def test_double_support_is_periodic_through_the_held_impact_and_the_swap():
+    result = double()
+    single, both = result.solution.phases
+    assert result.success and result.cost < result.law_cost
+    assert single.T == pytest.approx(0.4) and both.T == pytest.approx(0.1)
+    n = SIX.n
+    # The impact with both feet held: the fixed-base dense KKT of the oracle.
+    psi, dpsi = single.states[-1, :n], single.states[-1, n:]
+    i = SIX.index("swing_shank")
+    mass = ne.mass_matrix(SIX, psi)
+    jacobian = ne.point_jacobian(SIX, i, complex(SIX.links[i].length), psi)[:, 2:]
+    kkt = np.block([[mass, -jacobian.T], [jacobian, np.zeros((2, 2))]])
+    after = np.linalg.solve(kkt, np.r_[mass @ dpsi, 0.0, 0.0])
+    np.testing.assert_allclose(both.states[0, :n], psi, atol=1e-9)
+    np.testing.assert_allclose(both.states[0, n:], after[:n], atol=1e-7)
+    # The rear foot can only push: its impulse (what the momentum change leaves) in its cone.
+    masses = np.array([link.mass for link in SIX.links])
+    change = (ne.com_velocities(SIX, psi, after[:n]) - ne.com_velocities(SIX, psi, dpsi)) @ masses
+    rear = change - complex(*after[n:])
+    # (IPOPT meets the impulse rows, scaled by m * 1 m/s = 60 N s, to 1e-8: 6e-7 N s.)
+    assert rear.imag >= -1e-6 and abs(rear.real) <= 0.8 * rear.imag + 1e-6
+    # The legs swap when the double support ends, without an impact.
+    next_psi, next_dpsi = go.relabel(SIX, both.states[-1, :n], both.states[-1, n:])
+    np.testing.assert_allclose(go.wrap(single.states[0, :n] - next_psi), 0.0, atol=1e-8)
+    np.testing.assert_allclose(single.states[0, n:], next_dpsi, atol=1e-7)
+
+
+def test_double_support_dynamics_forces_and_cones_with_the_oracle():
+    result = double()
+    both = result.solution.phase("double")
+    trajectory = both.to_trajectory()
+    n = SIX.n
+    psi, dpsi, ddpsi, torques = (
+        trajectory.psi,
+        trajectory.dpsi,
+        trajectory.ddpsi,
+        trajectory.torques,
+    )
+    force = (
+        trajectory.extras["F_swing_shank_end_x"][0]
+        + 1j * trajectory.extras["F_swing_shank_end_y"][0]
+    )
+    # The oracle's generalised forces with the foot's ground force: (I - C)(ID - M) = J^T F.
+    i = SIX.index("swing_shank")
+    jacobian = ne.point_jacobian(SIX, i, complex(SIX.links[i].length), psi)[:, :, 2:]
+    gap = ne.inverse_dynamics(SIX, psi, dpsi, ddpsi) - torques
+    children = np.zeros((n, n))
+    for c, p in enumerate(SIX.parents):
+        if p >= 0:
+            children[p, c] = 1.0
+    generalized = gap @ (np.eye(n) - children).T
+    applied = np.einsum("kij,ki->kj", jacobian, np.column_stack([force.real, force.imag]))
+    np.testing.assert_allclose(generalized, applied, atol=1e-7 * np.max(np.abs(applied)))
+    rear = ne.ground_reaction(SIX, psi, dpsi, ddpsi) - force
+    weight = sum(link.mass for link in SIX.links) * SIX.gravity
+    for f in (rear, force):
+        assert np.all(0.8 * f.imag - np.abs(f.real) >= -1e-6 * weight)
+
+
+def test_double_support_foot_drift_converges_at_fourth_order():
+    # The front foot is held through its acceleration: its position drifts with the
+    # collocation error only.
+    meshes = (8, 16, 32)
+    drift = []
+    for N_double in meshes:
+        result = double(N_double)
+        both = result.solution.phase("double")
+        foot = go.swing_foot(SIX, both.state(np.linspace(0.0, both.T, 101))[:, : SIX.n])
+        drift.append(np.max(np.abs(foot - 0.5)))
+    order = -np.polyfit(np.log(meshes), np.log(drift), 1)[0]
+    assert drift[0] < 2e-4 and order > 3.3, (drift, order)
+
+
+def test_double_support_gait_verifies_and_exports_one_step():
+    result = double()
+    report = result.verify()
+    assert report.ok, str(report)
+    assert {"periodic rates", "impact pose", "impulse cones", "foot held"} <= {
+        c.name for c in report.checks
+    }
+    trajectory = result.to_trajectory(rate_hz=1000)
+    assert trajectory.time[-1] == pytest.approx(0.5)
+    events = trajectory.metadata["gait"]["before_events"]
+    assert events[0]["t"] == pytest.approx(0.4)
+    # In single support the front foot bears nothing.
+    front = trajectory.extras["F_swing_shank_end_y"][0]
+    assert np.all(front[trajectory.time < 0.4 - 1e-9] == 0.0)
+    assert np.min(front[trajectory.time > 0.4 + 1e-9]) > 0.0
+    with pytest.raises(DefinitionError, match=r"`double_support`: must lie in \[0, step_time\)"):
+        walking_step(double_support=0.5)
