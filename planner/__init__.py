@@ -7,8 +7,9 @@
 ...     integral=lambda p: ca.sumsqr(p.M)).solve()
 """
 
-from planner.ocp import OCP, Point, System
-from planner.phases import EventPoint, Phases, PhasesSolution, PhasesTranscription
+from planner.ocp import Point, System
+from planner.phases import EventPoint, PhasesSolution, PhasesTranscription
+from planner.problem import OCP, Phases
 from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
 from planner.solution import IntegrationError, Replay, Solution
 from planner.solver import SolverError, solve

@@ -36,8 +36,8 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
@@ -51,7 +51,13 @@ from model.errors import (
     check_integer,
 )
 from planner import schemes
+from planner.guesses import GuessLayer, evaluate_guess_layer, source_duration
 from planner.schemes import TRANSCRIPTIONS
+from planner.solution import Solution
+from planner.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from typing import Self
 
 FORMULATIONS = ("implicit", "explicit")
 #: The name of an objective term given without one (``OCP.minimize``).
@@ -664,33 +670,6 @@ def _fractions(mesh, N: int) -> tuple[float, ...]:
     return tuple(float(f) for f in fractions)
 
 
-@dataclass(frozen=True, eq=False)
-class GuessLayer:
-    """One source of initial guesses; later layers override earlier ones variable by variable.
-
-    kind: "constant" (values: name -> float or array over a group), "grid" (times (K,) s and
-    values: name -> (K,) or (K, group size)), "callable" (source: t (K,) -> dict or tuple),
-    "solution" (source: a Solution or Trajectory re-gridded in normalised time).
-    """
-
-    kind: str
-    values: Mapping[str, np.ndarray] = field(default_factory=dict)
-    times: np.ndarray | None = None
-    source: Any = None
-
-    def __repr__(self) -> str:
-        if self.kind in ("constant", "grid"):
-            return f"{self.kind}({', '.join(self.values)})"
-        return f"{self.kind}({type(self.source).__name__})"
-
-
-def _source_duration(source) -> float:
-    """Duration, s, of a Solution (``T``) or a Trajectory (its time span)."""
-    if hasattr(source, "interpolate_guess"):
-        return float(source.T)
-    return float(source.time[-1] - source.time[0])
-
-
 def _format_interval(lower, upper) -> str:
     lo, hi = np.atleast_1d(lower), np.atleast_1d(upper)
     if lo.size == 1:
@@ -811,8 +790,11 @@ def default_scale(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
 
 # ---- the OCP ------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
-class OCP:
+class OCPDefinition:
     """An optimal control problem on a fixed or free horizon [0, T], transcribed on N intervals.
+
+    The definition, as a value; :class:`planner.OCP` is this class with ``transcribe()`` and
+    ``solve()`` (:mod:`planner.problem`), which need the layers built on it.
 
     Parameters
     ----------
@@ -982,7 +964,7 @@ class OCP:
         return fields
 
     # ---- builders ----------------------------------------------------------------------
-    def bound(self, name: str, lower=None, upper=None) -> OCP:
+    def bound(self, name: str, lower=None, upper=None) -> Self:
         """Bounds lower <= v <= upper on a variable or group at every point where it lives.
 
         ``name``: a variable (``"M_torso"``) or a group (``"M"``, ``"psi"``); the duration
@@ -1004,7 +986,7 @@ class OCP:
 
     def _add_constraint(
         self, name, expression, lower, upper, where, scale, instants=(), fraction=False
-    ) -> OCP:
+    ) -> Self:
         if not isinstance(name, str) or not name:
             raise DefinitionTypeError(f"`name`: a constraint needs a non-empty name, got {name!r}")
         if name in self._constraint_names():
@@ -1030,7 +1012,7 @@ class OCP:
         )
         return dataclasses.replace(self, constraints=(*self.constraints, constraint))
 
-    def constrain(self, name: str, expression, lower=None, upper=None, scale=None) -> OCP:
+    def constrain(self, name: str, expression, lower=None, upper=None, scale=None) -> Self:
         """A path constraint lower <= g(point) <= upper at every dynamics point.
 
         Dynamics points: the nodes (trapezoid), nodes and midpoints (Hermite-Simpson), the
@@ -1077,7 +1059,7 @@ class OCP:
         lower=None,
         upper=None,
         scale=None,
-    ) -> OCP:
+    ) -> Self:
         """A constraint lower <= g(point) <= upper at given instants (keypoints).
 
         ``t``: a time, s, or a sequence of them, in [0, T] (fixed T only); ``fraction``: a
@@ -1116,7 +1098,7 @@ class OCP:
             name, expression, lower, upper, "at", scale, instants, fraction is not None
         )
 
-    def boundary(self, name: str, expression, at: str, lower=None, upper=None, scale=None) -> OCP:
+    def boundary(self, name: str, expression, at: str, lower=None, upper=None, scale=None) -> Self:
         """A boundary constraint lower <= g(point) <= upper at ``at`` = "start" or "end".
 
         The point's ``x`` is the state there (``x0`` and ``xf`` give both ends), ``u`` the
@@ -1126,15 +1108,15 @@ class OCP:
             raise DefinitionError(f"`at`: must be 'start' or 'end', got {at!r}")
         return self._add_constraint(name, expression, lower, upper, at, scale)
 
-    def initial(self, **values) -> OCP:
+    def initial(self, **values) -> Self:
         """Fix states (or groups) at t = 0: ``initial(q=0.0, v=0.0)`` or ``initial(psi=[...])``."""
         return self._fix("start", "initial", values)
 
-    def final(self, **values) -> OCP:
+    def final(self, **values) -> Self:
         """Fix states (or groups) at t = T: ``final(q=1.0)``."""
         return self._fix("end", "final", values)
 
-    def _fix(self, at: str, prefix: str, values: Mapping[str, Any]) -> OCP:
+    def _fix(self, at: str, prefix: str, values: Mapping[str, Any]) -> Self:
         if not values:
             raise DefinitionError(f"`{prefix}`: give at least one state=value")
         ocp = self
@@ -1154,7 +1136,7 @@ class OCP:
             ocp = ocp._add_constraint(f"{prefix} {key}", select, value, value, at, None)
         return ocp
 
-    def periodic(self, mapping=None) -> OCP:
+    def periodic(self, mapping=None) -> Self:
         """Periodicity x(0) = mapping(x(T)); identity by default.
 
         ``mapping``: a callable of the SX state (nx,) returning (nx,), or a casadi.Function
@@ -1184,7 +1166,7 @@ class OCP:
                 )
         return dataclasses.replace(self, periodicity=(mapping,))
 
-    def minimize(self, integral=None, terminal=None, name: str = DEFAULT_TERM) -> OCP:
+    def minimize(self, integral=None, terminal=None, name: str = DEFAULT_TERM) -> Self:
         """An objective term: the integral of ``integral(p)`` over [0, T] (the transcription's
         quadrature) + ``terminal(p)`` at t = T (``p.x`` = x(T), ``p.x0``, ``p.T``); both
         scalar expressions of a :class:`Point`.
@@ -1210,7 +1192,7 @@ class OCP:
         terms = tuple(term if t.name == name else t for t in self.objective)
         return dataclasses.replace(self, objective=terms)
 
-    def param(self, name: str, lower=None, upper=None, guess=None, scale=None) -> OCP:
+    def param(self, name: str, lower=None, upper=None, guess=None, scale=None) -> Self:
         """A static parameter: one decision variable for the whole horizon (a free step
         length, a design quantity), a Point field ``p.<name>`` (and ``p.params``, all of
         them) in every expression: constraints, objective terms, the periodicity map.
@@ -1248,7 +1230,7 @@ class OCP:
         params = tuple(parameter if p.name == name else p for p in self.params)
         return dataclasses.replace(self, params=params)
 
-    def scale(self, **scales) -> OCP:
+    def scale(self, **scales) -> Self:
         """Nominal magnitudes of variables, groups or constraints: ``scale(M=100, clearance=0.05)``.
 
         The NLP works with v / scale; defects are divided by their state's scale and the
@@ -1298,7 +1280,7 @@ class OCP:
             return constraint.scale
         return default_scale(constraint.lower, constraint.upper)
 
-    def guess(self, source=None, *, t=None, T=None, **values) -> OCP:
+    def guess(self, source=None, *, t=None, T=None, **values) -> Self:
         """Add an initial guess; later guesses override earlier ones variable by variable.
 
         ``source``: a callable of time t (K,) s returning a dict (names or groups -> (K,) or
@@ -1330,7 +1312,7 @@ class OCP:
             layer = self._guess_source(source)
             layers.append(layer)
             if layer.kind == "solution" and self.free_time and T is None:
-                T_guess = float(np.clip(_source_duration(layer.source), *self.T))
+                T_guess = float(np.clip(source_duration(layer.source), *self.T))
         if values:
             layers.append(self._guess_values(values, t))
         elif t is not None:
@@ -1340,16 +1322,12 @@ class OCP:
         return dataclasses.replace(self, guesses=tuple(layers), T_guess=T_guess)
 
     def _guess_source(self, source) -> GuessLayer:
-        if hasattr(source, "interpolate_guess"):
-            return GuessLayer("solution", source=source)
-        if hasattr(source, "at") and hasattr(source, "state_names"):
+        if isinstance(source, Solution | Trajectory):
             return GuessLayer("solution", source=source)
         if callable(source):
             layer = GuessLayer("callable", source=source)
             # Evaluate once now so that a wrong shape or NaN fails at definition time.
             probe = np.linspace(0.0, self.duration_guess, 5)
-            from planner.transcription import evaluate_guess_layer
-
             evaluate_guess_layer(self, layer, probe)
             return layer
         if isinstance(source, Mapping):
@@ -1403,7 +1381,7 @@ class OCP:
     # ---- mesh, solving ------------------------------------------------------------------
     def refine(
         self, N: int | None = None, transcription: str | None = None, degree=None, mesh=None
-    ) -> OCP:
+    ) -> Self:
         """The same problem on another mesh (N, transcription, degree; ``mesh``: relative
         interval lengths, see :class:`OCP`; a new N without a ``mesh`` is uniform)."""
         changes: dict[str, Any] = {}
@@ -1420,18 +1398,6 @@ class OCP:
         if degree is not None:
             changes["degree"] = degree
         return dataclasses.replace(self, **changes)
-
-    def transcribe(self, expand: bool | None = None):
-        """The NLP of this OCP (:class:`planner.transcription.Transcription`), built now."""
-        from planner.transcription import Transcription
-
-        return Transcription(self, expand=expand)
-
-    def solve(self, **kwargs):
-        """Transcribe and solve; see :func:`planner.solver.solve` for the keyword arguments."""
-        from planner.solver import solve
-
-        return solve(self, **kwargs)
 
     # ---- printing ----------------------------------------------------------------------
     def __str__(self) -> str:
@@ -1512,9 +1478,9 @@ def _positive_array(label: str, value, size: int) -> np.ndarray:
 
 __all__ = [
     "FORMULATIONS",
-    "OCP",
     "TRANSCRIPTIONS",
     "Constraint",
+    "OCPDefinition",
     "ObjectiveTerm",
     "Param",
     "Point",

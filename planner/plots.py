@@ -13,15 +13,14 @@ start hinge H_{parent(i)} (H0 for the root) to its end hinge H_i, with the hinge
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from model.dynamics import Dynamics
 from model.errors import (
     DefinitionError,
     DefinitionTypeError,
@@ -35,39 +34,7 @@ from planner.trajectory import (
     TrajectoryFileError,
     TrajectoryFileNotFoundError,
 )
-
-if TYPE_CHECKING:
-    from model.dynamics import Dynamics
-
-#: Colours of the links, cycled: matplotlib's tab10, so a link keeps its colour in every plot.
-_COLOURS = (
-    "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
-    "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
-)  # fmt: skip
-
-
-# ---- channels against time ------------------------------------------------------------------
-def _panels(trajectory: Trajectory, extras: bool) -> list[tuple[str, str, list[str]]]:
-    """(label, unit, channel names) per panel: each group split by unit, in column order."""
-    panels: list[tuple[str, str, list[str]]] = []
-    for name, unit, group in trajectory.columns[1:]:
-        if group == "extra" and not extras:
-            continue
-        for label, panel_unit, names in panels:
-            if label == group and panel_unit == unit:
-                names.append(name)
-                break
-        else:
-            panels.append((group, unit, [name]))
-    return panels
-
-
-def _common_prefix(names: Sequence[str]) -> str:
-    """``psi`` for psi_a, psi_b: the part before the first underscore when all names share it."""
-    heads = {name.split("_", 1)[0] for name in names}
-    if len(heads) == 1 and all("_" in name for name in names):
-        return heads.pop()
-    return ""
+from planner.trajectory.plot import COLOURS, draw
 
 
 def plot_trajectory(
@@ -100,33 +67,12 @@ def plot_trajectory(
             f"`trajectory`: must be a planner.trajectory.Trajectory, got "
             f"{type(trajectory).__name__}"
         )
-    panels = _panels(trajectory, extras)
-    if not panels:
-        raise DefinitionError("`trajectory`: has no channels to plot")
-    figure = Figure(figsize=figsize or (8.0, 0.8 + 2.2 * len(panels)), layout="constrained")
-    axes = figure.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
-    time = trajectory.time
-    for ax, (group, unit, names) in zip(axes, panels, strict=True):
-        prefix = _common_prefix(names)
-        for j, name in enumerate(names):
-            label = name[len(prefix) + 1 :] if prefix else name
-            ax.plot(time, trajectory.column(name), color=_COLOURS[j % len(_COLOURS)], label=label)
-        # psi, dpsi, M for a linkage; otherwise the channel names when few, else the group
-        label = prefix or (", ".join(names) if len(names) <= 3 else group)
-        ax.set_ylabel(f"{label} [{unit}]")
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize="small", frameon=False)
-    axes[-1].set_xlabel("t [s]")
-    axes[-1].set_xlim(time[0], time[-1])
-    heading = title if title is not None else trajectory.metadata.get("source")
-    if heading:
-        figure.suptitle(str(heading))
-    return figure
+    return draw(trajectory, extras=extras, figsize=figsize, title=title)
 
 
 # ---- linkage geometry ---------------------------------------------------------------------
 def _check_linkage(dynamics: Dynamics, trajectory: Trajectory) -> None:
-    if not hasattr(dynamics, "hinge_positions") or not hasattr(dynamics, "linkage"):
+    if not isinstance(dynamics, Dynamics):
         raise DefinitionTypeError(
             f"`dynamics`: must be a model.Dynamics, got {type(dynamics).__name__}"
         )
@@ -231,7 +177,7 @@ def stick_figure_strip(
             ax.plot(
                 [start.real, end.real],
                 [start.imag, end.imag],
-                color=_COLOURS[i % len(_COLOURS)],
+                color=COLOURS[i % len(COLOURS)],
                 linewidth=2.0,
                 marker="o",
                 markersize=3.0,
@@ -322,7 +268,7 @@ def animate(
     ax.set_ylabel("y [m]")
     ax.plot([x0, x1], [0.0, 0.0], color="0.5", linewidth=0.8, zorder=0)
     lines = [
-        ax.plot([], [], color=_COLOURS[i % len(_COLOURS)], linewidth=2.5, marker="o",
+        ax.plot([], [], color=COLOURS[i % len(COLOURS)], linewidth=2.5, marker="o",
                 markersize=3.5, solid_capstyle="round", label=name)[0]
         for i, name in enumerate(names)
     ]  # fmt: skip

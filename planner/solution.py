@@ -41,6 +41,7 @@ from planner.simulation import (
     check_tolerance,
     monomial_coefficients,
 )
+from planner.trajectory import Trajectory
 
 #: Gauss-Legendre points per interval for residual_error. The integrand |f - dx/dt| has kinks
 #: where f - dx/dt changes sign, so the rule is not exact (its degree 2 * 12 - 1 exactness
@@ -601,8 +602,6 @@ class Solution:
         At the nodes (``rate_hz`` None) or resampled at ``rate_hz`` through this solution's
         own interpolant. A linkage uses the naming convention psi_, dpsi_, M_, ddpsi_.
         """
-        from planner.trajectory import Trajectory
-
         times = self.sample_times(rate_hz)
         states, controls = self(times)
         system = self.system

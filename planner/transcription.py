@@ -36,8 +36,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError, as_float_array
-from planner.ocp import OCP, Point, evaluate_expression
+from model.errors import DefinitionError, DefinitionTypeError
+from planner.guesses import evaluate_guess_layer
+from planner.ocp import OCPDefinition, Point, evaluate_expression
 from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
 from planner.solution import Solution
 
@@ -248,84 +249,6 @@ class Mesh:
         return k, scaled - k
 
 
-# ---- guesses ------------------------------------------------------------------------------
-def evaluate_guess_layer(ocp: OCP, layer, times: np.ndarray) -> dict[str, np.ndarray]:
-    """Values (name -> (K,)) that one guess layer gives at ``times`` (s)."""
-    system = ocp.system
-    K = times.size
-    if layer.kind == "constant":
-        return {name: np.full(K, float(v)) for name, v in layer.values.items()}
-    if layer.kind == "grid":
-        out = {}
-        for name, values in layer.values.items():
-            if layer.times.size == 1:
-                out[name] = np.full(K, float(values[0]))
-            else:
-                out[name] = np.interp(times, layer.times, values)
-        return out
-    if layer.kind == "solution":
-        source = layer.source
-        s = times / ocp.duration_guess
-        if hasattr(source, "interpolate_guess"):
-            return source.interpolate_guess(s)
-        t0, t1 = float(source.time[0]), float(source.time[-1])
-        states, controls = source.at(t0 + s * (t1 - t0))
-        out = {n: states[:, i] for i, n in enumerate(source.state_names)}
-        out.update({n: controls[:, i] for i, n in enumerate(source.control_names)})
-        extras = getattr(source, "extras", {}) or {}
-        for name, (values, _unit) in extras.items():
-            if name in system.aux_names:
-                out[name] = np.interp(t0 + s * (t1 - t0), np.asarray(source.time), values)
-        return {n: v for n, v in out.items() if n in system.variable_names}
-    # callable of t
-    try:
-        result = layer.source(times)
-    except Exception as exc:  # a user's law may fail in any way; say which guess failed
-        raise DefinitionError(f"`guess`: calling the guess function failed: {exc!r}") from exc
-    if isinstance(result, dict):
-        items = list(result.items())
-    elif isinstance(result, tuple | list):
-        order = ("psi", "dpsi", "ddpsi", "M") if system.is_linkage else ("x", "u", "z")
-        if len(result) > len(order):
-            raise DefinitionError(
-                f"`guess`: the function returned {len(result)} arrays; expected up to "
-                f"{len(order)}: {order}"
-            )
-        items = list(zip(order, result, strict=False))
-    else:
-        raise DefinitionTypeError(
-            "`guess`: the function must return a dict or a tuple "
-            f"({'(psi, dpsi[, ddpsi[, M]])' if system.is_linkage else '(x[, u[, z]])'}), "
-            f"got {type(result).__name__}"
-        )
-    out = {}
-    for key, value in items:
-        if key in ("ddpsi", "z") and system.group(key) is None:
-            if not system.is_linkage:
-                continue
-            # Explicit linkage: no ddpsi variables, but the accelerations still give the
-            # torque guess by inverse dynamics; keep them under their names.
-            names = tuple(f"ddpsi_{k}" for k in system.dynamics.names)
-        else:
-            names = ocp.resolve(key, "guess")
-        array = as_float_array(f"guess[{key}]", value, "numeric")
-        m = len(names)
-        if array.ndim == 1 and m == 1 and array.size == K:
-            array = array[:, None]
-        elif array.ndim == 1 and K == 1 and array.size == m:
-            array = array[None, :]
-        if array.shape != (K, m):
-            raise DefinitionError(
-                f"`guess[{key}]`: the function returned shape {array.shape} for {K} times; "
-                f"expected ({K}, {m})"
-            )
-        if not np.all(np.isfinite(array)):
-            raise DefinitionError(f"`guess[{key}]`: the function returned NaN or inf")
-        for i, name in enumerate(names):
-            out[name] = array[:, i]
-    return out
-
-
 # ---- the NLP ------------------------------------------------------------------------------
 def _reads(expression: ca.SX, symbols: ca.SX) -> bool:
     """Whether ``expression`` depends on any of ``symbols`` (False for no symbols)."""
@@ -344,8 +267,10 @@ class Transcription:
     transcription is solved many times).
     """
 
-    def __init__(self, ocp: OCP, expand: bool | None = None, *, phase_symbols=None) -> None:
-        if not isinstance(ocp, OCP):
+    def __init__(
+        self, ocp: OCPDefinition, expand: bool | None = None, *, phase_symbols=None
+    ) -> None:
+        if not isinstance(ocp, OCPDefinition):
             raise DefinitionTypeError(f"`ocp`: must be a planner.OCP, got {type(ocp).__name__}")
         start = time.perf_counter()
         self.ocp = ocp
@@ -1146,6 +1071,6 @@ class Transcription:
         # Static parameters: their own guesses, or the values of a Solution guessed from.
         P: dict[str, float] = {}
         for layer in ocp.guesses:
-            if layer.kind == "solution":
-                P.update(getattr(layer.source, "params", None) or {})
+            if isinstance(layer.source, Solution):  # a Trajectory carries no parameters
+                P.update(layer.source.params)
         return self.pack(X, U, Z, T, P)

@@ -38,7 +38,7 @@ from model.dynamics import Dynamics
 from model.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
-from planner.ocp import OCP
+from planner.problem import OCP
 from planner.solver import solve
 from planner.transcription import Transcription
 from problems.biped import Biped

@@ -55,8 +55,8 @@ from model.errors import (
 )
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
-from planner.ocp import OCP
-from planner.phases import Phases, PhasesTranscription
+from planner.phases import PhasesTranscription
+from planner.problem import OCP, Phases
 from planner.solver import solve
 from planner.transcription import Transcription
 from problems.biped import Biped

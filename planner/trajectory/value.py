@@ -52,7 +52,7 @@ import numpy as np
 
 from model.errors import DefinitionError, DefinitionTypeError, check_positive
 from planner import interpolation
-from planner.trajectory import formats
+from planner.trajectory import formats, plot
 from planner.trajectory.checks import (
     check_finite_array,
     check_label,
@@ -440,10 +440,8 @@ class Trajectory(LinkageViews):
     # ---- plotting ------------------------------------------------------------------------
     def plot(self, **options: Any) -> Figure:
         """States and controls against time, one panel per group and unit; see
-        :func:`planner.plots.plot_trajectory` for the options."""
-        from planner.plots import plot_trajectory
-
-        return plot_trajectory(self, **options)
+        :func:`planner.trajectory.plot.draw` (``extras``, ``figsize``, ``title``)."""
+        return plot.draw(self, **options)
 
     # ---- dunder --------------------------------------------------------------------------
     def __eq__(self, other: object) -> bool:
