@@ -50,7 +50,7 @@ from planner.ocp import (
     _free_symbols,
     _positive_array,
 )
-from planner.solution import Solution
+from planner.solution import IntegrationError, Solution
 from planner.trajectory import Trajectory
 from planner.transcription import Transcription
 
@@ -675,6 +675,18 @@ class PhasesSolution:
     @property
     def states(self) -> np.ndarray:
         return np.vstack([s.states for s in self.phases])
+
+    def integration_error(self, rtol: float = 1e-12, atol: float = 1e-12) -> IntegrationError:
+        """Every phase's intervals re-integrated (``Solution.integration_error``), stacked in
+        phase order, (sum N_k, nx); the phases must have the same states."""
+        errors = [s.integration_error(rtol, atol) for s in self.phases]
+        names = errors[0].state_names
+        if any(e.state_names != names for e in errors):
+            raise DefinitionError(
+                "`integration_error`: the phases have different states; read each phase's "
+                "(phase(name).integration_error())"
+            )
+        return IntegrationError(np.vstack([e.per_interval for e in errors]), names)
 
     def to_trajectory(self, rate_hz: float | None = None) -> Trajectory:
         """The phases one after another on one time axis, sampled like

@@ -153,6 +153,7 @@ def test_gait_benchmark_quick_run():
         "fixed-base gait six-link HS N=50",
         "Targets of the walking issue",
         "Mesh refinement of the six-link walking step",
+        "Double support (six-link, 0.5 m in 0.5 s)",
         "Local optima of the six-link fixed-base gait",
     ):
         assert expected in out, expected

@@ -261,6 +261,8 @@ def test_benchmark_quick_run():
         "same-mesh warm start with multipliers",
         "walking pieces",
         "+ all three",
+        "phases: the headline",
+        "two phases",
     ):
         assert expected in result.stdout, expected
     assert "Maximum_Iterations" not in result.stdout

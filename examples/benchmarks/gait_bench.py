@@ -15,7 +15,9 @@ Printed, measured in one run:
 2. the issue's targets next to the medians (define + build + solve at most 0.4 s for the
    walking step, 0.5 s for the fixed-base gait), as ratios;
 3. mesh refinement of the walking step: cost at N = 30, 60, 120 and the spread;
-4. local optima of the fixed-base gait on one mesh: IPOPT started from the law (the default),
+4. the double support: the step with the legs swapping at heel strike against a double-support
+   phase of 0.05 and 0.1 s (cost, cost of transport, impulse, peak torques, times);
+5. local optima of the fixed-base gait on one mesh: IPOPT started from the law (the default),
    the law shifted by half a period, the law reversed in time, the "paper22" law and the
    standing pose, with the costs it reaches.
 """
@@ -97,6 +99,36 @@ def problems_table(quick: bool) -> list[tuple[str, callable]]:
     return rows
 
 
+def double_support_rows(quick: bool, repeats: int) -> list[dict]:
+    """The six-link step (0.5 m in 0.5 s, HS N = 30) with the legs swapping at heel strike
+    (an instantaneous double support) and with a double support of 0.05 and 0.1 s; a fresh
+    solver per solve."""
+    rows = []
+    for duration in (0.0, 0.1) if quick else (0.0, 0.05, 0.1):
+        solves, result = [], None
+        for _ in range(repeats):
+            result = walking_step(N=15 if quick else 30, double_support=duration).solve(
+                progress=False, cache=False
+            )
+            stats = result.solution.stats
+            solves.append((stats["build_seconds"], stats["solve_seconds"]))
+        summary = result.summary()
+        rows.append(
+            {
+                "double support": duration,
+                "cost": result.cost,
+                "peak": summary["peak_torque"],
+                "cot": summary["cost_of_transport"],
+                "impulse": float(np.hypot(*summary["impulse"])),
+                "iterations": result.solution.iterations,
+                "build": statistics.median(b for b, _ in solves),
+                "solve": statistics.median(s for _, s in solves),
+                "verified": result.verify().ok,
+            }
+        )
+    return rows
+
+
 def local_optima(quick: bool) -> list[tuple[str, str, int, float]]:
     problem = periodic_gait(N=30 if quick else 50)
     law = problem.law
@@ -161,6 +193,26 @@ def main(argv=None) -> int:
     for N, cost in zip(meshes, costs, strict=True):
         print(f"  N = {N:<4} cost {cost:.4f}")
     print(f"  spread (max / min - 1): {max(costs) / min(costs) - 1:.2e}")
+    print()
+    print(
+        "Double support (six-link, 0.5 m in 0.5 s): legs swapping at heel strike (0 s) against "
+        "a double-support phase (planner.Phases); peak |M| per hinge, N m"
+    )
+    names = None
+    for r in double_support_rows(options.quick, repeats):
+        names = names or list(r["peak"])
+        if r is not None and r["double support"] == 0.0:
+            print(
+                f"  {'double support':>14} {'cost':>9} {'CoT':>6} {'impulse':>8} {'iter':>5} "
+                f"{'build ms':>9} {'solve ms':>9}  peak |M| " + " ".join(f"{n:>12}" for n in names)
+            )
+        print(
+            f"  {r['double support']:>12.2f} s {r['cost']:>9.2f} {r['cot']:>6.3f} "
+            f"{r['impulse']:>6.2f}Ns {r['iterations']:>5d} {1e3 * r['build']:>9.1f} "
+            f"{1e3 * r['solve']:>9.1f}  {'':>8} "
+            + " ".join(f"{r['peak'][n]:>12.1f}" for n in names)
+            + ("" if r["verified"] else "  NOT VERIFIED")
+        )
     print()
     print("Local optima of the six-link fixed-base gait (walking law, one mesh), by start:")
     for label, status, iterations, cost in local_optima(options.quick):

@@ -37,15 +37,19 @@ so compare the ratios of a run, not runs):
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import statistics
+import subprocess
 import sys
+import tempfile
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
 
 from model import presets
-from planner import OCP
+from planner import OCP, Phases
 from planner.solver_cache import SOLVERS
 from problems import GaitLaw
 
@@ -80,6 +84,68 @@ def paper22_gait(
         .minimize(integral=lambda p: ca.sumsqr(p.M))
         .guess(LAW)
     )
+
+
+def split_gait(N: int, dynamics) -> Phases:
+    """The headline gait cut at T/2 into two phases joined by continuity, periodic over both:
+    the same problem written with planner.Phases (each phase's time restarts at 0, so the
+    second phase reads the law at t + T/2)."""
+    half = PERIOD / 2
+
+    def phase(offset: float) -> OCP:
+        return (
+            OCP(dynamics, T=half, N=N // 2)
+            .constrain(
+                "near_law",
+                lambda p: p.psi - LAW.psi(p.t + offset),
+                lower=-BAND,
+                upper=BAND,
+            )
+            .minimize(integral=lambda p: ca.sumsqr(p.M))
+            .guess(lambda t: LAW(t + offset))
+        )
+
+    return Phases.sequence(("first", phase(0.0)), ("second", phase(half))).periodic()
+
+
+def baseline_headline(revision: str, N: int, repeat: int) -> dict | None:
+    """The headline (Hermite-Simpson gait of this benchmark) built and solved by the code of
+    git ``revision`` of this repository, in a subprocess, medians of ``repeat``; None when
+    git or the revision is not available. The "before" of a change, measured in this run."""
+    root = Path(__file__).resolve().parents[2]
+    with tempfile.TemporaryDirectory() as folder:
+        tree = Path(folder) / "tree"
+        added = subprocess.run(
+            ["git", "-C", str(root), "worktree", "add", "--detach", str(tree), revision],
+            capture_output=True,
+            text=True,
+        )
+        if added.returncode != 0:
+            return None
+        try:
+            script = (
+                "import json, statistics, sys\n"
+                f"sys.path[:0] = [{str(tree)!r}, {str(tree / 'examples' / 'benchmarks')!r}]\n"
+                "import planner_bench as b\n"
+                "runs = []\n"
+                f"for _ in range({repeat}):\n"
+                f"    s = b.paper22_gait({N}).solve(progress=False)\n"
+                "    runs.append((s.stats['build_seconds'], s.stats['solve_seconds'],"
+                " s.stats['iterations'], s.cost))\n"
+                "print(json.dumps([statistics.median(c) for c in zip(*runs)]))\n"
+            )
+            done = subprocess.run(
+                [sys.executable, "-c", script], capture_output=True, text=True, cwd=folder
+            )
+            if done.returncode != 0:
+                return None
+            build, solve, iterations, cost = json.loads(done.stdout.strip().splitlines()[-1])
+            return {"build": build, "solve": solve, "iterations": iterations, "cost": cost}
+        finally:
+            subprocess.run(
+                ["git", "-C", str(root), "worktree", "remove", "--force", str(tree)],
+                capture_output=True,
+            )
 
 
 def walking_pieces(N: int, dynamics) -> dict[str, OCP]:
@@ -208,6 +274,12 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="smoke run: N = 10, 20, once")
     parser.add_argument("--repeat", type=int, default=3, help="runs per case (median)")
+    parser.add_argument(
+        "--baseline",
+        metavar="REV",
+        help="also build and solve the headline with the code of git revision REV (a "
+        "subprocess on a temporary worktree): the before of a change, in this run",
+    )
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stdout)
     Ns = (10, 20) if args.quick else (10, 20, 40, 80, 160)
@@ -423,6 +495,35 @@ def main(argv=None) -> int:
     )
     if not (same["warm_start"] and wide["warm_start"]):
         lines.append("warning: the multipliers were not reused (stats['warm_start'] False)")
+    logger.info("\n".join(lines))
+
+    # ---- phases: the headline cut in two (continuity at T/2, periodic over both) --------
+    one = measure(paper22_gait(N, dynamics=dynamics), repeat_warm)
+    two = measure(split_gait(N, dynamics), repeat_warm)
+    lines = [
+        f"\nphases: the headline (hermite-simpson N={N}) as one phase and cut at T/2 into two "
+        "(planner.Phases: each half N/2 intervals, continuity, periodic)",
+        f"{'case':<17}" + HEADER[17:] + "  build x  solve x",
+        row("one phase", N, one),
+        row("two phases", N, two)
+        + f"  {two['build'] / one['build']:>7.2f} {two['solve'] / one['solve']:>8.2f}",
+        f"same optimum: costs {one['cost']:.6f} and {two['cost']:.6f} "
+        f"(relative difference {abs(two['cost'] / one['cost'] - 1):.1e}); the two-phase NLP "
+        f"holds the node at T/2 twice ({two['n_w'] - one['n_w']} variables more)",
+    ]
+    if args.baseline:
+        before = baseline_headline(args.baseline, N, repeat_warm)
+        if before is None:
+            lines.append(f"baseline {args.baseline}: not available (git or the revision)")
+        else:
+            lines.append(
+                f"headline before (git {args.baseline}) / now: build "
+                f"{1e3 * before['build']:.1f} / {1e3 * one['build']:.1f} ms "
+                f"({one['build'] / before['build']:.2f}x), solve {1e3 * before['solve']:.1f} / "
+                f"{1e3 * one['solve']:.1f} ms ({one['solve'] / before['solve']:.2f}x), "
+                f"iterations {before['iterations']:.0f} / {one['iterations']:.0f}, cost "
+                f"{before['cost']:.6f} / {one['cost']:.6f}"
+            )
     logger.info("\n".join(lines))
 
     pieces = {
