@@ -88,7 +88,7 @@ def evaluate_guess_layer(
     if isinstance(result, dict):
         items = list(result.items())
     elif isinstance(result, tuple | list):
-        order = ("psi", "dpsi", "ddpsi", "M") if system.is_linkage else ("x", "u", "z")
+        order = system.guess_order
         if len(result) > len(order):
             raise DefinitionError(
                 f"`guess`: the function returned {len(result)} arrays; expected up to "
@@ -98,17 +98,18 @@ def evaluate_guess_layer(
     else:
         raise DefinitionTypeError(
             "`guess`: the function must return a dict or a tuple "
-            f"({'(psi, dpsi[, ddpsi[, M]])' if system.is_linkage else '(x[, u[, z]])'}), "
+            f"(of up to {len(system.guess_order)} arrays: {', '.join(system.guess_order)}), "
             f"got {type(result).__name__}"
         )
     out = {}
     for key, value in items:
-        if key in ("ddpsi", "z") and system.group(key) is None:
-            if not system.is_linkage:
-                continue
-            # Explicit linkage: no ddpsi variables, but the accelerations still give the
-            # torque guess by inverse dynamics; keep them under their names.
-            names = tuple(f"ddpsi_{k}" for k in system.dynamics.names)
+        derived = system.derived_field(key)
+        if derived is not None:
+            # A derived field (explicit accelerations) is no variable, but its values may
+            # still complete other guesses (torques by inverse dynamics): keep its names.
+            names = derived.names
+        elif key == "z" and system.group(key) is None:
+            continue  # an explicit system has no auxiliary variables: nothing to guess
         else:
             names = ocp.resolve(key, "guess")
         array = as_float_array(f"guess[{key}]", value, "numeric")

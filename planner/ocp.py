@@ -22,20 +22,23 @@ with several outputs gives a constraint one row block, rows named after the outp
 the variables, a Point offers fields computed from them: a linkage's ``ddpsi`` in both
 formulations and control rates (``du``; a linkage's ``dM``, ``dM_<link>``).
 
-Variables. A system has states x (nx,), controls u (nu,) and, in the implicit formulation,
-auxiliary variables z (nz,) that stand for the state derivatives the residual needs. For a
-``model.Dynamics`` (linkage naming convention of ``planner.trajectory``): x = [psi; dpsi]
-(states ``psi_<link>`` rad, ``dpsi_<link>`` rad/s), u = M (``M_<link>``, N m) and, implicit
-only, z = ddpsi (``ddpsi_<link>``, rad/s^2); groups ``psi``, ``dpsi``, ``ddpsi``, ``M``.
-For a CasADi ODE Function f(x, u[, t]) -> xdot: groups ``x`` and ``u``; with
-``formulation="implicit"`` the Function is a residual r(x, xdot, u[, t]) (nx,) and z = xdot.
+Variables. The OCP knows its model only through a :class:`planner.system.System`, which names
+them: states x (nx,), controls u (nu,) and, in the implicit formulation, auxiliary variables
+z (nz,) that stand for the state derivatives the residual needs, with their groups and units.
+A ``model.Dynamics`` becomes one through the linkage adapter
+(:func:`planner.linkage_system.linkage_system`, the linkage naming convention): x = [psi;
+dpsi] (states ``psi_<link>`` rad, ``dpsi_<link>`` rad/s), u = M (``M_<link>``, N m) and,
+implicit only, z = ddpsi (``ddpsi_<link>``, rad/s^2); groups ``psi``, ``dpsi``, ``ddpsi``,
+``M``. A CasADi ODE Function f(x, u[, t]) -> xdot becomes one with groups ``x`` and ``u``;
+with ``formulation="implicit"`` the Function is a residual r(x, xdot, u[, t]) (nx,) and
+z = xdot. A System from any other adapter is taken as it is.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -52,8 +55,10 @@ from model.errors import (
 )
 from planner import schemes
 from planner.guesses import GuessLayer, evaluate_guess_layer, source_duration
+from planner.linkage_system import linkage_system
 from planner.schemes import TRANSCRIPTIONS
 from planner.solution import Solution
+from planner.system import System
 from planner.trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -62,284 +67,6 @@ if TYPE_CHECKING:
 FORMULATIONS = ("implicit", "explicit")
 #: The name of an objective term given without one (``OCP.minimize``).
 DEFAULT_TERM = "objective"
-
-
-# ---- the system: what the transcription needs from any dynamics ------------------------------
-@dataclass(frozen=True, eq=False)
-class DerivedField:
-    """A group of Point fields that are expressions of the variables, not variables.
-
-    ``function``: SX Function (x (nx,), z (nz,), u (nu,), t (1,)) -> (m,); the Point offers
-    the column as ``group`` and its rows by ``names`` (units ``units``).
-    """
-
-    group: str
-    names: tuple[str, ...]
-    units: tuple[str, ...]
-    function: ca.Function
-
-
-@dataclass(frozen=True, eq=False)
-class System:
-    """Dynamics in the planner's form: xdot = rate(x, z, u, t) and 0 = residual(x, z, u, t).
-
-    ``rate`` and ``residual`` are SX Functions with inputs (x (nx,), z (nz,), u (nu,), t (1,));
-    ``residual`` is None (nz = 0) for explicit dynamics. ``ode`` (x, u, t) -> xdot, when known,
-    serves re-simulation. ``groups`` maps group names (``psi``, ``M``, ``x``, ...) to variable
-    names; ``residual_scale_group`` names the group whose nominal scales scale the residual
-    rows (torques for a linkage: the residual is in N m).
-
-    Point fields that are no NLP variables, named by the system (see :class:`Point`):
-    ``derived`` groups of expressions of (x, z, u, t) (a linkage's ``ddpsi`` in the explicit
-    formulation: its forward dynamics), and the control rates du/dt, one name per control
-    (``control_rate_names``: ``dM_<link>``, or ``d<control>``) gathered in the groups
-    ``control_rate_groups`` (``dM`` and ``du``, or ``du``); a group given as (name, count)
-    holds the first ``count`` rates only (a linkage with contact forces: ``dM``, the
-    torques').
-    """
-
-    rate: ca.Function
-    residual: ca.Function | None
-    ode: ca.Function | None
-    state_names: tuple[str, ...]
-    state_units: tuple[str, ...]
-    control_names: tuple[str, ...]
-    control_units: tuple[str, ...]
-    aux_names: tuple[str, ...]
-    aux_units: tuple[str, ...]
-    groups: tuple[tuple[str, tuple[str, ...]], ...]
-    residual_scale_group: str
-    formulation: str
-    dynamics: Dynamics | None = None
-    derived: tuple[DerivedField, ...] = ()
-    control_rate_names: tuple[str, ...] = ()
-    control_rate_groups: tuple[str | tuple[str, int], ...] = ()
-
-    @property
-    def nx(self) -> int:
-        return len(self.state_names)
-
-    @property
-    def nu(self) -> int:
-        return len(self.control_names)
-
-    @property
-    def nz(self) -> int:
-        return len(self.aux_names)
-
-    @property
-    def is_linkage(self) -> bool:
-        return self.dynamics is not None
-
-    @property
-    def variable_names(self) -> tuple[str, ...]:
-        return self.state_names + self.control_names + self.aux_names
-
-    def unit(self, name: str) -> str:
-        names = self.variable_names
-        units = self.state_units + self.control_units + self.aux_units
-        return units[names.index(name)]
-
-    def group(self, name: str) -> tuple[str, ...] | None:
-        for key, members in self.groups:
-            if key == name:
-                return members
-        return None
-
-    @property
-    def point_only_fields(self) -> tuple[str, ...]:
-        """Names of the Point fields that are expressions, not NLP variables: derived groups
-        and their rows, control-rate groups and names."""
-        names: list[str] = []
-        for derived in self.derived:
-            names.extend((derived.group, *derived.names))
-        groups = [g if isinstance(g, str) else g[0] for g in self.control_rate_groups]
-        names.extend((*groups, *self.control_rate_names))
-        return tuple(names)
-
-    @staticmethod
-    def from_dynamics(
-        dynamics: Dynamics, formulation: str = "implicit", contacts: Sequence = ()
-    ) -> System:
-        """The linkage system: x = [psi; dpsi], u = M, z = ddpsi (implicit only).
-
-        ``contacts``: points of the linkage (``model.LinkPoint``) held by the ground, whose
-        ground forces (Fx, Fy), N, are more controls (``F_<point>_x``, ``F_<point>_y``; group
-        ``F``): the equations of motion are those of the tree with these forces applied
-        (their hinge moments, ``PointKinematics.hinge_moments``), so a closed chain (a
-        double support) is the tree plus a constraint holding the point and these forces.
-        """
-        n = dynamics.n
-        links = dynamics.names
-        psi, dpsi = (f"psi_{k}" for k in links), (f"dpsi_{k}" for k in links)
-        states = (*psi, *dpsi)
-        torques = tuple(f"M_{k}" for k in links)
-        points = [dynamics.point(c) for c in contacts]
-        forces = tuple(f"F_{p.identifier}_{axis}" for p in points for axis in ("x", "y"))
-        controls = (*torques, *forces)
-        x = ca.SX.sym("x", 2 * n)
-        u = ca.SX.sym("u", len(controls))
-        t = ca.SX.sym("t")
-        # The hinge torques the contact forces stand for, added to the drives' (N m).
-        applied = u[:n]
-        for j, p in enumerate(points):
-            moments = p.function("hinge_moments")
-            applied = applied + moments(x[:n], u[n + 2 * j : n + 2 * j + 2])
-        ode = dynamics.function("ode")
-        ode_t = ca.Function("ode", [x, u, t], [ode(x, applied)], ["x", "u", "t"], ["xdot"])
-        accelerations = tuple(f"ddpsi_{k}" for k in links)
-        derived: tuple[DerivedField, ...] = ()
-        if formulation == "implicit":
-            z = ca.SX.sym("z", n)
-            residual_f = dynamics.function("dynamics_residual")
-            rate = ca.vertcat(x[n:], z)
-            residual = ca.Function(
-                "residual",
-                [x, z, u, t],
-                [residual_f(x[:n], x[n:], z, applied)],
-                ["x", "z", "u", "t"],
-                ["residual"],
-            )
-            aux = accelerations
-        else:
-            z = ca.SX.sym("z", 0)
-            rate = ode(x, applied)
-            residual = None
-            aux = ()
-            # Explicit: ddpsi is no variable; the Point offers the forward dynamics instead,
-            # so that one constraint (a ground reaction, a foot acceleration) reads the same
-            # in both formulations.
-            forward = ca.Function(
-                "ddpsi", [x, z, u, t], [rate[n:]], ["x", "z", "u", "t"], ["ddpsi"]
-            )
-            derived = (DerivedField("ddpsi", accelerations, ("rad/s^2",) * n, forward),)
-        rate_f = ca.Function("rate", [x, z, u, t], [rate], ["x", "z", "u", "t"], ["xdot"])
-        groups = (
-            ("psi", states[:n]),
-            ("dpsi", states[n:]),
-            ("M", torques),
-            ("x", states),
-            ("u", controls),
-        )
-        if forces:
-            groups = (*groups, ("F", forces))
-        if aux:
-            groups = (*groups, ("ddpsi", aux), ("z", aux))
-        return System(
-            rate=rate_f,
-            residual=residual,
-            ode=ode_t,
-            state_names=states,
-            state_units=("rad",) * n + ("rad/s",) * n,
-            control_names=controls,
-            control_units=("N m",) * n + ("N",) * len(forces),
-            aux_names=aux,
-            aux_units=("rad/s^2",) * len(aux),
-            groups=groups,
-            residual_scale_group="M",
-            formulation=formulation,
-            dynamics=dynamics,
-            derived=derived,
-            control_rate_names=tuple(f"d{c}" for c in controls),
-            control_rate_groups=(("dM", n), "du"),
-        )
-
-    @staticmethod
-    def from_function(
-        function: ca.Function,
-        formulation: str,
-        state_names: Sequence[str] | None,
-        control_names: Sequence[str] | None,
-        state_units: Sequence[str] | None,
-        control_units: Sequence[str] | None,
-    ) -> System:
-        """A system from an ODE f(x, u[, t]) -> xdot or an implicit r(x, xdot, u[, t]) -> (nx,)."""
-        implicit = formulation == "implicit"
-        n_in = function.n_in()
-        expected = "r(x, xdot, u[, t])" if implicit else "f(x, u[, t])"
-        if n_in not in ((3, 4) if implicit else (2, 3)) or function.n_out() != 1:
-            raise DefinitionError(
-                f"`dynamics`: a {formulation} dynamics Function must be {expected} with one "
-                f"output; got {function.n_in()} inputs {function.name_in()} and "
-                f"{function.n_out()} outputs"
-            )
-        for i in range(n_in):
-            if function.size2_in(i) != 1:
-                raise DefinitionError(
-                    f"`dynamics`: input {function.name_in(i)!r} must be a column vector, got "
-                    f"shape {function.size_in(i)}"
-                )
-        nx = function.size1_in(0)
-        nu = function.size1_in(2 if implicit else 1)
-        if implicit and function.size1_in(1) != nx:
-            raise DefinitionError(
-                f"`dynamics`: the xdot input must have nx = {nx} rows, got {function.size1_in(1)}"
-            )
-        if function.size_out(0) != (nx, 1):
-            raise DefinitionError(
-                f"`dynamics`: the output must have shape ({nx}, 1) like x, "
-                f"got {function.size_out(0)}"
-            )
-        if n_in == (4 if implicit else 3) and function.size_in(n_in - 1) != (1, 1):
-            raise DefinitionError(
-                f"`dynamics`: the time input must be scalar, got {function.size_in(n_in - 1)}"
-            )
-        states = _names("state_names", state_names, nx, "x")
-        controls = _names("control_names", control_names, nu, "u")
-        s_units = _names("state_units", state_units, nx, None) if state_units else ("-",) * nx
-        c_units = _names("control_units", control_units, nu, None) if control_units else ("-",) * nu
-        x = ca.SX.sym("x", nx)
-        u = ca.SX.sym("u", nu)
-        t = ca.SX.sym("t")
-        if implicit:
-            z = ca.SX.sym("z", nx)
-            args = [x, z, u] + ([t] if n_in == 4 else [])
-            residual = ca.Function(
-                "residual", [x, z, u, t], [function(*args)], ["x", "z", "u", "t"], ["residual"]
-            )
-            rate = z
-            ode = None
-            aux = tuple(f"d{name}" for name in states)
-        else:
-            z = ca.SX.sym("z", 0)
-            args = [x, u] + ([t] if n_in == 3 else [])
-            rate = function(*args)
-            ode = ca.Function("ode", [x, u, t], [rate], ["x", "u", "t"], ["xdot"])
-            residual = None
-            aux = ()
-        rate_f = ca.Function("rate", [x, z, u, t], [rate], ["x", "z", "u", "t"], ["xdot"])
-        groups = (("x", states), ("u", controls)) + ((("z", aux),) if aux else ())
-        return System(
-            rate=rate_f,
-            residual=residual,
-            ode=ode,
-            state_names=states,
-            state_units=s_units,
-            control_names=controls,
-            control_units=c_units,
-            aux_names=aux,
-            aux_units=tuple(f"{unit}/s" for unit in s_units) if aux else (),
-            groups=groups,
-            residual_scale_group="x",
-            formulation=formulation,
-            control_rate_names=tuple(f"d{name}" for name in controls),
-            control_rate_groups=("du",),
-        )
-
-
-def _names(field_name: str, names, size: int, prefix: str | None) -> tuple[str, ...]:
-    if names is None:
-        return tuple(f"{prefix}_{i}" for i in range(size))
-    if isinstance(names, str) or not all(isinstance(n, str) for n in names):
-        raise DefinitionTypeError(f"`{field_name}`: must be a sequence of strings, got {names!r}")
-    names = tuple(names)
-    if len(names) != size:
-        raise DefinitionError(
-            f"`{field_name}`: the dynamics has {size} of them, got {len(names)} names {names}"
-        )
-    if prefix is not None and len(set(names)) != size:
-        raise DefinitionError(f"`{field_name}`: names must be unique, got {names}")
-    return names
 
 
 # ---- the Point: what expressions see -----------------------------------------------------
@@ -841,16 +568,23 @@ class OCPDefinition:
 
     def __post_init__(self) -> None:
         dynamics = self.dynamics
-        if not isinstance(dynamics, Dynamics | ca.Function):
+        if not isinstance(dynamics, Dynamics | ca.Function | System):
             raise DefinitionTypeError(
-                "`dynamics`: must be a model.Dynamics or a casadi.Function f(x, u[, t]) -> xdot, "
-                f"got {type(dynamics).__name__}"
+                "`dynamics`: must be a model.Dynamics or a casadi.Function f(x, u[, t]) -> xdot "
+                f"(or a planner System from an adapter), got {type(dynamics).__name__}"
             )
         linkage = isinstance(dynamics, Dynamics)
-        formulation = self.formulation or ("implicit" if linkage else "explicit")
+        given = isinstance(dynamics, System)
+        default = dynamics.formulation if given else "implicit" if linkage else "explicit"
+        formulation = self.formulation or default
         if formulation not in FORMULATIONS:
             raise DefinitionError(
                 f"`formulation`: unknown {formulation!r}; use one of {FORMULATIONS}"
+            )
+        if given and formulation != dynamics.formulation:
+            raise DefinitionError(
+                f"`formulation`: the System given is {dynamics.formulation}, got "
+                f"{formulation!r}; build the System in the formulation wanted"
             )
         if self.contacts and not linkage:
             raise DefinitionError(
@@ -859,14 +593,19 @@ class OCPDefinition:
             )
         if not isinstance(self.contacts, tuple):
             object.__setattr__(self, "contacts", tuple(self.contacts))
-        if linkage:
+        if linkage or given:
+            owner = "a model.Dynamics" if linkage else "a System"
             for name in ("state_names", "control_names", "state_units", "control_units"):
                 if getattr(self, name) is not None:
                     raise DefinitionError(
-                        f"`{name}`: a model.Dynamics names its own variables (psi_<link>, ...); "
-                        "give names only with a casadi.Function"
+                        f"`{name}`: {owner} names its own variables "
+                        "(planner.linkage_system for a linkage); give names only with a "
+                        "casadi.Function"
                     )
-            system = System.from_dynamics(dynamics, formulation, self.contacts)
+        if given:
+            system = dynamics
+        elif linkage:
+            system = linkage_system(dynamics, formulation, self.contacts)
         else:
             system = System.from_function(
                 dynamics,

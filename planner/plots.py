@@ -29,6 +29,7 @@ from model.errors import (
     check_real,
 )
 from planner.files import atomic_path
+from planner.linkage_system import CONVENTION
 from planner.trajectory import (
     Trajectory,
     TrajectoryFileError,
@@ -83,8 +84,8 @@ def _check_linkage(dynamics: Dynamics, trajectory: Trajectory) -> None:
         )
     if not trajectory.is_linkage:
         raise DefinitionError(
-            f"`trajectory`: a stick figure needs a linkage trajectory (states psi_<link>, "
-            f"dpsi_<link>), got states {list(trajectory.state_names)}"
+            f"`trajectory`: a stick figure needs a linkage trajectory ({CONVENTION}), got "
+            f"states {list(trajectory.state_names)}"
         )
     if tuple(trajectory.link_names) != tuple(dynamics.linkage.names):
         raise DefinitionError(

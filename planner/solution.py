@@ -232,21 +232,26 @@ class Solution:
 
     @property
     def torques(self) -> np.ndarray:
-        """(N+1, n) hinge torques at the nodes, N m (a linkage's controls; contact forces,
-        when there are any, follow them among the controls)."""
-        self._require_linkage("torques")
-        return self.controls[:, : self.system.dynamics.n]
+        """(N+1, n) drive torques at the nodes (the system's ``drives`` group: a linkage's
+        hinge torques, N m, without the contact forces that may follow them)."""
+        self._require_role("drives", "torques")
+        columns = [self.system.control_names.index(n) for n in self.system.role_names("drives")]
+        return self.controls[:, columns]
 
     @property
     def ddpsi(self) -> np.ndarray | None:
-        """(N+1, n) angular accelerations at the nodes, rad/s^2 (a linkage only)."""
-        if not self.system.is_linkage:
+        """(N+1, n) second derivatives of the states at the nodes (the system's
+        ``accelerations``: a linkage's angular accelerations, rad/s^2), or None."""
+        if self.system.accelerations is None:
             return None
         return self.acceleration(self.time)
 
-    def _require_linkage(self, what: str) -> None:
-        if not self.system.is_linkage:
-            raise DefinitionError(f"`{what}`: defined for a model.Dynamics problem only")
+    def _require_role(self, role: str, what: str) -> None:
+        if getattr(self.system, role) is None:
+            raise DefinitionError(
+                f"`{what}`: defined for a model.Dynamics problem only (a system with "
+                f"{role}); this system has none"
+            )
 
     def _rates(self) -> np.ndarray:
         """(nC, nx) f(x, z, u, t) at the dynamics points, through the NLP's own point Function."""
@@ -316,20 +321,25 @@ class Solution:
         return self._point_values(self.aux_values, t)
 
     def acceleration(self, t) -> np.ndarray:
-        """ddpsi at times t, (K, n), rad/s^2 (a linkage): the NLP's ddpsi polynomial
-        (implicit), or forward dynamics of the interpolated state and torques (explicit)."""
-        self._require_linkage("acceleration")
-        if self.system.nz:
-            return self.aux(t)
-        n = self.system.dynamics.n
-        x = self.state(t)
-        u = self.control(t)
-        if self.system.nu == n:
-            return np.atleast_2d(self.system.dynamics.forward_dynamics(x[:, :n], x[:, n:], u))
-        # Contact forces too: the system's own rate (forward dynamics with their moments).
+        """The system's ``accelerations`` at times t, (K, n) (a linkage's ddpsi, rad/s^2): the
+        NLP's polynomial of those variables (implicit), or the derived field evaluated on
+        the interpolated states and controls (explicit: a linkage's forward dynamics, with
+        the moments of contact forces when there are any)."""
+        self._require_role("accelerations", "acceleration")
+        return self._field(self.system.accelerations, t)
+
+    def _field(self, group: str, t) -> np.ndarray:
+        """(K, m) values of a group of auxiliary variables or of a derived field at times t."""
+        s = self.system
+        members = s.group(group)
+        if members is not None and all(name in s.aux_names for name in members):
+            return self.aux(t)[:, [s.aux_names.index(name) for name in members]]
+        derived = s.derived_field(group)
         times = np.atleast_1d(np.asarray(t, dtype=float))
-        rate = self.system.ode.map(times.size)(x.T, u.T, times[None, :])
-        return np.asarray(rate).T[:, n:]
+        x, u = self.state(times), self.control(times)
+        z = self.aux(times) if s.nz else np.zeros((times.size, 0))
+        values = derived.function.map(times.size)(x.T, z.T, u.T, times[None, :])
+        return np.asarray(values).T
 
     def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
         """(states (K, nx), controls (K, nu)) at times t through the transcription's polynomials."""
@@ -353,13 +363,21 @@ class Solution:
         states, controls = self(t)
         out.update({n: states[:, i] for i, n in enumerate(self.system.state_names)})
         out.update({n: controls[:, i] for i, n in enumerate(self.system.control_names)})
-        if self.system.is_linkage:
-            accelerations = self.acceleration(t)
-            for i, link in enumerate(self.system.dynamics.names):
-                out[f"ddpsi_{link}"] = accelerations[:, i]
-        elif self.system.nz:
+        out.update(self._extras(t))
+        return out
+
+    def _extras(self, t) -> dict[str, np.ndarray]:
+        """name -> (K,) at times t: the auxiliary variables and the derived
+        ``accelerations`` (explicit), the channels a trajectory stores besides the states
+        and the drives (and what a guess on another mesh or formulation needs)."""
+        s = self.system
+        out = {}
+        if s.nz:
             aux = self.aux(t)
-            out.update({n: aux[:, i] for i, n in enumerate(self.system.aux_names)})
+            out.update({n: aux[:, i] for i, n in enumerate(s.aux_names)})
+        if s.accelerations is not None and s.group(s.accelerations) is None:
+            values = self._field(s.accelerations, t)
+            out.update({n: values[:, i] for i, n in enumerate(s.role_names("accelerations"))})
         return out
 
     # ---- accuracy ----------------------------------------------------------------------
@@ -568,7 +586,7 @@ class Solution:
         system = self.system
         return {
             "source": "planner",
-            "model": system.dynamics.linkage.parameters() if system.is_linkage else None,
+            "model": None if system.model is None else dict(system.model),
             "transcription": self.scheme.name,
             "degree": self.scheme.degree,
             "N": self.N,
@@ -600,39 +618,32 @@ class Solution:
         """The solution as a :class:`planner.trajectory.Trajectory`.
 
         At the nodes (``rate_hz`` None) or resampled at ``rate_hz`` through this solution's
-        own interpolant. A linkage uses the naming convention psi_, dpsi_, M_, ddpsi_.
+        own interpolant, in the system's names: its drives as the controls, the other
+        controls, the auxiliary variables and the derived accelerations as extras (a
+        linkage: psi_, dpsi_ states, M_ controls, ddpsi_ and contact-force extras).
         """
         times = self.sample_times(rate_hz)
         states, controls = self(times)
-        system = self.system
-        if system.is_linkage:
-            n = system.dynamics.n
-            trajectory = Trajectory.from_linkage(
-                times,
-                states[:, :n],
-                states[:, n:],
-                controls[:, :n],
-                system.dynamics.names,
-                ddpsi=self.acceleration(times),
-                metadata=self.metadata,
-            )
-            # Contact forces (controls after the torques): derived channels, N.
-            for i, name in enumerate(system.control_names[n:]):
-                trajectory = trajectory.with_extra(name, controls[:, n + i], "N")
-            return trajectory
-        extras = {}
-        if system.nz:
-            aux = self.aux(times)
-            extras = {n: (aux[:, i], system.aux_units[i]) for i, n in enumerate(system.aux_names)}
+        s = self.system
+        # The drives are the trajectory's controls; the other controls (a linkage's contact
+        # forces) and the auxiliary and derived channels are its extras.
+        drives = s.role_names("drives") if s.drives is not None else s.control_names
+        columns = [s.control_names.index(name) for name in drives]
+        units = dict(zip(s.control_names, s.control_units, strict=True))
+        units.update(zip(s.aux_names, s.aux_units, strict=True))
+        for derived in s.derived:
+            units.update(zip(derived.names, derived.units, strict=True))
+        values = self._extras(times)
+        values.update({n: controls[:, i] for i, n in enumerate(s.control_names) if n not in drives})
         return Trajectory(
             times,
             states,
-            controls,
-            system.state_names,
-            system.state_units,
-            system.control_names,
-            system.control_units,
-            extras,
+            controls[:, columns],
+            s.state_names,
+            s.state_units,
+            tuple(drives),
+            tuple(units[n] for n in drives),
+            {name: (value, units[name]) for name, value in values.items()},
             self.metadata,
         )
 

@@ -919,9 +919,8 @@ class Transcription:
         ubg.append(np.zeros(n_defects))
         g_scale = [np.tile(self.state_scale, N * r)]
         if s.nz:
-            links = s.dynamics.names if s.is_linkage else s.state_names
             for c in range(nC):
-                g_names.extend(f"dynamics[{n}] {mesh.dyn_label(c)}" for n in links)
+                g_names.extend(f"dynamics[{n}] {mesh.dyn_label(c)}" for n in s.residual_names)
             lbg.append(np.zeros(s.nz * nC))
             ubg.append(np.zeros(s.nz * nC))
             g_scale.append(np.tile(self.residual_scale, nC))
@@ -1054,20 +1053,14 @@ class Transcription:
         Z = stack(s.aux_names, at_dyn, nC)
         U = stack(s.control_names, at_dyn, nC)
         missing = [n for n in s.control_names if n not in at_dyn]
-        if s.is_linkage and missing and ocp.guesses:
-            # Torques that no guess gives: inverse dynamics of the guessed motion, so that a
-            # gait law starts the solver on a dynamically consistent point.
-            n = s.dynamics.n
-            psi_names, dpsi_names = s.state_names[:n], s.state_names[n:]
-            ddpsi_names = tuple(f"ddpsi_{k}" for k in s.dynamics.names)
-            if all(k in at_dyn for k in psi_names + dpsi_names + ddpsi_names):
-                psi = np.column_stack([at_dyn[k] for k in psi_names])
-                dpsi = np.column_stack([at_dyn[k] for k in dpsi_names])
-                ddpsi = np.column_stack([at_dyn[k] for k in ddpsi_names])
-                torques = np.atleast_2d(s.dynamics.inverse_dynamics(psi, dpsi, ddpsi))
-                for i, name in enumerate(s.group("M")):
-                    if name in missing:
-                        U[:, s.control_names.index(name)] = torques[:, i]
+        if s.complete_guess is not None and missing and ocp.guesses:
+            # Controls that no guess gives, from the guessed motion by the system's own rule
+            # (a linkage's torques by inverse dynamics, so that a gait law starts the solver
+            # on a dynamically consistent point).
+            completed = s.complete_guess(at_dyn)
+            for name in missing:
+                if name in completed:
+                    U[:, s.control_names.index(name)] = completed[name]
         # Static parameters: their own guesses, or the values of a Solution guessed from.
         P: dict[str, float] = {}
         for layer in ocp.guesses:

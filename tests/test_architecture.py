@@ -128,3 +128,46 @@ def test_imports_inside_planner_run_one_way():
         if module not in state:
             cycle = visit(module)
             assert cycle is None, f"import cycle: {' -> '.join(cycle)}"
+
+
+#: The linkage naming convention's prefixes, which only the linkage adapter may spell.
+LINKAGE_PREFIXES = ("psi_", "dpsi_", "ddpsi_", "M_")
+ADAPTER = "planner.linkage_system"
+
+
+def spelled_prefixes(source: str, where: str) -> list[str]:
+    """Where a string literal of ``source`` (docstrings aside: they document the convention)
+    holds a linkage prefix: "where:line 'literal'"."""
+    tree = ast.parse(source)
+    docstrings = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                docstrings.add(id(body[0].value))
+    found = []
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.Constant)
+            and isinstance(node.value, str)
+            and id(node) not in docstrings
+            and any(prefix in node.value for prefix in LINKAGE_PREFIXES)
+        ):
+            found.append(f"{where}:{node.lineno} {node.value!r}")
+    return found
+
+
+def test_no_linkage_name_is_spelled_outside_the_linkage_adapter():
+    found = [
+        place
+        for name, path in MODULES.items()
+        if name != ADAPTER
+        for place in spelled_prefixes(path.read_text(encoding="utf-8"), name)
+    ]
+    assert not found, f"linkage names spelled outside {ADAPTER}: {found}"
+    # the guard: the scan finds a prefix in a literal and an f-string, not in a docstring
+    sample = '''"""psi_<link> documented."""
+names = ["M_" + link for link in links]
+label = f"ddpsi_{link}"
+'''
+    assert sorted(place.split()[0] for place in spelled_prefixes(sample, "s")) == ["s:2", "s:3"]

@@ -38,6 +38,7 @@ import numpy as np
 
 from model.errors import DefinitionError, DefinitionTypeError
 from planner.files import atomic_path
+from planner.linkage_system import infer_group
 from planner.trajectory.errors import (
     TrajectoryFileError,
     TrajectoryFileNotFoundError,
@@ -244,14 +245,6 @@ def _check_format(path: Path, where: str, name: object, version: object) -> None
         raise TrajectoryFileError(f"{path}: {where}: unknown format version {version!r}")
 
 
-def _infer_group(name: str) -> str:
-    if name.startswith("M_"):
-        return "control"
-    if name.startswith("ddpsi_") or name in ("Fx", "Fy"):
-        return "extra"
-    return "state"
-
-
 def _assemble(
     path: Path,
     where: str,
@@ -265,7 +258,7 @@ def _assemble(
     """Constructor fields from named columns, ordered by ``groups`` (or by name rules)."""
     by_name = dict(zip(names, zip(values, units, strict=True), strict=True))
     if groups is None:
-        ordered = {g: [n for n in names if _infer_group(n) == g] for g in _GROUPS}
+        ordered = {g: [n for n in names if infer_group(n) == g] for g in _GROUPS}
     else:
         if (
             not isinstance(groups, Mapping)
@@ -368,7 +361,7 @@ def _read_csv(path: Path) -> dict[str, Any]:
                 if not match or not match["name"] or not match["unit"].strip():
                     raise TrajectoryFileError(
                         f"{path}: line {number}, column {column}: header cell {cell!r} must "
-                        "read `name [unit]`, e.g. `psi_torso [rad]`; add the unit in brackets"
+                        "read `name [unit]`, e.g. `x [m]`; add the unit in brackets"
                     )
                 header.append((match["name"], match["unit"].strip()))
             if header[0] != ("t", "s"):

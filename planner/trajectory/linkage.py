@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from model.errors import DefinitionError, DefinitionTypeError
+from planner import linkage_system as naming
 from planner.trajectory.checks import check_label, float_array
 from planner.trajectory.errors import TrajectoryError
 
@@ -86,8 +87,8 @@ class LinkageViews:
         extras: dict[str, tuple[np.ndarray, str]] = {}
         if ddpsi is not None:
             ddpsi = block("ddpsi", ddpsi)
-            for i, link in enumerate(links):
-                extras[f"ddpsi_{link}"] = (ddpsi[:, i], "rad/s^2")
+            for i, name in enumerate(naming.acceleration_names(links)):
+                extras[name] = (ddpsi[:, i], naming.ACCELERATION_UNIT)
         if ground_reaction is not None:
             force = np.asarray(ground_reaction)
             if force.dtype.kind == "c":
@@ -105,16 +106,16 @@ class LinkageViews:
                     f"`ground_reaction`: must be complex ({K},) Fx + j Fy or real ({K}, 2) "
                     f"columns Fx, Fy, got shape {pair.shape}"
                 )
-            extras["Fx"] = (pair[:, 0], "N")
-            extras["Fy"] = (pair[:, 1], "N")
+            for i, name in enumerate(naming.GROUND_REACTION):
+                extras[name] = (pair[:, i], naming.FORCE_UNIT)
         return cls(
             time=time,
             states=np.hstack([psi, dpsi]),
             controls=torques,
-            state_names=tuple(f"psi_{v}" for v in links) + tuple(f"dpsi_{v}" for v in links),
-            state_units=("rad",) * n + ("rad/s",) * n,
-            control_names=tuple(f"M_{v}" for v in links),
-            control_units=("N m",) * n,
+            state_names=naming.angle_names(links) + naming.rate_names(links),
+            state_units=(naming.ANGLE_UNIT,) * n + (naming.RATE_UNIT,) * n,
+            control_names=naming.torque_names(links),
+            control_units=(naming.TORQUE_UNIT,) * n,
             extras=extras,
             metadata={} if metadata is None else metadata,
         )
@@ -122,25 +123,13 @@ class LinkageViews:
     # ---- the linkage convention -------------------------------------------------------------
     @cached_property
     def _links(self) -> tuple[str, ...] | None:
-        names = self.state_names
-        if not names or len(names) % 2:
-            return None
-        n = len(names) // 2
-        if not all(s.startswith("psi_") for s in names[:n]):
-            return None
-        links = tuple(s[4:] for s in names[:n])
-        if names[n:] != tuple(f"dpsi_{v}" for v in links):
-            return None
-        if self.state_units != ("rad",) * n + ("rad/s",) * n:
-            return None
-        return links
+        return naming.links_of(self.state_names, self.state_units)
 
     def _not_linkage(self, what: str) -> TrajectoryError:
         return TrajectoryError(
-            f"`{what}`: this trajectory does not follow the linkage convention (states "
-            f"psi_<link> [rad] then dpsi_<link> [rad/s]); its states are "
-            f"{list(self.state_names)}; build it with Trajectory.from_linkage or read the "
-            "columns by name with .column(name)"
+            f"`{what}`: this trajectory does not follow the linkage convention "
+            f"({naming.CONVENTION}); its states are {list(self.state_names)}; build it with "
+            "Trajectory.from_linkage or read the columns by name with .column(name)"
         )
 
     @property
@@ -175,10 +164,11 @@ class LinkageViews:
         links = self._links
         if links is None:
             raise self._not_linkage("torques")
-        expected = tuple(f"M_{v}" for v in links)
-        if self.control_names != expected or set(self.control_units) - {"N m"}:
+        expected = naming.torque_names(links)
+        if self.control_names != expected or set(self.control_units) - {naming.TORQUE_UNIT}:
             raise TrajectoryError(
-                f"`torques`: the controls must be {list(expected)} [N m] for the links "
+                f"`torques`: the controls must be {list(expected)} [{naming.TORQUE_UNIT}] for "
+                "the links "
                 f"{list(links)}, got {list(self.control_names)} {list(self.control_units)}; "
                 "read them by name with .column(name)"
             )
@@ -189,25 +179,27 @@ class LinkageViews:
         """(K, n) angular accelerations, rad/s^2 (from the extras ``ddpsi_<link>``)."""
         if self._links is None:
             raise self._not_linkage("ddpsi")
-        missing = [f"ddpsi_{v}" for v in self._links if f"ddpsi_{v}" not in self.extras]
+        names = naming.acceleration_names(self._links)
+        missing = [name for name in names if name not in self.extras]
         if missing:
             raise TrajectoryError(
                 f"`ddpsi`: this trajectory stores no angular accelerations (missing extras "
                 f"{missing}); pass ddpsi= to Trajectory.from_linkage"
             )
-        return np.stack([self.extras[f"ddpsi_{v}"][0] for v in self._links], axis=1)
+        return np.stack([self.extras[name][0] for name in names], axis=1)
 
     @property
     def ground_reaction(self) -> np.ndarray:
         """(K,) complex force of the ground at H0, Fx + j Fy, N."""
         if self._links is None:
             raise self._not_linkage("ground_reaction")
-        if "Fx" not in self.extras or "Fy" not in self.extras:
+        fx, fy = naming.GROUND_REACTION
+        if fx not in self.extras or fy not in self.extras:
             raise TrajectoryError(
                 "`ground_reaction`: this trajectory stores no ground reaction (extras Fx, Fy); "
                 "pass ground_reaction= to Trajectory.from_linkage"
             )
-        return self.extras["Fx"][0] + 1j * self.extras["Fy"][0]
+        return self.extras[fx][0] + 1j * self.extras[fy][0]
 
 
 __all__ = ["LinkageViews"]
