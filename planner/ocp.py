@@ -277,6 +277,31 @@ def _check_symbols(label: str, result: ca.SX, point: Point) -> None:
     _check_constants(label, result, "the expression")
 
 
+def evaluate_mapping(label: str, mapping, x: ca.SX):
+    """``mapping(x)`` (a callable of the SX state or a casadi.Function) as a column, checked:
+    no free symbols but x's, no NaN or inf constants; raises DefinitionError naming
+    ``label``."""
+    try:
+        value = mapping(x)
+    except Exception as exc:  # a user's callable may fail in any way; say where
+        raise DefinitionError(f"`{label}`: calling the mapping failed: {exc}") from exc
+    if isinstance(value, list | tuple):
+        value = ca.vertcat(*value)
+    if isinstance(value, ca.SX):
+        free = _free_symbols(value, {s.element_hash() for s in ca.symvar(x)})
+        if free:
+            raise DefinitionError(
+                f"`{label}`: the mapping uses free symbols {free}; build it from the state "
+                "argument only"
+            )
+        _check_constants(label, value, "the mapping")
+    if not isinstance(value, ca.SX | ca.MX):
+        raise DefinitionError(
+            f"`{label}`: the mapping must return a state, got {type(value).__name__}"
+        )
+    return value
+
+
 def _free_symbols(result: ca.SX, known: frozenset[int] | set[int]) -> list[str]:
     """Names of the symbols of ``result`` whose element hashes are not ``known``, sorted."""
     return sorted(str(s) for s in ca.symvar(result) if s.element_hash() not in known)
@@ -882,26 +907,11 @@ class OCPDefinition:
         (nx,) -> (nx,): an impact map and a relabelling of legs enter here.
         """
         if mapping is not None:
-            x = ca.SX.sym("x", self.system.nx)
-            try:
-                value = mapping(x)
-            except Exception as exc:  # a user's callable may fail in any way; say where
-                raise DefinitionError(f"`periodic`: calling the mapping failed: {exc}") from exc
-            if isinstance(value, list | tuple):
-                value = ca.vertcat(*value)
-            if isinstance(value, ca.SX):
-                free = _free_symbols(value, {s.element_hash() for s in ca.symvar(x)})
-                if free:
-                    raise DefinitionError(
-                        f"`periodic`: the mapping uses free symbols {free}; build it from the "
-                        "state argument only"
-                    )
-                _check_constants("periodic", value, "the mapping")
-            if not isinstance(value, ca.SX | ca.MX) or value.shape != (self.system.nx, 1):
-                shape = getattr(value, "shape", type(value).__name__)
+            value = evaluate_mapping("periodic", mapping, ca.SX.sym("x", self.system.nx))
+            if value.shape != (self.system.nx, 1):
                 raise DefinitionError(
                     f"`periodic`: the mapping must return a ({self.system.nx}, 1) state, "
-                    f"got {shape}"
+                    f"got {value.shape}"
                 )
         return dataclasses.replace(self, periodicity=(mapping,))
 

@@ -49,6 +49,7 @@ from planner.ocp import (
     _check_constants,
     _free_symbols,
     _positive_array,
+    evaluate_mapping,
 )
 from planner.solution import IntegrationError, Solution
 from planner.trajectory import Trajectory
@@ -273,7 +274,7 @@ class PhasesDefinition:
                 )
             return
         x = ca.SX.sym("x", before.nx)
-        value = _map(label, mapping, x)
+        value = evaluate_mapping(label, mapping, x)
         if value.shape != (after.nx, 1):
             raise DefinitionError(
                 f"`{label}`: the mapping must return the next phase's state ({after.nx}, 1), "
@@ -301,25 +302,6 @@ class PhasesDefinition:
 
     def __repr__(self) -> str:
         return str(self)
-
-
-def _map(label: str, mapping, x):
-    try:
-        value = mapping(x)
-    except Exception as exc:  # a user's callable may fail in any way; say where
-        raise DefinitionError(f"`{label}`: calling the mapping failed: {exc}") from exc
-    if isinstance(value, list | tuple):
-        value = ca.vertcat(*value)
-    if isinstance(value, ca.SX):
-        free = _free_symbols(value, {s.element_hash() for s in ca.symvar(x)})
-        if free:
-            raise DefinitionError(
-                f"`{label}`: the mapping uses free symbols {free}; build it from the state only"
-            )
-        _check_constants(label, value, "the mapping")
-    if not isinstance(value, ca.SX | ca.MX):
-        raise DefinitionError(f"`{label}`: the mapping must return a state, got {value!r}")
-    return value
 
 
 def _event_value(label: str, expression, point: EventPoint) -> ca.SX:
