@@ -45,24 +45,9 @@ def plot_trajectory(
     figsize: tuple[float, float] | None = None,
     title: str | None = None,
 ) -> Figure:
-    """States and controls (and optionally the extras) against time.
-
-    One panel per group (state, control, extra) and unit, stacked with a shared time axis:
-    for a linkage trajectory psi [rad], dpsi [rad/s] and M [N m] (plus ddpsi [rad/s^2] and
-    Fx, Fy [N] with ``extras=True``). One line per channel, labelled by name; the vertical
-    axis carries the channels' common prefix (or names) and the unit.
-
-    Parameters
-    ----------
-    trajectory : the samples to draw (lines through the samples, no interpolation).
-    extras : also draw the derived channels.
-    figsize : inches; default 8 wide and 2.2 per panel.
-    title : figure title; default the metadata's ``source`` when there is one.
-
-    Returns
-    -------
-    matplotlib.figure.Figure, not registered with pyplot (save it with ``savefig``).
-    """
+    """States and controls (and optionally the extras) against time, one panel per group
+    and unit: :func:`planner.trajectory.plot.draw` (the plot of ``Trajectory.plot``) for a
+    checked ``trajectory``. Returns a matplotlib Figure not registered with pyplot."""
     if not isinstance(trajectory, Trajectory):
         raise DefinitionTypeError(
             f"`trajectory`: must be a planner.trajectory.Trajectory, got "

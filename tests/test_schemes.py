@@ -9,37 +9,14 @@ registry's names; every degree check reads the registry's range.
 
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 import pytest
+from test_transcription import min_energy
 
 from model.errors import DefinitionError, DefinitionTypeError
-from planner import OCP, TRANSCRIPTIONS, make_scheme, schemes
+from planner import TRANSCRIPTIONS, make_scheme, schemes
 from planner.schemes import REGISTRY, WITH_DEGREE, Entry, Scheme, check_degree
 from problems.cli import build_parser
-
-
-def double_integrator():
-    x, u = ca.SX.sym("x", 2), ca.SX.sym("u")
-    return ca.Function("f", [x, u], [ca.vertcat(x[1], u)], ["x", "u"], ["xdot"])
-
-
-def min_energy(N, transcription, degree=None):
-    """Rest-to-rest q: 0 -> 1 in T = 1, min integral u^2: u = 6 - 12 t, cost 12."""
-    return (
-        OCP(
-            double_integrator(),
-            T=1.0,
-            N=N,
-            transcription=transcription,
-            degree=degree,
-            state_names=("q", "v"),
-            control_names=("a",),
-        )
-        .initial(q=0.0, v=0.0)
-        .final(q=1.0, v=0.0)
-        .minimize(integral=lambda p: p.a**2)
-    )
 
 
 def backward_euler(degree):
