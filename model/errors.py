@@ -43,6 +43,28 @@ def check_real(field: str, value: object) -> float:
     return number
 
 
+def check_positive(field: str, value: object, unit: str = "") -> float:
+    """Return ``value`` as a finite float > 0, or raise "`field`: must be > 0 <unit>, got ..."
+    (types and non-finite values as :func:`check_real`)."""
+    number = check_real(field, value)
+    if number <= 0:
+        raise DefinitionError(f"`{field}`: must be > 0{' ' + unit if unit else ''}, got {number!r}")
+    return number
+
+
+def check_integer(field: str, value: object, minimum: int, note: str = "") -> int:
+    """Return ``value`` as an int >= ``minimum``, or raise naming ``field``: a
+    DefinitionTypeError "`field`: must be an integer >= minimum, got ..." for a non-integer
+    (booleans included), a DefinitionError "`field`: must be >= minimum, got ..." below it
+    (``note``, e.g. "(0 keeps none)", is added after the bound)."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise DefinitionTypeError(f"`{field}`: must be an integer >= {minimum}, got {value!r}")
+    if value < minimum:
+        bound = f">= {minimum}" + (f" {note}" if note else "")
+        raise DefinitionError(f"`{field}`: must be {bound}, got {value!r}")
+    return int(value)
+
+
 def _refuse_booleans_and_complex(field: str, value: object, expected: str) -> None:
     """numpy turns booleans into 0/1 and drops imaginary parts (with only a warning) when
     it converts to float: both are mistakes here, refused by name."""

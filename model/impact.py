@@ -85,7 +85,6 @@ class ImpactMap:
 
     def _build(self) -> list[ca.SX]:
         dyn = self._dynamics
-        n = dyn.n
         dpsi = dyn.symbols["dpsi"]
         jacobian = self.point.expression("jacobian", dyn.symbols["psi"])
         if self.root_pinned:

@@ -22,7 +22,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
-from model.errors import DefinitionError, DefinitionTypeError, check_real
+from model.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 
 
 @dataclass(frozen=True)
@@ -81,12 +81,8 @@ class Link:
                 f"`{where}.parent`: must be a link name (str) or None for the root, "
                 f"got {self.parent!r}"
             )
-        length = check_real(f"{where}.length", self.length)
-        if length <= 0:
-            raise DefinitionError(f"`{where}.length`: must be > 0 m, got {length!r}")
-        mass = check_real(f"{where}.mass", self.mass)
-        if mass <= 0:
-            raise DefinitionError(f"`{where}.mass`: must be > 0 kg, got {mass!r}")
+        length = check_positive(f"{where}.length", self.length, "m")
+        mass = check_positive(f"{where}.mass", self.mass, "kg")
         com = check_real(f"{where}.com", self.com)
         if not self.merged and not self.rerooted and not 0.0 <= com <= 1.0:
             raise DefinitionError(

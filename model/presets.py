@@ -7,7 +7,7 @@ thigh, 4 swing shank, 5 torso, 6 head, with J about each centre of mass.
 
 from __future__ import annotations
 
-from model.errors import DefinitionError, DefinitionTypeError, check_real
+from model.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 from model.linkage import Link, Linkage
 
 #: The scene.md table: name, parent, l (m), m (kg), n, J (kg m^2).
@@ -87,12 +87,8 @@ def exoskeleton_leg(
     0.100 M, n 0.433, radius of gyration 0.323 l; shank 0.246 H, 0.0465 M, n 0.433, 0.302 l;
     foot (heel to toe) 0.152 H, 0.0145 M, n 0.50, 0.475 l.
     """
-    body_mass = check_real("body_mass", body_mass)
-    height = check_real("height", height)
-    if body_mass <= 0:
-        raise DefinitionError(f"`body_mass`: must be > 0 kg, got {body_mass}")
-    if height <= 0:
-        raise DefinitionError(f"`height`: must be > 0 m, got {height}")
+    body_mass = check_positive("body_mass", body_mass, "kg")
+    height = check_positive("height", height, "m")
     rows = (
         ("thigh", None, 0.245, 0.100, 0.433, 0.323),
         ("shank", "thigh", 0.246, 0.0465, 0.433, 0.302),

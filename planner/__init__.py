@@ -7,12 +7,15 @@
 ...     integral=lambda p: ca.sumsqr(p.M)).solve()
 """
 
-from planner.ocp import OCP, TRANSCRIPTIONS, Point, System
-from planner.phases import EventPoint, Phases, PhasesSolution, PhasesTranscription
+from planner.ocp import Point
+from planner.phases import EventPoint, PhasesSolution, PhasesTranscription
+from planner.problem import OCP, Phases
+from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
 from planner.solution import IntegrationError, Replay, Solution
 from planner.solver import SolverError, solve
+from planner.system import System
 from planner.trajectory import Trajectory
-from planner.transcription import Scheme, Transcription, make_scheme
+from planner.transcription import Transcription
 
 __all__ = [
     "OCP",

@@ -22,312 +22,51 @@ with several outputs gives a constraint one row block, rows named after the outp
 the variables, a Point offers fields computed from them: a linkage's ``ddpsi`` in both
 formulations and control rates (``du``; a linkage's ``dM``, ``dM_<link>``).
 
-Variables. A system has states x (nx,), controls u (nu,) and, in the implicit formulation,
-auxiliary variables z (nz,) that stand for the state derivatives the residual needs. For a
-``model.Dynamics`` (linkage naming convention of ``planner.trajectory``): x = [psi; dpsi]
-(states ``psi_<link>`` rad, ``dpsi_<link>`` rad/s), u = M (``M_<link>``, N m) and, implicit
-only, z = ddpsi (``ddpsi_<link>``, rad/s^2); groups ``psi``, ``dpsi``, ``ddpsi``, ``M``.
-For a CasADi ODE Function f(x, u[, t]) -> xdot: groups ``x`` and ``u``; with
-``formulation="implicit"`` the Function is a residual r(x, xdot, u[, t]) (nx,) and z = xdot.
+Variables. The OCP knows its model only through a :class:`planner.system.System`, which names
+them: states x (nx,), controls u (nu,) and, in the implicit formulation, auxiliary variables
+z (nz,) that stand for the state derivatives the residual needs, with their groups and units.
+A ``model.Dynamics`` becomes one through the linkage adapter
+(:func:`planner.linkage_system.linkage_system`, the linkage naming convention): x = [psi;
+dpsi] (states ``psi_<link>`` rad, ``dpsi_<link>`` rad/s), u = M (``M_<link>``, N m) and,
+implicit only, z = ddpsi (``ddpsi_<link>``, rad/s^2); groups ``psi``, ``dpsi``, ``ddpsi``,
+``M``. A CasADi ODE Function f(x, u[, t]) -> xdot becomes one with groups ``x`` and ``u``;
+with ``formulation="implicit"`` the Function is a residual r(x, xdot, u[, t]) (nx,) and
+z = xdot. A System from any other adapter is taken as it is.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
-from model.errors import DefinitionError, DefinitionTypeError, as_float_array, check_finite
+from model.errors import (
+    DefinitionError,
+    DefinitionTypeError,
+    as_float_array,
+    check_finite,
+    check_integer,
+)
+from planner import schemes
+from planner.guesses import GuessLayer, evaluate_guess_layer, source_duration
+from planner.linkage_system import linkage_system
+from planner.schemes import TRANSCRIPTIONS
+from planner.solution import Solution
+from planner.system import System
+from planner.trajectory import Trajectory
 
-TRANSCRIPTIONS = ("trapezoid", "hermite-simpson", "radau", "legendre")
+if TYPE_CHECKING:
+    from typing import Self
+
 FORMULATIONS = ("implicit", "explicit")
-DEFAULT_DEGREE = 3
 #: The name of an objective term given without one (``OCP.minimize``).
 DEFAULT_TERM = "objective"
-
-
-# ---- the system: what the transcription needs from any dynamics ------------------------------
-@dataclass(frozen=True, eq=False)
-class DerivedField:
-    """A group of Point fields that are expressions of the variables, not variables.
-
-    ``function``: SX Function (x (nx,), z (nz,), u (nu,), t (1,)) -> (m,); the Point offers
-    the column as ``group`` and its rows by ``names`` (units ``units``).
-    """
-
-    group: str
-    names: tuple[str, ...]
-    units: tuple[str, ...]
-    function: ca.Function
-
-
-@dataclass(frozen=True, eq=False)
-class System:
-    """Dynamics in the planner's form: xdot = rate(x, z, u, t) and 0 = residual(x, z, u, t).
-
-    ``rate`` and ``residual`` are SX Functions with inputs (x (nx,), z (nz,), u (nu,), t (1,));
-    ``residual`` is None (nz = 0) for explicit dynamics. ``ode`` (x, u, t) -> xdot, when known,
-    serves re-simulation. ``groups`` maps group names (``psi``, ``M``, ``x``, ...) to variable
-    names; ``residual_scale_group`` names the group whose nominal scales scale the residual
-    rows (torques for a linkage: the residual is in N m).
-
-    Point fields that are no NLP variables, named by the system (see :class:`Point`):
-    ``derived`` groups of expressions of (x, z, u, t) (a linkage's ``ddpsi`` in the explicit
-    formulation: its forward dynamics), and the control rates du/dt, one name per control
-    (``control_rate_names``: ``dM_<link>``, or ``d<control>``) gathered in the groups
-    ``control_rate_groups`` (``dM`` and ``du``, or ``du``); a group given as (name, count)
-    holds the first ``count`` rates only (a linkage with contact forces: ``dM``, the
-    torques').
-    """
-
-    rate: ca.Function
-    residual: ca.Function | None
-    ode: ca.Function | None
-    state_names: tuple[str, ...]
-    state_units: tuple[str, ...]
-    control_names: tuple[str, ...]
-    control_units: tuple[str, ...]
-    aux_names: tuple[str, ...]
-    aux_units: tuple[str, ...]
-    groups: tuple[tuple[str, tuple[str, ...]], ...]
-    residual_scale_group: str
-    formulation: str
-    dynamics: Dynamics | None = None
-    derived: tuple[DerivedField, ...] = ()
-    control_rate_names: tuple[str, ...] = ()
-    control_rate_groups: tuple[str | tuple[str, int], ...] = ()
-
-    @property
-    def nx(self) -> int:
-        return len(self.state_names)
-
-    @property
-    def nu(self) -> int:
-        return len(self.control_names)
-
-    @property
-    def nz(self) -> int:
-        return len(self.aux_names)
-
-    @property
-    def is_linkage(self) -> bool:
-        return self.dynamics is not None
-
-    @property
-    def variable_names(self) -> tuple[str, ...]:
-        return self.state_names + self.control_names + self.aux_names
-
-    def unit(self, name: str) -> str:
-        names = self.variable_names
-        units = self.state_units + self.control_units + self.aux_units
-        return units[names.index(name)]
-
-    def group(self, name: str) -> tuple[str, ...] | None:
-        for key, members in self.groups:
-            if key == name:
-                return members
-        return None
-
-    @property
-    def point_only_fields(self) -> tuple[str, ...]:
-        """Names of the Point fields that are expressions, not NLP variables: derived groups
-        and their rows, control-rate groups and names."""
-        names: list[str] = []
-        for derived in self.derived:
-            names.extend((derived.group, *derived.names))
-        groups = [g if isinstance(g, str) else g[0] for g in self.control_rate_groups]
-        names.extend((*groups, *self.control_rate_names))
-        return tuple(names)
-
-    @staticmethod
-    def from_dynamics(
-        dynamics: Dynamics, formulation: str = "implicit", contacts: Sequence = ()
-    ) -> System:
-        """The linkage system: x = [psi; dpsi], u = M, z = ddpsi (implicit only).
-
-        ``contacts``: points of the linkage (``model.LinkPoint``) held by the ground, whose
-        ground forces (Fx, Fy), N, are more controls (``F_<point>_x``, ``F_<point>_y``; group
-        ``F``): the equations of motion are those of the tree with these forces applied
-        (their hinge moments, ``PointKinematics.hinge_moments``), so a closed chain (a
-        double support) is the tree plus a constraint holding the point and these forces.
-        """
-        n = dynamics.n
-        links = dynamics.names
-        psi, dpsi = (f"psi_{k}" for k in links), (f"dpsi_{k}" for k in links)
-        states = (*psi, *dpsi)
-        torques = tuple(f"M_{k}" for k in links)
-        points = [dynamics.point(c) for c in contacts]
-        forces = tuple(f"F_{p.identifier}_{axis}" for p in points for axis in ("x", "y"))
-        controls = (*torques, *forces)
-        x = ca.SX.sym("x", 2 * n)
-        u = ca.SX.sym("u", len(controls))
-        t = ca.SX.sym("t")
-        # The hinge torques the contact forces stand for, added to the drives' (N m).
-        applied = u[:n]
-        for j, p in enumerate(points):
-            moments = p.function("hinge_moments")
-            applied = applied + moments(x[:n], u[n + 2 * j : n + 2 * j + 2])
-        ode = dynamics.function("ode")
-        ode_t = ca.Function("ode", [x, u, t], [ode(x, applied)], ["x", "u", "t"], ["xdot"])
-        accelerations = tuple(f"ddpsi_{k}" for k in links)
-        derived: tuple[DerivedField, ...] = ()
-        if formulation == "implicit":
-            z = ca.SX.sym("z", n)
-            residual_f = dynamics.function("dynamics_residual")
-            rate = ca.vertcat(x[n:], z)
-            residual = ca.Function(
-                "residual",
-                [x, z, u, t],
-                [residual_f(x[:n], x[n:], z, applied)],
-                ["x", "z", "u", "t"],
-                ["residual"],
-            )
-            aux = accelerations
-        else:
-            z = ca.SX.sym("z", 0)
-            rate = ode(x, applied)
-            residual = None
-            aux = ()
-            # Explicit: ddpsi is no variable; the Point offers the forward dynamics instead,
-            # so that one constraint (a ground reaction, a foot acceleration) reads the same
-            # in both formulations.
-            forward = ca.Function(
-                "ddpsi", [x, z, u, t], [rate[n:]], ["x", "z", "u", "t"], ["ddpsi"]
-            )
-            derived = (DerivedField("ddpsi", accelerations, ("rad/s^2",) * n, forward),)
-        rate_f = ca.Function("rate", [x, z, u, t], [rate], ["x", "z", "u", "t"], ["xdot"])
-        groups = (
-            ("psi", states[:n]),
-            ("dpsi", states[n:]),
-            ("M", torques),
-            ("x", states),
-            ("u", controls),
-        )
-        if forces:
-            groups = (*groups, ("F", forces))
-        if aux:
-            groups = (*groups, ("ddpsi", aux), ("z", aux))
-        return System(
-            rate=rate_f,
-            residual=residual,
-            ode=ode_t,
-            state_names=states,
-            state_units=("rad",) * n + ("rad/s",) * n,
-            control_names=controls,
-            control_units=("N m",) * n + ("N",) * len(forces),
-            aux_names=aux,
-            aux_units=("rad/s^2",) * len(aux),
-            groups=groups,
-            residual_scale_group="M",
-            formulation=formulation,
-            dynamics=dynamics,
-            derived=derived,
-            control_rate_names=tuple(f"d{c}" for c in controls),
-            control_rate_groups=(("dM", n), "du"),
-        )
-
-    @staticmethod
-    def from_function(
-        function: ca.Function,
-        formulation: str,
-        state_names: Sequence[str] | None,
-        control_names: Sequence[str] | None,
-        state_units: Sequence[str] | None,
-        control_units: Sequence[str] | None,
-    ) -> System:
-        """A system from an ODE f(x, u[, t]) -> xdot or an implicit r(x, xdot, u[, t]) -> (nx,)."""
-        implicit = formulation == "implicit"
-        n_in = function.n_in()
-        expected = "r(x, xdot, u[, t])" if implicit else "f(x, u[, t])"
-        if n_in not in ((3, 4) if implicit else (2, 3)) or function.n_out() != 1:
-            raise DefinitionError(
-                f"`dynamics`: a {formulation} dynamics Function must be {expected} with one "
-                f"output; got {function.n_in()} inputs {function.name_in()} and "
-                f"{function.n_out()} outputs"
-            )
-        for i in range(n_in):
-            if function.size2_in(i) != 1:
-                raise DefinitionError(
-                    f"`dynamics`: input {function.name_in(i)!r} must be a column vector, got "
-                    f"shape {function.size_in(i)}"
-                )
-        nx = function.size1_in(0)
-        nu = function.size1_in(2 if implicit else 1)
-        if implicit and function.size1_in(1) != nx:
-            raise DefinitionError(
-                f"`dynamics`: the xdot input must have nx = {nx} rows, got {function.size1_in(1)}"
-            )
-        if function.size_out(0) != (nx, 1):
-            raise DefinitionError(
-                f"`dynamics`: the output must have shape ({nx}, 1) like x, "
-                f"got {function.size_out(0)}"
-            )
-        if n_in == (4 if implicit else 3) and function.size_in(n_in - 1) != (1, 1):
-            raise DefinitionError(
-                f"`dynamics`: the time input must be scalar, got {function.size_in(n_in - 1)}"
-            )
-        states = _names("state_names", state_names, nx, "x")
-        controls = _names("control_names", control_names, nu, "u")
-        s_units = _names("state_units", state_units, nx, None) if state_units else ("-",) * nx
-        c_units = _names("control_units", control_units, nu, None) if control_units else ("-",) * nu
-        x = ca.SX.sym("x", nx)
-        u = ca.SX.sym("u", nu)
-        t = ca.SX.sym("t")
-        if implicit:
-            z = ca.SX.sym("z", nx)
-            args = [x, z, u] + ([t] if n_in == 4 else [])
-            residual = ca.Function(
-                "residual", [x, z, u, t], [function(*args)], ["x", "z", "u", "t"], ["residual"]
-            )
-            rate = z
-            ode = None
-            aux = tuple(f"d{name}" for name in states)
-        else:
-            z = ca.SX.sym("z", 0)
-            args = [x, u] + ([t] if n_in == 3 else [])
-            rate = function(*args)
-            ode = ca.Function("ode", [x, u, t], [rate], ["x", "u", "t"], ["xdot"])
-            residual = None
-            aux = ()
-        rate_f = ca.Function("rate", [x, z, u, t], [rate], ["x", "z", "u", "t"], ["xdot"])
-        groups = (("x", states), ("u", controls)) + ((("z", aux),) if aux else ())
-        return System(
-            rate=rate_f,
-            residual=residual,
-            ode=ode,
-            state_names=states,
-            state_units=s_units,
-            control_names=controls,
-            control_units=c_units,
-            aux_names=aux,
-            aux_units=tuple(f"{unit}/s" for unit in s_units) if aux else (),
-            groups=groups,
-            residual_scale_group="x",
-            formulation=formulation,
-            control_rate_names=tuple(f"d{name}" for name in controls),
-            control_rate_groups=("du",),
-        )
-
-
-def _names(field_name: str, names, size: int, prefix: str | None) -> tuple[str, ...]:
-    if names is None:
-        return tuple(f"{prefix}_{i}" for i in range(size))
-    if isinstance(names, str) or not all(isinstance(n, str) for n in names):
-        raise DefinitionTypeError(f"`{field_name}`: must be a sequence of strings, got {names!r}")
-    names = tuple(names)
-    if len(names) != size:
-        raise DefinitionError(
-            f"`{field_name}`: the dynamics has {size} of them, got {len(names)} names {names}"
-        )
-    if prefix is not None and len(set(names)) != size:
-        raise DefinitionError(f"`{field_name}`: names must be unique, got {names}")
-    return names
 
 
 # ---- the Point: what expressions see -----------------------------------------------------
@@ -538,6 +277,31 @@ def _check_symbols(label: str, result: ca.SX, point: Point) -> None:
     _check_constants(label, result, "the expression")
 
 
+def evaluate_mapping(label: str, mapping, x: ca.SX):
+    """``mapping(x)`` (a callable of the SX state or a casadi.Function) as a column, checked:
+    no free symbols but x's, no NaN or inf constants; raises DefinitionError naming
+    ``label``."""
+    try:
+        value = mapping(x)
+    except Exception as exc:  # a user's callable may fail in any way; say where
+        raise DefinitionError(f"`{label}`: calling the mapping failed: {exc}") from exc
+    if isinstance(value, list | tuple):
+        value = ca.vertcat(*value)
+    if isinstance(value, ca.SX):
+        free = _free_symbols(value, {s.element_hash() for s in ca.symvar(x)})
+        if free:
+            raise DefinitionError(
+                f"`{label}`: the mapping uses free symbols {free}; build it from the state "
+                "argument only"
+            )
+        _check_constants(label, value, "the mapping")
+    if not isinstance(value, ca.SX | ca.MX):
+        raise DefinitionError(
+            f"`{label}`: the mapping must return a state, got {type(value).__name__}"
+        )
+    return value
+
+
 def _free_symbols(result: ca.SX, known: frozenset[int] | set[int]) -> list[str]:
     """Names of the symbols of ``result`` whose element hashes are not ``known``, sorted."""
     return sorted(str(s) for s in ca.symvar(result) if s.element_hash() not in known)
@@ -658,33 +422,6 @@ def _fractions(mesh, N: int) -> tuple[float, ...]:
     return tuple(float(f) for f in fractions)
 
 
-@dataclass(frozen=True, eq=False)
-class GuessLayer:
-    """One source of initial guesses; later layers override earlier ones variable by variable.
-
-    kind: "constant" (values: name -> float or array over a group), "grid" (times (K,) s and
-    values: name -> (K,) or (K, group size)), "callable" (source: t (K,) -> dict or tuple),
-    "solution" (source: a Solution or Trajectory re-gridded in normalised time).
-    """
-
-    kind: str
-    values: Mapping[str, np.ndarray] = field(default_factory=dict)
-    times: np.ndarray | None = None
-    source: Any = None
-
-    def __repr__(self) -> str:
-        if self.kind in ("constant", "grid"):
-            return f"{self.kind}({', '.join(self.values)})"
-        return f"{self.kind}({type(self.source).__name__})"
-
-
-def _source_duration(source) -> float:
-    """Duration, s, of a Solution (``T``) or a Trajectory (its time span)."""
-    if hasattr(source, "interpolate_guess"):
-        return float(source.T)
-    return float(source.time[-1] - source.time[0])
-
-
 def _format_interval(lower, upper) -> str:
     lo, hi = np.atleast_1d(lower), np.atleast_1d(upper)
     if lo.size == 1:
@@ -803,18 +540,13 @@ def default_scale(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     return scale
 
 
-def _positive_int(name: str, value, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise DefinitionTypeError(f"`{name}`: must be an integer, got {value!r}")
-    if value < minimum:
-        raise DefinitionError(f"`{name}`: must be >= {minimum}, got {value}")
-    return int(value)
-
-
 # ---- the OCP ------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
-class OCP:
+class OCPDefinition:
     """An optimal control problem on a fixed or free horizon [0, T], transcribed on N intervals.
+
+    The definition, as a value; :class:`planner.OCP` is this class with ``transcribe()`` and
+    ``solve()`` (:mod:`planner.problem`), which need the layers built on it.
 
     Parameters
     ----------
@@ -822,9 +554,10 @@ class OCP:
         "explicit", the default for Functions) or r(x, xdot, u[, t]) -> (nx,) ("implicit").
     T : duration, s: a number (fixed) or a pair (lower, upper) (free; guess with ``guess(T=)``).
     N : number of mesh intervals, >= 1 (uniform, h = T / N, unless ``mesh`` is given).
-    transcription : "trapezoid", "hermite-simpson" (separated form, midpoint controls are
-        variables), "radau" or "legendre" (orthogonal collocation of ``degree`` 1..9,
-        default 3; controls and, implicit, ddpsi at the collocation points).
+    transcription : a name of the registry :mod:`planner.schemes`: "trapezoid",
+        "hermite-simpson" (separated form, midpoint controls are variables), "radau" or
+        "legendre" (orthogonal collocation of ``degree`` 1..9, default 3; controls and,
+        implicit, ddpsi at the collocation points).
     formulation : "implicit" (default for a Dynamics: ddpsi are variables, dynamics_residual = 0
         at every dynamics point, no mass-matrix solve) or "explicit" (forward dynamics).
     state_names, control_names, state_units, control_units : for a Function only.
@@ -860,16 +593,23 @@ class OCP:
 
     def __post_init__(self) -> None:
         dynamics = self.dynamics
-        if not isinstance(dynamics, Dynamics | ca.Function):
+        if not isinstance(dynamics, Dynamics | ca.Function | System):
             raise DefinitionTypeError(
-                "`dynamics`: must be a model.Dynamics or a casadi.Function f(x, u[, t]) -> xdot, "
-                f"got {type(dynamics).__name__}"
+                "`dynamics`: must be a model.Dynamics or a casadi.Function f(x, u[, t]) -> xdot "
+                f"(or a planner System from an adapter), got {type(dynamics).__name__}"
             )
         linkage = isinstance(dynamics, Dynamics)
-        formulation = self.formulation or ("implicit" if linkage else "explicit")
+        given = isinstance(dynamics, System)
+        default = dynamics.formulation if given else "implicit" if linkage else "explicit"
+        formulation = self.formulation or default
         if formulation not in FORMULATIONS:
             raise DefinitionError(
                 f"`formulation`: unknown {formulation!r}; use one of {FORMULATIONS}"
+            )
+        if given and formulation != dynamics.formulation:
+            raise DefinitionError(
+                f"`formulation`: the System given is {dynamics.formulation}, got "
+                f"{formulation!r}; build the System in the formulation wanted"
             )
         if self.contacts and not linkage:
             raise DefinitionError(
@@ -878,14 +618,19 @@ class OCP:
             )
         if not isinstance(self.contacts, tuple):
             object.__setattr__(self, "contacts", tuple(self.contacts))
-        if linkage:
+        if linkage or given:
+            owner = "a model.Dynamics" if linkage else "a System"
             for name in ("state_names", "control_names", "state_units", "control_units"):
                 if getattr(self, name) is not None:
                     raise DefinitionError(
-                        f"`{name}`: a model.Dynamics names its own variables (psi_<link>, ...); "
-                        "give names only with a casadi.Function"
+                        f"`{name}`: {owner} names its own variables "
+                        "(planner.linkage_system for a linkage); give names only with a "
+                        "casadi.Function"
                     )
-            system = System.from_dynamics(dynamics, formulation, self.contacts)
+        if given:
+            system = dynamics
+        elif linkage:
+            system = linkage_system(dynamics, formulation, self.contacts)
         else:
             system = System.from_function(
                 dynamics,
@@ -897,27 +642,11 @@ class OCP:
             )
         object.__setattr__(self, "formulation", formulation)
         object.__setattr__(self, "system", system)
-        object.__setattr__(self, "N", _positive_int("N", self.N))
+        object.__setattr__(self, "N", check_integer("N", self.N, 1))
         if self.mesh is not None:
             object.__setattr__(self, "mesh", _fractions(self.mesh, self.N))
-        if self.transcription not in TRANSCRIPTIONS:
-            raise DefinitionError(
-                f"`transcription`: unknown {self.transcription!r}; use one of {TRANSCRIPTIONS}"
-            )
-        if self.transcription in ("radau", "legendre"):
-            degree = DEFAULT_DEGREE if self.degree is None else self.degree
-            if isinstance(degree, bool) or not isinstance(degree, int | np.integer):
-                raise DefinitionTypeError(f"`degree`: must be an integer in 1..9, got {degree!r}")
-            if not 1 <= degree <= 9:
-                raise DefinitionError(
-                    f"`degree`: must be in 1..9 for {self.transcription} collocation, got {degree}"
-                )
-            object.__setattr__(self, "degree", int(degree))
-        elif self.degree is not None:
-            raise DefinitionError(
-                f"`degree`: applies to 'radau' and 'legendre' only; {self.transcription!r} has "
-                "a fixed polynomial degree, leave degree=None"
-            )
+        # The registry of transcriptions knows the names, degree ranges and defaults.
+        object.__setattr__(self, "degree", schemes.check_degree(self.transcription, self.degree))
         T = self.T
         if isinstance(T, tuple | list):
             if len(T) != 2:
@@ -999,7 +728,7 @@ class OCP:
         return fields
 
     # ---- builders ----------------------------------------------------------------------
-    def bound(self, name: str, lower=None, upper=None) -> OCP:
+    def bound(self, name: str, lower=None, upper=None) -> Self:
         """Bounds lower <= v <= upper on a variable or group at every point where it lives.
 
         ``name``: a variable (``"M_torso"``) or a group (``"M"``, ``"psi"``); the duration
@@ -1021,7 +750,7 @@ class OCP:
 
     def _add_constraint(
         self, name, expression, lower, upper, where, scale, instants=(), fraction=False
-    ) -> OCP:
+    ) -> Self:
         if not isinstance(name, str) or not name:
             raise DefinitionTypeError(f"`name`: a constraint needs a non-empty name, got {name!r}")
         if name in self._constraint_names():
@@ -1047,7 +776,7 @@ class OCP:
         )
         return dataclasses.replace(self, constraints=(*self.constraints, constraint))
 
-    def constrain(self, name: str, expression, lower=None, upper=None, scale=None) -> OCP:
+    def constrain(self, name: str, expression, lower=None, upper=None, scale=None) -> Self:
         """A path constraint lower <= g(point) <= upper at every dynamics point.
 
         Dynamics points: the nodes (trapezoid), nodes and midpoints (Hermite-Simpson), the
@@ -1094,7 +823,7 @@ class OCP:
         lower=None,
         upper=None,
         scale=None,
-    ) -> OCP:
+    ) -> Self:
         """A constraint lower <= g(point) <= upper at given instants (keypoints).
 
         ``t``: a time, s, or a sequence of them, in [0, T] (fixed T only); ``fraction``: a
@@ -1133,7 +862,7 @@ class OCP:
             name, expression, lower, upper, "at", scale, instants, fraction is not None
         )
 
-    def boundary(self, name: str, expression, at: str, lower=None, upper=None, scale=None) -> OCP:
+    def boundary(self, name: str, expression, at: str, lower=None, upper=None, scale=None) -> Self:
         """A boundary constraint lower <= g(point) <= upper at ``at`` = "start" or "end".
 
         The point's ``x`` is the state there (``x0`` and ``xf`` give both ends), ``u`` the
@@ -1143,15 +872,15 @@ class OCP:
             raise DefinitionError(f"`at`: must be 'start' or 'end', got {at!r}")
         return self._add_constraint(name, expression, lower, upper, at, scale)
 
-    def initial(self, **values) -> OCP:
+    def initial(self, **values) -> Self:
         """Fix states (or groups) at t = 0: ``initial(q=0.0, v=0.0)`` or ``initial(psi=[...])``."""
         return self._fix("start", "initial", values)
 
-    def final(self, **values) -> OCP:
+    def final(self, **values) -> Self:
         """Fix states (or groups) at t = T: ``final(q=1.0)``."""
         return self._fix("end", "final", values)
 
-    def _fix(self, at: str, prefix: str, values: Mapping[str, Any]) -> OCP:
+    def _fix(self, at: str, prefix: str, values: Mapping[str, Any]) -> Self:
         if not values:
             raise DefinitionError(f"`{prefix}`: give at least one state=value")
         ocp = self
@@ -1171,37 +900,22 @@ class OCP:
             ocp = ocp._add_constraint(f"{prefix} {key}", select, value, value, at, None)
         return ocp
 
-    def periodic(self, mapping=None) -> OCP:
+    def periodic(self, mapping=None) -> Self:
         """Periodicity x(0) = mapping(x(T)); identity by default.
 
         ``mapping``: a callable of the SX state (nx,) returning (nx,), or a casadi.Function
         (nx,) -> (nx,): an impact map and a relabelling of legs enter here.
         """
         if mapping is not None:
-            x = ca.SX.sym("x", self.system.nx)
-            try:
-                value = mapping(x)
-            except Exception as exc:  # a user's callable may fail in any way; say where
-                raise DefinitionError(f"`periodic`: calling the mapping failed: {exc}") from exc
-            if isinstance(value, list | tuple):
-                value = ca.vertcat(*value)
-            if isinstance(value, ca.SX):
-                free = _free_symbols(value, {s.element_hash() for s in ca.symvar(x)})
-                if free:
-                    raise DefinitionError(
-                        f"`periodic`: the mapping uses free symbols {free}; build it from the "
-                        "state argument only"
-                    )
-                _check_constants("periodic", value, "the mapping")
-            if not isinstance(value, ca.SX | ca.MX) or value.shape != (self.system.nx, 1):
-                shape = getattr(value, "shape", type(value).__name__)
+            value = evaluate_mapping("periodic", mapping, ca.SX.sym("x", self.system.nx))
+            if value.shape != (self.system.nx, 1):
                 raise DefinitionError(
                     f"`periodic`: the mapping must return a ({self.system.nx}, 1) state, "
-                    f"got {shape}"
+                    f"got {value.shape}"
                 )
         return dataclasses.replace(self, periodicity=(mapping,))
 
-    def minimize(self, integral=None, terminal=None, name: str = DEFAULT_TERM) -> OCP:
+    def minimize(self, integral=None, terminal=None, name: str = DEFAULT_TERM) -> Self:
         """An objective term: the integral of ``integral(p)`` over [0, T] (the transcription's
         quadrature) + ``terminal(p)`` at t = T (``p.x`` = x(T), ``p.x0``, ``p.T``); both
         scalar expressions of a :class:`Point`.
@@ -1227,7 +941,7 @@ class OCP:
         terms = tuple(term if t.name == name else t for t in self.objective)
         return dataclasses.replace(self, objective=terms)
 
-    def param(self, name: str, lower=None, upper=None, guess=None, scale=None) -> OCP:
+    def param(self, name: str, lower=None, upper=None, guess=None, scale=None) -> Self:
         """A static parameter: one decision variable for the whole horizon (a free step
         length, a design quantity), a Point field ``p.<name>`` (and ``p.params``, all of
         them) in every expression: constraints, objective terms, the periodicity map.
@@ -1265,7 +979,7 @@ class OCP:
         params = tuple(parameter if p.name == name else p for p in self.params)
         return dataclasses.replace(self, params=params)
 
-    def scale(self, **scales) -> OCP:
+    def scale(self, **scales) -> Self:
         """Nominal magnitudes of variables, groups or constraints: ``scale(M=100, clearance=0.05)``.
 
         The NLP works with v / scale; defects are divided by their state's scale and the
@@ -1315,7 +1029,7 @@ class OCP:
             return constraint.scale
         return default_scale(constraint.lower, constraint.upper)
 
-    def guess(self, source=None, *, t=None, T=None, **values) -> OCP:
+    def guess(self, source=None, *, t=None, T=None, **values) -> Self:
         """Add an initial guess; later guesses override earlier ones variable by variable.
 
         ``source``: a callable of time t (K,) s returning a dict (names or groups -> (K,) or
@@ -1347,7 +1061,7 @@ class OCP:
             layer = self._guess_source(source)
             layers.append(layer)
             if layer.kind == "solution" and self.free_time and T is None:
-                T_guess = float(np.clip(_source_duration(layer.source), *self.T))
+                T_guess = float(np.clip(source_duration(layer.source), *self.T))
         if values:
             layers.append(self._guess_values(values, t))
         elif t is not None:
@@ -1357,16 +1071,12 @@ class OCP:
         return dataclasses.replace(self, guesses=tuple(layers), T_guess=T_guess)
 
     def _guess_source(self, source) -> GuessLayer:
-        if hasattr(source, "interpolate_guess"):
-            return GuessLayer("solution", source=source)
-        if hasattr(source, "at") and hasattr(source, "state_names"):
+        if isinstance(source, Solution | Trajectory):
             return GuessLayer("solution", source=source)
         if callable(source):
             layer = GuessLayer("callable", source=source)
             # Evaluate once now so that a wrong shape or NaN fails at definition time.
             probe = np.linspace(0.0, self.duration_guess, 5)
-            from planner.transcription import evaluate_guess_layer
-
             evaluate_guess_layer(self, layer, probe)
             return layer
         if isinstance(source, Mapping):
@@ -1420,7 +1130,7 @@ class OCP:
     # ---- mesh, solving ------------------------------------------------------------------
     def refine(
         self, N: int | None = None, transcription: str | None = None, degree=None, mesh=None
-    ) -> OCP:
+    ) -> Self:
         """The same problem on another mesh (N, transcription, degree; ``mesh``: relative
         interval lengths, see :class:`OCP`; a new N without a ``mesh`` is uniform)."""
         changes: dict[str, Any] = {}
@@ -1432,23 +1142,11 @@ class OCP:
             changes["mesh"] = None
         if transcription is not None:
             changes["transcription"] = transcription
-            if transcription not in ("radau", "legendre") and degree is None:
+            if transcription not in schemes.WITH_DEGREE and degree is None:
                 changes["degree"] = None
         if degree is not None:
             changes["degree"] = degree
         return dataclasses.replace(self, **changes)
-
-    def transcribe(self, expand: bool | None = None):
-        """The NLP of this OCP (:class:`planner.transcription.Transcription`), built now."""
-        from planner.transcription import Transcription
-
-        return Transcription(self, expand=expand)
-
-    def solve(self, **kwargs):
-        """Transcribe and solve; see :func:`planner.solver.solve` for the keyword arguments."""
-        from planner.solver import solve
-
-        return solve(self, **kwargs)
 
     # ---- printing ----------------------------------------------------------------------
     def __str__(self) -> str:
@@ -1529,9 +1227,9 @@ def _positive_array(label: str, value, size: int) -> np.ndarray:
 
 __all__ = [
     "FORMULATIONS",
-    "OCP",
     "TRANSCRIPTIONS",
     "Constraint",
+    "OCPDefinition",
     "ObjectiveTerm",
     "Param",
     "Point",

@@ -36,16 +36,27 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
 
 from model.errors import DefinitionError, DefinitionTypeError
-from planner.ocp import OCP, Param, _as_bounds, _check_constants, _free_symbols, _positive_array
+from planner.ocp import (
+    OCPDefinition,
+    Param,
+    _as_bounds,
+    _check_constants,
+    _free_symbols,
+    _positive_array,
+    evaluate_mapping,
+)
 from planner.solution import IntegrationError, Solution
 from planner.trajectory import Trajectory
 from planner.transcription import Transcription
+
+if TYPE_CHECKING:
+    from typing import Self
 
 
 class EventPoint:
@@ -87,14 +98,15 @@ class EventConstraint:
 
 
 @dataclass(frozen=True, eq=False)
-class Phases:
+class PhasesDefinition:
     """A multi-phase problem, as a value: phases (name, OCP) in order, the joins between them
     (``mappings[k]``: phase k -> k+1, None for continuity), event constraints, periodicity.
 
     Build it with :meth:`sequence` and the builders (each returns a new value).
+    :class:`planner.Phases` is this class with ``solve()`` (:mod:`planner.problem`).
     """
 
-    phases: tuple[tuple[str, OCP], ...]
+    phases: tuple[tuple[str, OCPDefinition], ...]
     mappings: tuple[Any, ...] = ()
     events: tuple[EventConstraint, ...] = ()
     periodicity: tuple[Any, ...] | None = None
@@ -114,7 +126,7 @@ class Phases:
                 raise DefinitionTypeError(f"`phases[{i}]`: a phase needs a name, got {name!r}")
             if name in names:
                 raise DefinitionError(f"`phases[{i}]`: two phases are called {name!r}")
-            if not isinstance(ocp, OCP):
+            if not isinstance(ocp, OCPDefinition):
                 raise DefinitionTypeError(
                     f"`phases[{i}]` ({name!r}): must be a planner.OCP, got {type(ocp).__name__}"
                 )
@@ -134,17 +146,17 @@ class Phases:
 
     # ---- building -----------------------------------------------------------------------
     @classmethod
-    def sequence(cls, *phases: tuple[str, OCP]) -> Phases:
+    def sequence(cls, *phases: tuple[str, OCPDefinition]) -> Self:
         """Phases in order, joined by continuity (change a join with :meth:`join`)."""
         return cls(tuple(phases))
 
-    def then(self, name: str, ocp: OCP, mapping=None) -> Phases:
+    def then(self, name: str, ocp: OCPDefinition, mapping=None) -> Self:
         """Append a phase, joined to the last one by ``mapping`` (None: continuity)."""
         return dataclasses.replace(
             self, phases=(*self.phases, (name, ocp)), mappings=(*self.mappings, mapping)
         )
 
-    def join(self, before: str, mapping=None) -> Phases:
+    def join(self, before: str, mapping=None) -> Self:
         """The join after phase ``before``: x_next(0) = mapping(x_before(T)) (a callable of
         the SX state or a casadi.Function (nx_before,) -> (nx_after,)); None: continuity."""
         k = self.index(before)
@@ -156,13 +168,13 @@ class Phases:
         mappings[k] = mapping
         return dataclasses.replace(self, mappings=tuple(mappings))
 
-    def periodic(self, mapping=None) -> Phases:
+    def periodic(self, mapping=None) -> Self:
         """Close the sequence: x_first(0) = mapping(x_last(T_last)) (None: the identity)."""
         return dataclasses.replace(self, periodicity=(mapping,))
 
     def constrain_event(
         self, after: str, name: str, expression, lower=None, upper=None, scale=None
-    ) -> Phases:
+    ) -> Self:
         """An event constraint at the join after phase ``after`` (the periodic join after the
         last phase when the problem is periodic): lower <= expression(e) <= upper, ``e`` an
         :class:`EventPoint`."""
@@ -185,14 +197,14 @@ class Phases:
         event = EventConstraint(name, k, expression, lo, hi, scale_array)
         return dataclasses.replace(self, events=(*self.events, event))
 
-    def param(self, name: str, lower=None, upper=None, guess=None, scale=None) -> Phases:
+    def param(self, name: str, lower=None, upper=None, guess=None, scale=None) -> Self:
         """A static parameter of the whole problem (added to every phase: ``OCP.param``)."""
         phases = tuple(
             (phase, ocp.param(name, lower, upper, guess, scale)) for phase, ocp in self.phases
         )
         return dataclasses.replace(self, phases=phases)
 
-    def guess(self, solution: PhasesSolution) -> Phases:
+    def guess(self, solution: PhasesSolution) -> Self:
         """Every phase guessed from ``solution``'s phase of the same name (re-gridded when the
         meshes differ); IPOPT's multipliers too when the NLP layouts are the same."""
         if not isinstance(solution, PhasesSolution):
@@ -215,7 +227,7 @@ class Phases:
             raise DefinitionError(f"`phase`: no phase called {name!r}; phases: {list(self.names)}")
         return self.names.index(name)
 
-    def phase(self, name: str) -> OCP:
+    def phase(self, name: str) -> OCPDefinition:
         return self.phases[self.index(name)][1]
 
     @property
@@ -235,7 +247,7 @@ class Phases:
                     )
         return tuple(found.values())
 
-    def _sides(self, k: int) -> tuple[OCP, OCP]:
+    def _sides(self, k: int) -> tuple[OCPDefinition, OCPDefinition]:
         return self.phases[k][1], self.phases[(k + 1) % len(self.phases)][1]
 
     def _event_point(self, k: int, values=None) -> EventPoint:
@@ -262,7 +274,7 @@ class Phases:
                 )
             return
         x = ca.SX.sym("x", before.nx)
-        value = _map(label, mapping, x)
+        value = evaluate_mapping(label, mapping, x)
         if value.shape != (after.nx, 1):
             raise DefinitionError(
                 f"`{label}`: the mapping must return the next phase's state ({after.nx}, 1), "
@@ -272,12 +284,6 @@ class Phases:
     # ---- solving ------------------------------------------------------------------------
     def transcribe(self) -> PhasesTranscription:
         return PhasesTranscription(self)
-
-    def solve(self, **options) -> PhasesSolution:
-        """Transcribe and solve with IPOPT (:func:`planner.solver.solve`'s options)."""
-        from planner.solver import solve  # solver imports phases: the cycle runs one way
-
-        return solve(self, **options)
 
     def __str__(self) -> str:
         lines = [f"Phases: {' -> '.join(self.names)}"]
@@ -296,25 +302,6 @@ class Phases:
 
     def __repr__(self) -> str:
         return str(self)
-
-
-def _map(label: str, mapping, x):
-    try:
-        value = mapping(x)
-    except Exception as exc:  # a user's callable may fail in any way; say where
-        raise DefinitionError(f"`{label}`: calling the mapping failed: {exc}") from exc
-    if isinstance(value, list | tuple):
-        value = ca.vertcat(*value)
-    if isinstance(value, ca.SX):
-        free = _free_symbols(value, {s.element_hash() for s in ca.symvar(x)})
-        if free:
-            raise DefinitionError(
-                f"`{label}`: the mapping uses free symbols {free}; build it from the state only"
-            )
-        _check_constants(label, value, "the mapping")
-    if not isinstance(value, ca.SX | ca.MX):
-        raise DefinitionError(f"`{label}`: the mapping must return a state, got {value!r}")
-    return value
 
 
 def _event_value(label: str, expression, point: EventPoint) -> ca.SX:
@@ -347,8 +334,8 @@ class PhasesTranscription:
     periodicity rows. Names of a phase's variables and rows start with "<phase>: ".
     """
 
-    def __init__(self, problem: Phases) -> None:
-        if not isinstance(problem, Phases):
+    def __init__(self, problem: PhasesDefinition) -> None:
+        if not isinstance(problem, PhasesDefinition):
             raise DefinitionTypeError(
                 f"`problem`: must be a planner.Phases, got {type(problem).__name__}"
             )
@@ -361,7 +348,7 @@ class PhasesTranscription:
         physical_params = w_params * p_params
         self._symbols: list[tuple[ca.MX, ca.MX, ca.MX]] = []
 
-        def provider(ocp: OCP):
+        def provider(ocp: OCPDefinition):
             indices = [[p.name for p in self.params].index(p.name) for p in ocp.params]
 
             def provide(transcription: Transcription) -> dict:
@@ -737,4 +724,10 @@ class PhasesSolution:
         )
 
 
-__all__ = ["EventConstraint", "EventPoint", "Phases", "PhasesSolution", "PhasesTranscription"]
+__all__ = [
+    "EventConstraint",
+    "EventPoint",
+    "PhasesDefinition",
+    "PhasesSolution",
+    "PhasesTranscription",
+]

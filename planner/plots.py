@@ -13,55 +13,29 @@ start hinge H_{parent(i)} (H0 for the root) to its end hinge H_i, with the hinge
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from model.errors import DefinitionError, DefinitionTypeError, check_real
+from model.dynamics import Dynamics
+from model.errors import (
+    DefinitionError,
+    DefinitionTypeError,
+    check_integer,
+    check_positive,
+    check_real,
+)
 from planner.files import atomic_path
+from planner.linkage_system import CONVENTION
 from planner.trajectory import (
     Trajectory,
     TrajectoryFileError,
     TrajectoryFileNotFoundError,
 )
-
-if TYPE_CHECKING:
-    from model.dynamics import Dynamics
-
-#: Colours of the links, cycled: matplotlib's tab10, so a link keeps its colour in every plot.
-_COLOURS = (
-    "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
-    "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
-)  # fmt: skip
-
-
-# ---- channels against time ------------------------------------------------------------------
-def _panels(trajectory: Trajectory, extras: bool) -> list[tuple[str, str, list[str]]]:
-    """(label, unit, channel names) per panel: each group split by unit, in column order."""
-    panels: list[tuple[str, str, list[str]]] = []
-    for name, unit, group in trajectory.columns[1:]:
-        if group == "extra" and not extras:
-            continue
-        for label, panel_unit, names in panels:
-            if label == group and panel_unit == unit:
-                names.append(name)
-                break
-        else:
-            panels.append((group, unit, [name]))
-    return panels
-
-
-def _common_prefix(names: Sequence[str]) -> str:
-    """``psi`` for psi_a, psi_b: the part before the first underscore when all names share it."""
-    heads = {name.split("_", 1)[0] for name in names}
-    if len(heads) == 1 and all("_" in name for name in names):
-        return heads.pop()
-    return ""
+from planner.trajectory.plot import COLOURS, draw
 
 
 def plot_trajectory(
@@ -71,56 +45,20 @@ def plot_trajectory(
     figsize: tuple[float, float] | None = None,
     title: str | None = None,
 ) -> Figure:
-    """States and controls (and optionally the extras) against time.
-
-    One panel per group (state, control, extra) and unit, stacked with a shared time axis:
-    for a linkage trajectory psi [rad], dpsi [rad/s] and M [N m] (plus ddpsi [rad/s^2] and
-    Fx, Fy [N] with ``extras=True``). One line per channel, labelled by name; the vertical
-    axis carries the channels' common prefix (or names) and the unit.
-
-    Parameters
-    ----------
-    trajectory : the samples to draw (lines through the samples, no interpolation).
-    extras : also draw the derived channels.
-    figsize : inches; default 8 wide and 2.2 per panel.
-    title : figure title; default the metadata's ``source`` when there is one.
-
-    Returns
-    -------
-    matplotlib.figure.Figure, not registered with pyplot (save it with ``savefig``).
-    """
+    """States and controls (and optionally the extras) against time, one panel per group
+    and unit: :func:`planner.trajectory.plot.draw` (the plot of ``Trajectory.plot``) for a
+    checked ``trajectory``. Returns a matplotlib Figure not registered with pyplot."""
     if not isinstance(trajectory, Trajectory):
         raise DefinitionTypeError(
             f"`trajectory`: must be a planner.trajectory.Trajectory, got "
             f"{type(trajectory).__name__}"
         )
-    panels = _panels(trajectory, extras)
-    if not panels:
-        raise DefinitionError("`trajectory`: has no channels to plot")
-    figure = Figure(figsize=figsize or (8.0, 0.8 + 2.2 * len(panels)), layout="constrained")
-    axes = figure.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
-    time = trajectory.time
-    for ax, (group, unit, names) in zip(axes, panels, strict=True):
-        prefix = _common_prefix(names)
-        for j, name in enumerate(names):
-            label = name[len(prefix) + 1 :] if prefix else name
-            ax.plot(time, trajectory.column(name), color=_COLOURS[j % len(_COLOURS)], label=label)
-        # psi, dpsi, M for a linkage; otherwise the channel names when few, else the group
-        label = prefix or (", ".join(names) if len(names) <= 3 else group)
-        ax.set_ylabel(f"{label} [{unit}]")
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize="small", frameon=False)
-    axes[-1].set_xlabel("t [s]")
-    axes[-1].set_xlim(time[0], time[-1])
-    heading = title if title is not None else trajectory.metadata.get("source")
-    if heading:
-        figure.suptitle(str(heading))
-    return figure
+    return draw(trajectory, extras=extras, figsize=figsize, title=title)
 
 
 # ---- linkage geometry ---------------------------------------------------------------------
 def _check_linkage(dynamics: Dynamics, trajectory: Trajectory) -> None:
-    if not hasattr(dynamics, "hinge_positions") or not hasattr(dynamics, "linkage"):
+    if not isinstance(dynamics, Dynamics):
         raise DefinitionTypeError(
             f"`dynamics`: must be a model.Dynamics, got {type(dynamics).__name__}"
         )
@@ -131,22 +69,14 @@ def _check_linkage(dynamics: Dynamics, trajectory: Trajectory) -> None:
         )
     if not trajectory.is_linkage:
         raise DefinitionError(
-            f"`trajectory`: a stick figure needs a linkage trajectory (states psi_<link>, "
-            f"dpsi_<link>), got states {list(trajectory.state_names)}"
+            f"`trajectory`: a stick figure needs a linkage trajectory ({CONVENTION}), got "
+            f"states {list(trajectory.state_names)}"
         )
     if tuple(trajectory.link_names) != tuple(dynamics.linkage.names):
         raise DefinitionError(
             f"`trajectory`: its links {list(trajectory.link_names)} differ from the dynamics' "
             f"links {list(dynamics.linkage.names)}; draw it with the model it was made for"
         )
-
-
-def _count(where: str, value: object, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise DefinitionTypeError(f"`{where}`: must be an integer, got {value!r}")
-    if value < minimum:
-        raise DefinitionError(f"`{where}`: must be >= {minimum}, got {value!r}")
-    return int(value)
 
 
 def _poses(dynamics: Dynamics, trajectory: Trajectory, times: np.ndarray) -> np.ndarray:
@@ -203,7 +133,7 @@ def stick_figure_strip(
     The figure holding the axes.
     """
     _check_linkage(dynamics, trajectory)
-    frames = _count("n_frames", n_frames, 1)
+    frames = check_integer("n_frames", n_frames, 1)
     times = (
         np.array([trajectory.t0])
         if frames == 1
@@ -233,7 +163,7 @@ def stick_figure_strip(
             ax.plot(
                 [start.real, end.real],
                 [start.imag, end.imag],
-                color=_COLOURS[i % len(_COLOURS)],
+                color=COLOURS[i % len(COLOURS)],
                 linewidth=2.0,
                 marker="o",
                 markersize=3.0,
@@ -303,12 +233,11 @@ def animate(
         raise TrajectoryFileNotFoundError(
             f"{path}: cannot save, the folder {str(path.parent)!r} does not exist; create it first"
         )
-    if check_real("fps", fps) <= 0:
-        raise DefinitionError(f"`fps`: must be > 0 frames per second, got {fps!r}")
+    fps = check_positive("fps", fps, "frames per second")
     if n_frames is None:
         frames = max(2, round(trajectory.duration * fps) + 1)
     else:
-        frames = _count("n_frames", n_frames, 2)
+        frames = check_integer("n_frames", n_frames, 2)
     times = np.linspace(trajectory.t0, trajectory.tf, frames)
     hinges = _poses(dynamics, trajectory, times)
     starts = _segment_starts(dynamics)
@@ -325,7 +254,7 @@ def animate(
     ax.set_ylabel("y [m]")
     ax.plot([x0, x1], [0.0, 0.0], color="0.5", linewidth=0.8, zorder=0)
     lines = [
-        ax.plot([], [], color=_COLOURS[i % len(_COLOURS)], linewidth=2.5, marker="o",
+        ax.plot([], [], color=COLOURS[i % len(COLOURS)], linewidth=2.5, marker="o",
                 markersize=3.5, solid_capstyle="round", label=name)[0]
         for i, name in enumerate(names)
     ]  # fmt: skip

@@ -2,7 +2,7 @@
 
 A :class:`Solution` keeps the NLP's values where they live (states at the state points,
 controls, ddpsi and rates at the dynamics points) and interpolates with exactly the
-polynomials of its transcription (:class:`planner.transcription.Scheme`): trapezoid, linear
+polynomials of its transcription (:class:`planner.schemes.Scheme`): trapezoid, linear
 controls and quadratic states; Hermite-Simpson, quadratic controls and cubic states;
 collocation, the Lagrange polynomials of each interval. Between intervals the interpolant is
 right-continuous (intervals [t_k, t_k+1), the last one closed at T), except for Radau, which
@@ -13,7 +13,8 @@ Accuracy estimates (all in the states' physical units):
 
 * :meth:`Solution.integration_error`: each interval re-integrated from its start node with the
   interpolated controls at tight tolerance (CVODES; IDAS on the DAE x' = z, r(x, z, u, t) = 0
-  for dynamics given as a generic implicit residual), compared with its end node;
+  for dynamics given as a generic implicit residual), compared with its end node (the
+  project's one interval simulator, :class:`planner.simulation.Simulator`);
 * :meth:`Solution.residual_error`: the integral over each interval of |f(x, u, t) - dx/dt|
   along the interpolant (the error OptimTraj reports; for a generic implicit residual, f is
   the root of r(x, f, u, t) = 0 by Newton's method from dx/dt);
@@ -25,7 +26,6 @@ Accuracy estimates (all in the states' physical units):
 from __future__ import annotations
 
 import importlib.metadata
-import re
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -33,23 +33,20 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError, check_real
-from planner.collocation import gauss_legendre, lagrange_coefficients
+from model.errors import AnthropoidError, DefinitionError, check_positive
+from planner.collocation import gauss_legendre
+from planner.simulation import (
+    SimulationError,
+    Simulator,
+    check_tolerance,
+    monomial_coefficients,
+)
+from planner.trajectory import Trajectory
 
 #: Gauss-Legendre points per interval for residual_error. The integrand |f - dx/dt| has kinks
 #: where f - dx/dt changes sign, so the rule is not exact (its degree 2 * 12 - 1 exactness
 #: holds for smooth polynomials only): an estimate, whose error is not bounded by that degree.
 RESIDUAL_QUADRATURE_POINTS = 12
-
-
-def _tolerance(name: str, value) -> float:
-    """An integrator tolerance: a real number in (0, 1)."""
-    number = check_real(name, value)
-    if not 0 < number < 1:
-        raise DefinitionError(
-            f"`{name}`: must lie in (0, 1), got {number!r}; give e.g. 1e-10 (1e-12 for a tight run)"
-        )
-    return number
 
 
 @dataclass(frozen=True)
@@ -158,7 +155,7 @@ class Solution:
         self.point_time = self.mesh.s_dyn * self.T
         self.rate_values = self._rates()
         #: Interval integrators by (rtol, atol), built on first use.
-        self._integrators: dict[tuple[float, float], ca.Function] = {}
+        self._integrators: dict[tuple[float, float], Simulator] = {}
 
     @cached_property
     def cost_terms(self) -> dict[str, float]:
@@ -235,21 +232,26 @@ class Solution:
 
     @property
     def torques(self) -> np.ndarray:
-        """(N+1, n) hinge torques at the nodes, N m (a linkage's controls; contact forces,
-        when there are any, follow them among the controls)."""
-        self._require_linkage("torques")
-        return self.controls[:, : self.system.dynamics.n]
+        """(N+1, n) drive torques at the nodes (the system's ``drives`` group: a linkage's
+        hinge torques, N m, without the contact forces that may follow them)."""
+        self._require_role("drives", "torques")
+        columns = [self.system.control_names.index(n) for n in self.system.role_names("drives")]
+        return self.controls[:, columns]
 
     @property
     def ddpsi(self) -> np.ndarray | None:
-        """(N+1, n) angular accelerations at the nodes, rad/s^2 (a linkage only)."""
-        if not self.system.is_linkage:
+        """(N+1, n) second derivatives of the states at the nodes (the system's
+        ``accelerations``: a linkage's angular accelerations, rad/s^2), or None."""
+        if self.system.accelerations is None:
             return None
         return self.acceleration(self.time)
 
-    def _require_linkage(self, what: str) -> None:
-        if not self.system.is_linkage:
-            raise DefinitionError(f"`{what}`: defined for a model.Dynamics problem only")
+    def _require_role(self, role: str, what: str) -> None:
+        if getattr(self.system, role) is None:
+            raise DefinitionError(
+                f"`{what}`: defined for a model.Dynamics problem only (a system with "
+                f"{role}); this system has none"
+            )
 
     def _rates(self) -> np.ndarray:
         """(nC, nx) f(x, z, u, t) at the dynamics points, through the NLP's own point Function."""
@@ -319,20 +321,25 @@ class Solution:
         return self._point_values(self.aux_values, t)
 
     def acceleration(self, t) -> np.ndarray:
-        """ddpsi at times t, (K, n), rad/s^2 (a linkage): the NLP's ddpsi polynomial
-        (implicit), or forward dynamics of the interpolated state and torques (explicit)."""
-        self._require_linkage("acceleration")
-        if self.system.nz:
-            return self.aux(t)
-        n = self.system.dynamics.n
-        x = self.state(t)
-        u = self.control(t)
-        if self.system.nu == n:
-            return np.atleast_2d(self.system.dynamics.forward_dynamics(x[:, :n], x[:, n:], u))
-        # Contact forces too: the system's own rate (forward dynamics with their moments).
+        """The system's ``accelerations`` at times t, (K, n) (a linkage's ddpsi, rad/s^2): the
+        NLP's polynomial of those variables (implicit), or the derived field evaluated on
+        the interpolated states and controls (explicit: a linkage's forward dynamics, with
+        the moments of contact forces when there are any)."""
+        self._require_role("accelerations", "acceleration")
+        return self._field(self.system.accelerations, t)
+
+    def _field(self, group: str, t) -> np.ndarray:
+        """(K, m) values of a group of auxiliary variables or of a derived field at times t."""
+        s = self.system
+        members = s.group(group)
+        if members is not None and all(name in s.aux_names for name in members):
+            return self.aux(t)[:, [s.aux_names.index(name) for name in members]]
+        derived = s.derived_field(group)
         times = np.atleast_1d(np.asarray(t, dtype=float))
-        rate = self.system.ode.map(times.size)(x.T, u.T, times[None, :])
-        return np.asarray(rate).T[:, n:]
+        x, u = self.state(times), self.control(times)
+        z = self.aux(times) if s.nz else np.zeros((times.size, 0))
+        values = derived.function.map(times.size)(x.T, z.T, u.T, times[None, :])
+        return np.asarray(values).T
 
     def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
         """(states (K, nx), controls (K, nu)) at times t through the transcription's polynomials."""
@@ -356,13 +363,21 @@ class Solution:
         states, controls = self(t)
         out.update({n: states[:, i] for i, n in enumerate(self.system.state_names)})
         out.update({n: controls[:, i] for i, n in enumerate(self.system.control_names)})
-        if self.system.is_linkage:
-            accelerations = self.acceleration(t)
-            for i, link in enumerate(self.system.dynamics.names):
-                out[f"ddpsi_{link}"] = accelerations[:, i]
-        elif self.system.nz:
+        out.update(self._extras(t))
+        return out
+
+    def _extras(self, t) -> dict[str, np.ndarray]:
+        """name -> (K,) at times t: the auxiliary variables and the derived
+        ``accelerations`` (explicit), the channels a trajectory stores besides the states
+        and the drives (and what a guess on another mesh or formulation needs)."""
+        s = self.system
+        out = {}
+        if s.nz:
             aux = self.aux(t)
-            out.update({n: aux[:, i] for i, n in enumerate(self.system.aux_names)})
+            out.update({n: aux[:, i] for i, n in enumerate(s.aux_names)})
+        if s.accelerations is not None and s.group(s.accelerations) is None:
+            values = self._field(s.accelerations, t)
+            out.update({n: values[:, i] for i, n in enumerate(s.role_names("accelerations"))})
         return out
 
     # ---- accuracy ----------------------------------------------------------------------
@@ -392,76 +407,60 @@ class Solution:
                 "residual"
             )
 
-    def _interval_integrator(self, rtol, atol, what: str) -> ca.Function:
-        """One interval in tau: dx/dtau = h f(x, u(tau), t_k + h tau), built once per
-        tolerance pair.
+    def _interval_integrator(self, rtol, atol, what: str) -> Simulator:
+        """The :class:`planner.simulation.Simulator` of one mesh interval with the
+        transcription's control polynomial, built once per tolerance pair.
 
         An explicit ODE integrates with CVODES. A generic implicit residual r(x, xdot, u, t)
-        integrates as the semi-explicit index-1 DAE dx/dtau = h z, 0 = r(x, z, u, t) with IDAS
-        (z = xdot algebraic, made consistent at tau = 0 from a guess); r must determine xdot
-        (dr/dxdot nonsingular), as it must for the OCP to be well posed.
-        The control polynomial enters as parameters: the interval's dynamics-point controls,
-        combined with the monomial coefficients of the scheme's Lagrange basis.
+        integrates as the semi-explicit index-1 DAE dx/dt = z, 0 = r(x, z, u, t) with IDAS
+        (z = xdot algebraic, made consistent at each interval's start from a guess); r must
+        determine xdot (dr/dxdot nonsingular), as it must for the OCP to be well posed.
         """
-        key = (_tolerance("rtol", rtol), _tolerance("atol", atol))
+        key = (check_tolerance("rtol", rtol), check_tolerance("atol", atol))
         self._require_rate(what)
         if key in self._integrators:
             return self._integrators[key]
         s = self.system
-        ndc = self.scheme.ndc
-        coefficients = lagrange_coefficients(self.scheme.interval_dyn_tau)  # (ndc, ndc)
-        x = ca.SX.sym("x", s.nx)
-        tau = ca.SX.sym("tau")
-        uk = ca.SX.sym("uk", s.nu, ndc)
-        t0 = ca.SX.sym("t0")
-        h = ca.SX.sym("h")
-        monomials = ca.vertcat(*[tau**p for p in range(ndc)])
-        u = ca.mtimes(ca.mtimes(uk, ca.DM(coefficients)), monomials)
-        p = ca.vertcat(ca.vec(uk), t0, h)
-        options = {"abstol": key[1], "reltol": key[0], "max_num_steps": 100000}
-        if not self._implicit_only:
-            dae = {"x": x, "p": p, "t": tau, "ode": h * s.ode(x, u, t0 + h * tau)}
-            integrator = ca.integrator("interval", "cvodes", dae, 0.0, 1.0, options)
-        else:
-            z = ca.SX.sym("z", s.nz)
-            t = t0 + h * tau
-            dae = {
-                "x": x,
-                "z": z,
-                "p": p,
-                "t": tau,
-                "ode": h * s.rate(x, z, u, t),
-                "alg": s.residual(x, z, u, t),
-            }
-            integrator = ca.integrator("interval", "idas", dae, 0.0, 1.0, options)
-        self._integrators[key] = integrator
-        return integrator
-
-    def _integrate(self, integrator: ca.Function, x0: np.ndarray, p: np.ndarray, z0, where: str):
-        """Call an interval integrator, (nx, K) x0 and (np, K) p; returns (xf, zf).
-
-        A failure of the integrator raises AnthropoidError naming ``where`` (the interval(s))
-        and the SUNDIALS flag."""
-        arguments = {"x0": x0, "p": p}
+        degree = self.scheme.ndc - 1  # the polynomial through the interval's dynamics points
         if self._implicit_only:
-            arguments["z0"] = z0
-        try:
-            result = integrator(**arguments)
-        except RuntimeError as exc:
-            found = re.search(r'returned "([A-Z_]+)"', str(exc))
-            flag = found.group(1) if found else str(exc).strip().splitlines()[-1]
-            if self._implicit_only:
-                raise AnthropoidError(
-                    f"re-integration of the implicit residual failed (IDAS, {flag}) {where}: "
-                    "the residual r(x, xdot, u, t) must determine xdot (dr/dxdot nonsingular "
-                    "along the solution)"
-                ) from exc
-            raise AnthropoidError(
+            simulator = Simulator(
+                s.rate, s.residual, degree=degree, method="idas", rtol=key[0], atol=key[1]
+            )
+        else:
+            x, z, u, t = (
+                ca.SX.sym("x", s.nx),
+                ca.SX.sym("z", 0),
+                ca.SX.sym("u", s.nu),
+                ca.SX.sym("t"),
+            )
+            ode = ca.Function("ode", [x, z, u, t], [s.ode(x, u, t)], ["x", "z", "u", "t"], ["xdot"])
+            simulator = Simulator(ode, degree=degree, method="cvodes", rtol=key[0], atol=key[1])
+        self._integrators[key] = simulator
+        return simulator
+
+    def _reintegration_failure(self, error: SimulationError, where: str) -> SimulationError:
+        """The simulator's error in the words of a re-integration of this solution."""
+        flag = error.flag or str(error)
+        if self._implicit_only:
+            message = (
+                f"re-integration of the implicit residual failed (IDAS, {flag}) {where}: "
+                "the residual r(x, xdot, u, t) must determine xdot (dr/dxdot nonsingular "
+                "along the solution)"
+            )
+        else:
+            message = (
                 f"re-integration of the ODE failed (CVODES, {flag}) {where}: the interpolated "
                 "motion diverges or is too stiff for rtol/atol; loosen them, or check the "
                 "solution (its status, a finer mesh)"
-            ) from exc
-        return np.asarray(result["xf"]), np.asarray(result["zf"])
+            )
+        return SimulationError(
+            message,
+            method=error.method,
+            interval=error.interval,
+            flag=error.flag,
+            details=error.details,
+            index=error.index,
+        )
 
     def _interval_start_rates(self) -> np.ndarray:
         """(nz, N) guesses of xdot at each interval's start: its own aux polynomial at tau = 0
@@ -505,26 +504,31 @@ class Solution:
         rate = s.rate.map(K)(x.T, z_root, u.T, t[None, :])
         return np.asarray(rate).T
 
-    def _interval_parameters(self) -> np.ndarray:
-        mesh = self.mesh
-        uk = self.control_values[mesh.dyn_cols]  # (N, ndc, nu)
-        # ca.vec is column-major over (nu, ndc): entry (i, c) at c * nu + i.
-        vec_u = uk.reshape(self.N, -1)
-        t0 = self.time[:-1, None]
-        h = self.interval_lengths[:, None]
-        return np.hstack([vec_u, t0, h]).T  # (np, N)
+    def _interval_coefficients(self) -> np.ndarray:
+        """(N, nu, ndc) monomial coefficients in tau of each interval's control polynomial."""
+        values = self.control_values[self.mesh.dyn_cols]  # (N, ndc, nu)
+        return monomial_coefficients(self.scheme.interval_dyn_tau, values)
 
     def integration_error(self, rtol: float = 1e-12, atol: float = 1e-12) -> IntegrationError:
         """Re-integrate every interval from its start node with the interpolated controls.
 
         Returns the (N, nx) absolute difference from the end nodes (state units).
         """
-        integrator = self._interval_integrator(rtol, atol, "integration_error").map(self.N)
+        simulator = self._interval_integrator(rtol, atol, "integration_error")
         nodes = self.states
-        z0 = self._interval_start_rates() if self._implicit_only else None
-        where = f"on one of the {self.N} intervals"
-        end, _ = self._integrate(integrator, nodes[:-1].T, self._interval_parameters(), z0, where)
-        return IntegrationError(np.abs(end.T - nodes[1:]), self.system.state_names)
+        z0 = self._interval_start_rates().T if self._implicit_only else None
+        parameters = simulator.parameters(
+            self.time[:-1], self.interval_lengths, self._interval_coefficients()
+        )
+        try:
+            run = simulator.across(nodes[:-1], parameters, z0)
+        except SimulationError as error:
+            where = f"on one of the {self.N} intervals"
+            if error.index is not None:
+                k = error.index
+                where += f" (first: {k}, t = {self.time[k]:.6g} .. {self.time[k + 1]:.6g} s)"
+            raise self._reintegration_failure(error, where) from error
+        return IntegrationError(np.abs(run.states - nodes[1:]), self.system.state_names)
 
     def residual_error(self, points: int = RESIDUAL_QUADRATURE_POINTS) -> IntegrationError:
         """Integral over each interval of |f(x(t), u(t), t) - dx/dt(t)| along the interpolant.
@@ -550,18 +554,23 @@ class Solution:
         A stability probe, not an accuracy measure: the deviation grows with the motion's
         own instability (for an unstable gait it is large however accurate the solution).
         """
-        integrator = self._interval_integrator(rtol, atol, "replay")
-        parameters = self._interval_parameters()
-        x = self.states[0].copy()
-        z = self._interval_start_rates()[:, 0] if self._implicit_only else None
-        out = [x]
-        for k in range(self.N):
-            where = f"on interval {k} (t = {self.time[k]:.6g} .. {self.time[k + 1]:.6g} s)"
-            xf, zf = self._integrate(integrator, x, parameters[:, k], z, where)
-            x, z = xf.reshape(-1), zf.reshape(-1)
-            out.append(x)
-        states = np.array(out)
-        return Replay(self.time, states, states - self.states)
+        simulator = self._interval_integrator(rtol, atol, "replay")
+        z0 = self._interval_start_rates().T if self._implicit_only else None
+        try:
+            # Restarted at every node, as the per-interval re-integration: the replay's first
+            # interval is the first re-integration.
+            run = simulator.along(
+                self.states[0], self.time, self._interval_coefficients(), z0, restart=True
+            )
+        except SimulationError as error:
+            k = error.index
+            where = (
+                "on one of the intervals"
+                if k is None
+                else f"on interval {k} (t = {self.time[k]:.6g} .. {self.time[k + 1]:.6g} s)"
+            )
+            raise self._reintegration_failure(error, where) from error
+        return Replay(self.time, run.states, run.states - self.states)
 
     # ---- export ------------------------------------------------------------------------
     @property
@@ -577,7 +586,7 @@ class Solution:
         system = self.system
         return {
             "source": "planner",
-            "model": system.dynamics.linkage.parameters() if system.is_linkage else None,
+            "model": None if system.model is None else dict(system.model),
             "transcription": self.scheme.name,
             "degree": self.scheme.degree,
             "N": self.N,
@@ -598,9 +607,7 @@ class Solution:
         """The nodes (rate_hz None) or a uniform grid 0, 1/rate, ... with T appended."""
         if rate_hz is None:
             return self.time
-        rate = float(rate_hz)
-        if not np.isfinite(rate) or rate <= 0:
-            raise DefinitionError(f"`rate_hz`: must be a finite rate > 0 Hz, got {rate_hz!r}")
+        rate = check_positive("rate_hz", rate_hz, "Hz")
         count = int(np.floor(self.T * rate + 1e-9))
         times = np.arange(count + 1) / rate
         if self.T - times[-1] > 1e-9 * self.T:
@@ -611,41 +618,32 @@ class Solution:
         """The solution as a :class:`planner.trajectory.Trajectory`.
 
         At the nodes (``rate_hz`` None) or resampled at ``rate_hz`` through this solution's
-        own interpolant. A linkage uses the naming convention psi_, dpsi_, M_, ddpsi_.
+        own interpolant, in the system's names: its drives as the controls, the other
+        controls, the auxiliary variables and the derived accelerations as extras (a
+        linkage: psi_, dpsi_ states, M_ controls, ddpsi_ and contact-force extras).
         """
-        from planner.trajectory import Trajectory
-
         times = self.sample_times(rate_hz)
         states, controls = self(times)
-        system = self.system
-        if system.is_linkage:
-            n = system.dynamics.n
-            trajectory = Trajectory.from_linkage(
-                times,
-                states[:, :n],
-                states[:, n:],
-                controls[:, :n],
-                system.dynamics.names,
-                ddpsi=self.acceleration(times),
-                metadata=self.metadata,
-            )
-            # Contact forces (controls after the torques): derived channels, N.
-            for i, name in enumerate(system.control_names[n:]):
-                trajectory = trajectory.with_extra(name, controls[:, n + i], "N")
-            return trajectory
-        extras = {}
-        if system.nz:
-            aux = self.aux(times)
-            extras = {n: (aux[:, i], system.aux_units[i]) for i, n in enumerate(system.aux_names)}
+        s = self.system
+        # The drives are the trajectory's controls; the other controls (a linkage's contact
+        # forces) and the auxiliary and derived channels are its extras.
+        drives = s.role_names("drives") if s.drives is not None else s.control_names
+        columns = [s.control_names.index(name) for name in drives]
+        units = dict(zip(s.control_names, s.control_units, strict=True))
+        units.update(zip(s.aux_names, s.aux_units, strict=True))
+        for derived in s.derived:
+            units.update(zip(derived.names, derived.units, strict=True))
+        values = self._extras(times)
+        values.update({n: controls[:, i] for i, n in enumerate(s.control_names) if n not in drives})
         return Trajectory(
             times,
             states,
-            controls,
-            system.state_names,
-            system.state_units,
-            system.control_names,
-            system.control_units,
-            extras,
+            controls[:, columns],
+            s.state_names,
+            s.state_units,
+            tuple(drives),
+            tuple(units[n] for n in drives),
+            {name: (value, units[name]) for name, value in values.items()},
             self.metadata,
         )
 
@@ -656,8 +654,7 @@ class Solution:
         return self.to_trajectory(rate_hz).save(path)
 
     def __repr__(self) -> str:
-        mesh = self.scheme.name + (f"({self.scheme.degree})" if self.scheme.degree else "")
         return (
-            f"Solution({mesh}, N={self.N}, T={self.T:g} s, {self.system.formulation}, "
+            f"Solution({self.scheme.label}, N={self.N}, T={self.T:g} s, {self.system.formulation}, "
             f"status={self.status}, cost={self.cost:.6g}, iterations={self.iterations})"
         )

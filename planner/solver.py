@@ -42,8 +42,8 @@ import numpy as np
 
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.native_output import captured
-from planner.ocp import OCP
-from planner.phases import Phases, PhasesSolution, PhasesTranscription
+from planner.ocp import OCPDefinition
+from planner.phases import PhasesDefinition, PhasesSolution, PhasesTranscription
 from planner.solution import Solution
 from planner.solver_cache import SOLVERS, CachedSolver
 from planner.transcription import Transcription
@@ -440,7 +440,7 @@ def objective_scale(transcription: Transcription, solver: ca.Function, w0: np.nd
 
 
 def solve(
-    problem: OCP | Transcription,
+    problem: OCPDefinition | PhasesDefinition | Transcription | PhasesTranscription,
     *,
     options: Mapping[str, Any] | None = None,
     accept_acceptable: bool = False,
@@ -491,11 +491,11 @@ def solve(
     solver_cached (whether the solver was reused), objective_scale, ipopt (the raw
     ``solver.stats()``).
     """
-    if isinstance(problem, OCP):
+    if isinstance(problem, OCPDefinition):
         # Always the MX transcription: it builds in milliseconds and its structure key is
         # cheap; the expansion to SX happens once, inside the (cached) solver.
         transcription = Transcription(problem)
-    elif isinstance(problem, Phases):
+    elif isinstance(problem, PhasesDefinition):
         transcription = PhasesTranscription(problem)
     elif isinstance(problem, Transcription | PhasesTranscription):
         if expand is not None:

@@ -26,7 +26,7 @@ from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
 from typing import Any
 
-from model.errors import DefinitionError, DefinitionTypeError
+from model.errors import check_integer
 
 #: Solvers kept by default. A six-link Hermite-Simpson solver at N = 160 holds a few MB.
 DEFAULT_SIZE = 16
@@ -113,11 +113,7 @@ class SolverCache:
 
 
 def _check_size(size: object) -> int:
-    if isinstance(size, bool) or not isinstance(size, int):
-        raise DefinitionTypeError(f"`size`: must be an integer >= 0, got {size!r}")
-    if size < 0:
-        raise DefinitionError(f"`size`: must be >= 0 (0 keeps no solver), got {size}")
-    return size
+    return check_integer("size", size, 0, "(0 keeps no solver)")
 
 
 #: The process's solver cache, used by :func:`planner.solver.solve`.

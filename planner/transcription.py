@@ -1,27 +1,12 @@
 """Transcription of an :class:`planner.ocp.OCP` into a nonlinear program (NLP).
 
 The horizon [0, T] is cut into N intervals of lengths h_k = T f_k (uniform: f_k = 1 / N; a
-non-uniform mesh gives the fractions f_k); in each, tau = (t - t_k) / h_k.
-A :class:`Scheme` fixes, for one interval,
-
-* where the state variables live (``state_tau``; the interval's last state is the next
-  interval's first), and where the dynamics are enforced (``dyn_tau``, the "dynamics points":
-  controls, and for implicit dynamics the auxiliary variables z = ddpsi, live there too);
-* the defects, linear in the states X_k of the interval and the rates F_k = f(x, z, u, t) at
-  its dynamics points:  X_k A^T - h F_k B^T = 0  (one row of A, B per defect);
-* the quadrature weights q of the integral objective (integral ~= h sum_c q_c L_c);
-* the interpolant, exactly the polynomials the defects imply:
-  x(tau) = X_k Wx(tau)^T + h F_k Wf(tau)^T,   u(tau) = U_k Wu(tau)^T.
-
-| scheme          | states / interval   | dynamics points  | x(tau)            | u(tau)       |
-|-----------------|---------------------|------------------|-------------------|--------------|
-| trapezoid       | node                | nodes            | quadratic         | linear       |
-| hermite-simpson | node, midpoint      | nodes, midpoints | cubic Hermite     | quadratic    |
-| radau (d)       | node, tau_1..d-1    | tau_1..d (=1)    | Lagrange, deg d   | Lagrange d-1 |
-| legendre (d)    | node, tau_1..d      | tau_1..d         | Lagrange, deg d   | Lagrange d-1 |
-
-(Hermite-Simpson is the separated form: midpoint states and controls are variables; the
-Legendre scheme adds a continuity defect x_{k+1} = x(tau = 1).)
+non-uniform mesh gives the fractions f_k); in each, tau = (t - t_k) / h_k. The transcription's
+:class:`planner.schemes.Scheme` (from the registry :mod:`planner.schemes`, which lists the
+schemes) fixes, for one interval, where the states live and where the dynamics are enforced
+(the "dynamics points", where the controls and auxiliary variables live too), the defects
+X_k A^T - h F_k B^T = 0, the quadrature of the integral objective and the interpolant
+x(tau) = X_k Wx(tau)^T + h F_k Wf(tau)^T, u(tau) = U_k Wu(tau)^T.
 
 The NLP is built from one SX Function per dynamics point (rate, residual, path constraints,
 integrand), mapped over all points with ``Function.map``, so that construction cost does not
@@ -51,177 +36,13 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError, as_float_array
-from planner.collocation import collocation_roots, integration_weights, lagrange_matrix
-from planner.ocp import OCP, Point, evaluate_expression
+from model.errors import DefinitionError, DefinitionTypeError
+from planner.guesses import evaluate_guess_layer
+from planner.ocp import OCPDefinition, Point, evaluate_expression
+from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
 from planner.solution import Solution
 
 logger = logging.getLogger(__name__)
-
-
-# ---- schemes ------------------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class Scheme:
-    """The polynomial structure of one mesh interval (see the module docstring).
-
-    Attributes
-    ----------
-    state_tau : (ms,) state points owned by an interval, starting at 0.
-    dyn_tau : (mc,) dynamics points owned by an interval.
-    shares_end : the interval also uses the next interval's first dynamics point (the node
-        at tau = 1): trapezoid and Hermite-Simpson, whose dynamics points include the nodes.
-    A : (r, ms + 1) defect weights on the interval's states (tau in state_tau + [1]).
-    B : (r, ndc) defect weights on the interval's rates, ndc = mc + shares_end.
-    quadrature : (ndc,) weights of the integral on the interval's dynamics points.
-    order : expected order of convergence of the cost.
-    """
-
-    name: str
-    degree: int | None
-    state_tau: np.ndarray
-    dyn_tau: np.ndarray
-    shares_end: bool
-    A: np.ndarray
-    B: np.ndarray
-    defect_labels: tuple[str, ...]
-    quadrature: np.ndarray
-    order: int
-
-    @property
-    def ms(self) -> int:
-        return self.state_tau.size
-
-    @property
-    def mc(self) -> int:
-        return self.dyn_tau.size
-
-    @property
-    def ndc(self) -> int:
-        return self.mc + int(self.shares_end)
-
-    @property
-    def interval_state_tau(self) -> np.ndarray:
-        return np.append(self.state_tau, 1.0)
-
-    @property
-    def interval_dyn_tau(self) -> np.ndarray:
-        return np.append(self.dyn_tau, 1.0) if self.shares_end else self.dyn_tau
-
-    def state_weights(self, tau, derivative: int = 0) -> tuple[np.ndarray, np.ndarray]:
-        """(Wx (K, ms+1), Wf (K, ndc)): d^r x/dtau^r = X_k Wx^T + h F_k Wf^T at ``tau``."""
-        tau = np.atleast_1d(np.asarray(tau, dtype=float))
-        if self.name == "trapezoid":
-            # x = x0 + h (f0 tau + (f1 - f0) tau^2 / 2): the integral of the linear rate.
-            poly = [
-                (np.ones_like(tau), tau - tau**2 / 2, tau**2 / 2),
-                (np.zeros_like(tau), 1 - tau, tau),
-                (np.zeros_like(tau), -np.ones_like(tau), np.ones_like(tau)),
-            ]
-            if derivative > 2:
-                return np.zeros((tau.size, 2)), np.zeros((tau.size, 2))
-            one, f0, f1 = poly[derivative]
-            wx = np.column_stack([one, np.zeros_like(tau)])
-            return wx, np.column_stack([f0, f1])
-        if self.name == "hermite-simpson":
-            # Cubic Hermite through x0, x1 with slopes h f0, h f1 (its midpoint value and slope
-            # are the two Hermite-Simpson defects, so it passes through x_m with slope f_m).
-            basis = {
-                0: (
-                    2 * tau**3 - 3 * tau**2 + 1,
-                    tau**3 - 2 * tau**2 + tau,
-                    -2 * tau**3 + 3 * tau**2,
-                    tau**3 - tau**2,
-                ),
-                1: (
-                    6 * tau**2 - 6 * tau,
-                    3 * tau**2 - 4 * tau + 1,
-                    -6 * tau**2 + 6 * tau,
-                    3 * tau**2 - 2 * tau,
-                ),
-                2: (12 * tau - 6, 6 * tau - 4, -12 * tau + 6, 6 * tau - 2),
-                3: (12 + 0 * tau, 6 + 0 * tau, -12 + 0 * tau, 6 + 0 * tau),
-            }
-            if derivative > 3:
-                return np.zeros((tau.size, 3)), np.zeros((tau.size, 3))
-            h00, h10, h01, h11 = basis[derivative]
-            zero = np.zeros_like(tau)
-            return np.column_stack([h00, zero, h01]), np.column_stack([h10, zero, h11])
-        # Orthogonal collocation: the Lagrange polynomial through the node and the points.
-        points = np.append(0.0, self.dyn_tau)
-        w = lagrange_matrix(points, tau, derivative)
-        wx = np.zeros((tau.size, self.ms + 1))
-        wx[:, : points.size] = w
-        return wx, np.zeros((tau.size, self.ndc))
-
-    def control_weights(self, tau, derivative: int = 0) -> np.ndarray:
-        """Wu (K, ndc): u(tau) = U_k Wu^T, the polynomial through the dynamics points."""
-        return lagrange_matrix(self.interval_dyn_tau, tau, derivative)
-
-
-def make_scheme(name: str, degree: int | None = None) -> Scheme:
-    """The :class:`Scheme` of a transcription name (and degree for collocation)."""
-    if name == "trapezoid":
-        return Scheme(
-            name,
-            None,
-            np.array([0.0]),
-            np.array([0.0]),
-            True,
-            A=np.array([[-1.0, 1.0]]),
-            B=np.array([[0.5, 0.5]]),
-            defect_labels=("",),
-            quadrature=np.array([0.5, 0.5]),
-            order=2,
-        )
-    if name == "hermite-simpson":
-        return Scheme(
-            name,
-            None,
-            np.array([0.0, 0.5]),
-            np.array([0.0, 0.5]),
-            True,
-            # x_m = (x0 + x1)/2 + h (f0 - f1)/8 ;  x1 = x0 + h (f0 + 4 f_m + f1)/6
-            A=np.array([[-0.5, 1.0, -0.5], [-1.0, 0.0, 1.0]]),
-            B=np.array([[1 / 8, 0.0, -1 / 8], [1 / 6, 4 / 6, 1 / 6]]),
-            defect_labels=(" (midpoint)", " (end)"),
-            quadrature=np.array([1 / 6, 4 / 6, 1 / 6]),
-            order=4,
-        )
-    if name in ("radau", "legendre"):
-        if degree is None:
-            raise DefinitionError(f"`degree`: {name} collocation needs a degree in 1..9")
-        roots = collocation_roots(name, degree)
-        d = roots.size
-        points = np.append(0.0, roots)  # the basis of the state polynomial
-        derivative = lagrange_matrix(points, roots, 1)  # (d, d+1): slope at each root
-        labels = tuple(f" (point {r + 1})" for r in range(d))
-        if name == "radau":
-            A, B = derivative, np.eye(d)
-            state_tau = points[:-1]  # the last root is tau = 1, the next node
-            order = 2 * d - 1
-        else:
-            end = lagrange_matrix(points, [1.0])[0]  # x(1) from the node and the roots
-            A = np.zeros((d + 1, d + 2))
-            A[:d, : d + 1] = derivative
-            A[d, : d + 1] = -end
-            A[d, d + 1] = 1.0
-            B = np.vstack([np.eye(d), np.zeros((1, d))])
-            labels = (*labels, " (continuity)")
-            state_tau = points
-            order = 2 * d
-        return Scheme(
-            name,
-            d,
-            state_tau,
-            roots,
-            False,
-            A=A,
-            B=B,
-            defect_labels=labels,
-            quadrature=integration_weights(roots),
-            order=order,
-        )
-    raise DefinitionError(f"`transcription`: unknown {name!r}")
 
 
 # ---- the mesh -----------------------------------------------------------------------------
@@ -353,24 +174,22 @@ class Mesh:
         return a, b
 
     def dyn_label(self, c: int) -> str:
-        """A readable place for dynamics point c: "node 3" or "interval 2 point 1"."""
-        if self.scheme.shares_end:
-            k, j = divmod(c, self.scheme.mc)
-            if j == 0:
-                return f"node {k}"
-            return f"interval {k} midpoint"
-        k, j = divmod(c, self.scheme.mc)
-        if j == self.scheme.mc - 1 and self.scheme.dyn_tau[-1] == 1.0:
+        """A readable place for dynamics point c: "node 3", "interval 2 midpoint" or
+        "interval 2 point 1" (the scheme's :meth:`~planner.schemes.Scheme.point_name`)."""
+        scheme = self.scheme
+        k, j = divmod(c, scheme.mc)
+        if scheme.shares_end:
+            return f"node {k}" if j == 0 else f"interval {k} {scheme.point_name(j)}"
+        if j == scheme.mc - 1 and scheme.owns_end:
             return f"node {k + 1}"
-        return f"interval {k} point {j + 1}"
+        return f"interval {k} {scheme.point_name(j + 1)}"
 
     def state_label(self, col: int) -> str:
+        """A readable place for state point ``col``: "node 3" or "interval 2 point 1"."""
         k, j = divmod(col, self.scheme.ms)
         if j == 0:
             return f"node {k}"
-        if self.scheme.name == "hermite-simpson":
-            return f"interval {k} midpoint"
-        return f"interval {k} point {j}"
+        return f"interval {k} {self.scheme.point_name(j)}"
 
     @cached_property
     def dyn_owner(self) -> tuple[np.ndarray, np.ndarray]:
@@ -423,89 +242,11 @@ class Mesh:
         nearest = np.rint(scaled)
         tolerance = 16 * np.finfo(float).eps * max(1, self.N)  # a few ulps of the largest value
         scaled = np.where(np.abs(scaled - nearest) <= tolerance, nearest, scaled)
-        if self.scheme.name == "radau":
+        if self.scheme.owns_end:
             k = np.clip(np.ceil(scaled).astype(int) - 1, 0, self.N - 1)
         else:
             k = np.clip(np.floor(scaled).astype(int), 0, self.N - 1)
         return k, scaled - k
-
-
-# ---- guesses ------------------------------------------------------------------------------
-def evaluate_guess_layer(ocp: OCP, layer, times: np.ndarray) -> dict[str, np.ndarray]:
-    """Values (name -> (K,)) that one guess layer gives at ``times`` (s)."""
-    system = ocp.system
-    K = times.size
-    if layer.kind == "constant":
-        return {name: np.full(K, float(v)) for name, v in layer.values.items()}
-    if layer.kind == "grid":
-        out = {}
-        for name, values in layer.values.items():
-            if layer.times.size == 1:
-                out[name] = np.full(K, float(values[0]))
-            else:
-                out[name] = np.interp(times, layer.times, values)
-        return out
-    if layer.kind == "solution":
-        source = layer.source
-        s = times / ocp.duration_guess
-        if hasattr(source, "interpolate_guess"):
-            return source.interpolate_guess(s)
-        t0, t1 = float(source.time[0]), float(source.time[-1])
-        states, controls = source.at(t0 + s * (t1 - t0))
-        out = {n: states[:, i] for i, n in enumerate(source.state_names)}
-        out.update({n: controls[:, i] for i, n in enumerate(source.control_names)})
-        extras = getattr(source, "extras", {}) or {}
-        for name, (values, _unit) in extras.items():
-            if name in system.aux_names:
-                out[name] = np.interp(t0 + s * (t1 - t0), np.asarray(source.time), values)
-        return {n: v for n, v in out.items() if n in system.variable_names}
-    # callable of t
-    try:
-        result = layer.source(times)
-    except Exception as exc:  # a user's law may fail in any way; say which guess failed
-        raise DefinitionError(f"`guess`: calling the guess function failed: {exc!r}") from exc
-    if isinstance(result, dict):
-        items = list(result.items())
-    elif isinstance(result, tuple | list):
-        order = ("psi", "dpsi", "ddpsi", "M") if system.is_linkage else ("x", "u", "z")
-        if len(result) > len(order):
-            raise DefinitionError(
-                f"`guess`: the function returned {len(result)} arrays; expected up to "
-                f"{len(order)}: {order}"
-            )
-        items = list(zip(order, result, strict=False))
-    else:
-        raise DefinitionTypeError(
-            "`guess`: the function must return a dict or a tuple "
-            f"({'(psi, dpsi[, ddpsi[, M]])' if system.is_linkage else '(x[, u[, z]])'}), "
-            f"got {type(result).__name__}"
-        )
-    out = {}
-    for key, value in items:
-        if key in ("ddpsi", "z") and system.group(key) is None:
-            if not system.is_linkage:
-                continue
-            # Explicit linkage: no ddpsi variables, but the accelerations still give the
-            # torque guess by inverse dynamics; keep them under their names.
-            names = tuple(f"ddpsi_{k}" for k in system.dynamics.names)
-        else:
-            names = ocp.resolve(key, "guess")
-        array = as_float_array(f"guess[{key}]", value, "numeric")
-        m = len(names)
-        if array.ndim == 1 and m == 1 and array.size == K:
-            array = array[:, None]
-        elif array.ndim == 1 and K == 1 and array.size == m:
-            array = array[None, :]
-        if array.shape != (K, m):
-            raise DefinitionError(
-                f"`guess[{key}]`: the function returned shape {array.shape} for {K} times; "
-                f"expected ({K}, {m})"
-            )
-        if not np.all(np.isfinite(array)):
-            raise DefinitionError(f"`guess[{key}]`: the function returned NaN or inf")
-        for i, name in enumerate(names):
-            out[name] = array[:, i]
-    return out
 
 
 # ---- the NLP ------------------------------------------------------------------------------
@@ -526,8 +267,10 @@ class Transcription:
     transcription is solved many times).
     """
 
-    def __init__(self, ocp: OCP, expand: bool | None = None, *, phase_symbols=None) -> None:
-        if not isinstance(ocp, OCP):
+    def __init__(
+        self, ocp: OCPDefinition, expand: bool | None = None, *, phase_symbols=None
+    ) -> None:
+        if not isinstance(ocp, OCPDefinition):
             raise DefinitionTypeError(f"`ocp`: must be a planner.OCP, got {type(ocp).__name__}")
         start = time.perf_counter()
         self.ocp = ocp
@@ -585,9 +328,8 @@ class Transcription:
         for names in (self.w_names, self.g_names):
             digest.update("\n".join(names).encode())
             digest.update(b"\0")
-        mesh = self.scheme.name + (f"({self.scheme.degree})" if self.scheme.degree else "")
         return (
-            f"{mesh} N={self.ocp.N} {self.system.formulation}: {self.n_w} variables, "
+            f"{self.scheme.label} N={self.ocp.N} {self.system.formulation}: {self.n_w} variables, "
             f"{self.n_g} constraints, {digest.hexdigest()}"
         )
 
@@ -612,8 +354,7 @@ class Transcription:
     @property
     def label(self) -> str:
         """The mesh in words, for logs."""
-        degree = f"({self.scheme.degree})" if self.scheme.degree else ""
-        return f"{self.scheme.name}{degree} N={self.ocp.N}"
+        return f"{self.scheme.label} N={self.ocp.N}"
 
     @property
     def given_objective_scale(self) -> float | None:
@@ -1023,11 +764,12 @@ class Transcription:
         side_cost, Pside, continuity = 0, sym(0, max(N - 1, 0)), sym(0, 1)
         if not self.reads_control_rate:
             return quadrature, side_cost, Pside, continuity
-        if scheme.degree == 1:
+        if scheme.ndc == 1:
+            others = ", ".join(name for name in TRANSCRIPTIONS if name != scheme.name)
             raise DefinitionError(
-                f"`transcription`: {scheme.name} of degree 1 has piecewise-constant controls, "
-                "so control rates (p.du) are zero inside the intervals and infinite at the "
-                "nodes; use degree >= 2, trapezoid or hermite-simpson"
+                f"`transcription`: {scheme.name} of degree {scheme.degree} has "
+                "piecewise-constant controls, so control rates (p.du) are zero inside the "
+                f"intervals and infinite at the nodes; use a higher degree, or one of {others}"
             )
         nodes = np.arange(1, N)
         if N > 1 and self.node_side_function is not None:
@@ -1177,9 +919,8 @@ class Transcription:
         ubg.append(np.zeros(n_defects))
         g_scale = [np.tile(self.state_scale, N * r)]
         if s.nz:
-            links = s.dynamics.names if s.is_linkage else s.state_names
             for c in range(nC):
-                g_names.extend(f"dynamics[{n}] {mesh.dyn_label(c)}" for n in links)
+                g_names.extend(f"dynamics[{n}] {mesh.dyn_label(c)}" for n in s.residual_names)
             lbg.append(np.zeros(s.nz * nC))
             ubg.append(np.zeros(s.nz * nC))
             g_scale.append(np.tile(self.residual_scale, nC))
@@ -1312,23 +1053,17 @@ class Transcription:
         Z = stack(s.aux_names, at_dyn, nC)
         U = stack(s.control_names, at_dyn, nC)
         missing = [n for n in s.control_names if n not in at_dyn]
-        if s.is_linkage and missing and ocp.guesses:
-            # Torques that no guess gives: inverse dynamics of the guessed motion, so that a
-            # gait law starts the solver on a dynamically consistent point.
-            n = s.dynamics.n
-            psi_names, dpsi_names = s.state_names[:n], s.state_names[n:]
-            ddpsi_names = tuple(f"ddpsi_{k}" for k in s.dynamics.names)
-            if all(k in at_dyn for k in psi_names + dpsi_names + ddpsi_names):
-                psi = np.column_stack([at_dyn[k] for k in psi_names])
-                dpsi = np.column_stack([at_dyn[k] for k in dpsi_names])
-                ddpsi = np.column_stack([at_dyn[k] for k in ddpsi_names])
-                torques = np.atleast_2d(s.dynamics.inverse_dynamics(psi, dpsi, ddpsi))
-                for i, name in enumerate(s.group("M")):
-                    if name in missing:
-                        U[:, s.control_names.index(name)] = torques[:, i]
+        if s.complete_guess is not None and missing and ocp.guesses:
+            # Controls that no guess gives, from the guessed motion by the system's own rule
+            # (a linkage's torques by inverse dynamics, so that a gait law starts the solver
+            # on a dynamically consistent point).
+            completed = s.complete_guess(at_dyn)
+            for name in missing:
+                if name in completed:
+                    U[:, s.control_names.index(name)] = completed[name]
         # Static parameters: their own guesses, or the values of a Solution guessed from.
         P: dict[str, float] = {}
         for layer in ocp.guesses:
-            if layer.kind == "solution":
-                P.update(getattr(layer.source, "params", None) or {})
+            if isinstance(layer.source, Solution):  # a Trajectory carries no parameters
+                P.update(layer.source.params)
         return self.pack(X, U, Z, T, P)

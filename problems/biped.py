@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError, check_real
+from model.errors import DefinitionError, DefinitionTypeError, check_positive
 from model.linkage import Linkage
 from model.rerooting import Rerooting, swap_legs
 from problems.gait_law import GaitLaw
@@ -141,12 +141,8 @@ class Biped:
         ``clearance``: the swing foot's height at mid-step, m; ``extension``: hip-to-foot
         distance at heel strike as a fraction of the leg length (knees slightly bent).
         """
-        step_length = check_real("step_length", step_length)
-        step_time = check_real("step_time", step_time)
-        if step_length <= 0:
-            raise DefinitionError(f"`step_length`: must be > 0 m, got {step_length!r}")
-        if step_time <= 0:
-            raise DefinitionError(f"`step_time`: must be > 0 s, got {step_time!r}")
+        step_length = check_positive("step_length", step_length, "m")
+        step_time = check_positive("step_time", step_time, "s")
         reach = extension * self.leg_length
         if step_length / 2.0 >= reach:
             raise DefinitionError(

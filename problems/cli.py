@@ -41,6 +41,9 @@ from model import equations
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.presets import PRESETS, six_link_anthropoid
 from planner.files import atomic_path
+from planner.schemes import REGISTRY, TRANSCRIPTIONS, WITH_DEGREE
+from planner.simulation import tolerance_problem
+from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory, TrajectoryFileError
 from planner.units import si_unit
 from problems import study_cli
@@ -51,15 +54,18 @@ from problems.dynamics_problems import (
     fit_growth_rate,
     linkage_profile,
     simulate,
-    tolerance_problem,
     torques_along,
 )
 from problems.gait_law import LAW_PRESETS, GaitLaw
 from problems.walking import walking_step
 
 PROG = "anthropoid-planner"
-FORMATS = ("csv", "json", "npz")
+#: File formats of --formats: the trajectory package's suffixes, without the dot.
+FORMATS = tuple(suffix.lstrip(".") for suffix in TRAJECTORY_FORMATS)
 LAWS = tuple(LAW_PRESETS)
+#: What --degree takes, from the registry of transcriptions: "radau 1..9, legendre 1..9".
+_DEGREES = ", ".join(f"{name} {REGISTRY[name].degree_range}" for name in WITH_DEGREE)
+_DEFAULT_DEGREES = ", ".join(f"{name} {REGISTRY[name].default_degree}" for name in WITH_DEGREE)
 #: Highest --rate-hz, Hz, and most samples a command makes even with --force (memory).
 MAX_RATE_HZ = 1e6
 MAX_SAMPLES = 2_000_000
@@ -152,6 +158,11 @@ class Reporter:
         elapsed = time.perf_counter() - begin
         if elapsed >= 1.0 or beats:
             self.step(f"done {message} in {elapsed:.1f} s")
+
+
+def _one_of(items: Sequence[str]) -> str:
+    """ "a, b or c": the items in words."""
+    return ", ".join(items[:-1]) + f" or {items[-1]}" if len(items) > 1 else "".join(items)
 
 
 # ---- argument types (each raises a one-line message naming the unit) -----------------------
@@ -363,7 +374,7 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     simulate.add_argument(
-        "torque_file", metavar="TORQUE_FILE", help="torque profile: .csv, .json or .npz"
+        "torque_file", metavar="TORQUE_FILE", help=f"torque profile: {_one_of(TRAJECTORY_FORMATS)}"
     )
     simulate.add_argument("--preset", default="six-link", metavar="NAME", help=preset_help)
     simulate.add_argument(
@@ -476,13 +487,13 @@ def _walk_parser(commands, common) -> None:
     walk.add_argument(
         "--transcription",
         default="hermite-simpson",
-        choices=("trapezoid", "hermite-simpson", "radau", "legendre"),
+        choices=TRANSCRIPTIONS,
         help="collocation scheme (default: hermite-simpson)",
     )
     walk.add_argument("-N", "--intervals", type=_count, default=None, metavar="N",
                       help="mesh intervals (default: 30, 12 with --quick)")  # fmt: skip
     walk.add_argument("--degree", type=_count, default=None, metavar="D",
-                      help="collocation degree for radau/legendre, 1..9 (default: 3)")  # fmt: skip
+                      help=f"degree of {_DEGREES} (default: {_DEFAULT_DEGREES})")  # fmt: skip
     walk.add_argument(
         "--formulation",
         default="implicit",
@@ -755,9 +766,10 @@ def _load_profile(path_text: str):
         raise UsageError(f"torque file {path_text!r} does not exist")
     if path.is_dir():
         raise UsageError(f"torque file {path_text!r} is a folder, not a file")
-    if path.suffix.lower() not in tuple("." + f for f in FORMATS):
+    if path.suffix.lower() not in TRAJECTORY_FORMATS:
         raise UsageError(
-            f"torque file {path_text!r}: unknown format {path.suffix!r}; use .csv, .json or .npz"
+            f"torque file {path_text!r}: unknown format {path.suffix!r}; use "
+            f"{_one_of(TRAJECTORY_FORMATS)}"
         )
     try:
         profile = Trajectory.load(path)
@@ -1010,8 +1022,8 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         raise UsageError(
             f"--double-support-s: must be a number >= 0 s, got {args.double_support_s}"
         )
-    if args.degree is not None and args.transcription not in ("radau", "legendre"):
-        raise UsageError("--degree: applies to --transcription radau or legendre only")
+    if args.degree is not None and args.transcription not in WITH_DEGREE:
+        raise UsageError(f"--degree: applies to --transcription {_one_of(WITH_DEGREE)} only")
     linkage = _linkage(args.preset)
     intervals = args.intervals or (12 if args.quick else 30)
     folder = _output_folder(str(args.output_dir or _new_folder("walk")))

@@ -15,22 +15,15 @@ type, so a result exports and plots exactly like a planner Solution.
 
 from __future__ import annotations
 
-import contextlib
 import inspect
-import io
 import itertools
 import logging
 import math
-import os
 import platform
-import re
-import sys
-import tempfile
-import threading
 import time as _time
 import weakref
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass
 from importlib import metadata as _metadata
 
 import casadi as ca
@@ -38,14 +31,23 @@ import numpy as np
 
 from model.dynamics import Dynamics
 from model.errors import (
-    AnthropoidError,
     DefinitionError,
     DefinitionTypeError,
     as_float_array,
     check_finite,
+    check_integer,
+    check_positive,
     check_real,
 )
 from model.linkage import Linkage
+from planner.simulation import (
+    METHODS,
+    MIN_TOLERANCE,
+    SimulationError,
+    Simulator,
+    check_tolerance,
+    monomial_coefficients,
+)
 from planner.trajectory import Trajectory
 from planner.units import QUANTITIES, accepted, si_unit, to_si
 from problems.gait_law import GaitLaw
@@ -69,14 +71,6 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-#: CasADi integrator plugins accepted by :func:`simulate`.
-METHODS = ("cvodes", "idas", "rk", "collocation")
-
-#: Smallest rtol/atol :func:`simulate` accepts: a few hundred ulp of a unit angle. Below it
-#: cvodes and idas stop with "too much accuracy requested" (measured on the six-link replay:
-#: 1e-15 still runs, 1e-16 fails at the first step).
-MIN_TOLERANCE = 1e-14
-
 #: Default fitting window of :func:`fit_growth_rate`, rad. Its low end sits well above the
 #: integration noise: a cvodes replay at rtol = atol = 1e-10 wanders 1e-9 to 1.5e-8 rad off
 #: the law in its first 0.2 s before the instability takes over (a 1e-9 start fitted 23.0 /s
@@ -88,31 +82,6 @@ MAX_OUTPUT_SAMPLES = 10_000_000
 
 #: Progress reporter: called with (fraction done in [0, 1], short message).
 Progress = Callable[[float, str], None]
-
-
-class SimulationError(AnthropoidError, RuntimeError):
-    """The integrator failed (step-size underflow, too many steps, a non-finite state).
-
-    The message is one line: the method, the time interval where it failed, the solver's flag
-    with what it means, and what to change. Attributes: ``method``, ``interval`` ((t_a, t_b)
-    s), ``flag`` (e.g. ``"CV_TOO_MUCH_WORK"``, or None) and ``details`` (what the integrator
-    wrote on stderr while it failed, kept out of the terminal; also logged at DEBUG level).
-    """
-
-    def __init__(
-        self,
-        message: str,
-        *,
-        method: str | None = None,
-        interval: tuple[float, float] | None = None,
-        flag: str | None = None,
-        details: str = "",
-    ) -> None:
-        super().__init__(message)
-        self.method = method
-        self.interval = interval
-        self.flag = flag
-        self.details = details
 
 
 def versions() -> dict[str, str]:
@@ -143,11 +112,7 @@ def _as_dynamics(dynamics: Dynamics | Linkage) -> Dynamics:
 def _check_law(dynamics: Dynamics, law: GaitLaw) -> None:
     if not isinstance(law, GaitLaw):
         raise DefinitionTypeError(f"`law`: must be a problems.GaitLaw, got {type(law).__name__}")
-    if law.n != dynamics.n:
-        raise DefinitionError(
-            f"`law`: drives {law.n} links but the linkage has {dynamics.n} "
-            f"({', '.join(dynamics.names)}); give one zeta, varpi and center per link"
-        )
+    law.check_links(dynamics.names)
 
 
 def _time_grid(name: str, t, minimum: int = 1) -> np.ndarray:
@@ -442,79 +407,30 @@ def _chebyshev_nodes(degree: int) -> np.ndarray:
     return 0.5 - 0.5 * np.cos((2 * k + 1) * math.pi / (2 * degree + 2))
 
 
-@dataclass
-class _Integrator:
-    function: ca.Function
-    chains: dict = field(default_factory=dict)
-
-    def chain(self, size: int) -> ca.Function:
-        """``size`` intervals in one CasADi call (mapaccum feeds each xf to the next x0)."""
-        if size not in self.chains:
-            self.chains[size] = self.function.mapaccum("chain", size)
-        return self.chains[size]
-
-
-# Symbolic models and integrators per model (weakly keyed: a model that goes away takes
-# them along), each built on first use.
+# Simulators per model (weakly keyed: a model that goes away takes them along), each built
+# on first use and reused by every later simulate() with the same options.
 _CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _cached(dynamics: Dynamics, key: tuple, build: Callable[[], object]):
+def _simulator(
+    dynamics: Dynamics, method: str, degree: int, rtol: float, atol: float, steps: int
+) -> Simulator:
+    """The :class:`planner.simulation.Simulator` of the linkage's ODE x' = f(x, M) with the
+    power of the hinge torques as quadrature, for these options."""
     cache = _CACHE.setdefault(dynamics, {})
+    key = (method, degree, rtol, atol, steps)
     if key not in cache:
-        cache[key] = build()
-    return cache[key]
-
-
-def _interval_model(dynamics: Dynamics, degree: int) -> dict:
-    """The model on one integration interval [t_a, t_a + h], shared by both integrators.
-
-    Symbols: ``x`` (2n) the state, ``tau`` in [0, 1] the normalised time, ``h`` the length
-    (s), ``c`` (n, degree + 1) the coefficients of the torque polynomial
-    u(tau) = c [1, tau, ..., tau^degree]. Expressions: ``xdot`` = f(x, u(tau)), the model's
-    "ode" Function, and ``power`` = sum_i u_i (dpsi_i - dpsi_parent(i)) (W), the power of
-    the hinge torques, integrated as a quadrature so that the energy balance can be checked
-    without resampling.
-    """
-
-    def build() -> dict:
         n = dynamics.n
-        x = ca.SX.sym("x", 2 * n)
-        tau = ca.SX.sym("tau")
-        coefficients = ca.SX.sym("c", n, degree + 1)
-        u = ca.mtimes(coefficients, ca.vertcat(*[tau**k for k in range(degree + 1)]))
-        return {
-            "x": x,
-            "tau": tau,
-            "h": ca.SX.sym("h"),
-            "c": coefficients,
-            "xdot": dynamics.function("ode")(x, u),
-            "power": ca.dot(u, _hinge_rates(dynamics, x[n:])),
-        }
-
-    return _cached(dynamics, ("model", degree), build)
-
-
-def _integrator(dynamics: Dynamics, method: str, degree: int, options: dict) -> _Integrator:
-    """One CasADi integrator over the normalised interval tau in [0, 1].
-
-    dx/dtau = h f(x, u(tau)) with the parameters p = [h; vec(c)] (see :func:`_interval_model`).
-    rk and collocation chain it over many intervals; for cvodes and idas it only locates a
-    failure (:func:`_locate_failure`).
-    """
-
-    def build() -> _Integrator:
-        m = _interval_model(dynamics, degree)
-        dae = {
-            "x": m["x"],
-            "t": m["tau"],
-            "p": ca.vertcat(m["h"], ca.vec(m["c"])),
-            "ode": m["h"] * m["xdot"],
-            "quad": m["h"] * m["power"],
-        }
-        return _Integrator(ca.integrator("second_problem", method, dae, 0.0, 1.0, options))
-
-    return _cached(dynamics, ("integrator", method, degree, tuple(sorted(options.items()))), build)
+        x, z, u, t = ca.SX.sym("x", 2 * n), ca.SX.sym("z", 0), ca.SX.sym("u", n), ca.SX.sym("t")
+        inputs, names = [x, z, u, t], ["x", "z", "u", "t"]
+        rate = ca.Function("ode", inputs, [dynamics.function("ode")(x, u)], names, ["xdot"])
+        power = ca.Function(
+            "power", inputs, [ca.dot(u, _hinge_rates(dynamics, x[n:]))], names, ["power"]
+        )
+        cache[key] = Simulator(
+            rate, None, power, degree=degree, method=method, rtol=rtol, atol=atol, steps=steps
+        )
+    return cache[key]
 
 
 def _hinge_rates(dynamics: Dynamics, dpsi: ca.SX) -> ca.SX:
@@ -526,31 +442,6 @@ def _hinge_rates(dynamics: Dynamics, dpsi: ca.SX) -> ca.SX:
         if p >= 0:
             parent[i, p] = 1.0
     return dpsi - ca.mtimes(ca.DM(parent), dpsi)
-
-
-def _grid_dae(dynamics: Dynamics, degree: int) -> dict:
-    """The model of :func:`_interval_model` in physical time t, for one run over many intervals.
-
-    The torque on the interval [t_a, t_a + h] is the same polynomial in tau = (t - t_a) / h;
-    its data u = [t_a; h; vec(c)] are CasADi's piecewise-constant controls, one column per
-    interval of the integrator's output grid, so one cvodes/idas run crosses every interval
-    and stops at each grid point for the next interval's polynomial.
-    """
-
-    def build() -> dict:
-        m = _interval_model(dynamics, degree)
-        t = ca.SX.sym("t")
-        start = ca.SX.sym("t_a")
-        ode, quad = ca.substitute([m["xdot"], m["power"]], [m["tau"]], [(t - start) / m["h"]])
-        return {
-            "x": m["x"],
-            "t": t,
-            "u": ca.vertcat(start, m["h"], ca.vec(m["c"])),
-            "ode": ode,
-            "quad": quad,
-        }
-
-    return _cached(dynamics, ("grid", degree), build)
 
 
 def _round_off(times: np.ndarray) -> float:
@@ -593,156 +484,6 @@ def _integration_grid(output: np.ndarray, knots: np.ndarray, max_interval: float
         pieces.append(np.linspace(a, b, count + 1)[1:])
         pieces[-1][-1] = b  # linspace may land an ulp off b
     return np.concatenate(pieces)
-
-
-# ---- quiet integrator calls ---------------------------------------------------------------
-# One redirection of fd 2 at a time: two threads redirecting at once would restore each
-# other's temporary file. Re-entrant, because a nested redirection restores correctly.
-_STDERR_LOCK = threading.RLock()
-
-
-@contextlib.contextmanager
-def _captured_stderr() -> Iterator[list[str]]:
-    """Catch what CasADi and SUNDIALS write on stderr while the block runs.
-
-    With ``disable_internal_warnings`` cvodes/idas stay quiet, but a failure inside a
-    ``mapaccum`` still makes CasADi dump every input of the failing call (about 70 lines for
-    six links), and no integrator option turns that off (casadi 3.8). CasADi's Python module
-    writes through ``sys.stderr``, so that is swapped for a buffer; file descriptor 2 goes
-    to a temporary file as well, for anything native code writes directly. Yields a list
-    that receives the captured text when the block ends. Without a usable fd 2 (an
-    embedding without one) only ``sys.stderr`` is swapped.
-    """
-    captured: list[str] = []
-    buffer = io.StringIO()
-    with _STDERR_LOCK:
-        with contextlib.suppress(AttributeError, ValueError, OSError):
-            sys.stderr.flush()  # text already written goes out before the switch
-        try:
-            saved = os.dup(2)
-        except OSError:
-            saved = None
-        sink = tempfile.TemporaryFile() if saved is not None else None
-        try:
-            if sink is not None:
-                os.dup2(sink.fileno(), 2)
-            with contextlib.redirect_stderr(buffer):
-                yield captured
-        finally:
-            text = buffer.getvalue()
-            if sink is not None:
-                os.dup2(saved, 2)
-                os.close(saved)
-                sink.seek(0)
-                text += sink.read().decode("utf-8", errors="replace")
-                sink.close()
-            captured.append(text)
-
-
-#: SUNDIALS return flags of cvodes (CV_*) and idas (IDA_*): what they mean here, what to do.
-_FLAG_ADVICE = {
-    "TOO_MUCH_WORK": (
-        "more than 100000 steps inside one interval",
-        "the motion diverges (torques too large, or an unstable motion run too long) or the "
-        "tolerances are too tight for it; shorten t_span or loosen rtol/atol",
-    ),
-    "TOO_MUCH_ACC": (
-        "the tolerances ask for more accuracy than double precision gives at this state",
-        "loosen rtol/atol (1e-12 is safe)",
-    ),
-    "ERR_FAILURE": (
-        "the error test failed repeatedly and the step size shrank to nothing",
-        "the motion is singular or diverges here; shorten t_span or check the torques",
-    ),
-    "CONV_FAILURE": (
-        "the Newton iteration failed repeatedly and the step size shrank to nothing",
-        "the motion is singular or diverges here; shorten t_span or check the torques",
-    ),
-}
-_FLAG_ADVICE["ERR_FAIL"] = _FLAG_ADVICE["ERR_FAILURE"]  # idas spelling
-_FLAG_ADVICE["CONV_FAIL"] = _FLAG_ADVICE["CONV_FAILURE"]
-
-#: What to change when the state of a fixed-step method (rk, collocation) blows up or an
-#: implicit collocation step finds no solution.
-_FIXED_STEP_ADVICE = (
-    "the motion diverges (torques too large, or an unstable motion run too long) or the "
-    "steps are too coarse for it; shorten t_span or raise steps"
-)
-
-
-def _integrator_failure(
-    method: str, interval: tuple[float, float], exc: Exception, details: str
-) -> SimulationError:
-    """One-line SimulationError from a CasADi integrator exception."""
-    text = str(exc)
-    found = re.search(r'returned "([A-Z_]+)"', text)
-    flag = found.group(1) if found else None
-    if details:
-        logger.debug("integrator %r wrote while failing:\n%s", method, details)
-    where = f"between t = {interval[0]:.6g} s and t = {interval[1]:.6g} s"
-    if flag is not None:
-        meaning, advice = _FLAG_ADVICE.get(
-            flag.split("_", 1)[1], ("see the SUNDIALS documentation", "check the torques")
-        )
-        message = f"integrator {method!r} failed {where}: {flag} ({meaning}); {advice}"
-    elif "rootfinder" in text:  # collocation: CasADi's "rootfinder process failed. Set ..."
-        message = (
-            f"integrator {method!r} failed {where}: the Newton iteration of an implicit "
-            f"collocation step did not converge; {_FIXED_STEP_ADVICE}"
-        )
-    else:
-        lines = [line for line in text.strip().splitlines() if line.strip()]
-        last = lines[-1] if lines else type(exc).__name__
-        message = f"integrator {method!r} failed {where}: {last}"
-    return SimulationError(message, method=method, interval=interval, flag=flag, details=details)
-
-
-def tolerance_problem(value: float) -> str | None:
-    """Why the finite ``value`` is no rtol/atol, and the fix; None when it is one.
-
-    Shared with the command line, so the library and ``--rtol``/``--atol`` say the same.
-    """
-    if MIN_TOLERANCE <= value < 1:
-        return None
-    if value >= 1:
-        fix = "give a tolerance such as 1e-10"
-    elif value > 0:
-        fix = (
-            f"below {MIN_TOLERANCE:g} cvodes/idas cannot deliver the accuracy in double "
-            "precision; give 1e-12 for a tight run"
-        )
-    else:
-        fix = "a tolerance is a small positive number; give 1e-10, or 1e-12 for a tight run"
-    return f"must lie in [{MIN_TOLERANCE:g}, 1), got {value!r}; {fix}"
-
-
-def _tolerance(name: str, value) -> float:
-    """An integrator tolerance in [MIN_TOLERANCE, 1)."""
-    value = check_real(name, value)
-    problem = tolerance_problem(value)
-    if problem is not None:
-        raise DefinitionError(f"`{name}`: {problem}")
-    return value
-
-
-def _locate_failure(integrator: _Integrator, x: np.ndarray, parameters: np.ndarray) -> int | None:
-    """Index of the first interval of a failed block on which the integrator fails.
-
-    Replays the block one interval at a time from its initial state ``x`` (only after a
-    failure; about one more block of work), so the error can name the interval. None when
-    every interval goes through (a variable-step run can fail where the restarted replay,
-    with its different steps, does not).
-    """
-    for k in range(parameters.shape[1]):
-        try:
-            with _captured_stderr():
-                result = integrator.function(x0=x, p=parameters[:, k])
-        except RuntimeError:
-            return k
-        x = np.asarray(result["xf"]).reshape(-1)
-        if not np.all(np.isfinite(x)):
-            return k
-    return None
 
 
 def simulate(
@@ -839,17 +580,12 @@ def simulate(
         raise DefinitionError(
             f"`interpolation`: must be 'cubic' or 'linear', got {interpolation!r}"
         )
-    rtol = _tolerance("rtol", rtol)
-    atol = _tolerance("atol", atol)
-    for name, value, low in (("steps", steps, 1), ("degree", degree, 1)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-            raise DefinitionError(f"`{name}`: must be an integer >= {low}, got {value!r}")
-    max_interval = check_real("max_interval", max_interval)
-    if max_interval <= 0:
-        raise DefinitionError(f"`max_interval`: must be > 0 s, got {max_interval!r}")
-    solution_rate_hz = check_real("solution_rate_hz", solution_rate_hz)
-    if solution_rate_hz <= 0:
-        raise DefinitionError(f"`solution_rate_hz`: must be > 0 Hz, got {solution_rate_hz!r}")
+    rtol = check_tolerance("rtol", rtol)
+    atol = check_tolerance("atol", atol)
+    steps = check_integer("steps", steps, 1)
+    degree = check_integer("degree", degree, 1)
+    max_interval = check_positive("max_interval", max_interval, "s")
+    solution_rate_hz = check_positive("solution_rate_hz", solution_rate_hz, "Hz")
     source = _torque_source(
         torques, dynamics.names, interpolation, solution_rate_hz, states=x0 is None
     )
@@ -873,9 +609,7 @@ def simulate(
             f"[{low:g}, {high:g}] s; shorten t_span (a profile is not extrapolated)"
         )
     if t_eval is None:
-        rate_hz = check_real("rate_hz", rate_hz)
-        if rate_hz <= 0:
-            raise DefinitionError(f"`rate_hz`: must be > 0 Hz, got {rate_hz!r}")
+        rate_hz = check_positive("rate_hz", rate_hz, "Hz")
         count = max(1, math.ceil((tf - t0) * rate_hz - 1e-9))
         if count + 1 > MAX_OUTPUT_SAMPLES:
             raise DefinitionError(
@@ -917,103 +651,19 @@ def simulate(
     values = source.evaluate(sample_times)
     if not np.all(np.isfinite(values)):
         raise DefinitionError("`torques`: the profile gives NaN or inf torques in t_span")
-    vandermonde = np.vander(nodes, degree + 1, increasing=True)
-    # coefficients[k] = V^{-1} values on interval k: (intervals, degree + 1, n)
-    coefficients = np.linalg.solve(vandermonde[None], values.reshape(h.size, degree + 1, n))
-    # p = [h; vec(c)] with c (n, degree + 1) in CasADi's column-major order.
-    parameters = np.concatenate(
-        [h[None, :], coefficients.reshape(h.size, -1).T], axis=0
-    )  # (1 + (degree + 1) n, intervals)
+    coefficients = monomial_coefficients(nodes, values.reshape(h.size, degree + 1, n))
 
-    if method in ("cvodes", "idas"):
-        # SUNDIALS' own messages ("At t = ..., mxstep steps taken") go nowhere: a failure
-        # becomes one SimulationError (see _integrator_failure).
-        options = {
-            "abstol": atol,
-            "reltol": rtol,
-            "max_num_steps": 100000,
-            "disable_internal_warnings": True,
-        }
-    elif method == "rk":
-        options = {"number_of_finite_elements": int(steps)}
-    else:
-        options = {"number_of_finite_elements": int(steps), "interpolation_order": 3}
+    # One run of cvodes/idas per block of intervals, a chain of one-step intervals for rk and
+    # collocation (planner.simulation.Simulator.along); a progress report after each block.
+    simulator = _simulator(dynamics, method, int(degree), rtol, atol, int(steps))
 
-    # Integration in blocks of intervals, a progress report after each.
-    # * cvodes/idas: one run per block of up to 1000 intervals over the block's grid, the
-    #   torque polynomials as piecewise-constant controls (_grid_dae). The run stops at
-    #   every grid point (so each interval sees its own polynomial, and a spline profile,
-    #   split at its knots, is reproduced exactly) but keeps its step size and order: a
-    #   restart at every interval is not needed for exactness, and it cost accuracy and time
-    #   (each restart begins at first order with a tiny step and its own error budget).
-    #   Measured on the paper22 replay with exact torques on a 1 ms grid: within 1e-6 rad for
-    #   0.30 s (restarts) vs 0.55 s (one run) at rtol = atol = 1e-10, 0.49 s vs 0.62 s at
-    #   1e-12, and about ten times faster. Blocks restart once per 1000 intervals, for the
-    #   progress reports.
-    # * rk/collocation: one-step methods keep no history, so a restart costs nothing; one
-    #   CasADi call per block of 200 intervals (mapaccum chains their xf into x0).
-    variable_step = method in ("cvodes", "idas")
-    block = 1000 if variable_step else 200
-    controls = np.concatenate([grid[None, :-1], parameters], axis=0)  # u = [t_a; h; vec(c)]
+    def report(fraction: float, reached: float) -> None:
+        progress(fraction, f"simulate: t = {reached:.3f} s of {tf:g} s")
 
-    def run(x: np.ndarray, first: int, size: int) -> tuple[np.ndarray, np.ndarray]:
-        """States (2n, size) at grid[first + 1 : first + size + 1] and the work (size,)."""
-        if variable_step:
-            function = ca.integrator(
-                "second_problem",
-                method,
-                _grid_dae(dynamics, int(degree)),
-                float(grid[first]),
-                grid[first + 1 : first + size + 1].tolist(),
-                options,
-            )
-            result = function(x0=x, u=controls[:, first : first + size])
-            total = np.asarray(result["qf"]).reshape(size)  # integral from grid[first]
-            return np.asarray(result["xf"]).reshape(2 * n, size), np.diff(total, prepend=0.0)
-        chain = _integrator(dynamics, method, int(degree), options).chain(size)
-        result = chain(x0=x, p=parameters[:, first : first + size])
-        return np.asarray(result["xf"]).reshape(2 * n, size), np.asarray(result["qf"]).reshape(size)
-
-    states = np.empty((2 * n, h.size))
-    work = np.empty(h.size)
-    x = x_start
-    done = 0
-    while done < h.size:
-        size = min(block, h.size - done)
-        try:
-            with _captured_stderr() as captured:
-                block_states, block_work = run(x, done, size)
-        except RuntimeError as exc:
-            integrator = _integrator(dynamics, method, int(degree), options)
-            failed = _locate_failure(integrator, x, parameters[:, done : done + size])
-            if failed is None:  # the restarted replay went through: name the whole block
-                interval = (float(grid[done]), float(grid[done + size]))
-            else:
-                interval = (float(grid[done + failed]), float(grid[done + failed + 1]))
-            raise _integrator_failure(method, interval, exc, "".join(captured)) from exc
-        finite = np.all(np.isfinite(block_states), axis=0)
-        if not np.all(finite):  # rk, collocation: no error, a NaN (and CasADi's warnings)
-            k = done + int(np.argmin(finite))
-            details = "".join(captured)
-            advice = _FLAG_ADVICE["ERR_FAILURE"][1] if variable_step else _FIXED_STEP_ADVICE
-            if details:
-                logger.debug("integrator %r wrote while failing:\n%s", method, details)
-            raise SimulationError(
-                f"integrator {method!r} failed between t = {grid[k]:.6g} s and "
-                f"t = {grid[k + 1]:.6g} s: the state became non-finite; {advice}",
-                method=method,
-                interval=(float(grid[k]), float(grid[k + 1])),
-                details=details,
-            )
-        if captured and captured[0].strip():
-            logger.warning("integrator %r wrote on stderr: %s", method, captured[0].strip())
-        states[:, done : done + size] = block_states
-        work[done : done + size] = block_work
-        x = block_states[:, -1]
-        done += size
-        if progress is not None:
-            progress(done / h.size, f"simulate: t = {grid[done]:.3f} s of {tf:g} s")
-    full = np.concatenate([x_start[:, None], states], axis=1).T  # (intervals + 1, 2n)
+    run = simulator.along(
+        x_start, grid, coefficients, progress=None if progress is None else report
+    )
+    full, work = run.states, run.quadrature[:, 0]
     cumulative = np.concatenate([[0.0], np.cumsum(work)])
     index = np.searchsorted(grid, output)
     if np.any(grid[np.minimum(index, grid.size - 1)] != output):  # a bug, not a user error

@@ -10,6 +10,10 @@ w = 2 pi / T the derivatives are analytic:
     dpsi_j    = zeta_j cos(phi_j) dphi/dt
     ddpsi_j   = zeta_j ( cos(phi_j) d2phi/dt2 - sin(phi_j) (dphi/dt)^2 )
 
+The law evaluates on numbers (numpy: a time or an array of times) and on CasADi expressions
+(a scalar SX, MX or DM time: psi, dpsi, ddpsi as (n, 1) columns of the same formulas), so an
+OCP's constraint or cost reads ``p.psi - law.psi(p.t)`` without writing the law again.
+
 Every link shares the time function phi - varpi, so dpsi vanishes for all links at once at
 t = 0 and t = T/2 (mod T). The motion is *static* there (ddpsi = 0 as well) only for the links
 with cos(phi_j) = 0, i.e. varpi_j = pi/2 (mod pi) at t = 0, or varpi_j - pi = pi/2 (mod pi) at
@@ -23,6 +27,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+import casadi as ca
 import numpy as np
 
 from model.errors import (
@@ -30,12 +35,16 @@ from model.errors import (
     DefinitionTypeError,
     as_float_array,
     check_finite,
+    check_positive,
     check_real,
 )
 
 __all__ = ["LAW_PRESETS", "GaitLaw"]
 
 HALF_PI = 0.5 * math.pi
+
+#: CasADi types a time may have for a symbolic evaluation.
+SYMBOLIC = (ca.SX, ca.MX, ca.DM)
 
 
 def _vector(field_name: str, values: object) -> tuple[float, ...]:
@@ -79,9 +88,7 @@ class GaitLaw:
     name: str = field(default="custom")
 
     def __post_init__(self) -> None:
-        period = check_real("GaitLaw.period", self.period)
-        if period <= 0:
-            raise DefinitionError(f"`GaitLaw.period`: must be > 0 s, got {period!r}")
+        period = check_positive("GaitLaw.period", self.period, "s")
         zeta = _vector("zeta", self.zeta)
         varpi = _vector("varpi", self.varpi)
         center = (HALF_PI,) * len(zeta) if self.center is None else _vector("center", self.center)
@@ -156,6 +163,16 @@ class GaitLaw:
         """Number of links the law drives."""
         return len(self.zeta)
 
+    def check_links(self, names: Sequence[str]) -> GaitLaw:
+        """This law, if it drives one link per name in ``names`` (a linkage's links); else a
+        DefinitionError naming both counts and the links."""
+        if self.n != len(names):
+            raise DefinitionError(
+                f"`law`: drives {self.n} links but the linkage has {len(names)} "
+                f"({', '.join(names)}); give one zeta, varpi and center per link"
+            )
+        return self
+
     # ---- evaluation ---------------------------------------------------------------------------
     def _phase(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
         """phi (K, n), dphi/dt (K, 1), d2phi/dt2 (K, 1) and the arrays' scalar flag."""
@@ -177,23 +194,55 @@ class GaitLaw:
     def _shape(values: np.ndarray, scalar: bool) -> np.ndarray:
         return values[0] if scalar else values
 
-    def psi(self, t) -> np.ndarray:
-        """Angles psi(t), rad: (n,) for a scalar t in s, (K, n) for t of shape (K,)."""
+    def symbolic(self, t) -> tuple:
+        """(psi, dpsi, ddpsi) as (n, 1) CasADi expressions of the scalar time ``t`` (an SX or
+        MX symbol or expression, or a DM), rad, rad/s, rad/s^2: the formulas of the module
+        docstring, for constraints and costs of an OCP (``p.psi - law.psi(p.t)``)."""
+        if t.numel() != 1:
+            raise DefinitionError(
+                f"`t`: a CasADi time must be a scalar, got shape {t.shape}; evaluate the law "
+                "at one symbolic time (p.t) or give numbers"
+            )
+        w = 2.0 * math.pi / self.period
+        wt = w * t
+        sin_wt, cos_wt = ca.sin(wt), ca.cos(wt)
+        phi = ca.DM(self.varpi) - (1 - cos_wt) * HALF_PI
+        dphi = -HALF_PI * w * sin_wt
+        ddphi = -HALF_PI * w * w * cos_wt
+        zeta = ca.DM(self.zeta)
+        sin, cos = ca.sin(phi), ca.cos(phi)
+        psi = ca.DM(self.center) + zeta * sin
+        dpsi = zeta * cos * dphi
+        ddpsi = zeta * (cos * ddphi - sin * dphi * dphi)
+        return psi, dpsi, ddpsi
+
+    def psi(self, t):
+        """Angles psi(t), rad: (n,) for a scalar t in s, (K, n) for t of shape (K,), an
+        (n, 1) CasADi expression for a CasADi time (:meth:`symbolic`)."""
+        if isinstance(t, SYMBOLIC):
+            return self.symbolic(t)[0]
         phi, _, _, zeta, scalar = self._phase(t)
         return self._shape(np.asarray(self.center)[None, :] + zeta * np.sin(phi), scalar)
 
-    def dpsi(self, t) -> np.ndarray:
-        """Angular velocities, rad/s: (n,) or (K, n)."""
+    def dpsi(self, t):
+        """Angular velocities, rad/s: (n,) or (K, n), or (n, 1) for a CasADi time."""
+        if isinstance(t, SYMBOLIC):
+            return self.symbolic(t)[1]
         phi, dphi, _, zeta, scalar = self._phase(t)
         return self._shape(zeta * np.cos(phi) * dphi, scalar)
 
-    def ddpsi(self, t) -> np.ndarray:
-        """Angular accelerations, rad/s^2: (n,) or (K, n)."""
+    def ddpsi(self, t):
+        """Angular accelerations, rad/s^2: (n,) or (K, n), or (n, 1) for a CasADi time."""
+        if isinstance(t, SYMBOLIC):
+            return self.symbolic(t)[2]
         phi, dphi, ddphi, zeta, scalar = self._phase(t)
         return self._shape(zeta * (np.cos(phi) * ddphi - np.sin(phi) * dphi * dphi), scalar)
 
-    def __call__(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(psi, dpsi, ddpsi) at t, each (n,) or (K, n); rad, rad/s, rad/s^2."""
+    def __call__(self, t) -> tuple:
+        """(psi, dpsi, ddpsi) at t, each (n,) or (K, n) (or (n, 1) CasADi expressions for a
+        CasADi time); rad, rad/s, rad/s^2."""
+        if isinstance(t, SYMBOLIC):
+            return self.symbolic(t)
         phi, dphi, ddphi, zeta, scalar = self._phase(t)
         sin, cos = np.sin(phi), np.cos(phi)
         psi = np.asarray(self.center)[None, :] + zeta * sin
@@ -201,8 +250,12 @@ class GaitLaw:
         ddpsi = zeta * (cos * ddphi - sin * dphi * dphi)
         return self._shape(psi, scalar), self._shape(dpsi, scalar), self._shape(ddpsi, scalar)
 
-    def state(self, t) -> np.ndarray:
-        """The ODE state x = [psi; dpsi] at t: (2n,) or (K, 2n)."""
+    def state(self, t):
+        """The ODE state x = [psi; dpsi] at t: (2n,) or (K, 2n), or (2n, 1) for a CasADi
+        time."""
+        if isinstance(t, SYMBOLIC):
+            psi, dpsi, _ = self.symbolic(t)
+            return ca.vertcat(psi, dpsi)
         psi, dpsi, _ = self(t)
         return np.concatenate([psi, dpsi], axis=-1)
 

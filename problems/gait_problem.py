@@ -24,8 +24,8 @@ import numpy as np
 
 from model.errors import DefinitionError, check_real
 from model.linkage import Linkage
-from planner.ocp import OCP
 from planner.phases import PhasesSolution
+from planner.problem import OCP
 from planner.solution import Solution
 from planner.trajectory import Trajectory
 from problems.verification import GaitReport, verify_gait

@@ -35,10 +35,10 @@ import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
-from model.errors import DefinitionError, DefinitionTypeError, check_real
+from model.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
-from planner.ocp import OCP
+from planner.problem import OCP
 from planner.solver import solve
 from planner.transcription import Transcription
 from problems.biped import Biped
@@ -160,11 +160,7 @@ def periodic_gait(
         law = GaitLaw.preset(law)
     if not isinstance(law, GaitLaw):
         raise DefinitionTypeError(f"`law`: must be a GaitLaw or a preset name, got {law!r}")
-    if law.n != linkage.n:
-        raise DefinitionError(
-            f"`law`: drives {law.n} links but the linkage has {linkage.n} "
-            f"({list(linkage.names)}); give one value per link"
-        )
+    law.check_links(linkage.names)
     try:
         biped = Biped.of(linkage)
     except DefinitionError:
@@ -182,9 +178,7 @@ def periodic_gait(
     margin = check_real("margin", margin)
     if margin < 0:
         raise DefinitionError(f"`margin`: must be >= 0 m, got {margin!r}")
-    posture = check_real("posture", posture)
-    if posture <= 0:
-        raise DefinitionError(f"`posture`: must be > 0 rad, got {posture!r}")
+    posture = check_positive("posture", posture, "rad")
     if upright is None:
         upright = biped.upper_body if biped is not None else ()
     upright = check_links("upright", upright, linkage)

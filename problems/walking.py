@@ -46,11 +46,17 @@ import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
-from model.errors import DefinitionError, DefinitionTypeError, check_real
+from model.errors import (
+    DefinitionError,
+    DefinitionTypeError,
+    check_integer,
+    check_positive,
+    check_real,
+)
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
-from planner.ocp import OCP
-from planner.phases import Phases, PhasesTranscription
+from planner.phases import PhasesTranscription
+from planner.problem import OCP, Phases
 from planner.solver import solve
 from planner.transcription import Transcription
 from problems.biped import Biped
@@ -279,9 +285,7 @@ def walking_step(
     knees = (check_real("knee_range[0]", knee_range[0]), check_real("knee_range[1]", knee_range[1]))
     if knees[0] >= knees[1]:
         raise DefinitionError(f"`knee_range`: lower must be < upper, got {knees}")
-    posture = check_real("posture", posture)
-    if posture <= 0:
-        raise DefinitionError(f"`posture`: must be > 0 rad, got {posture!r}")
+    posture = check_positive("posture", posture, "rad")
     upright = biped.upper_body if upright is None else check_links("upright", upright, linkage)
     if step_time <= 0:
         raise DefinitionError(f"`step_time`: must be > 0 s, got {step_time!r}")
@@ -518,8 +522,7 @@ class WalkingGait(Gait):
         """``steps`` consecutive steps in world coordinates: step k stands on the foothold
         k s, with the legs swapped at every heel strike. Samples at ``rate_hz`` per step (the
         end of a step and the start of the next are one instant; it is kept once)."""
-        if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
-            raise DefinitionError(f"`steps`: must be an integer >= 1, got {steps!r}")
+        steps = check_integer("steps", steps, 1)
         problem = self.problem
         linkage = problem.linkage
         n = linkage.n

@@ -16,7 +16,7 @@ from matplotlib.animation import PillowWriter
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from model.errors import DefinitionError, check_real
+from model.errors import DefinitionError, check_positive
 from planner.files import atomic_path
 from problems.walking import WalkingGait, WorldMotion
 
@@ -141,8 +141,7 @@ def animate_walk(
     path = Path(os.fspath(path))
     if path.suffix.lower() != ".gif":
         raise DefinitionError(f"`path`: an animation is a .gif file, got {str(path)!r}")
-    if check_real("fps", fps) <= 0:
-        raise DefinitionError(f"`fps`: must be > 0 frames per second, got {fps!r}")
+    fps = check_positive("fps", fps, "frames per second")
     duration = motion.time[-1] - motion.time[0]
     frames = np.linspace(motion.time[0], motion.time[-1], max(2, round(duration * fps) + 1))
     picks = np.searchsorted(motion.time, frames).clip(0, motion.time.size - 1)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from model import equations, presets
+from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory
 from problems import GaitLaw, torques_along
 from problems.__main__ import main
@@ -62,6 +63,36 @@ def test_help_lists_commands(capsys):
     assert code == 0
     for command in ("equations", "torques", "simulate", "demo"):
         assert command in out
+
+
+def test_the_command_line_offers_the_trajectory_formats(capsys, tmp_path):
+    """--formats takes every format of planner.trajectory (and writes files that read back),
+    and the help of `torques` and `simulate` lists them."""
+    listed = ",".join(suffix.lstrip(".") for suffix in TRAJECTORY_FORMATS)
+    code, _out, err = run(
+        capsys,
+        "torques",
+        "-q",
+        "--duration-s",
+        "0.05",
+        "--rate-hz",
+        "100",
+        "--output-dir",
+        tmp_path,
+        "--no-plots",
+        "--formats",
+        listed,
+    )
+    assert code == 0, err
+    assert sorted(p.suffix for p in tmp_path.iterdir()) == sorted(TRAJECTORY_FORMATS)
+    for suffix in TRAJECTORY_FORMATS:
+        assert Trajectory.load(tmp_path / f"torques{suffix}").n_samples == 6
+    for command in ("torques", "simulate"):
+        code, out, _ = run(capsys, command, "--help")
+        assert code == 0
+        flat = " ".join(out.split())
+        for suffix in TRAJECTORY_FORMATS:
+            assert suffix.lstrip(".") in flat, (command, suffix)
 
 
 @pytest.mark.parametrize(

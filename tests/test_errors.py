@@ -14,6 +14,8 @@ from model.errors import (
     DefinitionTypeError,
     as_float_array,
     check_finite,
+    check_integer,
+    check_positive,
     check_real,
     check_states,
 )
@@ -33,6 +35,32 @@ def test_check_real():
         check_real("mass", "1")
     with pytest.raises(DefinitionError, match="`mass`: must be finite, got inf; give a finite"):
         check_real("mass", math.inf)
+
+
+def test_check_positive():
+    assert check_positive("rate_hz", 2) == 2.0 and isinstance(check_positive("x", 1), float)
+    with pytest.raises(DefinitionError, match=r"^`rate_hz`: must be > 0 Hz, got 0.0$"):
+        check_positive("rate_hz", 0, "Hz")
+    with pytest.raises(DefinitionError, match=r"^`gain`: must be > 0, got -1.5$"):
+        check_positive("gain", -1.5)
+    with pytest.raises(DefinitionError, match="`rate_hz`: must be finite, got inf"):
+        check_positive("rate_hz", math.inf, "Hz")
+    with pytest.raises(DefinitionTypeError, match="`rate_hz`: must be a real number, got True"):
+        check_positive("rate_hz", True, "Hz")
+
+
+def test_check_integer():
+    assert check_integer("N", np.int64(3), 1) == 3 and type(check_integer("N", 3, 1)) is int
+    assert check_integer("size", 0, 0) == 0
+    with pytest.raises(DefinitionError, match=r"^`N`: must be >= 1, got 0$"):
+        check_integer("N", 0, 1)
+    with pytest.raises(DefinitionError, match=r"^`size`: must be >= 0 \(0 keeps"):
+        check_integer("size", -1, 0, "(0 keeps none)")
+    for bad in (2.5, True, "3", None):
+        with pytest.raises(
+            DefinitionTypeError, match=rf"^`N`: must be an integer >= 1, got {bad!r}"
+        ):
+            check_integer("N", bad, 1)
 
 
 def test_as_float_array():

@@ -2,6 +2,7 @@
 
 import math
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -90,6 +91,67 @@ def test_shapes_call_state_and_periodicity(law):
     np.testing.assert_allclose(
         law.psi(0.0), np.array(law.center) + np.array(law.zeta) * np.sin(law.varpi), atol=1e-15
     )
+
+
+def _symbolic_functions(law: GaitLaw):
+    """The law on a symbolic SX time, as a CasADi Function t -> (psi, dpsi, ddpsi, state)."""
+    t = ca.SX.sym("t")
+    psi, dpsi, ddpsi = law(t)
+    assert isinstance(psi, ca.SX) and psi.shape == (law.n, 1)
+    return ca.Function("law", [t], [psi, dpsi, ddpsi, law.state(t)]), t, psi, dpsi
+
+
+@pytest.mark.parametrize("law", _laws(), ids=lambda law: f"{law.name}-{law.n}")
+def test_the_law_on_a_symbolic_time_is_its_numpy_evaluation(law):
+    function, t_sym, psi_sym, dpsi_sym = _symbolic_functions(law)
+    times = np.linspace(-0.3, 1.7, 41) * law.period
+    values = [np.asarray(v) for v in function.map(times.size)(times[None, :])]  # (n, K) each
+    np.testing.assert_allclose(values[0].T, law.psi(times), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(values[1].T, law.dpsi(times), rtol=0, atol=1e-12 / law.period)
+    np.testing.assert_allclose(values[2].T, law.ddpsi(times), rtol=0, atol=1e-11 / law.period**2)
+    np.testing.assert_allclose(values[3].T, law.state(times), rtol=0, atol=1e-12 / law.period)
+    # each accessor alone, and DM and MX times, give the same columns
+    for accessor in (law.psi, law.dpsi, law.ddpsi):
+        single = ca.Function("one", [t_sym], [accessor(t_sym)])
+        np.testing.assert_allclose(
+            np.asarray(single(0.37 * law.period)).ravel(), accessor(0.37 * law.period), atol=1e-11
+        )
+    np.testing.assert_allclose(np.asarray(law.psi(ca.DM(0.2))).ravel(), law.psi(0.2), atol=1e-15)
+    t_mx = ca.MX.sym("t")
+    through_mx = ca.Function("mx", [t_mx], [law.ddpsi(t_mx)])
+    np.testing.assert_allclose(np.asarray(through_mx(0.9)).ravel(), law.ddpsi(0.9), atol=1e-10)
+    # and the expressions are each other's time derivatives (CasADi's own differentiation)
+    rates = ca.Function("rates", [t_sym], [ca.jacobian(psi_sym, t_sym) - dpsi_sym])
+    np.testing.assert_allclose(np.asarray(rates.map(times.size)(times[None, :])), 0, atol=1e-12)
+
+
+@pytest.mark.parametrize("law", _laws(), ids=lambda law: f"{law.name}-{law.n}")
+def test_symbolic_derivatives_against_central_differences(law):
+    # The SX dpsi and ddpsi against central differences of the SX psi and dpsi (as the numpy
+    # test above): h balances truncation h^2 f'''/6 against round-off eps/h.
+    function, *_ = _symbolic_functions(law)
+    h = 1e-5 * law.period
+    t = np.linspace(-0.3, 1.7, 41) * law.period
+    mapped = function.map(t.size)
+
+    def evaluate(times):
+        return [np.asarray(v).T for v in mapped(times[None, :])]
+
+    here, ahead, behind = evaluate(t), evaluate(t + h), evaluate(t - h)
+    checked = 0
+    for value, derivative in ((0, 1), (1, 2)):
+        numeric = (ahead[value] - behind[value]) / (2 * h)
+        exact = here[derivative]
+        tolerance = 1e-8 * max(np.max(np.abs(exact)), 1.0)
+        np.testing.assert_allclose(exact, numeric, rtol=0, atol=tolerance)
+        checked += np.count_nonzero(np.abs(exact) > 1e3 * tolerance)
+    assert checked >= 0.9 * 2 * t.size * law.n, checked  # the guard: real comparisons
+
+
+def test_a_symbolic_time_must_be_scalar():
+    law = GaitLaw.preset("paper22")
+    with pytest.raises(DefinitionError, match=r"`t`: a CasADi time must be a scalar, got shape"):
+        law.psi(ca.SX.sym("t", 2))
 
 
 def test_static_times():

@@ -392,7 +392,7 @@ def test_solver_and_solution_argument_errors():
         _ = solution.torques
     with pytest.raises(DefinitionError, match=r"`t`: must be finite times in s"):
         solution.state([np.nan])
-    with pytest.raises(DefinitionError, match=r"`rate_hz`: must be a finite rate > 0 Hz"):
+    with pytest.raises(DefinitionError, match=r"`rate_hz`: must be > 0 Hz"):
         solution.to_trajectory(rate_hz=0.0)
 
 

@@ -14,6 +14,7 @@ import pytest
 from model import AnthropoidError, DefinitionError, presets
 from model.errors import DefinitionTypeError
 from planner import OCP, SolverError, Transcription, solve
+from problems import GaitLaw
 
 ZETA = np.array([0.20, 0.30, 0.40, 0.30, 0.10, 0.05])
 VARPI = np.array([0.00, 0.50, 1.00, 1.50, 0.20, 0.40])
@@ -32,8 +33,8 @@ def law(t):
     return psi, dpsi, ddpsi
 
 
-def law_sx(t):
-    return np.pi / 2 + ca.DM(ZETA) * ca.sin(ca.DM(VARPI) - (1 - ca.cos(2 * np.pi * t)) * np.pi / 2)
+#: The same law as a CasADi expression of the symbolic time, for constraints and costs.
+law_sx = GaitLaw.preset("paper22").psi
 
 
 SIX_LINK = presets.six_link_anthropoid().dynamics()

@@ -158,7 +158,7 @@ def _objective_functions(ocp, method: str, n_free: int, input_order: list[int]):
     from planner.ocp import Point, evaluate_expression
 
     system = ocp.system
-    n, nx, nu, N = system.dynamics.n, system.nx, system.nu, ocp.N
+    n, nx, nu, N = ocp.dynamics.n, system.nx, system.nu, ocp.N
     nodes, h, T = N + 1, ocp.T / N, ocp.T
     x, u, z, t = ca.SX.sym("x", nx), ca.SX.sym("u", nu), ca.SX.sym("z", system.nz), ca.SX.sym("t")
     point = Point(system, x, u, z, t, T)
@@ -281,7 +281,7 @@ def build_opty(ocp, method: str, tmp_dir: str | None = None) -> OptyBuild:
     system = ocp.system
     if ocp.free_time:
         raise NotImplementedError("opty_compare: a free duration is not translated to opty")
-    if system.formulation != "implicit" or not system.is_linkage:
+    if system.formulation != "implicit" or system.drives is None:
         raise NotImplementedError("opty_compare: expects the implicit six-link OCP")
     nodes, T = ocp.N + 1, float(ocp.T)
     start = time.perf_counter()
@@ -388,7 +388,7 @@ def _median(runs: list[dict], key: str) -> float:
 
 def _psi(run: dict, ocp) -> np.ndarray:
     """Angles at the N + 1 nodes, (N + 1, n) rad, of an opty run or one of ours."""
-    nodes, n = ocp.N + 1, ocp.system.dynamics.n
+    nodes, n = ocp.N + 1, ocp.dynamics.n
     if "free" in run:
         return run["free"][: n * nodes].reshape(n, nodes).T
     return np.asarray(run["solution"].state(np.linspace(0.0, ocp.T, nodes)))[:, :n]
@@ -470,7 +470,7 @@ def main(argv: list[str] | None = None) -> int:
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
 
     ocp = planner_problem(args.N)
-    worst = check_equations(ocp.system.dynamics)
+    worst = check_equations(ocp.dynamics)
     print(f"sympy equations vs model.Dynamics.inverse_dynamics: max |dM| = {worst:.1e} N m")
     print(ocp)
     print(f"repeats: {repeats} (medians); IPOPT options {IPOPT_OPTIONS}; {versions()}")

@@ -60,12 +60,6 @@ PERIOD = LAW.period
 BAND = 0.1  # rad: allowed distance of every angle from the law
 
 
-def paper22_sx(t):
-    """The law's angles as a CasADi expression of the symbolic time t, (6, 1)."""
-    phase = ca.DM(LAW.varpi) - (1 - ca.cos(2 * np.pi * t / LAW.period)) * np.pi / 2
-    return ca.DM(LAW.center) + ca.DM(LAW.zeta) * ca.sin(phase)
-
-
 def paper22_gait(
     N: int = 50,
     transcription: str = "hermite-simpson",
@@ -85,7 +79,7 @@ def paper22_gait(
             degree=degree,
             formulation=formulation,
         )
-        .constrain("near_law", lambda p: p.psi - paper22_sx(p.t), lower=-band, upper=band)
+        .constrain("near_law", lambda p: p.psi - LAW.psi(p.t), lower=-band, upper=band)
         .periodic()
         .minimize(integral=lambda p: ca.sumsqr(p.M))
         .guess(LAW)
@@ -103,7 +97,7 @@ def split_gait(N: int, dynamics) -> Phases:
             OCP(dynamics, T=half, N=N // 2)
             .constrain(
                 "near_law",
-                lambda p: p.psi - paper22_sx(p.t + offset),
+                lambda p: p.psi - LAW.psi(p.t + offset),
                 lower=-BAND,
                 upper=BAND,
             )

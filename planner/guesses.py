@@ -1,0 +1,133 @@
+"""Initial guesses of an OCP: layers of values, and what each gives at given times.
+
+A :class:`GuessLayer` is one source of guesses (``OCP.guess``): constants, arrays on a time
+grid, a callable of time (a gait law), or an earlier :class:`planner.Solution` or
+:class:`planner.Trajectory` re-gridded in normalised time. Later layers override earlier
+ones variable by variable; :func:`evaluate_guess_layer` gives a layer's values at the times
+of a mesh (the transcription's initial guess) or at a few probe times (``OCP.guess`` checks a
+callable when it is given).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from model.errors import DefinitionError, DefinitionTypeError, as_float_array
+from planner.solution import Solution
+from planner.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from planner.ocp import OCPDefinition
+
+
+@dataclass(frozen=True, eq=False)
+class GuessLayer:
+    """One source of initial guesses; later layers override earlier ones variable by variable.
+
+    kind: "constant" (values: name -> float or array over a group), "grid" (times (K,) s and
+    values: name -> (K,) or (K, group size)), "callable" (source: t (K,) -> dict or tuple),
+    "solution" (source: a Solution or Trajectory re-gridded in normalised time).
+    """
+
+    kind: str
+    values: Mapping[str, np.ndarray] = field(default_factory=dict)
+    times: np.ndarray | None = None
+    source: Any = None
+
+    def __repr__(self) -> str:
+        if self.kind in ("constant", "grid"):
+            return f"{self.kind}({', '.join(self.values)})"
+        return f"{self.kind}({type(self.source).__name__})"
+
+
+def source_duration(source: Solution | Trajectory) -> float:
+    """Duration, s, of a Solution (``T``) or a Trajectory (its time span)."""
+    if isinstance(source, Solution):
+        return float(source.T)
+    return float(source.time[-1] - source.time[0])
+
+
+def evaluate_guess_layer(
+    ocp: OCPDefinition, layer: GuessLayer, times: np.ndarray
+) -> dict[str, np.ndarray]:
+    """Values (name -> (K,)) that one guess layer gives at ``times`` (s)."""
+    system = ocp.system
+    K = times.size
+    if layer.kind == "constant":
+        return {name: np.full(K, float(v)) for name, v in layer.values.items()}
+    if layer.kind == "grid":
+        out = {}
+        for name, values in layer.values.items():
+            if layer.times.size == 1:
+                out[name] = np.full(K, float(values[0]))
+            else:
+                out[name] = np.interp(times, layer.times, values)
+        return out
+    if layer.kind == "solution":
+        source = layer.source
+        s = times / ocp.duration_guess
+        if isinstance(source, Solution):
+            return source.interpolate_guess(s)
+        t0, t1 = float(source.time[0]), float(source.time[-1])
+        states, controls = source.at(t0 + s * (t1 - t0))
+        out = {n: states[:, i] for i, n in enumerate(source.state_names)}
+        out.update({n: controls[:, i] for i, n in enumerate(source.control_names)})
+        for name, (values, _unit) in source.extras.items():
+            if name in system.aux_names:
+                out[name] = np.interp(t0 + s * (t1 - t0), np.asarray(source.time), values)
+        return {n: v for n, v in out.items() if n in system.variable_names}
+    # callable of t
+    try:
+        result = layer.source(times)
+    except Exception as exc:  # a user's law may fail in any way; say which guess failed
+        raise DefinitionError(f"`guess`: calling the guess function failed: {exc!r}") from exc
+    if isinstance(result, dict):
+        items = list(result.items())
+    elif isinstance(result, tuple | list):
+        order = system.guess_order
+        if len(result) > len(order):
+            raise DefinitionError(
+                f"`guess`: the function returned {len(result)} arrays; expected up to "
+                f"{len(order)}: {order}"
+            )
+        items = list(zip(order, result, strict=False))
+    else:
+        raise DefinitionTypeError(
+            "`guess`: the function must return a dict or a tuple "
+            f"(of up to {len(system.guess_order)} arrays: {', '.join(system.guess_order)}), "
+            f"got {type(result).__name__}"
+        )
+    out = {}
+    for key, value in items:
+        derived = system.derived_field(key)
+        if derived is not None:
+            # A derived field (explicit accelerations) is no variable, but its values may
+            # still complete other guesses (torques by inverse dynamics): keep its names.
+            names = derived.names
+        elif key == "z" and system.group(key) is None:
+            continue  # an explicit system has no auxiliary variables: nothing to guess
+        else:
+            names = ocp.resolve(key, "guess")
+        array = as_float_array(f"guess[{key}]", value, "numeric")
+        m = len(names)
+        if array.ndim == 1 and m == 1 and array.size == K:
+            array = array[:, None]
+        elif array.ndim == 1 and K == 1 and array.size == m:
+            array = array[None, :]
+        if array.shape != (K, m):
+            raise DefinitionError(
+                f"`guess[{key}]`: the function returned shape {array.shape} for {K} times; "
+                f"expected ({K}, {m})"
+            )
+        if not np.all(np.isfinite(array)):
+            raise DefinitionError(f"`guess[{key}]`: the function returned NaN or inf")
+        for i, name in enumerate(names):
+            out[name] = array[:, i]
+    return out
+
+
+__all__ = ["GuessLayer", "evaluate_guess_layer", "source_duration"]

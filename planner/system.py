@@ -1,0 +1,273 @@
+"""The System: dynamics in the planner's form, carrying its own naming.
+
+The generic planner (the OCP, its transcription, the Solution, the guesses) knows a model
+only through a :class:`System`: its states, controls and auxiliary variables with their
+names and units, the groups that name several at once, the residual rows and their scale,
+the Point fields that are expressions rather than variables (:class:`DerivedField`, control
+rates), how a guess function's tuple reads, how guesses the user gave complete the others,
+and which groups play two mechanical roles the Solution offers views of (the drive torques,
+the second derivatives of the states). A model becomes a System through an adapter:
+
+* :meth:`System.from_function`: a CasADi Function, an ODE f(x, u[, t]) or an implicit
+  residual r(x, xdot, u[, t]) (names and units given by the user, or x_0.., u_0..);
+* :func:`planner.linkage_system.linkage_system`: a ``model.Dynamics`` (the linkage naming
+  convention lives there, and only there);
+
+and a new kind of model (a floating base, contact forces as algebraic variables) is a new
+adapter returning a System, which ``OCP`` also takes directly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from model.errors import DefinitionError, DefinitionTypeError
+
+#: A guess completion: values the guesses give at some points, name -> (K,), to values of
+#: more variables (e.g. the torques of inverse dynamics), name -> (K,).
+GuessCompletion = Callable[[Mapping[str, np.ndarray]], Mapping[str, np.ndarray]]
+
+
+@dataclass(frozen=True, eq=False)
+class DerivedField:
+    """A group of Point fields that are expressions of the variables, not variables.
+
+    ``function``: SX Function (x (nx,), z (nz,), u (nu,), t (1,)) -> (m,); the Point offers
+    the column as ``group`` and its rows by ``names`` (units ``units``).
+    """
+
+    group: str
+    names: tuple[str, ...]
+    units: tuple[str, ...]
+    function: ca.Function
+
+
+@dataclass(frozen=True, eq=False)
+class System:
+    """Dynamics in the planner's form: xdot = rate(x, z, u, t) and 0 = residual(x, z, u, t).
+
+    ``rate`` and ``residual`` are SX Functions with inputs (x (nx,), z (nz,), u (nu,), t (1,));
+    ``residual`` is None (nz = 0) for explicit dynamics. ``ode`` (x, u, t) -> xdot, when known,
+    serves re-simulation. ``groups`` maps group names (for a linkage ``psi``, ``M``; always
+    ``x``, ``u`` and, with auxiliary variables, ``z``) to variable names;
+    ``residual_scale_group`` names the group whose nominal scales scale the residual rows
+    (torques for a linkage: the residual is in N m), ``residual_names`` the rows of the
+    residual at one point ("dynamics[<name>]").
+
+    Point fields that are no NLP variables, named by the system (see :class:`planner.ocp.Point`):
+    ``derived`` groups of expressions of (x, z, u, t) (a linkage's accelerations in the
+    explicit formulation: its forward dynamics), and the control rates du/dt, one name per
+    control (``control_rate_names``) gathered in the groups ``control_rate_groups``; a group
+    given as (name, count) holds the first ``count`` rates only.
+
+    Guesses: a guess function's tuple fills the groups ``guess_order`` in order (``x``, ``u``,
+    ``z`` by default); a derived group's values in a guess are kept under its names, for
+    ``complete_guess``, which maps the values the guesses give at the dynamics points to
+    values of controls no guess gives (a linkage's torques by inverse dynamics), or is None.
+
+    Roles the Solution offers views of: ``drives``, the control group of drive torques
+    (``Solution.torques``; a trajectory exports these as its controls and the other controls
+    as derived channels), and ``accelerations``, the group (variables or derived) of the
+    second time derivatives of the states (``Solution.acceleration``, ``Solution.ddpsi``);
+    None when the system has none. ``model``: a JSON-serialisable description of the model
+    for exported metadata, or None.
+    """
+
+    rate: ca.Function
+    residual: ca.Function | None
+    ode: ca.Function | None
+    state_names: tuple[str, ...]
+    state_units: tuple[str, ...]
+    control_names: tuple[str, ...]
+    control_units: tuple[str, ...]
+    aux_names: tuple[str, ...]
+    aux_units: tuple[str, ...]
+    groups: tuple[tuple[str, tuple[str, ...]], ...]
+    residual_scale_group: str
+    formulation: str
+    derived: tuple[DerivedField, ...] = ()
+    control_rate_names: tuple[str, ...] = ()
+    control_rate_groups: tuple[str | tuple[str, int], ...] = ()
+    residual_names: tuple[str, ...] = ()
+    guess_order: tuple[str, ...] = ("x", "u", "z")
+    complete_guess: GuessCompletion | None = None
+    drives: str | None = None
+    accelerations: str | None = None
+    model: Mapping | None = None
+
+    def __post_init__(self) -> None:
+        if self.residual is not None and len(self.residual_names) != self.residual.size1_out(0):
+            raise DefinitionError(
+                f"`residual_names`: the residual has {self.residual.size1_out(0)} rows, got "
+                f"{len(self.residual_names)} names; name every row"
+            )
+        for role in ("drives", "accelerations"):
+            group = getattr(self, role)
+            if (
+                group is not None
+                and self.group(group) is None
+                and self.derived_field(group) is None
+            ):
+                raise DefinitionError(
+                    f"`{role}`: {group!r} is neither a group nor a derived field of the system; "
+                    f"groups: {[key for key, _ in self.groups]}"
+                )
+
+    @property
+    def nx(self) -> int:
+        return len(self.state_names)
+
+    @property
+    def nu(self) -> int:
+        return len(self.control_names)
+
+    @property
+    def nz(self) -> int:
+        return len(self.aux_names)
+
+    @property
+    def variable_names(self) -> tuple[str, ...]:
+        return self.state_names + self.control_names + self.aux_names
+
+    def unit(self, name: str) -> str:
+        names = self.variable_names
+        units = self.state_units + self.control_units + self.aux_units
+        return units[names.index(name)]
+
+    def group(self, name: str) -> tuple[str, ...] | None:
+        for key, members in self.groups:
+            if key == name:
+                return members
+        return None
+
+    def derived_field(self, name: str) -> DerivedField | None:
+        """The derived field whose group is ``name``, or None."""
+        for derived in self.derived:
+            if derived.group == name:
+                return derived
+        return None
+
+    def role_names(self, role: str) -> tuple[str, ...]:
+        """The names of the variables or derived rows of a role (``drives``,
+        ``accelerations``): empty when the system has no such group."""
+        group = getattr(self, role)
+        if group is None:
+            return ()
+        members = self.group(group)
+        return members if members is not None else self.derived_field(group).names
+
+    @property
+    def point_only_fields(self) -> tuple[str, ...]:
+        """Names of the Point fields that are expressions, not NLP variables: derived groups
+        and their rows, control-rate groups and names."""
+        names: list[str] = []
+        for derived in self.derived:
+            names.extend((derived.group, *derived.names))
+        groups = [g if isinstance(g, str) else g[0] for g in self.control_rate_groups]
+        names.extend((*groups, *self.control_rate_names))
+        return tuple(names)
+
+    @staticmethod
+    def from_function(
+        function: ca.Function,
+        formulation: str,
+        state_names: Sequence[str] | None,
+        control_names: Sequence[str] | None,
+        state_units: Sequence[str] | None,
+        control_units: Sequence[str] | None,
+    ) -> System:
+        """A system from an ODE f(x, u[, t]) -> xdot or an implicit r(x, xdot, u[, t]) -> (nx,)."""
+        implicit = formulation == "implicit"
+        n_in = function.n_in()
+        expected = "r(x, xdot, u[, t])" if implicit else "f(x, u[, t])"
+        if n_in not in ((3, 4) if implicit else (2, 3)) or function.n_out() != 1:
+            raise DefinitionError(
+                f"`dynamics`: a {formulation} dynamics Function must be {expected} with one "
+                f"output; got {function.n_in()} inputs {function.name_in()} and "
+                f"{function.n_out()} outputs"
+            )
+        for i in range(n_in):
+            if function.size2_in(i) != 1:
+                raise DefinitionError(
+                    f"`dynamics`: input {function.name_in(i)!r} must be a column vector, got "
+                    f"shape {function.size_in(i)}"
+                )
+        nx = function.size1_in(0)
+        nu = function.size1_in(2 if implicit else 1)
+        if implicit and function.size1_in(1) != nx:
+            raise DefinitionError(
+                f"`dynamics`: the xdot input must have nx = {nx} rows, got {function.size1_in(1)}"
+            )
+        if function.size_out(0) != (nx, 1):
+            raise DefinitionError(
+                f"`dynamics`: the output must have shape ({nx}, 1) like x, "
+                f"got {function.size_out(0)}"
+            )
+        if n_in == (4 if implicit else 3) and function.size_in(n_in - 1) != (1, 1):
+            raise DefinitionError(
+                f"`dynamics`: the time input must be scalar, got {function.size_in(n_in - 1)}"
+            )
+        states = _names("state_names", state_names, nx, "x")
+        controls = _names("control_names", control_names, nu, "u")
+        s_units = _names("state_units", state_units, nx, None) if state_units else ("-",) * nx
+        c_units = _names("control_units", control_units, nu, None) if control_units else ("-",) * nu
+        x = ca.SX.sym("x", nx)
+        u = ca.SX.sym("u", nu)
+        t = ca.SX.sym("t")
+        if implicit:
+            z = ca.SX.sym("z", nx)
+            args = [x, z, u] + ([t] if n_in == 4 else [])
+            residual = ca.Function(
+                "residual", [x, z, u, t], [function(*args)], ["x", "z", "u", "t"], ["residual"]
+            )
+            rate = z
+            ode = None
+            aux = tuple(f"d{name}" for name in states)
+        else:
+            z = ca.SX.sym("z", 0)
+            args = [x, u] + ([t] if n_in == 3 else [])
+            rate = function(*args)
+            ode = ca.Function("ode", [x, u, t], [rate], ["x", "u", "t"], ["xdot"])
+            residual = None
+            aux = ()
+        rate_f = ca.Function("rate", [x, z, u, t], [rate], ["x", "z", "u", "t"], ["xdot"])
+        groups = (("x", states), ("u", controls)) + ((("z", aux),) if aux else ())
+        return System(
+            rate=rate_f,
+            residual=residual,
+            ode=ode,
+            state_names=states,
+            state_units=s_units,
+            control_names=controls,
+            control_units=c_units,
+            aux_names=aux,
+            aux_units=tuple(f"{unit}/s" for unit in s_units) if aux else (),
+            groups=groups,
+            residual_scale_group="x",
+            formulation=formulation,
+            control_rate_names=tuple(f"d{name}" for name in controls),
+            control_rate_groups=("du",),
+            residual_names=states if implicit else (),
+        )
+
+
+def _names(field_name: str, names, size: int, prefix: str | None) -> tuple[str, ...]:
+    if names is None:
+        return tuple(f"{prefix}_{i}" for i in range(size))
+    if isinstance(names, str) or not all(isinstance(n, str) for n in names):
+        raise DefinitionTypeError(f"`{field_name}`: must be a sequence of strings, got {names!r}")
+    names = tuple(names)
+    if len(names) != size:
+        raise DefinitionError(
+            f"`{field_name}`: the dynamics has {size} of them, got {len(names)} names {names}"
+        )
+    if prefix is not None and len(set(names)) != size:
+        raise DefinitionError(f"`{field_name}`: names must be unique, got {names}")
+    return names
+
+
+__all__ = ["DerivedField", "GuessCompletion", "System"]

@@ -1,0 +1,205 @@
+"""The linkage convention of a trajectory: its channels read as link angles, rates, torques.
+
+A trajectory follows the linkage convention (used by the planner for a ``model.Dynamics``
+and by ``problems``) when its channels are
+
+    states   psi_<link> [rad] for every link, then dpsi_<link> [rad/s]
+    controls M_<link>   [N m]  (hinge torques)
+    extras   ddpsi_<link> [rad/s^2], Fx [N], Fy [N] (ground reaction at H0) when known
+
+:class:`LinkageViews` gives :class:`planner.trajectory.Trajectory` the constructor
+``from_linkage`` and the (K, n) views ``psi``, ``dpsi``, ``torques``, ``ddpsi``,
+``ground_reaction`` and ``link_names``, which raise :class:`TrajectoryError` on a trajectory
+that does not follow the convention.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from functools import cached_property
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from model.errors import DefinitionError, DefinitionTypeError
+from planner import linkage_system as naming
+from planner.trajectory.checks import check_label, float_array
+from planner.trajectory.errors import TrajectoryError
+
+if TYPE_CHECKING:
+    from planner.trajectory.value import Trajectory
+
+
+class LinkageViews:
+    """The linkage convention's constructor and views, mixed into
+    :class:`planner.trajectory.Trajectory` (which provides ``state_names``, ``state_units``,
+    ``states``, ``control_names``, ``control_units``, ``controls`` and ``extras``)."""
+
+    # ---- construction ----------------------------------------------------------------------
+    @classmethod
+    def from_linkage(
+        cls,
+        time,
+        psi,
+        dpsi,
+        torques,
+        names: Sequence[str],
+        ddpsi=None,
+        ground_reaction=None,
+        metadata: Mapping | None = None,
+    ) -> Trajectory:
+        """A trajectory in the linkage convention.
+
+        Parameters
+        ----------
+        time : (K,) s.
+        psi : (K, n) rad, absolute link angles.
+        dpsi : (K, n) rad/s.
+        torques : (K, n) N m, hinge torques M.
+        names : n link names (``model.Linkage.names``).
+        ddpsi : optional (K, n) rad/s^2; stored as extras ``ddpsi_<link>`` and then used as
+            the derivative of dpsi by the interpolation.
+        ground_reaction : optional force of the ground at H0, N: complex (K,) Fx + j Fy, or
+            real (K, 2) columns Fx, Fy; stored as extras ``Fx``, ``Fy``.
+        metadata : optional JSON-serialisable dict.
+        """
+        if isinstance(names, str) or not isinstance(names, Sequence):
+            raise DefinitionTypeError(f"`names`: must be a sequence of link names, got {names!r}")
+        links = tuple(check_label(f"names[{i}]", v, "name") for i, v in enumerate(names))
+        n = len(links)
+        if n == 0:
+            raise DefinitionError("`names`: a linkage trajectory needs at least one link")
+        time = float_array("time", time, 1)
+        K = time.shape[0]
+
+        def block(where: str, value) -> np.ndarray:
+            array = float_array(where, value, 2, links)
+            if array.shape != (K, n):
+                raise DefinitionError(
+                    f"`{where}`: must have shape (K, n) = ({K}, {n}) for {K} samples and "
+                    f"{n} links, got {array.shape}"
+                )
+            return array
+
+        psi = block("psi", psi)
+        dpsi = block("dpsi", dpsi)
+        torques = block("torques", torques)
+        extras: dict[str, tuple[np.ndarray, str]] = {}
+        if ddpsi is not None:
+            ddpsi = block("ddpsi", ddpsi)
+            for i, name in enumerate(naming.acceleration_names(links)):
+                extras[name] = (ddpsi[:, i], naming.ACCELERATION_UNIT)
+        if ground_reaction is not None:
+            force = np.asarray(ground_reaction)
+            if force.dtype.kind == "c":
+                if force.shape != (K,):
+                    raise DefinitionError(
+                        f"`ground_reaction`: a complex Fx + j Fy must have shape ({K},), got "
+                        f"{force.shape}"
+                    )
+                pair = np.stack([force.real, force.imag], axis=1)
+            else:
+                pair = force
+            pair = float_array("ground_reaction", pair, 2, ("Fx", "Fy"))
+            if pair.shape != (K, 2):
+                raise DefinitionError(
+                    f"`ground_reaction`: must be complex ({K},) Fx + j Fy or real ({K}, 2) "
+                    f"columns Fx, Fy, got shape {pair.shape}"
+                )
+            for i, name in enumerate(naming.GROUND_REACTION):
+                extras[name] = (pair[:, i], naming.FORCE_UNIT)
+        return cls(
+            time=time,
+            states=np.hstack([psi, dpsi]),
+            controls=torques,
+            state_names=naming.angle_names(links) + naming.rate_names(links),
+            state_units=(naming.ANGLE_UNIT,) * n + (naming.RATE_UNIT,) * n,
+            control_names=naming.torque_names(links),
+            control_units=(naming.TORQUE_UNIT,) * n,
+            extras=extras,
+            metadata={} if metadata is None else metadata,
+        )
+
+    # ---- the linkage convention -------------------------------------------------------------
+    @cached_property
+    def _links(self) -> tuple[str, ...] | None:
+        return naming.links_of(self.state_names, self.state_units)
+
+    def _not_linkage(self, what: str) -> TrajectoryError:
+        return TrajectoryError(
+            f"`{what}`: this trajectory does not follow the linkage convention "
+            f"({naming.CONVENTION}); its states are {list(self.state_names)}; build it with "
+            "Trajectory.from_linkage or read the columns by name with .column(name)"
+        )
+
+    @property
+    def is_linkage(self) -> bool:
+        """True when the states follow the linkage convention (psi_<link>, dpsi_<link>)."""
+        return self._links is not None
+
+    @property
+    def link_names(self) -> tuple[str, ...]:
+        """Link names of a linkage trajectory, in the order of its columns."""
+        if self._links is None:
+            raise self._not_linkage("link_names")
+        return self._links
+
+    @property
+    def psi(self) -> np.ndarray:
+        """(K, n) link angles, rad."""
+        if self._links is None:
+            raise self._not_linkage("psi")
+        return self.states[:, : len(self._links)]
+
+    @property
+    def dpsi(self) -> np.ndarray:
+        """(K, n) angular velocities, rad/s."""
+        if self._links is None:
+            raise self._not_linkage("dpsi")
+        return self.states[:, len(self._links) :]
+
+    @property
+    def torques(self) -> np.ndarray:
+        """(K, n) hinge torques M, N m."""
+        links = self._links
+        if links is None:
+            raise self._not_linkage("torques")
+        expected = naming.torque_names(links)
+        if self.control_names != expected or set(self.control_units) - {naming.TORQUE_UNIT}:
+            raise TrajectoryError(
+                f"`torques`: the controls must be {list(expected)} [{naming.TORQUE_UNIT}] for "
+                "the links "
+                f"{list(links)}, got {list(self.control_names)} {list(self.control_units)}; "
+                "read them by name with .column(name)"
+            )
+        return self.controls
+
+    @property
+    def ddpsi(self) -> np.ndarray:
+        """(K, n) angular accelerations, rad/s^2 (from the extras ``ddpsi_<link>``)."""
+        if self._links is None:
+            raise self._not_linkage("ddpsi")
+        names = naming.acceleration_names(self._links)
+        missing = [name for name in names if name not in self.extras]
+        if missing:
+            raise TrajectoryError(
+                f"`ddpsi`: this trajectory stores no angular accelerations (missing extras "
+                f"{missing}); pass ddpsi= to Trajectory.from_linkage"
+            )
+        return np.stack([self.extras[name][0] for name in names], axis=1)
+
+    @property
+    def ground_reaction(self) -> np.ndarray:
+        """(K,) complex force of the ground at H0, Fx + j Fy, N."""
+        if self._links is None:
+            raise self._not_linkage("ground_reaction")
+        fx, fy = naming.GROUND_REACTION
+        if fx not in self.extras or fy not in self.extras:
+            raise TrajectoryError(
+                "`ground_reaction`: this trajectory stores no ground reaction (extras Fx, Fy); "
+                "pass ground_reaction= to Trajectory.from_linkage"
+            )
+        return self.extras[fx][0] + 1j * self.extras[fy][0]
+
+
+__all__ = ["LinkageViews"]
