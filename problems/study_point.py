@@ -33,11 +33,15 @@ from typing import Any
 import numpy as np
 
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
-from planner.ocp import OCP
-from planner.phases import Phases, PhasesSolution, PhasesTranscription
-from planner.solution import Solution
-from planner.trajectory import Trajectory
-from planner.transcription import Transcription
+from planner import (
+    OCP,
+    Phases,
+    PhasesSolution,
+    PhasesTranscription,
+    Solution,
+    Trajectory,
+    Transcription,
+)
 from problems.walking import WalkingGait, WalkingStep, walking_step
 
 #: The status recorded for a point whose problem could not be defined (walking_step or the

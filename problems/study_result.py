@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from model.errors import DefinitionError
-from planner.trajectory import Trajectory
+from planner import Trajectory
 from problems.study_store import SOLUTIONS, read_definition, read_rows
 
 

@@ -24,7 +24,7 @@ import reference.newton_euler as ne
 
 from model.errors import DefinitionError, DefinitionTypeError
 from model.presets import six_link_anthropoid
-from planner.trajectory import Trajectory
+from planner import Trajectory
 from problems import Study, StudyProgress, StudyResult, cli, run_study, verify_gait, walking_step
 from problems.study_backends import (
     CLUSTER_INSTALL,
