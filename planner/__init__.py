@@ -8,7 +8,9 @@
 """
 
 from planner.ocp import Point
-from planner.phases import EventPoint, PhasesSolution, PhasesTranscription
+from planner.phase_transcription import PhaseTranscription
+from planner.phases import EventPoint
+from planner.phases_solution import PhasesSolution
 from planner.problem import OCP, Phases
 from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
 from planner.solution import IntegrationError, Replay, Solution
@@ -22,9 +24,9 @@ __all__ = [
     "TRANSCRIPTIONS",
     "EventPoint",
     "IntegrationError",
+    "PhaseTranscription",
     "Phases",
     "PhasesSolution",
-    "PhasesTranscription",
     "Point",
     "Replay",
     "Scheme",

@@ -566,6 +566,10 @@ class OCPDefinition:
     contacts : points of a linkage held by the ground (link names for their end hinges, or
         ``model.LinkPoint``): their ground forces become controls ``F_<point>_x/_y`` (group
         ``F``, N) acting on the tree (:meth:`System.from_dynamics`); a model.Dynamics only.
+    dynamics_params : names of static parameters the dynamics Function reads: its last
+        inputs, one scalar each, in this order (f(x, u[, t], p_1, ..., p_m)); declare each
+        with :meth:`param` (bounds, guess, scale) so that it is designed with the motion
+        (a pendulum's length, a gear ratio). A casadi.Function only.
 
     The remaining fields are filled by the builder methods; treat them as read-only.
     """
@@ -590,6 +594,7 @@ class OCPDefinition:
     mesh: tuple[float, ...] | None = None
     params: tuple[Param, ...] = ()
     contacts: tuple[Any, ...] = ()
+    dynamics_params: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         dynamics = self.dynamics
@@ -618,6 +623,17 @@ class OCPDefinition:
             )
         if not isinstance(self.contacts, tuple):
             object.__setattr__(self, "contacts", tuple(self.contacts))
+        if isinstance(self.dynamics_params, str):
+            raise DefinitionTypeError(
+                f"`dynamics_params`: give a sequence of names, got {self.dynamics_params!r}"
+            )
+        object.__setattr__(self, "dynamics_params", tuple(self.dynamics_params))
+        if self.dynamics_params and (linkage or given):
+            raise DefinitionError(
+                "`dynamics_params`: a model.Dynamics holds numeric link parameters, and a "
+                "System declares its own (System.params); give parameters to a "
+                "casadi.Function's last inputs"
+            )
         if linkage or given:
             owner = "a model.Dynamics" if linkage else "a System"
             for name in ("state_names", "control_names", "state_units", "control_units"):
@@ -639,6 +655,7 @@ class OCPDefinition:
                 self.control_names,
                 self.state_units,
                 self.control_units,
+                self.dynamics_params,
             )
         object.__setattr__(self, "formulation", formulation)
         object.__setattr__(self, "system", system)

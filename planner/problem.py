@@ -6,8 +6,11 @@ definitions: ``transcribe()`` (the NLP, :mod:`planner.transcription`) and ``solv
 :mod:`planner.solver`). The definitions live below the transcription and the solver, which
 read them; these two classes live above, so every import inside ``planner`` runs one way:
 
-    schemes, simulation, trajectory, ... -> solution -> guesses -> ocp -> transcription
-        -> phases -> solver -> problem
+    schemes, simulation, trajectory, ... -> solution -> phases_solution -> guesses -> ocp
+        -> phases -> phase_transcription -> transcription -> solver -> problem
+
+A single OCP is a problem of one phase: both transcribe through the one
+:class:`planner.transcription.Transcription`.
 
 Builders return the class they are called on (``dataclasses.replace``), so a chain started
 from ``OCP(...)`` or ``Phases.sequence(...)`` stays solvable.
@@ -16,7 +19,8 @@ from ``OCP(...)`` or ``Phases.sequence(...)`` stays solvable.
 from __future__ import annotations
 
 from planner.ocp import OCPDefinition
-from planner.phases import PhasesDefinition, PhasesSolution
+from planner.phases import PhasesDefinition
+from planner.phases_solution import PhasesSolution
 from planner.solution import Solution
 from planner.solver import solve
 from planner.transcription import Transcription
@@ -37,7 +41,11 @@ class OCP(OCPDefinition):
 
 class Phases(PhasesDefinition):
     """A multi-phase problem (:class:`planner.phases.PhasesDefinition` for the builders) that
-    solves itself."""
+    transcribes and solves itself."""
+
+    def transcribe(self, expand: bool | None = None) -> Transcription:
+        """The NLP of these phases (:class:`planner.transcription.Transcription`), built now."""
+        return Transcription(self, expand=expand)
 
     def solve(self, **options) -> PhasesSolution:
         """Transcribe and solve with IPOPT (:func:`planner.solver.solve`'s options)."""

@@ -113,12 +113,14 @@ class Solution:
     time, states, controls, ddpsi : values at the N+1 mesh nodes (see properties).
     state_time, state_values : every state point (nX,), (nX, nx).
     point_time, control_values, aux_values, rate_values : every dynamics point (nC,), ...
-    w : the scaled decision vector (n_w,) of the NLP.
+    w : the scaled decision vector (n_w,) of the NLP (:attr:`transcription`, the whole
+        problem's: a phase of several has the values of every phase).
     lam_x, lam_g : IPOPT's multipliers of the variable bounds (n_w,) and of the constraint
         rows (n_g,) of the scaled NLP (CasADi's signs: > 0 at an active upper bound), or None;
         they belong to the NLP layout :attr:`nlp_signature`. A guess from this Solution on an
         OCP with the same layout also warm-starts IPOPT's multipliers (see
         :func:`planner.solver.solve`, ``warm_start``).
+    phase : the index of this phase in the NLP (0 for a single OCP).
     """
 
     def __init__(
@@ -131,12 +133,19 @@ class Solution:
         stats: dict[str, Any],
         lam_g: np.ndarray | None = None,
         lam_x: np.ndarray | None = None,
+        phase: int = 0,
     ) -> None:
         self.transcription = transcription
-        self.ocp = transcription.ocp
-        self.system = transcription.system
-        self.scheme = transcription.scheme
-        self.mesh = transcription.mesh
+        self.phase = phase
+        #: This phase's transcription (planner.phase_transcription.PhaseTranscription).
+        self.block = block = transcription.phases[phase]
+        self.ocp = block.ocp
+        values = transcription.unpack(w, phase)
+        # The dynamics with the static parameters they read fixed at the solution's values:
+        # the interpolants, accuracy estimates and replays integrate that system.
+        self.system = block.system.bind(values["P"])
+        self.scheme = block.scheme
+        self.mesh = block.mesh
         self.w = np.asarray(w, dtype=float).copy()
         self.cost = float(cost)
         self.status = status
@@ -144,7 +153,6 @@ class Solution:
         self.stats = stats
         self.lam_g = None if lam_g is None else np.asarray(lam_g, dtype=float).reshape(-1).copy()
         self.lam_x = None if lam_x is None else np.asarray(lam_x, dtype=float).reshape(-1).copy()
-        values = transcription.unpack(self.w)
         self.T = float(values["T"])
         self.state_values = values["X"]
         self.control_values = values["U"]
@@ -160,8 +168,12 @@ class Solution:
     @cached_property
     def cost_terms(self) -> dict[str, float]:
         """Each objective term's value at the solution, name -> value (``OCP.minimize``'s
-        ``name``); they add up to ``cost``."""
-        return self.transcription.cost_terms(self.w)
+        ``name``); they add up to ``cost`` (a phase of several: this phase's terms)."""
+        terms = self.transcription.cost_terms(self.w)
+        if len(self.transcription.phases) == 1:
+            return terms
+        prefix = f"{self.transcription.problem.names[self.phase]}: "
+        return {k[len(prefix) :]: v for k, v in terms.items() if k.startswith(prefix)}
 
     # ---- basic views -----------------------------------------------------------------
     @property
@@ -255,14 +267,21 @@ class Solution:
 
     def _rates(self) -> np.ndarray:
         """(nC, nx) f(x, z, u, t) at the dynamics points, through the NLP's own point Function."""
-        mapped = self.transcription.point_function.map(self.mesh.n_dyn_points)
+        mapped = self.block.point_function.map(self.mesh.n_dyn_points)
         x = self.state_values[self.mesh.dyn_state_cols].T
         u = self.control_values.T
         z = self.aux_values.T if self.system.nz else np.zeros((0, x.shape[1]))
         times = self.point_time[None, :]
-        # By name: the control-rate input, when there is one, does not change the rates
-        # (nor do the static parameters: they do not enter the dynamics).
-        rate = mapped(x=x, u=u, z=z, t=times, T=np.full_like(times, self.T))["f"]
+        # By name: the control-rate input, when there is one, does not change the rates.
+        params = np.array([self.params[p.name] for p in self.ocp.params]).reshape(-1, 1)
+        rate = mapped(
+            x=x,
+            u=u,
+            z=z,
+            t=times,
+            T=np.full_like(times, self.T),
+            params=np.repeat(params, times.size, axis=1),
+        )["f"]
         return np.asarray(rate).T
 
     # ---- interpolation ---------------------------------------------------------------
@@ -548,8 +567,9 @@ class Solution:
             h[:, None] * np.einsum("p,kpn->kn", weights, gap), self.system.state_names
         )
 
-    def replay(self, rtol: float = 1e-10, atol: float = 1e-10) -> Replay:
-        """Integrate the whole horizon open loop from x(0) with the interpolated controls.
+    def replay(self, rtol: float = 1e-10, atol: float = 1e-10, x0=None) -> Replay:
+        """Integrate the whole horizon open loop from x(0) (or ``x0`` (nx,), e.g. the state
+        another phase ended in) with the interpolated controls.
 
         A stability probe, not an accuracy measure: the deviation grows with the motion's
         own instability (for an unstable gait it is large however accurate the solution).
@@ -559,9 +579,12 @@ class Solution:
         try:
             # Restarted at every node, as the per-interval re-integration: the replay's first
             # interval is the first re-integration.
-            run = simulator.along(
-                self.states[0], self.time, self._interval_coefficients(), z0, restart=True
-            )
+            start = self.states[0] if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
+            if start.shape != (self.system.nx,):
+                raise DefinitionError(
+                    f"`x0`: must be a state of {self.system.nx} entries, got shape {start.shape}"
+                )
+            run = simulator.along(start, self.time, self._interval_coefficients(), z0, restart=True)
         except SimulationError as error:
             k = error.index
             where = (

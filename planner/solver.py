@@ -43,7 +43,8 @@ import numpy as np
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.native_output import captured
 from planner.ocp import OCPDefinition
-from planner.phases import PhasesDefinition, PhasesSolution, PhasesTranscription
+from planner.phases import PhasesDefinition
+from planner.phases_solution import PhasesSolution
 from planner.solution import Solution
 from planner.solver_cache import SOLVERS, CachedSolver
 from planner.transcription import Transcription
@@ -440,7 +441,7 @@ def objective_scale(transcription: Transcription, solver: ca.Function, w0: np.nd
 
 
 def solve(
-    problem: OCPDefinition | PhasesDefinition | Transcription | PhasesTranscription,
+    problem: OCPDefinition | PhasesDefinition | Transcription,
     *,
     options: Mapping[str, Any] | None = None,
     accept_acceptable: bool = False,
@@ -491,13 +492,11 @@ def solve(
     solver_cached (whether the solver was reused), objective_scale, ipopt (the raw
     ``solver.stats()``).
     """
-    if isinstance(problem, OCPDefinition):
+    if isinstance(problem, OCPDefinition | PhasesDefinition):
         # Always the MX transcription: it builds in milliseconds and its structure key is
         # cheap; the expansion to SX happens once, inside the (cached) solver.
         transcription = Transcription(problem)
-    elif isinstance(problem, PhasesDefinition):
-        transcription = PhasesTranscription(problem)
-    elif isinstance(problem, Transcription | PhasesTranscription):
+    elif isinstance(problem, Transcription):
         if expand is not None:
             raise DefinitionError("`expand`: applies when solving an OCP, not a Transcription")
         transcription = problem

@@ -20,7 +20,8 @@ adapter returning a System, which ``OCP`` also takes directly.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -50,10 +51,13 @@ class DerivedField:
 class System:
     """Dynamics in the planner's form: xdot = rate(x, z, u, t) and 0 = residual(x, z, u, t).
 
-    ``rate`` and ``residual`` are SX Functions with inputs (x (nx,), z (nz,), u (nu,), t (1,));
-    ``residual`` is None (nz = 0) for explicit dynamics. ``ode`` (x, u, t) -> xdot, when known,
-    serves re-simulation. ``groups`` maps group names (for a linkage ``psi``, ``M``; always
-    ``x``, ``u`` and, with auxiliary variables, ``z``) to variable names;
+    ``rate`` and ``residual`` are SX Functions with inputs (x (nx,), z (nz,), u (nu,), t (1,))
+    and, when the dynamics read static parameters (``params``: their names, declared on the
+    OCP with ``OCP.param``), a last input p (len(params),); ``residual`` is None (nz = 0) for
+    explicit dynamics. ``ode`` (x, u, t[, p]) -> xdot, when known, serves re-simulation.
+    :meth:`bind` fixes the parameters' values (what a Solution integrates with).
+    ``groups`` maps group names (for a linkage ``psi``, ``M``; always ``x``, ``u`` and, with
+    auxiliary variables, ``z``) to variable names;
     ``residual_scale_group`` names the group whose nominal scales scale the residual rows
     (torques for a linkage: the residual is in N m), ``residual_names`` the rows of the
     residual at one point ("dynamics[<name>]").
@@ -98,6 +102,7 @@ class System:
     drives: str | None = None
     accelerations: str | None = None
     model: Mapping | None = None
+    params: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.residual is not None and len(self.residual_names) != self.residual.size1_out(0):
@@ -116,6 +121,52 @@ class System:
                     f"`{role}`: {group!r} is neither a group nor a derived field of the system; "
                     f"groups: {[key for key, _ in self.groups]}"
                 )
+
+    def bind(self, values: Mapping[str, float]) -> System:
+        """This system with its static parameters fixed at ``values`` (name -> value): the
+        functions take (x, z, u, t) again. Itself when it reads no parameter."""
+        if not self.params:
+            return self
+        missing = [name for name in self.params if name not in values]
+        if missing:
+            raise DefinitionError(f"`params`: no values for the dynamics' parameters {missing}")
+        fixed = ca.DM([float(values[name]) for name in self.params])
+
+        def close(function: ca.Function | None, inputs: int) -> ca.Function | None:
+            if function is None:
+                return None
+            symbols = [
+                ca.SX.sym(function.name_in(i), function.sparsity_in(i)) for i in range(inputs)
+            ]
+            return ca.Function(
+                function.name(),
+                symbols,
+                function.call([*symbols, fixed]),
+                function.name_in()[:inputs],
+                function.name_out(),
+            )
+
+        return replace(
+            self,
+            rate=close(self.rate, 4),
+            residual=close(self.residual, 4),
+            ode=close(self.ode, 3),
+            params=(),
+        )
+
+    def parameter_input(self, fields: Mapping[str, Any]) -> list:
+        """The extra input of the functions from the Point's fields: [vertcat of the values
+        of ``params``], or [] when the dynamics read none."""
+        if not self.params:
+            return []
+        missing = [name for name in self.params if name not in fields]
+        if missing:
+            name = missing[0]
+            raise DefinitionError(
+                f"`dynamics`: reads the static parameter {name!r}, which the OCP does not "
+                f"declare; add .param({name!r}, lower=..., upper=..., guess=...)"
+            )
+        return [ca.vertcat(*[fields[name] for name in self.params])]
 
     @property
     def nx(self) -> int:
@@ -179,17 +230,29 @@ class System:
         control_names: Sequence[str] | None,
         state_units: Sequence[str] | None,
         control_units: Sequence[str] | None,
+        param_names: Sequence[str] = (),
     ) -> System:
-        """A system from an ODE f(x, u[, t]) -> xdot or an implicit r(x, xdot, u[, t]) -> (nx,)."""
+        """A system from an ODE f(x, u[, t][, p_1, ..., p_m]) -> xdot or an implicit
+        r(x, xdot, u[, t][, p_1, ..., p_m]) -> (nx,); the last m = len(param_names) inputs
+        are scalar static parameters, read by name (``OCP.param``)."""
         implicit = formulation == "implicit"
-        n_in = function.n_in()
-        expected = "r(x, xdot, u[, t])" if implicit else "f(x, u[, t])"
+        param_names = _names("dynamics_params", param_names, len(param_names), "p")
+        m = len(param_names)
+        n_in = function.n_in() - m
+        expected = "r(x, xdot, u[, t]" if implicit else "f(x, u[, t]"
+        expected += ", " + ", ".join(param_names) + ")" if m else ")"
         if n_in not in ((3, 4) if implicit else (2, 3)) or function.n_out() != 1:
             raise DefinitionError(
                 f"`dynamics`: a {formulation} dynamics Function must be {expected} with one "
                 f"output; got {function.n_in()} inputs {function.name_in()} and "
                 f"{function.n_out()} outputs"
             )
+        for i in range(n_in, n_in + m):
+            if function.size_in(i) != (1, 1):
+                raise DefinitionError(
+                    f"`dynamics`: the parameter input {function.name_in(i)!r} (for "
+                    f"{param_names[i - n_in]!r}) must be scalar, got {function.size_in(i)}"
+                )
         for i in range(n_in):
             if function.size2_in(i) != 1:
                 raise DefinitionError(
@@ -218,23 +281,33 @@ class System:
         x = ca.SX.sym("x", nx)
         u = ca.SX.sym("u", nu)
         t = ca.SX.sym("t")
+        # The parameters: one vector input p, as every System's functions take them.
+        p = [ca.SX.sym("p", m)] if m else []
+        given = [p[0][i] for i in range(m)]
+        names_p = ["p"] if m else []
         if implicit:
             z = ca.SX.sym("z", nx)
-            args = [x, z, u] + ([t] if n_in == 4 else [])
+            args = [x, z, u] + ([t] if n_in == 4 else []) + given
             residual = ca.Function(
-                "residual", [x, z, u, t], [function(*args)], ["x", "z", "u", "t"], ["residual"]
+                "residual",
+                [x, z, u, t, *p],
+                [function(*args)],
+                ["x", "z", "u", "t", *names_p],
+                ["residual"],
             )
             rate = z
             ode = None
             aux = tuple(f"d{name}" for name in states)
         else:
             z = ca.SX.sym("z", 0)
-            args = [x, u] + ([t] if n_in == 3 else [])
+            args = [x, u] + ([t] if n_in == 3 else []) + given
             rate = function(*args)
-            ode = ca.Function("ode", [x, u, t], [rate], ["x", "u", "t"], ["xdot"])
+            ode = ca.Function("ode", [x, u, t, *p], [rate], ["x", "u", "t", *names_p], ["xdot"])
             residual = None
             aux = ()
-        rate_f = ca.Function("rate", [x, z, u, t], [rate], ["x", "z", "u", "t"], ["xdot"])
+        rate_f = ca.Function(
+            "rate", [x, z, u, t, *p], [rate], ["x", "z", "u", "t", *names_p], ["xdot"]
+        )
         groups = (("x", states), ("u", controls)) + ((("z", aux),) if aux else ())
         return System(
             rate=rate_f,
@@ -252,6 +325,7 @@ class System:
             control_rate_names=tuple(f"d{name}" for name in controls),
             control_rate_groups=("du",),
             residual_names=states if implicit else (),
+            params=param_names,
         )
 
 

@@ -1,35 +1,39 @@
-"""Transcription of an :class:`planner.ocp.OCP` into a nonlinear program (NLP).
+"""The NLP of an optimal control problem of one or more phases, built on construction.
 
-The horizon [0, T] is cut into N intervals of lengths h_k = T f_k (uniform: f_k = 1 / N; a
-non-uniform mesh gives the fractions f_k); in each, tau = (t - t_k) / h_k. The transcription's
-:class:`planner.schemes.Scheme` (from the registry :mod:`planner.schemes`, which lists the
-schemes) fixes, for one interval, where the states live and where the dynamics are enforced
-(the "dynamics points", where the controls and auxiliary variables live too), the defects
-X_k A^T - h F_k B^T = 0, the quadrature of the integral objective and the interpolant
-x(tau) = X_k Wx(tau)^T + h F_k Wf(tau)^T, u(tau) = U_k Wu(tau)^T.
+A problem is a sequence of phases (:class:`planner.phases.Phases`) joined by events; a
+single-phase :class:`planner.OCP` is the sequence of one phase, transcribed by this same code
+(its periodicity is the join from its only phase back to itself). Each phase is a
+:class:`planner.phase_transcription.PhaseTranscription` (its mesh, defects, path, boundary
+and keypoint rows, objective terms) built on its share of the variables; this module holds
+what the phases share:
 
-The NLP is built from one SX Function per dynamics point (rate, residual, path constraints,
-integrand), mapped over all points with ``Function.map``, so that construction cost does not
-grow with the expression size times N; defects are sparse constant matrices applied to the
-stacked variables. Path constraints hold at the dynamics points; those of the state, t and T
-only hold also at the state points with no dynamics point (Radau: t = 0; Legendre: the
-nodes). Variables and constraints are scaled by their nominal magnitudes; every
-constraint row keeps a name ("defect[psi_torso] interval 12", "path[clearance] node 3").
+* the decision vector, scaled (v / scale): [phase 1's own variables; ...; phase K's own
+  variables; the static parameters]. Across a continuity join the next phase's first state
+  node *is* the last node of the phase before (one variable, no rows), and with continuous
+  controls the dynamics point there too (the rows the phase before holds at it are left
+  out): a problem cut into phases has the NLP of the uncut problem (``Phases.join``);
+* the rows: each phase's rows, then per join with a mapping the rows x_next(0) -
+  mapping(x_prev(T_prev)) ("join[a->b][x]", "periodic[x]"), then the event constraints;
+* the parameters p of the NLP: everything that is a number of the problem rather than its
+  structure, [each phase's variable scales; the static parameters' scales; each fixed
+  duration; 1 / row scales; 1 / objective scale]. So two problems that differ only in
+  bounds, scales, fixed durations or guesses have the same NLP function
+  (:attr:`Transcription.structure_key`) and :func:`planner.solver.solve` reuses one IPOPT
+  solver for both;
+* names of variables and rows ("bound[psi_torso] node 3", "defect[x] interval 12"), prefixed
+  with "<phase>: " when there are several phases.
 
-Keypoint constraints (``OCP.constrain_at``) evaluate the point on the interpolant of the
-interval holding each instant: sparse constant matrices of the weights Wx, Wf, Wu (and Wu'
-for control rates) applied to X, F and U. Control rates at the dynamics points are U_k
-Wu'(tau)^T / h of the owning interval; reading them adds, on schemes sharing nodes, the other
-side's slope at interior nodes, and on collocation, control continuity rows (see
-``OCP.constrain``).
+MX with the phases' SX point Functions mapped over their meshes (the default) builds ~5-10x
+faster than a fully expanded SX NLP and solves ~1.5x slower (planner_bench.py): the better
+total for a one-off solve; ``expand=True`` builds the whole NLP in SX.
 """
 
 from __future__ import annotations
 
 import hashlib
+import itertools
 import logging
 import time
-from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
 
@@ -37,309 +41,315 @@ import casadi as ca
 import numpy as np
 
 from model.errors import DefinitionError, DefinitionTypeError
-from planner.guesses import evaluate_guess_layer
 from planner.ocp import OCPDefinition, Point, evaluate_expression
-from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
+from planner.phase_transcription import Mesh, PhaseTranscription, SharedStart
+from planner.phases import EventPoint, PhasesDefinition, event_value
+from planner.phases_solution import PhasesSolution
 from planner.solution import Solution
 
 logger = logging.getLogger(__name__)
 
 
-# ---- the mesh -----------------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class Mesh:
-    """Index bookkeeping of a scheme on N intervals (times normalised by T).
-
-    ``fractions`` (N,): each interval's length as a fraction of T (None: uniform 1/N); interval
-    k spans [breaks[k], breaks[k+1]] of the normalised time and has length h_k = T f_k.
-    """
-
-    scheme: Scheme
-    N: int
-    fractions: tuple[float, ...] | None = None
-
-    @cached_property
-    def widths(self) -> np.ndarray:
-        """(N,) interval lengths as fractions of T (sum 1)."""
-        if self.fractions is None:
-            return np.full(self.N, 1.0 / self.N)
-        return np.asarray(self.fractions, dtype=float)
-
-    @cached_property
-    def uniform(self) -> bool:
-        return self.fractions is None
-
-    @cached_property
-    def relative(self) -> np.ndarray:
-        """(N,) interval lengths in units of the mean length h = T / N: h_k = h r_k (exactly
-        ones on a uniform mesh, so its NLP is the same to the last bit)."""
-        if self.uniform:
-            return np.ones(self.N)
-        return self.widths * self.N
-
-    @cached_property
-    def breaks(self) -> np.ndarray:
-        """(N+1,) normalised times of the nodes, 0 = breaks[0] < ... < breaks[N] = 1."""
-        if self.uniform:
-            return np.arange(self.N + 1) / self.N
-        breaks = np.concatenate([[0.0], np.cumsum(self.widths)])
-        breaks[-1] = 1.0
-        return breaks
-
-    def _times(self, taus: np.ndarray) -> np.ndarray:
-        """(N, len(taus)) normalised times of the points at ``taus`` of every interval."""
-        if self.uniform:  # (k + tau) / N, bit for bit as before non-uniform meshes
-            return (np.arange(self.N)[:, None] + taus[None, :]) / self.N
-        return self.breaks[:-1, None] + taus[None, :] * self.widths[:, None]
-
-    @cached_property
-    def n_state_points(self) -> int:
-        return self.N * self.scheme.ms + 1
-
-    @cached_property
-    def n_dyn_points(self) -> int:
-        return self.N * self.scheme.mc + int(self.scheme.shares_end)
-
-    @cached_property
-    def state_cols(self) -> np.ndarray:
-        """(N, ms+1) state-point columns of each interval."""
-        ms = self.scheme.ms
-        return np.arange(self.N)[:, None] * ms + np.arange(ms + 1)[None, :]
-
-    @cached_property
-    def dyn_cols(self) -> np.ndarray:
-        """(N, ndc) dynamics-point columns of each interval."""
-        mc = self.scheme.mc
-        return np.arange(self.N)[:, None] * mc + np.arange(self.scheme.ndc)[None, :]
-
-    @cached_property
-    def node_state_cols(self) -> np.ndarray:
-        """(N+1,) state columns of the mesh nodes."""
-        return np.arange(self.N + 1) * self.scheme.ms
-
-    @cached_property
-    def s_state(self) -> np.ndarray:
-        """(n_state_points,) normalised times t / T of the state points."""
-        return np.append(self._times(self.scheme.state_tau).reshape(-1), 1.0)
-
-    @cached_property
-    def s_dyn(self) -> np.ndarray:
-        """(n_dyn_points,) normalised times of the dynamics points."""
-        s = self._times(self.scheme.dyn_tau).reshape(-1)
-        return np.append(s, 1.0) if self.scheme.shares_end else s
-
-    @cached_property
-    def dyn_state_cols(self) -> np.ndarray:
-        """(n_dyn_points,) state column at each dynamics point (every one is a state point)."""
-        taus = self.scheme.interval_state_tau
-        local = [int(np.argmin(np.abs(taus - tau))) for tau in self.scheme.dyn_tau]
-        cols = (np.arange(self.N)[:, None] * self.scheme.ms + np.array(local)[None, :]).reshape(-1)
-        return np.append(cols, self.n_state_points - 1) if self.scheme.shares_end else cols
-
-    @cached_property
-    def free_state_cols(self) -> np.ndarray:
-        """State columns where no dynamics point lies: t = 0 for Radau, every node for
-        Legendre, none for trapezoid and Hermite-Simpson."""
-        return np.setdiff1d(np.arange(self.n_state_points), self.dyn_state_cols)
-
-    @cached_property
-    def quadrature(self) -> np.ndarray:
-        """(n_dyn_points,) weights q with integral ~= h sum q_c L_c, h = T / N (each interval's
-        weights times its relative length r_k)."""
-        q = np.zeros(self.n_dyn_points)
-        weights = self.scheme.quadrature[None, :] * self.relative[:, None]
-        np.add.at(q, self.dyn_cols.reshape(-1), weights.reshape(-1))
-        return q
-
-    def defect_matrices(self) -> tuple[ca.DM, ca.DM]:
-        """Sparse (n_state_points, N r) and (n_dyn_points, N r): D = X A_big - h F B_big with
-        h = T / N, the rate weights of interval k times its relative length r_k (h_k = h r_k)."""
-        r = self.scheme.A.shape[0]
-        rows_a, cols_a, vals_a, rows_b, cols_b, vals_b = [], [], [], [], [], []
-        for k in range(self.N):
-            for j in range(r):
-                col = k * r + j
-                for i, value in enumerate(self.scheme.A[j]):
-                    if value != 0.0:
-                        rows_a.append(int(self.state_cols[k, i]))
-                        cols_a.append(col)
-                        vals_a.append(float(value))
-                for i, value in enumerate(self.scheme.B[j]):
-                    if value != 0.0:
-                        rows_b.append(int(self.dyn_cols[k, i]))
-                        cols_b.append(col)
-                        vals_b.append(float(value) * float(self.relative[k]))
-        a = ca.DM(ca.Sparsity.triplet(self.n_state_points, self.N * r, rows_a, cols_a), vals_a)
-        b = ca.DM(ca.Sparsity.triplet(self.n_dyn_points, self.N * r, rows_b, cols_b), vals_b)
-        return a, b
-
-    def dyn_label(self, c: int) -> str:
-        """A readable place for dynamics point c: "node 3", "interval 2 midpoint" or
-        "interval 2 point 1" (the scheme's :meth:`~planner.schemes.Scheme.point_name`)."""
-        scheme = self.scheme
-        k, j = divmod(c, scheme.mc)
-        if scheme.shares_end:
-            return f"node {k}" if j == 0 else f"interval {k} {scheme.point_name(j)}"
-        if j == scheme.mc - 1 and scheme.owns_end:
-            return f"node {k + 1}"
-        return f"interval {k} {scheme.point_name(j + 1)}"
-
-    def state_label(self, col: int) -> str:
-        """A readable place for state point ``col``: "node 3" or "interval 2 point 1"."""
-        k, j = divmod(col, self.scheme.ms)
-        if j == 0:
-            return f"node {k}"
-        return f"interval {k} {self.scheme.point_name(j)}"
-
-    @cached_property
-    def dyn_owner(self) -> tuple[np.ndarray, np.ndarray]:
-        """(interval (n_dyn_points,), tau (n_dyn_points,)): each dynamics point in the interval
-        that owns it, the one :meth:`locate` gives for its time: a node shared by two
-        intervals (trapezoid, Hermite-Simpson) belongs to the interval starting there, T to
-        the last interval; a Radau end node to the interval it ends."""
-        c = np.arange(self.n_dyn_points)
-        k = np.minimum(c // self.scheme.mc, self.N - 1)
-        return k, self.scheme.interval_dyn_tau[c - k * self.scheme.mc]
-
-    def interval_matrix(self, k, weights, state: bool, power: int = 0) -> ca.DM:
-        """Sparse (n_state_points or n_dyn_points, K): column i holds ``weights[i]`` (K, m) on
-        the state (``state``, m = ms + 1) or dynamics (m = ndc) columns of interval ``k[i]``,
-        so that V @ matrix evaluates the interval polynomials of values V at K places.
-        ``power``: the weights of column i are multiplied by r_k^power (r_k the interval's
-        length relative to h = T / N): 1 for the h F terms of a state, -1 for a derivative
-        d/dt = d/dtau / h_k.
-        """
-        cols = self.state_cols if state else self.dyn_cols
-        k = np.asarray(k, dtype=int).reshape(-1)
-        weights = np.asarray(weights, dtype=float).reshape(k.size, cols.shape[1])
-        if power and not self.uniform:
-            weights = weights * self.relative[k, None] ** power
-        rows = cols[k].reshape(-1)
-        columns = np.repeat(np.arange(k.size), cols.shape[1])
-        keep = weights.reshape(-1) != 0.0
-        size = self.n_state_points if state else self.n_dyn_points
-        sparsity = ca.Sparsity.triplet(size, k.size, rows[keep].tolist(), columns[keep].tolist())
-        # Triplets in column order; one interval never repeats a column, so no duplicates.
-        return ca.DM(sparsity, weights.reshape(-1)[keep][np.lexsort((rows[keep], columns[keep]))])
-
-    def locate(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Interval index and tau of normalised times s = t / T.
-
-        Intervals are [t_k, t_k+1) (the last one closed), except for Radau, whose intervals
-        are (t_k, t_k+1] (the first one closed): a Radau interval owns the controls at its end
-        node, so that a node's value is an NLP variable, not an extrapolation.
-        """
-        s = np.asarray(s, dtype=float)
-        if self.uniform:
-            scaled = s * self.N
-        else:
-            # The interval's index plus the fraction of it, as on a uniform mesh.
-            j = np.clip(np.searchsorted(self.breaks, s, side="right") - 1, 0, self.N - 1)
-            scaled = j + (s - self.breaks[j]) / self.widths[j]
-        # A node time t_k = k h divided by T and multiplied by N can land a few ulps off the
-        # integer k; snap it, or the node would be assigned to the neighbouring interval and
-        # read from an extrapolated polynomial instead of its own NLP variable.
-        nearest = np.rint(scaled)
-        tolerance = 16 * np.finfo(float).eps * max(1, self.N)  # a few ulps of the largest value
-        scaled = np.where(np.abs(scaled - nearest) <= tolerance, nearest, scaled)
-        if self.scheme.owns_end:
-            k = np.clip(np.ceil(scaled).astype(int) - 1, 0, self.N - 1)
-        else:
-            k = np.clip(np.floor(scaled).astype(int), 0, self.N - 1)
-        return k, scaled - k
-
-
-# ---- the NLP ------------------------------------------------------------------------------
-def _reads(expression: ca.SX, symbols: ca.SX) -> bool:
-    """Whether ``expression`` depends on any of ``symbols`` (False for no symbols)."""
-    return symbols.numel() > 0 and expression.numel() > 0 and ca.depends_on(expression, symbols)
-
-
 class Transcription:
-    """The NLP of an OCP: symbols, bounds, scaling, row names, guess; built on construction.
+    """The NLP of a :class:`planner.OCP` (one phase) or a :class:`planner.Phases` problem.
 
-    Decision vector (scaled, v / scale): [vec(Xs) (nx * nX); vec(Us) (nu * nC);
-    vec(Zs) (nz * nC); Ts (free T only)], with X at the nX state points and U, Z at the nC
-    dynamics points, columns in time order.
-
-    ``expand``: False (default) keeps MX with the SX point Function mapped over the mesh
-    (fastest construction); True builds the whole NLP in SX (fastest evaluation: pays when one
-    transcription is solved many times).
+    Attributes the solver reads: ``n_w``, ``n_g``, ``lbx``/``ubx`` (scaled variable bounds),
+    ``lbg``/``ubg`` (scaled row bounds), ``w_scale``, ``g_scale``, ``w_names``, ``g_names``,
+    ``parametric_nlp`` ({"x", "p", "f", "g"}), :meth:`parameter_values`,
+    :meth:`initial_guess`, :attr:`signature`, :attr:`structure_key`, :meth:`solution`.
+    ``phases`` holds each phase's :class:`PhaseTranscription`; for a single OCP the phase's
+    own views (``ocp``, ``mesh``, ``scheme``, ``system``, the scales, ``point_function``,
+    :meth:`unpack`, :meth:`pack`) are offered here too.
     """
 
-    def __init__(
-        self, ocp: OCPDefinition, expand: bool | None = None, *, phase_symbols=None
-    ) -> None:
-        if not isinstance(ocp, OCPDefinition):
-            raise DefinitionTypeError(f"`ocp`: must be a planner.OCP, got {type(ocp).__name__}")
+    def __init__(self, problem: OCPDefinition | PhasesDefinition, expand: bool | None = None):
         start = time.perf_counter()
-        self.ocp = ocp
-        #: None for a standalone NLP; for one phase of several (planner.phases), a callable of
-        #: this transcription (its layout known) returning {"v": the physical values of its
-        #: variables, "T": a fixed duration, "params": the static parameters} as expressions.
-        self._phase_symbols = None
-        self._provide = phase_symbols
-        self.system = system = ocp.system
-        self.scheme = make_scheme(ocp.transcription, ocp.degree)
-        self.mesh = Mesh(self.scheme, ocp.N, ocp.mesh)
-        # MX with mapped SX point functions builds ~5-10x faster than a fully expanded SX NLP
-        # and solves ~1.5x slower (planner_bench.py): the better total for a one-off solve.
-        self.expand = False if expand is None else bool(expand)
-        self.state_scale = np.array([ocp.variable_scale(n) for n in system.state_names])
-        self.control_scale = np.array([ocp.variable_scale(n) for n in system.control_names])
-        self.aux_scale = np.array([ocp.variable_scale(n) for n in system.aux_names])
-        if ocp.free_time:
-            self.T_scale = float(np.mean(ocp.T))
+        if isinstance(problem, OCPDefinition):
+            #: The single-phase OCP, or None for a Phases problem.
+            self.single = problem
+            self.problem = PhasesDefinition(
+                (("phase", problem),), periodicity=problem.periodicity, single=True
+            )
+        elif isinstance(problem, PhasesDefinition):
+            self.single = None
+            self.problem = problem
         else:
-            self.T_scale = 1.0
-        self._build()
+            raise DefinitionTypeError(
+                "`problem`: must be a planner.OCP or a planner.Phases, got "
+                f"{type(problem).__name__}"
+            )
+        self.expand = False if expand is None else bool(expand)
+        sym = ca.SX if self.expand else ca.MX
+        self.params = self.problem.params
+        n_params = len(self.params)
+        w_params = sym.sym("w_params", n_params)
+        p_params = sym.sym("p_w_params", n_params)
+        physical_params = w_params * p_params
+        names = [p.name for p in self.params]
+        own_w, own_p, fixed_T = [], [], []
+        #: Per phase: the NLP position of each entry of the phase's layout, and which
+        #: entries the phase owns (the others it shares with the phase before).
+        self._index: list[np.ndarray] = []
+        self._own: list[np.ndarray] = []
+        offset = 0
+        physical: list[Any] = []
+
+        def provider(k: int, ocp: OCPDefinition):
+            indices = [names.index(p.name) for p in ocp.params]
+
+            def provide(block: PhaseTranscription) -> dict:
+                nonlocal offset
+                shared, index, own, source = self._sharing(k, block)
+                count = int(own.sum())
+                w = sym.sym(f"w_{k}", count)
+                p_w = sym.sym(f"p_w_{k}", count)
+                p_T = sym.sym(f"p_T_{k}", 0 if ocp.free_time else 1)
+                own_w.append(w)
+                own_p.append(p_w)
+                fixed_T.append(p_T)
+                index[own] = offset + np.arange(count)
+                offset += count
+                self._index.append(index)
+                self._own.append(own)
+                v = _assemble(w * p_w, own, source, physical[k - 1] if k else None)
+                physical.append(v)
+                return {
+                    "v": v,
+                    "T": p_T,
+                    "params": physical_params[indices],
+                    "sym": sym,
+                    "shared": shared,
+                }
+
+            return provide
+
+        #: Each phase's transcription, in order.
+        self.phases: list[PhaseTranscription] = []
+        for k, (_, ocp) in enumerate(self.problem.phases):
+            self.phases.append(PhaseTranscription(ocp, provider(k, ocp)))
+        self._params_offset = offset
+        joins, join_scales, join_names = self._joins()
+        events, event_bounds, event_names = self._events(physical_params)
+        g = ca.vertcat(*[b.rows for b in self.phases], *joins, *events)
+        objective = sum((b._objective for b in self.phases), sym(0))
+        w = ca.vertcat(*own_w, w_params)
+        p_g = sym.sym("p_g", g.size1())  # 1 / nominal scale of each constraint row
+        p_f = sym.sym("p_f")  # 1 / nominal scale of the objective
+        p = ca.vertcat(*own_p, p_params, *fixed_T, p_g, p_f)
+        #: The NLP IPOPT solves: scaled w, parameters p, scaled objective and rows.
+        self.parametric_nlp = {"x": w, "p": p, "f": objective * p_f, "g": g * p_g}
+        self._objective = objective
+        #: Each objective term's value (n_terms,), physical units, phase by phase.
+        self.term_values = ca.vertcat(*[b.term_values for b in self.phases])
+        self._assemble_bounds(join_scales, join_names, event_bounds, event_names)
         self.build_seconds = time.perf_counter() - start
         logger.debug(
-            "transcribed %s N=%d: %d variables, %d constraints in %.3f s",
-            self.scheme.name,
-            ocp.N,
+            "transcribed %s: %d variables, %d constraints in %.3f s",
+            self.label,
             self.n_w,
             self.n_g,
             self.build_seconds,
         )
 
-    # ---- sizes and layout ----------------------------------------------------------------
+    # ---- sharing across continuity joins --------------------------------------------------
+    def _sharing(self, k: int, block: PhaseTranscription):
+        """What phase k (layout known, rows not built yet) shares with the phase before:
+        (SharedStart or None, NLP index (n_w_k,) with the shared entries filled, own mask
+        (n_w_k,), the shared entries' positions in the phase before's layout (n_w_k,))."""
+        index = np.full(block.n_w, -1)
+        own = np.ones(block.n_w, dtype=bool)
+        source = np.full(block.n_w, -1)
+        if k == 0 or self.problem.mappings[k - 1] is not None:
+            return None, index, own, source
+        before = self.phases[k - 1]
+        s = block.system
+
+        def share(here: int, there: int, count: int) -> None:
+            own[here : here + count] = False
+            source[here : here + count] = np.arange(there, there + count)
+            index[here : here + count] = self._index[k - 1][there : there + count]
+
+        # The first state node here, the last there (state columns are contiguous).
+        share(block.slice_of("X").start, before.slice_of("X").stop - s.nx, s.nx)
+        shared = {"controls": False, "residual": False}
+        if self.problem.controls[k - 1] == "continuous" and (
+            before.ends_at_a_point and block.starts_at_a_point
+        ):
+            # The dynamics point at the join: the controls and auxiliary variables there
+            # are one set (the first column of U and Z here, the last there).
+            for key, count in (("U", s.nu), ("Z", s.nz)):
+                share(block.slice_of(key).start, before.slice_of(key).stop - count, count)
+            common = _common(before, block, before._path_constraints(), block._path_constraints())
+            shared.update(
+                controls=True,
+                residual=_same_dynamics(before.ocp, block.ocp),
+                point_paths=common & before.time_free_paths & block.time_free_paths,
+            )
+        # The phase before holds its state-only path rows at its last node, at a dynamics
+        # point or a free state point: the same rows here are left out.
+        common_state = _common(before, block, before.state_paths, block.state_paths)
+        common_state &= before.time_free_paths & block.time_free_paths
+        return SharedStart(state_paths=common_state, **shared), index, own, source
+
+    # ---- rows between the phases ----------------------------------------------------------
+    def _join_pairs(self):
+        """(k, k_next, mapping, label) for every join that is a row block: the joins with a
+        mapping and the periodic one (continuity joins share their variables)."""
+        names = self.problem.names
+        out = [
+            (k, k + 1, mapping, f"join[{names[k]}->{names[k + 1]}]")
+            for k, mapping in enumerate(self.problem.mappings)
+            if mapping is not None
+        ]
+        if self.problem.periodicity is not None:
+            out.append((len(names) - 1, 0, self.problem.periodicity[0], "periodic"))
+        return out
+
+    def _joins(self):
+        rows, scales, names = [], [], []
+        for k, k_next, mapping, label in self._join_pairs():
+            before, after = self.phases[k], self.phases[k_next]
+            image = before.xf if mapping is None else _apply(mapping, before.xf)
+            rows.append(after.x0 - image)
+            scales.append(after.state_scale)
+            names.extend(f"{label}[{n}]" for n in after.system.state_names)
+        return rows, scales, names
+
+    def _events(self, params):
+        rows, bounds, names = [], [], []
+        count = len(self.phases)
+        for event in self.problem.events:
+            k = event.after_phase
+            before, after = self.phases[k], self.phases[(k + 1) % count]
+            symbols = self.problem._event_point(k)._fields
+            function = ca.Function(
+                "event",
+                [
+                    symbols["x_before"],
+                    symbols["x_after"],
+                    symbols["T_before"],
+                    symbols["T_after"],
+                    ca.vertcat(*[symbols[p.name] for p in self.params])
+                    if self.params
+                    else ca.SX(0, 1),
+                ],
+                [event_value(f"event[{event.name}]", event.expression, EventPoint(symbols))],
+            )
+            rows.append(function(before.xf, after.x0, before.duration, after.duration, params))
+            scale = event.scale if event.scale is not None else _default_scale(event)
+            bounds.append((event.lower / scale, event.upper / scale, scale))
+            size = event.lower.size
+            names.extend(
+                f"event[{event.name}]" + (f"[{i}]" if size > 1 else "") for i in range(size)
+            )
+        return rows, bounds, names
+
+    def _assemble_bounds(self, join_scales, join_names, event_bounds, event_names) -> None:
+        """Bounds, names and scales of the whole vector and all rows. A shared variable has
+        the scale and name of the phase that owns it and the bounds of both phases."""
+        prefix = len(self.phases) > 1
+        names = self.problem.names
+
+        def tag(k, items):
+            return [f"{names[k]}: {item}" for item in items] if prefix else list(items)
+
+        n_w = self._params_offset + len(self.params)
+        lbx, ubx = np.full(n_w, -np.inf), np.full(n_w, np.inf)
+        w_scale = np.ones(n_w)
+        w_names = [""] * n_w
+        for k, block in enumerate(self.phases):
+            own, index = self._own[k], self._index[k]
+            w_scale[index[own]] = block.w_scale[own]
+            labels = tag(k, block.w_names)
+            for i in np.flatnonzero(own):
+                w_names[index[i]] = labels[i]
+            # Physical bounds of every entry, owned or shared, in the owner's scale.
+            ratio = block.w_scale / w_scale[index]
+            lbx[index] = np.maximum(lbx[index], block.lbx * ratio)
+            ubx[index] = np.minimum(ubx[index], block.ubx * ratio)
+        for i, param in enumerate(self.params):
+            at = self._params_offset + i
+            lbx[at], ubx[at] = param.lower / param.nominal, param.upper / param.nominal
+            w_scale[at] = param.nominal
+            w_names[at] = f"bound[{param.name}]"
+        self.lbx, self.ubx, self.w_scale, self.w_names = lbx, ubx, w_scale, tuple(w_names)
+        zeros = [np.zeros(scale.size) for scale in join_scales]
+        self.lbg = np.concatenate(
+            [*[b.lbg for b in self.phases], *zeros, *[lo for lo, _, _ in event_bounds]]
+        )
+        self.ubg = np.concatenate(
+            [*[b.ubg for b in self.phases], *zeros, *[hi for _, hi, _ in event_bounds]]
+        )
+        self.g_scale = np.concatenate(
+            [*[b.g_scale for b in self.phases], *join_scales, *[s for _, _, s in event_bounds]]
+        )
+        self.g_names = tuple(
+            [n for k, b in enumerate(self.phases) for n in tag(k, b.g_names)]
+            + join_names
+            + event_names
+        )
+        row_offsets = np.cumsum([0] + [b.n_g for b in self.phases])
+        self._g_slices = [
+            slice(row_offsets[k], row_offsets[k + 1]) for k in range(len(self.phases))
+        ]
+        if self.lbg.size != self.parametric_nlp["g"].size1():
+            raise RuntimeError(
+                f"internal: {self.lbg.size} row bounds for {self.parametric_nlp['g'].size1()} rows"
+            )
+
+    # ---- sizes, names, signatures -----------------------------------------------------------
     @property
     def n_w(self) -> int:
-        return self._n_w
+        return self.lbx.size
 
     @property
     def n_g(self) -> int:
-        return len(self.g_names)
+        return self.lbg.size
+
+    @property
+    def label(self) -> str:
+        """The mesh in words, for logs."""
+        if self.single is not None:
+            return self.phases[0].label
+        return " -> ".join(
+            f"{name} {b.label}" for name, b in zip(self.problem.names, self.phases, strict=True)
+        )
 
     @cached_property
     def signature(self) -> str:
         """The NLP's structure as a string: two transcriptions with equal signatures have the
         same decision variables and constraint rows, in the same order.
 
-        "<scheme>[(degree)] N=<N> <formulation>: <n_w> variables, <n_g> constraints, <digest>",
-        the digest (SHA-256) over every variable and row name (``w_names``, ``g_names``: what
-        and where). Bounds, scales, expressions and T are not part of it: an OCP that differs
-        from another only in those (a parameter continuation, a changed bound or cost weight)
-        has the same signature, so its multipliers can warm-start the other's solve
-        (:func:`planner.solver.solve`).
+        "<mesh> <formulation>: <n_w> variables, <n_g> constraints, <digest>" (a Phases
+        problem: "phases <meshes>: ..."), the digest (SHA-256) over every variable and row
+        name (``w_names``, ``g_names``: what and where). Bounds, scales, expressions and T
+        are not part of it: a problem that differs from another only in those (a parameter
+        continuation, a changed bound or cost weight) has the same signature, so its
+        multipliers can warm-start the other's solve (:func:`planner.solver.solve`).
         """
         digest = hashlib.sha256()
         for names in (self.w_names, self.g_names):
             digest.update("\n".join(names).encode())
             digest.update(b"\0")
-        return (
-            f"{self.scheme.label} N={self.ocp.N} {self.system.formulation}: {self.n_w} variables, "
-            f"{self.n_g} constraints, {digest.hexdigest()}"
-        )
+        sizes = f"{self.n_w} variables, {self.n_g} constraints, {digest.hexdigest()}"
+        if self.single is not None:
+            return f"{self.label} {self.phases[0].system.formulation}: {sizes}"
+        return f"phases {self.label}: {sizes}"
 
     def parameter_values(self, objective_scale: float = 1.0) -> np.ndarray:
-        """The NLP parameters p of :attr:`parametric_nlp` for this OCP, (n_w + n_g + 1 + 1,)
-        (no T entry for a free duration): [variable scales (n_w,); 1 / row scales (n_g,);
-        T, s (fixed duration only); 1 / ``objective_scale``]."""
-        fixed_T = [] if self.ocp.free_time else [self.ocp.T]
+        """The NLP parameters p of :attr:`parametric_nlp`: [each phase's own variable scales;
+        the static parameters' scales; each fixed duration, s; 1 / row scales (n_g,);
+        1 / ``objective_scale``]."""
+        own_scales = [b.w_scale[own] for b, own in zip(self.phases, self._own, strict=True)]
+        fixed_T = [[] if b.ocp.free_time else [b.ocp.T] for b in self.phases]
         return np.concatenate(
-            [self.w_scale, 1.0 / self.g_scale, fixed_T, [1.0 / float(objective_scale)]]
+            [
+                *own_scales,
+                [p.nominal for p in self.params],
+                *fixed_T,
+                1.0 / self.g_scale,
+                [1.0 / float(objective_scale)],
+            ]
         )
 
     @cached_property
@@ -350,45 +360,11 @@ class Transcription:
             "nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]], ["x", "p"], ["f", "g"]
         )
 
-    # ---- what the solver reads besides the NLP (planner.phases has the same) ---------------
-    @property
-    def label(self) -> str:
-        """The mesh in words, for logs."""
-        return f"{self.scheme.label} N={self.ocp.N}"
-
-    @property
-    def given_objective_scale(self) -> float | None:
-        """``ocp.scale(objective=...)``, or None."""
-        return self.ocp.objective_scale
-
-    def guess_solution(self):
-        """The Solution the OCP's last guess comes from (warm starts read its multipliers
-        and objective scale), or None."""
-        guesses = self.ocp.guesses
-        if guesses and guesses[-1].kind == "solution":
-            return guesses[-1].source
-        return None
-
-    def solution(self, w, cost, status, success, stats, lam_g, lam_x):
-        """The :class:`planner.solution.Solution` of a solve of this NLP."""
-        return Solution(self, w, cost, status, success, stats, lam_g, lam_x)
-
-    @cached_property
-    def terms_function(self) -> ca.Function:
-        """(w, p) -> each objective term's value (n_terms,), physical units."""
-        nlp = self.parametric_nlp
-        return ca.Function("terms", [nlp["x"], nlp["p"]], [self.term_values], ["x", "p"], ["terms"])
-
-    def cost_terms(self, w: np.ndarray) -> dict[str, float]:
-        """Each objective term's value at the scaled decision vector ``w``, by name."""
-        values = np.asarray(self.terms_function(w, self.parameter_values())).reshape(-1)
-        return {term.name: float(v) for term, v in zip(self.ocp.objective, values, strict=True)}
-
     @cached_property
     def nlp(self) -> dict[str, Any]:
-        """This OCP's NLP in the decision vector alone: {"x": w, "f": the objective in its
-        physical units (unscaled), "g": the scaled constraint rows}, the parameters replaced
-        by :meth:`parameter_values`."""
+        """The NLP in the decision vector alone: {"x": w, "f": the objective in its physical
+        units (unscaled), "g": the scaled constraint rows}, the parameters replaced by
+        :meth:`parameter_values`."""
         nlp = self.parametric_nlp
         physical = ca.Function("physical", [nlp["x"], nlp["p"]], [self._objective, nlp["g"]])
         f, g = physical(nlp["x"], ca.DM(self.parameter_values()))
@@ -399,8 +375,8 @@ class Transcription:
         """SHA-256 of the serialised NLP function (w, p) -> (f, g).
 
         Two transcriptions with equal keys compute the same f and g from the same (w, p):
-        same mesh, transcription, dynamics, expressions and constants. Bounds, nominal
-        scales, a fixed T and the guess are not part of it (they are arguments of the
+        same meshes, transcriptions, dynamics, expressions and constants. Bounds, nominal
+        scales, fixed durations and the guess are not part of it (they are arguments of the
         solver), so an IPOPT solver built for one serves the other
         (:mod:`planner.solver_cache`). Any constant inside an expression (a cost weight, a
         target angle written as a number) is part of it.
@@ -408,662 +384,251 @@ class Transcription:
         text = self.nlp_function.serialize()
         return f"{'SX' if self.expand else 'MX'}-{hashlib.sha256(text.encode()).hexdigest()}"
 
-    def _layout(self) -> None:
-        s, mesh = self.system, self.mesh
-        nX, nC = mesh.n_state_points, mesh.n_dyn_points
-        self._slices = {}
-        offset = 0
-        for key, size in (("X", s.nx * nX), ("U", s.nu * nC), ("Z", s.nz * nC)):
-            self._slices[key] = slice(offset, offset + size)
-            offset += size
-        self._slices["T"] = slice(offset, offset + (1 if self.ocp.free_time else 0))
-        offset += 1 if self.ocp.free_time else 0
-        self._slices["P"] = slice(offset, offset + len(self.own_params))
-        offset += len(self.own_params)
-        self._n_w = offset
-
-    @property
-    def own_params(self) -> tuple:
-        """The static parameters that are variables of this NLP: the OCP's, or none when it
-        is one phase of several (the whole problem holds them)."""
-        return self.ocp.params if self._provide is None else ()
-
-    # ---- symbolic construction --------------------------------------------------------
-    def _path_constraints(self):
-        return [c for c in self.ocp.constraints if c.where == "path"]
-
-    def _boundary_constraints(self):
-        return [c for c in self.ocp.constraints if c.where in ("start", "end")]
-
-    def _instant_constraints(self):
-        return [c for c in self.ocp.constraints if c.where == "at"]
-
     @cached_property
-    def state_paths(self) -> tuple:
-        """Path constraints that depend on the state, t and T only (no control, no z): they
-        are also enforced at the state points where no dynamics point lies
-        (``mesh.free_state_cols``), where controls are not variables."""
-        s = self.system
-        x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
-        du = ca.SX.sym("du", s.nu)
-        params = self.ocp.param_fields(ca.SX.sym("params", len(self.ocp.params)))
-        point = Point(s, x, u, z, ca.SX.sym("t"), ca.SX.sym("T"), params, du=du)
-        others = ca.vertcat(u, z, du)
-        kept = []
-        for c in self._path_constraints():
-            value = evaluate_expression(f"path[{c.name}]", c.expression, point)
-            if others.numel() == 0 or not ca.depends_on(value, others):
-                kept.append(c)
-        return tuple(kept)
+    def terms_function(self) -> ca.Function:
+        """(w, p) -> each objective term's value (n_terms,), physical units."""
+        nlp = self.parametric_nlp
+        return ca.Function("terms", [nlp["x"], nlp["p"]], [self.term_values], ["x", "p"], ["terms"])
 
-    def _state_path_function(self) -> ca.Function:
-        """(x, t, T, params) -> the state-only path constraints at one state point, physical
-        units."""
-        s = self.system
-        x, t, T = ca.SX.sym("x", s.nx), ca.SX.sym("t"), ca.SX.sym("T")
-        P = ca.SX.sym("params", len(self.ocp.params))
-        # The constraints do not depend on u, z and du; zeros keep their shapes.
-        zeros = ca.SX.zeros(s.nu)
-        point = Point(s, x, zeros, ca.SX.zeros(s.nz), t, T, self.ocp.param_fields(P), du=zeros)
-        rows = [
-            evaluate_expression(f"path[{c.name}]", c.expression, point) for c in self.state_paths
+    def term_names(self) -> list[str]:
+        """The objective terms' names, in :attr:`term_values` order ("<phase>: <term>" when
+        there are several phases)."""
+        prefix = len(self.phases) > 1
+        return [
+            f"{name}: {term.name}" if prefix else term.name
+            for name, ocp in self.problem.phases
+            for term in ocp.objective
         ]
-        return ca.Function(
-            "state_path",
-            [x, t, T, P],
-            [ca.vertcat(*rows) if rows else ca.SX(0, 1)],
-            ["x", "t", "T", "params"],
-            ["path"],
-        )
 
-    def _point_function(self) -> ca.Function:
-        """SX Function at one dynamics point, in physical units (the scaling is applied around
-        it, by the NLP parameters: see :meth:`_build`).
+    def cost_terms(self, w: np.ndarray) -> dict[str, float]:
+        """Each objective term's value at the scaled decision vector ``w``, by name."""
+        values = np.asarray(self.terms_function(w, self.parameter_values())).reshape(-1)
+        return dict(zip(self.term_names(), values.tolist(), strict=True))
 
-        (x, u, z, t, T, params[, du]) -> (f (nx,), residual (nz,), path (np,), integrand
-        (n_terms,): one per objective term with an integral); du: control rates, an input only
-        when path constraints or the integrand read them.
-
-        Also sets ``node_side_function`` when path constraints or the integrand read the
-        control rate on a scheme whose nodes two intervals share (trapezoid, Hermite-Simpson):
-        (x, u, z, t, T, params, du) -> (those path rows, integrand) for the node's other side.
-        """
-        s, ocp = self.system, self.ocp
-        xs, us, zs = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
-        t, T, dus = ca.SX.sym("t"), ca.SX.sym("T"), ca.SX.sym("du", s.nu)
-        P = ca.SX.sym("params", len(ocp.params))
-        rate = s.rate(xs, zs, us, t)
-        residual = s.residual(xs, zs, us, t) if s.residual is not None else ca.SX(0, 1)
-        point = Point(s, xs, us, zs, t, T, ocp.param_fields(P), du=dus)
-        paths = [
-            evaluate_expression(f"path[{c.name}]", c.expression, point)
-            for c in self._path_constraints()
-        ]
-        path = ca.vertcat(*paths) if paths else ca.SX(0, 1)
-        integrands = [
-            evaluate_expression(f"integral[{term.name}]", term.integral, point)
-            for term in self.integral_terms
-        ]
-        integrand = ca.vertcat(*integrands) if integrands else ca.SX(0, 1)
-        # A derived field (explicit ddpsi) repeats the rate's forward dynamics: merge them.
-        options = {"cse": True} if point.uses_derived else {}
-        reads = [_reads(value, dus) for value in paths]
-        self._integrand_reads_rate = _reads(integrand, dus)
-        self._point_reads_rate = any(reads) or self._integrand_reads_rate
-        if self.scheme.ndc == 2:
-            # Linear controls (trapezoid): the rate is constant on an interval, so a row that
-            # reads nothing but the rate (and T) at the node ending an interval would repeat
-            # the row of the node starting it: only rows that also read the point get a side.
-            point_values = ca.vertcat(xs, us, zs, t)
-            sides = [
-                r and _reads(value, point_values) for value, r in zip(paths, reads, strict=True)
-            ]
-        else:
-            sides = reads
-        constraints = self._path_constraints()
-        self._rate_paths = tuple(c for c, r in zip(constraints, sides, strict=True) if r)
-        self.node_side_function = None
-        if self.scheme.shares_end and (self._rate_paths or self._integrand_reads_rate):
-            side_paths = [value for value, r in zip(paths, sides, strict=True) if r]
-            self.node_side_function = ca.Function(
-                "node_side",
-                [xs, us, zs, t, T, P, dus],
-                [
-                    ca.vertcat(*side_paths) if side_paths else ca.SX(0, 1),
-                    integrand if self._integrand_reads_rate else ca.SX.zeros(integrand.size1()),
-                ],
-                ["x", "u", "z", "t", "T", "params", "du"],
-                ["path", "integrand"],
-                options,
-            )
-        # The rate input only when read: an unused input still costs IPOPT's setup time
-        # (derivative functions of the mapped call).
-        inputs = [xs, us, zs, t, T, P] + ([dus] if self._point_reads_rate else [])
-        return ca.Function(
-            "point",
-            inputs,
-            [rate, residual, path, integrand],
-            ["x", "u", "z", "t", "T", "params", "du"][: len(inputs)],
-            ["f", "residual", "path", "integrand"],
-            options,
-        )
-
+    # ---- what the solver reads besides the NLP ------------------------------------------
     @property
-    def integral_terms(self) -> tuple:
-        """The objective terms with an integral, in order (rows of the point's integrand)."""
-        return tuple(term for term in self.ocp.objective if term.integral is not None)
+    def given_objective_scale(self) -> float | None:
+        """``scale(objective=...)`` of the phases, when they agree, or None."""
+        scales = {b.ocp.objective_scale for b in self.phases} - {None}
+        return scales.pop() if len(scales) == 1 else None
 
-    @property
-    def terminal_terms(self) -> tuple:
-        """The objective terms with a terminal part, in order."""
-        return tuple(term for term in self.ocp.objective if term.terminal is not None)
-
-    @property
-    def residual_scale(self) -> np.ndarray:
-        s = self.system
-        members = s.group(s.residual_scale_group)
-        if members is None or members == s.state_names:
-            return self.state_scale
-        return np.array([self.ocp.variable_scale(name) for name in members])
-
-    def _boundary_function(self) -> ca.Function:
-        """(x0, xf, u0, uf, z0, zf, T, params[, du0, duf]) -> (boundary rows, periodic defect
-        x0 - Delta(xf), terminal parts of the objective terms (n_terminal,)), physical units;
-        the control rates at both ends only when read."""
-        s, ocp = self.system, self.ocp
-        x0s, xfs = ca.SX.sym("x0", s.nx), ca.SX.sym("xf", s.nx)
-        u0s, ufs = ca.SX.sym("u0", s.nu), ca.SX.sym("uf", s.nu)
-        z0s, zfs = ca.SX.sym("z0", s.nz), ca.SX.sym("zf", s.nz)
-        du0s, dufs = ca.SX.sym("du0", s.nu), ca.SX.sym("duf", s.nu)
-        T = ca.SX.sym("T")
-        P = ca.SX.sym("params", len(ocp.params))
-        x0, xf = x0s, xfs
-        extra = {"x0": x0, "xf": xf, **ocp.param_fields(P)}
-        start = Point(s, x0, u0s, z0s, ca.SX(0), T, extra, du=du0s)
-        end = Point(s, xf, ufs, zfs, T, T, extra, du=dufs)
-        rows = []
-        for c in self._boundary_constraints():
-            point = start if c.where == "start" else end
-            rows.append(evaluate_expression(f"{c.where}[{c.name}]", c.expression, point))
-        periodic = ca.SX(0, 1)
-        if ocp.periodicity is not None:
-            mapping = ocp.periodicity[0]
-            image = xf if mapping is None else mapping(xf)
-            if isinstance(image, list | tuple):
-                image = ca.vertcat(*image)
-            periodic = x0 - image
-        terminals = [
-            evaluate_expression(f"terminal[{term.name}]", term.terminal, end)
-            for term in self.terminal_terms
-        ]
-        mayer = ca.vertcat(*terminals) if terminals else ca.SX(0, 1)
-        self._boundary_reads_rate = _reads(ca.vertcat(*rows, mayer), ca.vertcat(du0s, dufs))
-        rates = [du0s, dufs] if self._boundary_reads_rate else []
-        return ca.Function(
-            "boundary",
-            [x0s, xfs, u0s, ufs, z0s, zfs, T, P, *rates],
-            [ca.vertcat(*rows) if rows else ca.SX(0, 1), periodic, mayer],
-            {"cse": True} if start.uses_derived or end.uses_derived else {},
-        )
-
-    def _build(self) -> None:
-        """The NLP as a function of the scaled decision vector w and the parameters p.
-
-        Everything that is a number of the problem rather than its structure is a parameter
-        (:meth:`parameter_values`): the nominal scales of the variables (v = w * scale), the
-        reciprocal scales of the constraint rows and of the objective, and a fixed duration
-        T. The functions inside work in physical units. So two OCPs that differ only in
-        bounds, scales, T or the guess have the same NLP function (:attr:`structure_key`)
-        and :func:`planner.solver.solve` reuses one IPOPT solver for both.
-        """
-        s, ocp, mesh, scheme = self.system, self.ocp, self.mesh, self.scheme
-        self._layout()
-        nX, nC, N = mesh.n_state_points, mesh.n_dyn_points, ocp.N
-        external = None if self._provide is None else self._provide(self)
-        self._phase_symbols = external
-        if external is None:
-            sym = ca.SX if self.expand else ca.MX
-            w = sym.sym("w", self.n_w)
-            p_w = sym.sym("p_w", self.n_w)  # nominal scale of each variable
-            v = w * p_w
-            p_T = sym.sym("p_T", 0 if ocp.free_time else 1)  # a fixed duration, s
-            params = v[self._slices["P"]]
-        else:
-            # One phase of several (planner.phases): its variables' physical values, a fixed
-            # duration and the static parameters are given as expressions of the whole NLP.
-            sym = ca.MX
-            v, p_T, params = external["v"], external["T"], external["params"]
-        # Physical values (the names Xs, Us, Zs stay from the scaled version of this code).
-        Xs = ca.reshape(v[self._slices["X"]], s.nx, nX)
-        Us = ca.reshape(v[self._slices["U"]], s.nu, nC)
-        Zs = ca.reshape(v[self._slices["Z"]], s.nz, nC)
-        T = v[self._slices["T"]] if ocp.free_time else p_T
-        h = T / N  # the mean interval length; interval k has h r_k (mesh.relative)
-        point_f = self._point_function()
-        self.point_function = point_f
-        mapped = point_f.map(nC)
-        times = T * ca.DM(mesh.s_dyn).T
-        Xd = Xs[:, mesh.dyn_state_cols.tolist()]
-        rate_input = []
-        if self._point_reads_rate:
-            # du/dt at each dynamics point from the polynomial of the interval owning it.
-            owner, tau = mesh.dyn_owner
-            rates = mesh.interval_matrix(
-                owner, scheme.control_weights(tau, 1), state=False, power=-1
-            )
-            rate_input = [ca.mtimes(Us, rates) / h]
-        Fs, Rs, Ps, Ls = mapped(
-            Xd, Us, Zs, times, ca.repmat(T, 1, nC), ca.repmat(params, 1, nC), *rate_input
-        )
-        A_big, B_big = mesh.defect_matrices()
-        defects = ca.mtimes(Xs, A_big) - h * ca.mtimes(Fs, B_big)
-        # Boundary values of controls and aux come from the first/last interval's polynomial.
-        w0 = scheme.control_weights([0.0])[0]
-        w1 = scheme.control_weights([1.0])[0]
-        first, last = mesh.dyn_cols[0].tolist(), mesh.dyn_cols[-1].tolist()
-        u0 = ca.mtimes(Us[:, first], ca.DM(w0))
-        uf = ca.mtimes(Us[:, last], ca.DM(w1))
-        z0 = ca.mtimes(Zs[:, first], ca.DM(w0)) if s.nz else Zs[:, :0]
-        zf = ca.mtimes(Zs[:, last], ca.DM(w1)) if s.nz else Zs[:, :0]
-        boundary_f = self._boundary_function()
-        self.boundary_function = boundary_f
-        rate_input = []
-        if self._boundary_reads_rate:
-            relative = mesh.relative
-            rate_input = [
-                ca.mtimes(Us[:, first], ca.DM(scheme.control_weights([0.0], 1)[0] / relative[0]))
-                / h,
-                ca.mtimes(Us[:, last], ca.DM(scheme.control_weights([1.0], 1)[0] / relative[-1]))
-                / h,
-            ]
-        gb, gper, mayer = boundary_f(Xs[:, 0], Xs[:, -1], u0, uf, z0, zf, T, params, *rate_input)
-        at_functions = [self._instant_function(c) for c in self._instant_constraints()]
-        self.reads_control_rate = (
-            self._point_reads_rate
-            or self._boundary_reads_rate
-            or any(reads for _, reads in at_functions)
-        )
-        quadrature, side_cost, Pside, continuity = self._control_rate_terms(
-            Xd, Us, Zs, times, T, h, params, sym
-        )
-        integrals = h * ca.mtimes(Ls, ca.DM(quadrature)) + side_cost
-        # Each objective term's value: its integral part plus its terminal part.
-        integral_rows = {term.name: i for i, term in enumerate(self.integral_terms)}
-        terminal_rows = {term.name: i for i, term in enumerate(self.terminal_terms)}
-        terms = []
-        for term in ocp.objective:
-            value = 0
-            if term.name in integral_rows:
-                value = value + integrals[integral_rows[term.name]]
-            if term.name in terminal_rows:
-                value = value + mayer[terminal_rows[term.name]]
-            terms.append(value)
-        #: Each objective term's value (n_terms,), physical units, in ``ocp.objective`` order.
-        self.term_values = ca.vertcat(*terms) if terms else sym(0, 1)
-        objective = ca.sum1(self.term_values) if terms else sym(0)
-        # State-only path constraints also where no dynamics point lies (Radau t = 0,
-        # Legendre nodes): there the state is a variable, the control is not.
-        free = mesh.free_state_cols
-        if free.size and self.state_paths:
-            state_path = self._state_path_function().map(free.size)
-            Pfree = state_path(
-                Xs[:, free.tolist()],
-                T * ca.DM(mesh.s_state[free]).T,
-                ca.repmat(T, 1, free.size),
-                ca.repmat(params, 1, free.size),
-            )
-        else:
-            Pfree = sym(0, 1)
-        g_at = [
-            self._instant_rows(c, f, Xs, Us, Zs, Fs, T, h, params)
-            for c, (f, _) in zip(self._instant_constraints(), at_functions, strict=True)
-        ]
-        g = ca.vertcat(
-            ca.vec(defects),
-            ca.vec(Rs),
-            ca.vec(Ps),
-            ca.vec(Pfree),
-            ca.vec(Pside),
-            gb,
-            gper,
-            *g_at,
-            ca.vec(continuity),
-        )
-        #: Physical constraint rows, objective, boundary states and duration: what a
-        #: multi-phase problem assembles (planner.phases).
-        self.rows, self._objective = g, objective
-        self.x0, self.xf, self.duration = Xs[:, 0], Xs[:, -1], T
-        if external is None:
-            p_g = sym.sym("p_g", g.size1())  # 1 / nominal scale of each constraint row
-            p_f = sym.sym("p_f")  # 1 / nominal scale of the objective
-            #: The NLP IPOPT solves: scaled w, parameters p, scaled objective and rows.
-            self.parametric_nlp = {
-                "x": w,
-                "p": ca.vertcat(p_w, p_g, p_T, p_f),
-                "f": objective * p_f,
-                "g": g * p_g,
-            }
-        self._bounds_and_names()
-
-    def _control_rate_terms(self, Xd, Us, Zs, times, T, h, params, sym):
-        """What reading control rates adds to the NLP.
-
-        Returns (quadrature (nC,), side cost (per integral term), side path rows
-        (m, N - 1), continuity rows).
-        A node that two intervals share (trapezoid, Hermite-Simpson) has a rate on each side;
-        the dynamics point carries the slope of the interval starting there, and the side
-        terms add the slope of the interval ending there (interior nodes 1..N-1): the path
-        rows that read rates hold on both sides, and the integral takes each interval's share
-        of the node with that interval's own slope (the quadrature of every interval's own
-        polynomial, as for collocation). Collocation controls are independent polynomials per
-        interval that may jump at the nodes, which a rate would not see: when anything reads
-        a rate, they are made continuous (u_k(1) = u_k+1(0), rows "continuity[u] node k").
-        """
-        s, mesh, scheme, N = self.system, self.mesh, self.scheme, self.ocp.N
-        quadrature = mesh.quadrature
-        side_cost, Pside, continuity = 0, sym(0, max(N - 1, 0)), sym(0, 1)
-        if not self.reads_control_rate:
-            return quadrature, side_cost, Pside, continuity
-        if scheme.ndc == 1:
-            others = ", ".join(name for name in TRANSCRIPTIONS if name != scheme.name)
-            raise DefinitionError(
-                f"`transcription`: {scheme.name} of degree {scheme.degree} has "
-                "piecewise-constant controls, so control rates (p.du) are zero inside the "
-                f"intervals and infinite at the nodes; use a higher degree, or one of {others}"
-            )
-        nodes = np.arange(1, N)
-        if N > 1 and self.node_side_function is not None:
-            cols = (nodes * scheme.mc).tolist()
-            weights = np.tile(scheme.control_weights([1.0], 1), (N - 1, 1))
-            left = ca.mtimes(Us, mesh.interval_matrix(nodes - 1, weights, False, power=-1)) / h
-            Pside, Lside = self.node_side_function.map(N - 1)(
-                Xd[:, cols],
-                Us[:, cols],
-                Zs[:, cols],
-                times[:, cols],
-                ca.repmat(T, 1, N - 1),
-                ca.repmat(params, 1, N - 1),
-                left,
-            )
-            if self._integrand_reads_rate:
-                # The node's share of the interval ending there (weight times its width).
-                ending = float(scheme.quadrature[-1]) * mesh.relative[nodes - 1]
-                quadrature = quadrature.copy()
-                quadrature[cols] -= ending
-                side_cost = h * ca.mtimes(Lside, ca.DM(ending))
-        if N > 1 and not scheme.shares_end and s.nu:
-            ends = np.tile(scheme.control_weights([1.0]), (N - 1, 1))
-            starts = np.tile(scheme.control_weights([0.0]), (N - 1, 1))
-            continuity = ca.mtimes(Us, mesh.interval_matrix(nodes - 1, ends, state=False))
-            continuity -= ca.mtimes(Us, mesh.interval_matrix(nodes, starts, state=False))
-        return quadrature, side_cost, Pside, continuity
-
-    def _instant_places(self, constraint) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(s (K,), interval (K,), tau (K,)): the normalised times t / T of an "at"
-        constraint's instants and where they lie on the mesh (:meth:`Mesh.locate`)."""
-        instants = np.array(constraint.instants)
-        if constraint.fraction:
-            s = instants
-        else:
-            T = self.ocp.T
-            if np.any(instants > T):
-                raise DefinitionError(
-                    f"`at[{constraint.name}]`: t={instants.max():g} s lies after the end of the "
-                    f"horizon T = {T:g} s; give instants in [0, T] or fractions of T"
-                )
-            s = instants / T
-        k, tau = self.mesh.locate(s)
-        return s, k, tau
-
-    def _instant_function(self, constraint) -> tuple[ca.Function, bool]:
-        """(x, u, z, t, T, params, du) -> the constraint's rows at one instant (SX, physical
-        units), and whether they read the control rate."""
-        s = self.system
-        xs, us, zs = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
-        t, T, dus = ca.SX.sym("t"), ca.SX.sym("T"), ca.SX.sym("du", s.nu)
-        P = ca.SX.sym("params", len(self.ocp.params))
-        point = Point(s, xs, us, zs, t, T, self.ocp.param_fields(P), du=dus)
-        label = f"at[{constraint.name}]"
-        value = evaluate_expression(label, constraint.expression, point)
-        function = ca.Function(
-            "at",
-            [xs, us, zs, t, T, P, dus],
-            [value],
-            ["x", "u", "z", "t", "T", "params", "du"],
-            ["rows"],
-            {"cse": True} if point.uses_derived else {},
-        )
-        return function, _reads(value, dus)
-
-    def _instant_rows(self, constraint, function, Xs, Us, Zs, Fs, T, h, params):
-        """Rows of an "at" constraint at its K instants, (K rows,) instant by instant: the
-        point on the interpolant of the interval holding each instant (physical values:
-        x = X_k Wx^T + h_k F_k Wf^T with F the rates, u = U_k Wu^T, du = U_k Wu'^T / h_k,
-        h_k = h r_k the length of interval k)."""
-        mesh, scheme = self.mesh, self.scheme
-        s, k, tau = self._instant_places(constraint)
-        wx, wf = scheme.state_weights(tau)
-        x = ca.mtimes(Xs, mesh.interval_matrix(k, wx, state=True))
-        if np.any(wf != 0.0):
-            x = x + h * ca.mtimes(Fs, mesh.interval_matrix(k, wf, state=False, power=1))
-        u_matrix = mesh.interval_matrix(k, scheme.control_weights(tau), state=False)
-        u = ca.mtimes(Us, u_matrix)
-        z = ca.mtimes(Zs, u_matrix)
-        du = ca.mtimes(
-            Us, mesh.interval_matrix(k, scheme.control_weights(tau, 1), state=False, power=-1)
-        )
-        K = k.size
-        rows = function.map(K)(
-            x, u, z, T * ca.DM(s).T, ca.repmat(T, 1, K), ca.repmat(params, 1, K), du / h
-        )
-        return ca.vec(rows)
-
-    def _bounds_and_names(self) -> None:
-        s, ocp, mesh = self.system, self.ocp, self.mesh
-        nX, nC, N = mesh.n_state_points, mesh.n_dyn_points, ocp.N
-        # variable bounds (scaled) and names
-        lbx = np.full(self.n_w, -np.inf)
-        ubx = np.full(self.n_w, np.inf)
-        names: list[str] = []
-        for key, var_names, scale, count, label in (
-            ("X", s.state_names, self.state_scale, nX, mesh.state_label),
-            ("U", s.control_names, self.control_scale, nC, mesh.dyn_label),
-            ("Z", s.aux_names, self.aux_scale, nC, mesh.dyn_label),
-        ):
-            if not var_names:
-                continue
-            lo = np.array([ocp.variable_bounds(n)[0] for n in var_names]) / scale
-            hi = np.array([ocp.variable_bounds(n)[1] for n in var_names]) / scale
-            sl = self._slices[key]
-            lbx[sl] = np.tile(lo, count)
-            ubx[sl] = np.tile(hi, count)
-            names.extend(f"bound[{n}] {label(c)}" for c in range(count) for n in var_names)
-        if ocp.free_time:
-            index = self._slices["T"].start
-            lbx[index] = ocp.T[0] / self.T_scale
-            ubx[index] = ocp.T[1] / self.T_scale
-            names.append("bound[T]")
-        own = self.own_params
-        for i, param in enumerate(own):
-            index = self._slices["P"].start + i
-            lbx[index] = param.lower / param.nominal
-            ubx[index] = param.upper / param.nominal
-            names.append(f"bound[{param.name}]")
-        self.lbx, self.ubx, self.w_names = lbx, ubx, tuple(names)
-        w_scale = [
-            np.tile(sc, count)
-            for sc, count in (
-                (self.state_scale, nX),
-                (self.control_scale, nC),
-                (self.aux_scale, nC),
-            )
-        ]
-        self.w_scale = np.concatenate(
-            [
-                *w_scale,
-                [self.T_scale] if ocp.free_time else [],
-                [param.nominal for param in own],
-            ]
-        )
-        # constraint rows
-        g_names: list[str] = []
-        lbg: list[np.ndarray] = []
-        ubg: list[np.ndarray] = []
-        r = self.scheme.A.shape[0]
-        for k in range(N):
-            for j in range(r):
-                suffix = self.scheme.defect_labels[j]
-                g_names.extend(f"defect[{n}] interval {k}{suffix}" for n in s.state_names)
-        n_defects = N * r * s.nx
-        lbg.append(np.zeros(n_defects))
-        ubg.append(np.zeros(n_defects))
-        g_scale = [np.tile(self.state_scale, N * r)]
-        if s.nz:
-            for c in range(nC):
-                g_names.extend(f"dynamics[{n}] {mesh.dyn_label(c)}" for n in s.residual_names)
-            lbg.append(np.zeros(s.nz * nC))
-            ubg.append(np.zeros(s.nz * nC))
-            g_scale.append(np.tile(self.residual_scale, nC))
-        # Path constraints at every dynamics point, the state-only ones also at the state
-        # points with no dynamics point (Radau t = 0, Legendre nodes).
-        free = mesh.free_state_cols
-        for constraints, columns, label in (
-            (self._path_constraints(), range(nC), mesh.dyn_label),
-            (self.state_paths if free.size else (), free, mesh.state_label),
-        ):
-            if constraints:
-                row_names, lo, hi, scale = self._constraint_rows(constraints)
-                for col in columns:
-                    g_names.extend(f"{n} {label(int(col))}" for n in row_names)
-                lbg.append(np.tile(lo, len(columns)))
-                ubg.append(np.tile(hi, len(columns)))
-                g_scale.append(np.tile(scale, len(columns)))
-        if self.node_side_function is not None and self._rate_paths and N > 1:
-            # The rate-reading path rows again at each interior node, with the slope of the
-            # interval ending there.
-            row_names, lo, hi, scale = self._constraint_rows(self._rate_paths)
-            for k in range(1, N):
-                g_names.extend(f"{n} node {k} (end of interval {k - 1})" for n in row_names)
-            lbg.append(np.tile(lo, N - 1))
-            ubg.append(np.tile(hi, N - 1))
-            g_scale.append(np.tile(scale, N - 1))
-        boundary = self._boundary_constraints()
-        if boundary:
-            row_names, lo, hi, scale = self._constraint_rows(boundary)
-            g_names.extend(row_names)
-            lbg.append(lo)
-            ubg.append(hi)
-            g_scale.append(scale)
-        if ocp.periodicity is not None:
-            g_names.extend(f"periodic[{n}]" for n in s.state_names)
-            lbg.append(np.zeros(s.nx))
-            ubg.append(np.zeros(s.nx))
-            g_scale.append(self.state_scale)
-        for c in self._instant_constraints():
-            _, intervals, _ = self._instant_places(c)
-            scale = ocp.constraint_scale(c)
-            for i, k in enumerate(intervals):
-                place = f"{c.instant_label(i)} (interval {k})"
-                g_names.extend(f"{row} {place}" for row in c.row_names())
-            lbg.append((c.lower / scale).reshape(-1))
-            ubg.append((c.upper / scale).reshape(-1))
-            g_scale.append(np.tile(scale, len(intervals)))
-        if self.reads_control_rate and not self.scheme.shares_end and N > 1 and s.nu:
-            for k in range(1, N):
-                g_names.extend(f"continuity[{n}] node {k}" for n in s.control_names)
-            lbg.append(np.zeros(s.nu * (N - 1)))
-            ubg.append(np.zeros(s.nu * (N - 1)))
-            g_scale.append(np.tile(self.control_scale, N - 1))
-        self.g_names = tuple(g_names)
-        self.g_scale = np.concatenate(g_scale)
-        self.lbg = np.concatenate(lbg) if lbg else np.zeros(0)
-        self.ubg = np.concatenate(ubg) if ubg else np.zeros(0)
-        if self.lbg.size != self.rows.size1():
-            raise RuntimeError(
-                f"internal: {self.lbg.size} constraint bounds for {self.rows.size1()} rows"
-            )
-
-    def _constraint_rows(self, constraints) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
-        """Row names ("path[c]", "start[b][1]"), scaled lower and upper bounds and nominal
-        scales of ``constraints`` at one point, stacked in order."""
-        scales = [self.ocp.constraint_scale(c) for c in constraints]
-        names = [row for c in constraints for row in c.row_names()]
-        lower = np.concatenate([c.lower / s for c, s in zip(constraints, scales, strict=True)])
-        upper = np.concatenate([c.upper / s for c, s in zip(constraints, scales, strict=True)])
-        return names, lower, upper, np.concatenate(scales)
-
-    # ---- numeric helpers ----------------------------------------------------------------
-    def unpack(self, w: np.ndarray) -> dict[str, Any]:
-        """Physical values from a scaled decision vector.
-
-        Returns dict with X (nX, nx), U (nC, nu), Z (nC, nz), T (s), P (the static
-        parameters this NLP holds, name -> value).
-        """
-        s, mesh = self.system, self.mesh
-        w = np.asarray(w, dtype=float).reshape(-1)
-        X = w[self._slices["X"]].reshape(mesh.n_state_points, s.nx) * self.state_scale
-        U = w[self._slices["U"]].reshape(mesh.n_dyn_points, s.nu) * self.control_scale
-        Z = w[self._slices["Z"]].reshape(mesh.n_dyn_points, s.nz) * self.aux_scale
-        T = float(w[self._slices["T"]][0] * self.T_scale) if self.ocp.free_time else self.ocp.T
-        values = w[self._slices["P"]]
-        P = {p.name: float(values[i] * p.nominal) for i, p in enumerate(self.own_params)}
-        return {"X": X, "U": U, "Z": Z, "T": T, "P": P}
-
-    def pack(self, X: np.ndarray, U: np.ndarray, Z: np.ndarray, T: float, P=None) -> np.ndarray:
-        """Scaled decision vector from physical X (nX, nx), U (nC, nu), Z (nC, nz), T and
-        the static parameters P (name -> value; default their guesses)."""
-        w = np.zeros(self.n_w)
-        w[self._slices["X"]] = (np.asarray(X) / self.state_scale).reshape(-1)
-        w[self._slices["U"]] = (np.asarray(U) / self.control_scale).reshape(-1)
-        w[self._slices["Z"]] = (np.asarray(Z) / self.aux_scale).reshape(-1)
-        if self.ocp.free_time:
-            w[self._slices["T"]] = T / self.T_scale
-        P = P or {}
-        for i, param in enumerate(self.own_params):
-            w[self._slices["P"].start + i] = P.get(param.name, param.initial) / param.nominal
-        return w
+    def guess_solution(self):
+        """The Solution the last guess comes from (warm starts read its multipliers and
+        objective scale), or None: a single OCP's last guess layer, or ``Phases.guess``."""
+        if self.single is None:
+            return self.problem.warm
+        guesses = self.single.guesses
+        if guesses and guesses[-1].kind == "solution":
+            return guesses[-1].source
+        return None
 
     def initial_guess(self) -> np.ndarray:
-        """The scaled decision vector of the OCP's guesses (defaults: bound midpoints, or 0)."""
-        ocp, s, mesh = self.ocp, self.system, self.mesh
-        T = ocp.duration_guess
-        t_state = mesh.s_state * T
-        t_dyn = mesh.s_dyn * T
-        at_state: dict[str, np.ndarray] = {}
-        at_dyn: dict[str, np.ndarray] = {}
-        for layer in ocp.guesses:
-            at_state.update(evaluate_guess_layer(ocp, layer, t_state))
-            at_dyn.update(evaluate_guess_layer(ocp, layer, t_dyn))
+        """The scaled decision vector of the guesses: each phase's (a shared variable takes
+        the value of the phase that owns it), then the static parameters (the values of a
+        Solution guessed from, else their own guesses)."""
+        w = np.zeros(self.n_w)
+        for k, block in enumerate(self.phases):
+            own, index = self._own[k], self._index[k]
+            w[index[own]] = block.initial_guess()[own]
+        values: dict[str, float] = {}
+        for _, ocp in self.problem.phases:
+            for layer in ocp.guesses:
+                params = getattr(layer.source, "params", None)  # a Trajectory carries none
+                if isinstance(params, dict):
+                    values.update(params)
+        values.update(getattr(self.problem.warm, "params", None) or {})
+        for i, param in enumerate(self.params):
+            w[self._params_offset + i] = values.get(param.name, param.initial) / param.nominal
+        return w
 
-        def default(name: str, count: int) -> np.ndarray:
-            lo, hi = ocp.variable_bounds(name)
-            if np.isfinite(lo) and np.isfinite(hi):
-                value = 0.5 * (lo + hi)
-            else:
-                value = float(np.clip(0.0, lo, hi))
-            return np.full(count, value)
+    def solution(self, w, cost, status, success, stats, lam_g, lam_x):
+        """The result of a solve of this NLP: the :class:`planner.solution.Solution` of a
+        single OCP, or the :class:`planner.phases_solution.PhasesSolution` of phases."""
+        if self.single is not None:
+            return Solution(self, w, cost, status, success, stats, lam_g, lam_x)
+        return PhasesSolution(self, w, cost, status, success, stats, lam_g, lam_x)
 
-        nX, nC = mesh.n_state_points, mesh.n_dyn_points
+    # ---- values of one phase ----------------------------------------------------------
+    def phase_vector(self, w: np.ndarray, k: int = 0) -> np.ndarray:
+        """Phase k's scaled decision vector in its own layout (n_w_k,) from the NLP's w."""
+        w = np.asarray(w, dtype=float).reshape(-1)
+        index = self._index[k]
+        return w[index] * self.w_scale[index] / self.phases[k].w_scale
 
-        def stack(names, source, count):
-            columns = [source.get(n, default(n, count)) for n in names]
-            return np.column_stack(columns) if columns else np.zeros((count, 0))
+    def param_values(self, w: np.ndarray) -> dict[str, float]:
+        """The static parameters' physical values at the NLP's w, name -> value."""
+        w = np.asarray(w, dtype=float).reshape(-1)
+        at = self._params_offset
+        return {p.name: float(w[at + i] * p.nominal) for i, p in enumerate(self.params)}
 
-        X = stack(s.state_names, at_state, nX)
-        Z = stack(s.aux_names, at_dyn, nC)
-        U = stack(s.control_names, at_dyn, nC)
-        missing = [n for n in s.control_names if n not in at_dyn]
-        if s.complete_guess is not None and missing and ocp.guesses:
-            # Controls that no guess gives, from the guessed motion by the system's own rule
-            # (a linkage's torques by inverse dynamics, so that a gait law starts the solver
-            # on a dynamically consistent point).
-            completed = s.complete_guess(at_dyn)
-            for name in missing:
-                if name in completed:
-                    U[:, s.control_names.index(name)] = completed[name]
-        # Static parameters: their own guesses, or the values of a Solution guessed from.
-        P: dict[str, float] = {}
-        for layer in ocp.guesses:
-            if isinstance(layer.source, Solution):  # a Trajectory carries no parameters
-                P.update(layer.source.params)
-        return self.pack(X, U, Z, T, P)
+    def unpack(self, w: np.ndarray, phase: int = 0) -> dict[str, Any]:
+        """Physical values of a phase (default the first: a single OCP's) at the NLP's scaled
+        w: X (nX, nx), U (nC, nu), Z (nC, nz), T (s) and P (the static parameters, name ->
+        value)."""
+        values = self.phases[phase].unpack(self.phase_vector(w, phase))
+        values["P"] = self.param_values(w)
+        return values
+
+    def pack(self, X: np.ndarray, U: np.ndarray, Z: np.ndarray, T: float, P=None) -> np.ndarray:
+        """The scaled decision vector of a single OCP from physical X (nX, nx), U (nC, nu),
+        Z (nC, nz), T and the static parameters P (name -> value; default their guesses)."""
+        block = self._only("pack")
+        w = np.zeros(self.n_w)
+        w[self._index[0]] = block.pack(X, U, Z, T)
+        P = P or {}
+        for i, param in enumerate(self.params):
+            w[self._params_offset + i] = P.get(param.name, param.initial) / param.nominal
+        return w
+
+    # ---- a single OCP's phase, offered here -----------------------------------------------
+    def _only(self, what: str) -> PhaseTranscription:
+        if len(self.phases) != 1:
+            raise DefinitionError(
+                f"`{what}`: this NLP has {len(self.phases)} phases; read phases[k].{what}"
+            )
+        return self.phases[0]
+
+    @property
+    def ocp(self) -> OCPDefinition:
+        return self._only("ocp").ocp
+
+    @property
+    def system(self):
+        return self._only("system").system
+
+    @property
+    def scheme(self):
+        return self._only("scheme").scheme
+
+    @property
+    def mesh(self) -> Mesh:
+        return self._only("mesh").mesh
+
+    @property
+    def state_scale(self) -> np.ndarray:
+        return self._only("state_scale").state_scale
+
+    @property
+    def control_scale(self) -> np.ndarray:
+        return self._only("control_scale").control_scale
+
+    @property
+    def aux_scale(self) -> np.ndarray:
+        return self._only("aux_scale").aux_scale
+
+    @property
+    def point_function(self) -> ca.Function:
+        return self._only("point_function").point_function
+
+    @property
+    def boundary_function(self) -> ca.Function:
+        return self._only("boundary_function").boundary_function
+
+
+def _assemble(own_values, own: np.ndarray, source: np.ndarray, before):
+    """A phase's physical values in its layout: its own entries (``own_values``, in order)
+    where ``own`` is True, elsewhere the entries ``source`` of the phase before's physical
+    values ``before`` (what the two phases share across a continuity join)."""
+    if own.all():
+        return own_values
+    pieces, taken = [], 0
+    for start, stop, owned in _runs(own):
+        if owned:
+            pieces.append(own_values[taken : taken + stop - start])
+            taken += stop - start
+        else:
+            pieces.append(before[source[start:stop].tolist()])
+    return ca.vertcat(*pieces)
+
+
+def _runs(mask: np.ndarray):
+    """(start, stop, value) of the runs of equal values in a boolean mask."""
+    edges = np.flatnonzero(np.diff(mask.astype(int))) + 1
+    bounds = [0, *edges.tolist(), mask.size]
+    return [(a, b, bool(mask[a])) for a, b in itertools.pairwise(bounds) if b > a]
+
+
+def _common(
+    before: PhaseTranscription, block: PhaseTranscription, constraints, others
+) -> frozenset[str]:
+    """Names of the path constraints of two phases (``constraints`` of the phase before,
+    ``others`` of the next) that give the same rows: the same name, bounds and scale, and the
+    same expression (the same callable, or expressions equal on one symbolic point)."""
+    s = before.system
+    point = Point(
+        s,
+        ca.SX.sym("x", s.nx),
+        ca.SX.sym("u", s.nu),
+        ca.SX.sym("z", s.nz),
+        ca.SX.sym("t"),
+        ca.SX.sym("T"),
+        before.ocp.param_fields(ca.SX.sym("params", len(before.ocp.params))),
+        du=ca.SX.sym("du", s.nu),
+    )
+    by_name = {d.name: d for d in others}
+    names = set()
+    for c in constraints:
+        d = by_name.get(c.name)
+        if d is None or not (
+            np.array_equal(c.lower, d.lower)
+            and np.array_equal(c.upper, d.upper)
+            and before.ocp.constraint_scale(c).tolist() == block.ocp.constraint_scale(d).tolist()
+        ):
+            continue
+        if c.expression is not d.expression:
+            try:
+                rows = [evaluate_expression(e.name, e.expression, point) for e in (c, d)]
+            except DefinitionError:  # e.g. a parameter the phase before does not have
+                continue
+            if not ca.is_equal(rows[0], rows[1], 64):
+                continue
+        names.add(c.name)
+    return frozenset(names)
+
+
+def _same_dynamics(a: OCPDefinition, b: OCPDefinition) -> bool:
+    """Whether two phases have the same residual rows at the same values: residual
+    functions equal on one set of symbols (the same names and sizes), neither reading the
+    phase's clock t."""
+    ra, rb = a.system.residual, b.system.residual
+    if ra is None or rb is None:
+        return ra is None and rb is None
+    inputs = ra.n_in()
+    if (
+        a.system.residual_names != b.system.residual_names
+        or a.system.params != b.system.params
+        or inputs != rb.n_in()
+        or any(ra.sparsity_in(i) != rb.sparsity_in(i) for i in range(inputs))
+    ):
+        return False
+    symbols = [ca.SX.sym(ra.name_in(i), ra.sparsity_in(i)) for i in range(inputs)]
+    left = ra(*symbols)
+    if ca.depends_on(left, symbols[3]):
+        return False
+    same_model = (
+        a.dynamics is b.dynamics
+        and a.formulation == b.formulation
+        and tuple(a.contacts) == tuple(b.contacts)
+    )
+    return same_model or ca.is_equal(left, rb(*symbols), 64)
+
+
+def _apply(mapping, x):
+    """A mapping (callable of SX or Function) applied to an MX or SX state through an SX
+    Function."""
+    symbol = ca.SX.sym("x", x.size1())
+    value = mapping(symbol)
+    if isinstance(value, list | tuple):
+        value = ca.vertcat(*value)
+    return ca.Function("mapping", [symbol], [value])(x)
+
+
+def _default_scale(event) -> np.ndarray:
+    stacked = np.abs(np.vstack([event.lower, event.upper]))
+    stacked[~np.isfinite(stacked)] = 0.0
+    scale = stacked.max(axis=0)
+    scale[scale == 0.0] = 1.0
+    return scale
+
+
+__all__ = ["Transcription"]

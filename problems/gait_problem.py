@@ -24,7 +24,7 @@ import numpy as np
 
 from model.errors import DefinitionError, check_real
 from model.linkage import Linkage
-from planner.phases import PhasesSolution
+from planner.phases_solution import PhasesSolution
 from planner.problem import OCP
 from planner.solution import Solution
 from planner.trajectory import Trajectory
@@ -147,7 +147,7 @@ def finish_gait_ocp(ocp: OCP, linkage: Linkage, objective: str, limits, law) -> 
 
 def objective_at_guess(transcription) -> float:
     """The NLP's objective at its initial guess, in the objective's physical units (a
-    :class:`planner.Transcription` or a :class:`planner.PhasesTranscription`)."""
+    :class:`planner.Transcription` of an OCP or of phases)."""
     nlp = transcription.parametric_nlp
     objective = ca.Function("objective_at_guess", [nlp["x"], nlp["p"]], [transcription._objective])
     return float(objective(transcription.initial_guess(), transcription.parameter_values()))
@@ -220,45 +220,23 @@ class Gait:
         """The solution's interpolant at ``rate_hz`` (default the nodes), with the ground
         reaction on the root's foot (Fx, Fy, N), the contact forces of a phase with more
         contacts (zero where they are not held), and the problem's settings
-        (``metadata["gait"]``). On a multi-phase solution the phases follow each other; where
-        two meet, the later phase's first sample is kept (after an impact) and the state just
-        before it goes into ``metadata["gait"]["before_events"]``."""
-        n = self.problem.linkage.n
-        names = self.problem.linkage.names
-        columns: dict[str, list] = {}
-        contacts: list[str] = []
-        for solution, _ in self.segments():
-            contacts.extend(c for c in solution.system.control_names[n:] if c not in contacts)
-        parts, before = [], []
+        (``metadata["gait"]``). On a multi-phase solution the phases follow each other
+        (``PhasesSolution.to_trajectory``); where two meet, the later phase's first sample is
+        kept (after an impact) and the state just before it goes into
+        ``metadata["gait"]["before_events"]``."""
+        joined = self.solution.to_trajectory(rate_hz)
+        contacts = [name for name in joined.extras if name.startswith("F_")]
+        force = self.problem.dynamics.ground_reaction(joined.psi, joined.dpsi, joined.ddpsi)
+        for name in contacts:  # the root's foot takes what the other contacts do not
+            value = np.asarray(joined.extras[name][0])
+            force = force - (value if name.endswith("_x") else 1j * value)
         segments = self.segments()
-        for k, (solution, t0) in enumerate(segments):
-            piece = solution.to_trajectory(rate_hz)
-            keep = slice(None) if k == len(segments) - 1 else slice(None, -1)
-            if k < len(segments) - 1:
-                before.append({"t": float(t0 + solution.T), "x": piece.states[-1].tolist()})
-            force = self.problem.dynamics.ground_reaction(
-                piece.states[:, :n], piece.states[:, n:], piece.ddpsi
-            )
-            for name in contacts:  # the root's foot takes what the other contacts do not
-                if name in piece.extras:
-                    value = np.asarray(piece.extras[name][0])
-                    force = force - (value if name.endswith("_x") else 1j * value)
-            parts.append((piece, force, keep, t0))
-        for piece, force, keep, t0 in parts:
-            columns.setdefault("time", []).append(piece.time[keep] + t0)
-            columns.setdefault("psi", []).append(piece.psi[keep])
-            columns.setdefault("dpsi", []).append(piece.dpsi[keep])
-            columns.setdefault("torques", []).append(piece.torques[keep])
-            columns.setdefault("ddpsi", []).append(piece.ddpsi[keep])
-            columns.setdefault("force", []).append(np.asarray(force)[keep])
-            for name in contacts:
-                values = (
-                    piece.extras[name][0] if name in piece.extras else np.zeros(piece.n_samples)
-                )
-                columns.setdefault(name, []).append(np.asarray(values)[keep])
-        joined = {key: np.concatenate(value) for key, value in columns.items()}
+        before = [
+            {"t": float(t0 + solution.T), "x": solution.states[-1].tolist()}
+            for solution, t0 in segments[:-1]
+        ]
         metadata = {
-            **parts[0][0].metadata,
+            **joined.metadata,
             "gait": {
                 **self.problem.settings(),
                 "cost": self.cost,
@@ -267,17 +245,17 @@ class Gait:
             },
         }
         trajectory = Trajectory.from_linkage(
-            joined["time"],
-            joined["psi"],
-            joined["dpsi"],
-            joined["torques"],
-            names,
-            ddpsi=joined["ddpsi"],
-            ground_reaction=joined["force"],
+            joined.time,
+            joined.psi,
+            joined.dpsi,
+            joined.torques,
+            self.problem.linkage.names,
+            ddpsi=joined.ddpsi,
+            ground_reaction=force,
             metadata=metadata,
         )
         for name in contacts:
-            trajectory = trajectory.with_extra(name, joined[name], "N")
+            trajectory = trajectory.with_extra(name, joined.extras[name][0], "N")
         return trajectory
 
     def verify(self, **options) -> GaitReport:

@@ -37,7 +37,6 @@ from planner import (
     OCP,
     Phases,
     PhasesSolution,
-    PhasesTranscription,
     Solution,
     Trajectory,
     Transcription,
@@ -223,12 +222,6 @@ def warm_record(solution: Solution | PhasesSolution) -> dict[str, Any]:
     return record
 
 
-def _transcribe(problem: OCP | Phases) -> Transcription | PhasesTranscription:
-    if isinstance(problem, Phases):
-        return PhasesTranscription(problem)
-    return Transcription(problem)
-
-
 def guess_from(step: WalkingStep, start: Mapping[str, Any]) -> OCP | Phases | None:
     """``step.problem`` (the OCP, or the phases with a double support) guessed from a
     neighbour's record: from the neighbour's NLP point rebuilt as a solution of this step's
@@ -236,7 +229,7 @@ def guess_from(step: WalkingStep, start: Mapping[str, Any]) -> OCP | Phases | No
     present, its multipliers), else from its trajectory (one phase; None for phases: the law
     stays the guess)."""
     problem = step.problem
-    transcription = _transcribe(problem)
+    transcription = Transcription(problem)
     if str(start["signature"]) == transcription.signature:
         scale = float(start["objective_scale"])
         lam_x = lam_g = None

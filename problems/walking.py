@@ -55,7 +55,6 @@ from model.errors import (
 )
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
-from planner.phases import PhasesTranscription
 from planner.problem import OCP, Phases
 from planner.solver import solve
 from planner.transcription import Transcription
@@ -162,9 +161,7 @@ class WalkingStep:
             phases = list(self.phases.phases)
             phases[index] = ("single", problem)
             problem = replace(self.phases, phases=tuple(phases))
-        if isinstance(problem, Phases):
-            return PhasesTranscription(problem)
-        if isinstance(problem, OCP):
+        if isinstance(problem, OCP | Phases):
             return Transcription(problem)
         raise DefinitionTypeError(
             f"`ocp`: must be a planner.OCP (or planner.Phases), got {type(problem).__name__}"

@@ -132,7 +132,7 @@ def test_default_scales_come_from_bounds_and_can_be_overridden():
     # the NLP works with scaled variables and scaled defects
     transcription = Transcription(ocp.scale(M=5.0))
     assert transcription.control_scale.tolist() == [5.0, 5.0]
-    assert transcription.residual_scale.tolist() == [5.0, 5.0]
+    assert transcription.phases[0].residual_scale.tolist() == [5.0, 5.0]
 
 
 # ---- guesses -------------------------------------------------------------------------------
@@ -380,7 +380,7 @@ def test_solver_and_solution_argument_errors():
     from planner import solve
 
     ocp = di().initial(q=0.0, v=0.0).final(q=1.0, v=0.0).minimize(integral=lambda p: p.a**2)
-    with pytest.raises(DefinitionTypeError, match=r"`ocp`: must be a planner.OCP"):
+    with pytest.raises(DefinitionTypeError, match=r"`problem`: must be a planner.OCP"):
         Transcription("ocp")
     transcription = Transcription(ocp)
     with pytest.raises(DefinitionError, match=r"`expand`: applies when solving an OCP"):

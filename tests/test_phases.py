@@ -27,8 +27,9 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import minimize
 
 from model import DefinitionError, DefinitionTypeError
-from planner import OCP, Phases, PhasesSolution
-from planner.transcription import Mesh, make_scheme
+from planner import OCP, Phases, PhasesSolution, Trajectory, Transcription
+from planner.phase_transcription import Mesh
+from planner.schemes import make_scheme
 
 TIGHT = {"tol": 1e-12}
 SCHEMES = [
@@ -196,6 +197,31 @@ def test_velocity_jump_at_a_free_switching_time(name, degree):
     assert trajectory.metadata["phases"][1]["start"] == pytest.approx(solution.durations[0])
 
 
+def test_the_whole_sequence_replays_exports_and_estimates_its_accuracy(tmp_path):
+    solution = kick_phases("hermite-simpson", None, 8).solve(progress=False, options=TIGHT)
+    before, after = solution.phases
+    # Open loop through the join: the second phase starts from the mapped end of the first
+    # (the velocity jump), and cubic states with linear controls are exact for the double
+    # integrator (up to the integrator's tolerance).
+    replay = solution.replay(rtol=1e-12, atol=1e-12)
+    assert replay.time.size == solution.time.size
+    np.testing.assert_allclose(replay.states, solution.states, atol=1e-9)
+    start = replay.states[before.N + 1]
+    np.testing.assert_allclose(start, [before.states[-1][0], RESTITUTION * before.states[-1][1]])
+    assert solution.residual_error().per_interval.shape == (16, 2)
+    assert solution.residual_error().max < 1e-9 and solution.integration_error().max < 1e-9
+    # Exported on one time axis: the join is one instant (the later phase's value kept),
+    # read back as written.
+    trajectory = solution.to_trajectory()
+    assert trajectory.time.size == before.N + after.N + 1
+    np.testing.assert_allclose(trajectory.time[before.N], before.T, rtol=1e-12)
+    np.testing.assert_allclose(trajectory.states[before.N], after.states[0], atol=1e-12)
+    assert [p["name"] for p in trajectory.metadata["phases"]] == ["before", "after"]
+    path = solution.save(tmp_path / "kick.npz", rate_hz=100.0)
+    again = Trajectory.load(path)
+    np.testing.assert_array_equal(again.states, solution.to_trajectory(100.0).states)
+
+
 # ---- the same problem as one phase and as several ------------------------------------------
 def rest_to_rest(N, name="hermite-simpson", degree=None, T=1.0):
     return (
@@ -206,30 +232,74 @@ def rest_to_rest(N, name="hermite-simpson", degree=None, T=1.0):
     )
 
 
-@pytest.mark.parametrize(("name", "degree"), [("hermite-simpson", None), ("radau", 3)])
-def test_split_in_two_phases_gives_the_one_phase_cost(name, degree):
-    whole = rest_to_rest(8, name, degree).solve(progress=False, options=TIGHT)
-    first = (
-        OCP(double_integrator(), T=0.5, N=4, transcription=name, degree=degree)
-        .initial(x=[0.0, 0.0])
-        .minimize(integral=lambda p: p.u**2)
+def implicit_double_integrator():
+    """r(x, xdot, u) = xdot - (x1, u): the double integrator as an implicit residual."""
+    x, xdot, u = ca.SX.sym("x", 2), ca.SX.sym("xdot", 2), ca.SX.sym("u")
+    return ca.Function("r", [x, xdot, u], [xdot - ca.vertcat(x[1], u)])
+
+
+def limited(N, name, degree, formulation, T=1.0):
+    """Rest to rest in T = 1 with the speed capped at 1.4 (unconstrained, its peak 1.5 lies
+    at t = 1/2, where the split below cuts) and the control above -5.5 (unconstrained, -6 at
+    the end): a state-only and a control path constraint, both active."""
+    dynamics = double_integrator() if formulation == "explicit" else implicit_double_integrator()
+    return (
+        OCP(dynamics, T=T, N=N, transcription=name, degree=degree, formulation=formulation)
+        .constrain("speed", lambda p: p.x_1, upper=1.4)
+        .constrain("push", lambda p: p.u_0, lower=-5.5)
+        .minimize(integral=lambda p: p.u_0**2)
     )
-    second = (
-        OCP(double_integrator(), T=0.5, N=4, transcription=name, degree=degree)
-        .final(x=[1.0, 0.0])
-        .minimize(integral=lambda p: p.u**2)
+
+
+@pytest.mark.parametrize("formulation", ["explicit", "implicit"])
+@pytest.mark.parametrize(("name", "degree"), [(s[0], s[1]) for s in SCHEMES], ids=IDS)
+def test_split_in_two_phases_is_the_one_phase_nlp(name, degree, formulation):
+    whole = (
+        limited(8, name, degree, formulation)
+        .initial(x_0=0.0, x_1=0.0)
+        .final(x_0=1.0, x_1=0.0)
+        .solve(progress=False, options=TIGHT)
     )
-    split = Phases.sequence(("first", first), ("second", second)).solve(
+    first = limited(4, name, degree, formulation, T=0.5).initial(x_0=0.0, x_1=0.0)
+    second = limited(4, name, degree, formulation, T=0.5).final(x_0=1.0, x_1=0.0)
+    split = (
+        Phases.sequence(("first", first))
+        .then("second", second, controls="continuous")
+        .solve(progress=False, options=TIGHT)
+    )
+    # The node at the cut is one variable of both phases, and with continuous controls so is
+    # the dynamics point there (trapezoid, Hermite-Simpson); the rows the first phase holds
+    # there are not repeated: the NLP of the uncut problem.
+    assert split.transcription.n_w == whole.transcription.n_w
+    assert split.transcription.n_g == whole.transcription.n_g
+    assert split.cost == pytest.approx(whole.cost, rel=1e-8)
+    assert whole.cost > 12.0 + 1e-3  # the caps are active (12 without them)
+    np.testing.assert_allclose(split.states[:5], whole.states[:5], atol=1e-8)
+    np.testing.assert_allclose(split.phase("second").states, whole.states[4:], atol=1e-8)
+    # Controls that may jump at the cut: a point more on schemes with controls at the nodes
+    # (its controls and auxiliary variables, its residual and path rows); collocation
+    # controls are per interval anyway.
+    free = Phases.sequence(("first", first), ("second", second)).solve(
         progress=False, options=TIGHT
     )
-    assert split.cost == pytest.approx(whole.cost, rel=1e-8) and whole.cost == pytest.approx(12)
-    # The junction node is held twice (each phase owns its ends), joined by nx rows; a
-    # scheme with controls at the nodes also holds the control there twice.
-    nx, nu = 2, 1
-    node_controls = nu if name == "hermite-simpson" else 0
-    assert split.transcription.n_w == whole.transcription.n_w + nx + node_controls
-    assert split.transcription.n_g == whole.transcription.n_g + nx
-    np.testing.assert_allclose(split.phase("second").states[-1], [1.0, 0.0], atol=1e-10)
+    node_point = name in ("trapezoid", "hermite-simpson")
+    nz = 2 if formulation == "implicit" else 0
+    assert free.transcription.n_w == whole.transcription.n_w + node_point * (1 + nz)
+    assert free.transcription.n_g == whole.transcription.n_g + node_point * (nz + 2)
+    assert free.cost <= whole.cost * (1 + 1e-9)
+
+
+def test_continuous_controls_need_a_continuity_join_and_the_same_controls():
+    first = rest_to_rest(4)
+    with pytest.raises(DefinitionError, match="continuous controls need a continuity join"):
+        Phases.sequence(("a", first)).then("b", first, mapping=lambda x: x, controls="continuous")
+    other = OCP(integrator(), T=1.0, N=4)
+    with pytest.raises(DefinitionError, match="unknown 'smooth'"):
+        Phases.sequence(("a", first)).then("b", first, controls="smooth")
+    with pytest.raises(DefinitionError, match="continuity needs the same states"):
+        Phases.sequence(("a", first)).then("b", other, controls="continuous")
+    with pytest.raises(DefinitionError, match="periodic on its own"):
+        Phases.sequence(("a", first.periodic()))
 
 
 def test_one_phase_is_the_ocp_itself():
@@ -271,6 +341,84 @@ def test_parameter_reaches_its_closed_form_optimum(name, degree):
     assert terms["effort"] == pytest.approx(12 * best**2, rel=1e-9)
     assert terms["price"] == pytest.approx(WEIGHT * (best - TARGET) ** 2, rel=1e-9)
     assert terms["effort"] + terms["price"] == pytest.approx(solution.cost, rel=1e-12)
+
+
+# A parameter of the dynamics: x' = -a x + u, x(0) = 1, T = 1, cost integral x^2 + u^2 plus
+# a price W (a - A0)^2 on the damping a. For each a the LQ optimum is P(0; a) x(0)^2 with the
+# Riccati equation P' = 2 a P + P^2 - 1, P(T) = 0 (integrated backwards with scipy); a scalar
+# search over a outside the planner gives the design optimum.
+DAMPING_PRICE, DAMPING_TARGET = 0.2, 0.5
+
+
+def damped():
+    x, u, a = ca.SX.sym("x"), ca.SX.sym("u"), ca.SX.sym("a")
+    return ca.Function("f", [x, u, a], [-a * x + u], ["x", "u", "a"], ["xdot"])
+
+
+@functools.cache
+def damping_reference() -> tuple[float, float]:
+    """(a*, optimal cost) by a bounded scalar search over the Riccati cost."""
+    from scipy.optimize import minimize_scalar
+
+    def lq_cost(a: float) -> float:
+        run = solve_ivp(
+            lambda _, P: 2 * a * P + P * P - 1.0, [1.0, 0.0], [0.0], rtol=1e-13, atol=1e-14
+        )
+        return float(run.y[0, -1])
+
+    def total(a: float) -> float:
+        return lq_cost(a) + DAMPING_PRICE * (a - DAMPING_TARGET) ** 2
+
+    best = minimize_scalar(total, bounds=(0.0, 3.0), method="bounded", options={"xatol": 1e-11})
+    return float(best.x), float(best.fun)
+
+
+def damping_design(N: int, name: str = "legendre", degree: int | None = 3) -> OCP:
+    return (
+        OCP(damped(), T=1.0, N=N, transcription=name, degree=degree, dynamics_params=("a",))
+        .param("a", lower=0.0, upper=3.0, guess=1.0)
+        .initial(x_0=1.0)
+        .minimize(integral=lambda p: p.x_0**2 + p.u_0**2, name="lq")
+        .minimize(terminal=lambda p: DAMPING_PRICE * (p.a - DAMPING_TARGET) ** 2, name="price")
+    )
+
+
+def test_a_parameter_of_the_dynamics_reaches_the_scalar_search_optimum():
+    best, cost = damping_reference()
+    assert 0.5 < best < 2.9  # interior: both the dynamics and the price pull on it
+    solution = damping_design(12).solve(progress=False, options=TIGHT)
+    assert solution.params["a"] == pytest.approx(best, rel=1e-7)
+    assert solution.cost == pytest.approx(cost, rel=1e-9)
+    # The Solution integrates the dynamics at the designed a: its re-integration agrees.
+    assert solution.integration_error().max < 1e-8
+    # Derivatives of the NLP with the parameter in the dynamics, against central differences.
+    transcription = Transcription(damping_design(3, "hermite-simpson", None))
+    nlp = transcription.parametric_nlp
+    jacobian = ca.Function("j", [nlp["x"], nlp["p"]], [ca.jacobian(nlp["g"], nlp["x"])])
+    rows = ca.Function("g", [nlp["x"], nlp["p"]], [nlp["g"]])
+    point = transcription.initial_guess() + np.random.default_rng(5).normal(
+        0.0, 0.3, transcription.n_w
+    )
+    parameters = transcription.parameter_values()
+    a_column = transcription.w_names.index("bound[a]")
+    step = np.zeros(transcription.n_w)
+    step[a_column] = 1e-6
+    central = (rows(point + step, parameters) - rows(point - step, parameters)) / 2e-6
+    exact = jacobian(point, parameters)[:, a_column]
+    np.testing.assert_allclose(np.asarray(central), np.asarray(exact), atol=1e-7)
+    assert np.count_nonzero(np.asarray(exact)) >= 6  # a enters every defect (the guard)
+
+
+def test_a_dynamics_parameter_must_be_declared_and_belongs_to_a_function():
+    undeclared = OCP(damped(), T=1.0, N=4, dynamics_params=("a",)).minimize(
+        integral=lambda p: p.u_0**2
+    )
+    with pytest.raises(DefinitionError, match=r"reads the static parameter 'a'.*\.param\('a'"):
+        undeclared.solve(progress=False)
+    with pytest.raises(DefinitionError, match=r"must be f\(x, u\[, t\], a, b\)"):
+        OCP(damped(), T=1.0, N=4, dynamics_params=("a", "b"))
+    with pytest.raises(DefinitionTypeError, match=r"`dynamics_params`: give a sequence"):
+        OCP(damped(), T=1.0, N=4, dynamics_params="a")
 
 
 def test_named_terms_add_and_a_name_replaces():

@@ -421,7 +421,7 @@ def test_free_time_warm_start_takes_the_solution_duration():
     x0 = transcription.initial_guess()
     values = transcription.unpack(x0)
     assert values["T"] == pytest.approx(coarse.T, rel=1e-15)
-    assert x0[-1] * transcription.T_scale == pytest.approx(coarse.T, rel=1e-15)
+    assert x0[-1] * transcription.phases[0].T_scale == pytest.approx(coarse.T, rel=1e-15)
     s = transcription.mesh.s_state
     np.testing.assert_allclose(values["X"], coarse.state(s * coarse.T), atol=1e-12)
     warm = fine.solve(progress=False, options={"tol": 1e-10})

@@ -280,7 +280,7 @@ def test_state_only_path_constraints_hold_at_every_node(name, degree):
 def test_path_constraints_with_controls_stay_at_the_dynamics_points(name, degree):
     # a control is no variable at the Radau start or the Legendre nodes: no row there
     transcription = Transcription(floor_problem(name, degree, lambda p: p.q - 1e-3 * p.a**2))
-    assert not transcription.state_paths
+    assert not transcription.phases[0].state_paths
     rows = [n for n in transcription.g_names if n.startswith("path[floor]")]
     assert len(rows) == transcription.mesh.n_dyn_points
     assert "path[floor] node 0" not in rows
@@ -288,7 +288,7 @@ def test_path_constraints_with_controls_stay_at_the_dynamics_points(name, degree
     q, t = ca.SX.sym("q"), ca.SX.sym("t")
     function = ca.Function("g", [q, t], [q + 0.1 * ca.sin(t)], ["q", "t"], ["g"])
     transcription = Transcription(floor_problem(name, degree, function))
-    assert [c.name for c in transcription.state_paths] == ["floor"]
+    assert [c.name for c in transcription.phases[0].state_paths] == ["floor"]
     mesh = transcription.mesh
     free = mesh.free_state_cols
     assert free.tolist() == ([0] if name == "radau" else mesh.node_state_cols.tolist())
@@ -406,8 +406,13 @@ def test_nlp_jacobian_and_hessian_match_central_differences(scheme, degree, form
     assert jacobian_checked >= 2 * 2 * m, (jacobian_checked, m)
     s = transcription.system
     mesh = transcription.mesh
-    X = np.arange(transcription._slices["X"].start, transcription._slices["X"].stop)
-    U = np.arange(transcription._slices["U"].start, transcription._slices["U"].stop)
+    # one phase: its layout is the NLP's
+    X = np.arange(
+        transcription.phases[0].slice_of("X").start, transcription.phases[0].slice_of("X").stop
+    )
+    U = np.arange(
+        transcription.phases[0].slice_of("U").start, transcription.phases[0].slice_of("U").stop
+    )
     psi_at_points = X.reshape(mesh.n_state_points, s.nx)[mesh.dyn_state_cols, : s.nx // 2]
     assert hessian_rows_seen[psi_at_points].all()
     assert hessian_rows_seen[U].all()
