@@ -260,7 +260,7 @@ class Gait:
         metadata = {
             **parts[0][0].metadata,
             "gait": {
-                **self.problem.settings(),
+                **self.problem.settings(times=joined["time"]),
                 "cost": self.cost,
                 "law_cost": self.law_cost,
                 "before_events": before,
