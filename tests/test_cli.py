@@ -885,10 +885,47 @@ def test_walk_quick_writes_the_torques_the_solution_and_the_pictures(walk_run):
     assert profile.time[-1] == pytest.approx(0.5)
     solution = Trajectory.load(folder / "solution.npz")
     assert solution.n_samples == 13  # the 12 intervals' nodes
+    # The GIF shows two steps: frames for 2 x 0.5 s at 15 frames per second, three footholds
+    # 0.5 m apart, and the body advanced by two step lengths from the first frame to the last.
+    count, (first, last) = gif_end_frames(folder / "walk.gif")
+    assert count - 1 >= 2 * 0.5 * 15
+    footholds, advance = footholds_and_advance(first, last)
+    assert len(footholds) == 3, footholds
+    step_pixels = np.diff(footholds)
+    assert np.ptp(step_pixels) <= 2, footholds  # evenly spaced
+    assert advance / step_pixels.mean() == pytest.approx(2.0, abs=0.05)
+
+
+def gif_end_frames(path):
+    """The frame count and the first and last frames (RGB, int arrays) of a GIF."""
     from PIL import Image
 
-    with Image.open(folder / "walk.gif") as gif:
-        assert gif.n_frames >= 10  # two steps of 0.5 s at 15 frames per second
+    with Image.open(path) as gif:
+        ends = []
+        for k in (0, gif.n_frames - 1):
+            gif.seek(k)
+            ends.append(np.asarray(gif.convert("RGB"), dtype=int))
+        return gif.n_frames, ends
+
+
+def footholds_and_advance(first, last):
+    """Read a walk's picture back: the pixel columns of the black foothold markers on the
+    grey ground line (between the axes' black frame lines), and how far (pixels) the
+    coloured bodies moved from the first frame to the last (centroid of the pixels coloured in
+    one frame only: the legend and the markers cancel)."""
+    grey = np.abs(first - 128).max(axis=2) < 20
+    ground = int(np.argmax(grey.sum(axis=1)))
+    black = (first.max(axis=2) < 60) | (last.max(axis=2) < 60)  # bodies hide some markers
+    frame_lines = np.flatnonzero(black.sum(axis=0) > 100)
+    inside = np.zeros(black.shape[1], dtype=bool)
+    inside[frame_lines.min() + 1 : frame_lines.max()] = True
+    columns = np.flatnonzero(black[ground - 10 : ground + 3].any(axis=0) & inside)
+    runs = np.split(columns, np.flatnonzero(np.diff(columns) > 1) + 1)
+    footholds = [float(run.mean()) for run in runs if run.size]
+    coloured_first, coloured_last = np.ptp(first, axis=2) > 60, np.ptp(last, axis=2) > 60
+    before = np.nonzero(coloured_first & ~coloured_last)[1].mean()
+    after = np.nonzero(coloured_last & ~coloured_first)[1].mean()
+    return footholds, float(after - before)
 
 
 def test_walk_refuses_a_tree_that_is_not_a_biped(capsys):
