@@ -263,7 +263,7 @@ def test_round_trip_torques_then_simulate_reproduces_the_law(capsys, tmp_path, p
         "csv,json",
     )
     assert code == 0, err
-    assert "simulate with cvodes" in err
+    assert "simulating with cvodes" in err
     motion = Trajectory.load(tmp_path / "simulated.csv")
     law = GaitLaw.preset("paper22")
     assert motion.time[-1] == pytest.approx(0.2)
@@ -288,6 +288,47 @@ def test_round_trip_torques_then_simulate_reproduces_the_law(capsys, tmp_path, p
     assert code == 0 and err == ""
     again = Trajectory.load(tmp_path / "json" / "simulated.csv")
     assert np.max(np.abs(again.psi - law.psi(again.time))) < 1e-6
+
+
+def test_simulate_says_it_still_runs_between_progress_reports(monkeypatch, tmp_path, profile_files):
+    # A long integration block is silent: the command's heartbeat fills the silence. The
+    # integration here waits until the heartbeat has spoken (an event, not a clock), then runs.
+    import functools
+    import io
+    import time
+
+    from problems import cli
+
+    stream = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", stream)
+    monkeypatch.setattr(sys, "stdout", io.StringIO())
+    monkeypatch.setattr(cli, "Reporter", functools.partial(cli.Reporter, heartbeat_s=0.05))
+    real = cli.simulate
+    fractions = []
+
+    def slow_simulate(*args, progress, **options):
+        deadline = time.monotonic() + 60.0  # a bound against hanging, not a timing assertion
+        while "still simulating" not in stream.getvalue() and time.monotonic() < deadline:
+            time.sleep(0.01)
+
+        def recorded(fraction, message):
+            fractions.append(fraction)
+            progress(fraction, message)
+
+        return real(*args, progress=recorded, **options)
+
+    monkeypatch.setattr(cli, "simulate", slow_simulate)
+    code = main(["simulate", str(profile_files / "torques.csv"), "--method", "rk", "--steps",
+                 "400", "--no-plots", "--output-dir", str(tmp_path)])  # fmt: skip
+    lines = stream.getvalue().splitlines()
+    assert code == 0, lines
+    assert lines[0].endswith("] simulating with rk over [0, 0.3] s")
+    assert re.search(r"\] still simulating with rk over \[0, 0.3\] s: [0-9.]+ s so far$", lines[1])
+    assert "simulate: t = 0.300 s of 0.3 s (100%)" in stream.getvalue()
+    # 400 steps per interval: blocks of 4 intervals, so the fractions come often (about
+    # 0.3 s / 10 ms = 30 intervals plus the output times: several blocks, not one).
+    assert len(fractions) >= 5 and fractions[-1] == 1.0
+    assert np.all(np.diff(fractions) > 0)
 
 
 # ---- bad input ------------------------------------------------------------------------------
@@ -533,7 +574,10 @@ def test_simulate_integration_failure_is_one_line(capfd, tmp_path):
     captured = capfd.readouterr()
     lines = captured.err.strip().splitlines()
     assert code == 1, captured.err
-    assert len(lines) <= 3, captured.err[:2000]
+    # Progress lines ("[  1.02 s] still simulating ...": the heartbeat while cvodes works)
+    # and the error line; none of SUNDIALS' or CasADi's.
+    others = [line for line in lines if not re.match(r"\[ *[0-9.]+ s\] ", line)]
+    assert len(others) == 1, captured.err[:2000]
     assert "Traceback" not in captured.err and "Input 0" not in captured.err
     assert re.fullmatch(
         rf"{PROG} simulate: error: integrator 'cvodes' failed between t = 0 s and t = 0.01 s: "
