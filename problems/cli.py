@@ -41,7 +41,7 @@ from model import equations
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.presets import PRESETS, six_link_anthropoid
 from planner.files import atomic_path
-from planner.schemes import REGISTRY, TRANSCRIPTIONS, WITH_DEGREE
+from planner.schemes import TRANSCRIPTIONS, WITH_DEGREE
 from planner.simulation import tolerance_problem
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory, TrajectoryFileError
@@ -64,8 +64,7 @@ PROG = "anthropoid-planner"
 FORMATS = tuple(suffix.lstrip(".") for suffix in TRAJECTORY_FORMATS)
 LAWS = tuple(LAW_PRESETS)
 #: What --degree takes, from the registry of transcriptions: "radau 1..9, legendre 1..9".
-_DEGREES = ", ".join(f"{name} {REGISTRY[name].degree_range}" for name in WITH_DEGREE)
-_DEFAULT_DEGREES = ", ".join(f"{name} {REGISTRY[name].default_degree}" for name in WITH_DEGREE)
+_DEGREES, _DEFAULT_DEGREES = study_cli.DEGREES, study_cli.DEFAULT_DEGREES
 #: Highest --rate-hz, Hz, and most samples a command makes even with --force (memory).
 MAX_RATE_HZ = 1e6
 MAX_SAMPLES = 2_000_000
