@@ -41,7 +41,7 @@ from model import equations
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.presets import PRESETS, six_link_anthropoid
 from planner.files import atomic_path
-from planner.schemes import REGISTRY, TRANSCRIPTIONS, WITH_DEGREE
+from planner.schemes import TRANSCRIPTIONS, WITH_DEGREE
 from planner.simulation import tolerance_problem
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory, TrajectoryFileError
@@ -64,8 +64,7 @@ PROG = "anthropoid-planner"
 FORMATS = tuple(suffix.lstrip(".") for suffix in TRAJECTORY_FORMATS)
 LAWS = tuple(LAW_PRESETS)
 #: What --degree takes, from the registry of transcriptions: "radau 1..9, legendre 1..9".
-_DEGREES = ", ".join(f"{name} {REGISTRY[name].degree_range}" for name in WITH_DEGREE)
-_DEFAULT_DEGREES = ", ".join(f"{name} {REGISTRY[name].default_degree}" for name in WITH_DEGREE)
+_DEGREES, _DEFAULT_DEGREES = study_cli.DEGREES, study_cli.DEFAULT_DEGREES
 #: Highest --rate-hz, Hz, and most samples a command makes even with --force (memory).
 MAX_RATE_HZ = 1e6
 MAX_SAMPLES = 2_000_000
@@ -98,9 +97,10 @@ class Reporter:
     """Progress on stderr: lines tagged with the elapsed time, throttled, switchable.
 
     ``step`` announces a stage; ``progress`` reports a fraction (throttled to one line per
-    0.5 s); ``working`` wraps a stage that reports nothing itself (an animation, a plot):
-    it announces it, adds a "still ..." line every ``heartbeat_s`` seconds while it runs and
-    a closing line with its duration when it took a second or more.
+    0.5 s); ``working`` wraps a stage that reports little or nothing itself (an animation, a
+    plot, a long integration between its progress reports): it announces it, adds a
+    "still ..." line after every ``heartbeat_s`` seconds without any other line while it runs,
+    and a closing line with its duration when it took a second or more.
     """
 
     def __init__(
@@ -113,12 +113,14 @@ class Reporter:
         self._start = time.perf_counter()
         self._last = -math.inf
         self._lock = threading.Lock()
+        self._lines = 0  # progress lines written, so that a heartbeat speaks only in silence
 
     def step(self, message: str) -> None:
         if self._enabled:
             with self._lock:
                 print(f"[{time.perf_counter() - self._start:6.2f} s] {message}", file=self._stream)
                 self._stream.flush()
+                self._lines += 1
 
     def warn(self, message: str) -> None:
         """One line "<prog> <command>: warning: ..." on the stream, even with --quiet."""
@@ -144,9 +146,12 @@ class Reporter:
         beats = []
 
         def beat() -> None:
+            lines = self._lines
             while not done.wait(self._heartbeat_s):
-                beats.append(None)
-                self.step(f"still {message}: {time.perf_counter() - begin:.1f} s so far")
+                if self._lines == lines:  # nothing said for heartbeat_s: say it still runs
+                    beats.append(None)
+                    self.step(f"still {message}: {time.perf_counter() - begin:.1f} s so far")
+                lines = self._lines
 
         thread = threading.Thread(target=beat, name="progress-heartbeat", daemon=True)
         thread.start()
@@ -918,21 +923,23 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
     folder = _output_folder(args.output_dir)
     dynamics = linkage.dynamics()
     x0 = np.concatenate([np.asarray(profile.psi)[0], np.asarray(profile.dpsi)[0]])
-    report.step(f"simulate with {args.method} over [{t0:g}, {t_end:g}] s")
     try:
-        result = simulate(
-            dynamics,
-            profile,
-            x0,
-            (t0, t_end),
-            rate_hz=args.rate_hz,
-            method=args.method,
-            rtol=args.rtol,
-            atol=args.atol,
-            steps=args.steps,
-            interpolation=args.interpolation,
-            progress=report.progress,
-        )
+        # Progress comes after each block of intervals; a heartbeat fills the silence when a
+        # block takes long (many --steps, a stiff stretch for cvodes).
+        with report.working(f"simulating with {args.method} over [{t0:g}, {t_end:g}] s"):
+            result = simulate(
+                dynamics,
+                profile,
+                x0,
+                (t0, t_end),
+                rate_hz=args.rate_hz,
+                method=args.method,
+                rtol=args.rtol,
+                atol=args.atol,
+                steps=args.steps,
+                interpolation=args.interpolation,
+                progress=report.progress,
+            )
     except (DefinitionError, DefinitionTypeError) as exc:
         raise UsageError(_in_option_words(str(exc), _SIMULATE_OPTIONS)) from exc
     except SimulationError as exc:

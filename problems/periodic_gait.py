@@ -96,8 +96,10 @@ class PeriodicGaitProblem:
         law = objective_at_guess(transcription)
         return PeriodicGait(self, solve(transcription, **options), law)
 
-    def settings(self) -> dict[str, Any]:
-        """The problem's parameters as plain data (exported with the gait's files)."""
+    def settings(self, times=None) -> dict[str, Any]:
+        """The problem's parameters as plain data (exported with the gait's files).
+        ``times`` (the exported samples, s) is not needed here: the foot's minimum height is
+        one number."""
         return {
             "problem": "periodic_gait",
             "period": self.law.period,

@@ -29,7 +29,9 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from model.errors import DefinitionError
 from model.presets import PRESETS
+from planner.schemes import REGISTRY, TRANSCRIPTIONS, WITH_DEGREE, check_degree
 from problems.study import Study
 from problems.study_backends import available_cores
 from problems.study_result import StudyProgress, StudyResult
@@ -39,6 +41,9 @@ DEFAULT_FOLDER = "study_out"
 #: IPOPT iterations per attempt: a converging point takes 10-60 here; a failing one is
 #: stopped early (it is tried up to three times).
 DEFAULT_MAX_ITER = 500
+#: What --degree takes, from the planner's registry of transcriptions: "radau 1..9, ...".
+DEGREES = ", ".join(f"{name} {REGISTRY[name].degree_range}" for name in WITH_DEGREE)
+DEFAULT_DEGREES = ", ".join(f"{name} {REGISTRY[name].default_degree}" for name in WITH_DEGREE)
 
 
 def value_list(unit: str, upper: float = math.inf, zero: bool = False):
@@ -162,9 +167,11 @@ def add_parser(commands, common: argparse.ArgumentParser) -> None:
     study.add_argument(
         "--transcription",
         default="hermite-simpson",
-        choices=("trapezoid", "hermite-simpson", "radau", "legendre"),
+        choices=TRANSCRIPTIONS,
         help="collocation scheme (default: hermite-simpson)",
     )
+    study.add_argument("--degree", type=_count, default=None, metavar="D",
+                       help=f"degree of {DEGREES} (default: {DEFAULT_DEGREES})")  # fmt: skip
     study.add_argument(
         "-N",
         "--intervals",
@@ -243,9 +250,23 @@ def _axes_and_fixed(args) -> tuple[dict[str, tuple], dict[str, Any]]:
         transcription=args.transcription,
         objective=args.objective,
     )
+    if args.degree is not None:  # absent otherwise: studies defined before --degree resume
+        fixed["degree"] = _checked_degree(args.transcription, args.degree)
     if args.passive_ankle:
         fixed["passive"] = (PRESETS[args.preset]().names[0],)
     return axes, fixed
+
+
+def _checked_degree(transcription: str, degree: int) -> int:
+    """--degree checked against the registry before any point is defined (a refused degree
+    would otherwise fail every point of the study, one by one)."""
+    if transcription not in WITH_DEGREE:
+        joined = " or ".join(WITH_DEGREE)
+        raise DefinitionError(f"--degree: applies to --transcription {joined} only")
+    try:
+        return check_degree(transcription, degree)
+    except DefinitionError as exc:
+        raise DefinitionError(str(exc).replace("`degree`", "--degree", 1)) from None
 
 
 def _duration(seconds: float | None) -> str:
@@ -396,7 +417,8 @@ def command(args, out: TextIO, report) -> int:
         logger.removeHandler(handler)
     bar.close()
     print(
-        f"walking study of {args.preset} ({args.transcription} N = {fixed['N']}) over {spans}",
+        f"walking study of {args.preset} ({args.transcription}"
+        f"{'' if args.degree is None else f'({args.degree})'} N = {fixed['N']}) over {spans}",
         file=out,
     )
     summary(result, out)
@@ -412,4 +434,13 @@ def command(args, out: TextIO, report) -> int:
     return 0
 
 
-__all__ = ["DEFAULT_FOLDER", "ProgressBar", "add_parser", "command", "summary", "value_list"]
+__all__ = [
+    "DEFAULT_DEGREES",
+    "DEFAULT_FOLDER",
+    "DEGREES",
+    "ProgressBar",
+    "add_parser",
+    "command",
+    "summary",
+    "value_list",
+]

@@ -20,7 +20,9 @@ walking step (``metadata["gait"]["problem"] == "walking_step"``)
   * ``impulse cone``: the impulse Lambda = m (v_com+ - v_com-) with mu Ly - |Lx| >= 0, N s;
   * ``lift off``: the old stance foot's vertical velocity after impact >= 0, m/s;
   * ``friction cone``: mu Fy - |Fx| >= 0 at every sample, F = sum m_i (a_i + j g), N;
-  * ``clearance``: swing-foot height - the clearance profile >= 0 at every sample, m;
+  * ``clearance``: swing-foot height - the clearance profile >= 0 at every sample, m (the
+    default profile from ``clearance``; a callable one travels as the sampled table
+    ``clearance_profile``, written at the exported samples by ``WalkingGait.to_trajectory``);
   * ``torque bounds``, ``knees``, ``posture`` at every sample.
 fixed-base periodic gait (``"periodic_gait"``)
   * ``periodic state``: x(0) = x(T); ``clearance`` above the law's minimum minus the margin;
@@ -320,6 +322,46 @@ def _knees(linkage: Linkage, settings, psi) -> np.ndarray:
     )
 
 
+def _clearance_profile(settings, s: np.ndarray) -> np.ndarray | float:
+    """The swing foot's minimum height (m) at fractions ``s`` of the single support: a
+    sampled profile (``settings["clearance_profile"]``, {"s": [...], "height": [...]}: the
+    values at the exported samples themselves, linear in between), else the default
+    h sin^2(pi s) with h = ``settings["clearance"]`` (0 when None: height >= 0)."""
+    table = settings.get("clearance_profile")
+    if table is None:
+        clearance = settings.get("clearance")
+        return 0.0 if clearance is None else float(clearance) * np.sin(np.pi * s) ** 2
+    field = "`settings['clearance_profile']`"
+    try:
+        grid = np.asarray(table["s"], dtype=float)
+        heights = np.asarray(table["height"], dtype=float)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise DefinitionError(
+            f"{field}: give {{'s': fractions t / T, 'height': m}} as two lists of numbers, "
+            f"got {str(table)[:80]!r}"
+        ) from exc
+    if (
+        grid.ndim != 1
+        or grid.shape != heights.shape
+        or grid.size < 1
+        or not np.all(np.isfinite(grid))
+        or not np.all(np.isfinite(heights))
+        or np.any(np.diff(grid) <= 0)
+    ):
+        raise DefinitionError(
+            f"{field}: 's' and 'height' must be finite lists of the same length with 's' "
+            f"increasing, got {grid.size} and {heights.size} entries"
+        )
+    reach = 1e-9 * max(1.0, float(np.max(np.abs(grid))))
+    if s.size and (s.min() < grid[0] - reach or s.max() > grid[-1] + reach):
+        raise DefinitionError(
+            f"{field}: it covers s in [{grid[0]:.4g}, {grid[-1]:.4g}] but the trajectory's "
+            f"samples reach [{s.min():.4g}, {s.max():.4g}]; sample the profile over the "
+            "whole single support (WalkingStep.clearance_table(times))"
+        )
+    return np.interp(s, grid, heights)
+
+
 def _verify_walking(add, kin: _Kinematics, settings, psi, dpsi, ddpsi, times, weight) -> None:
     linkage = kin.linkage
     n = linkage.n
@@ -381,10 +423,8 @@ def _verify_walking(add, kin: _Kinematics, settings, psi, dpsi, ddpsi, times, we
     force = kin.ground_reaction(psi, dpsi, ddpsi)
     add("friction cone", mu * force.imag - np.abs(force.real), "N", weight)
     height = kin.point(foot_link, foot_offset, psi)[0].imag
-    clearance = settings.get("clearance")
     s = (times - times[0]) / (times[-1] - times[0])
-    profile = 0.0 if clearance is None else float(clearance) * np.sin(np.pi * s) ** 2
-    add("clearance", height - profile, "m")
+    add("clearance", height - _clearance_profile(settings, s), "m")
 
 
 def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, hold) -> None:
@@ -476,11 +516,9 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     add("friction cone", cones, "N", weight)
     single = ~double
     height = kin.point(foot_link, foot_offset, psi[single])[0].imag
-    clearance = settings.get("clearance")
     s = times[single] / strike_time
-    profile = 0.0 if clearance is None else float(clearance) * np.sin(np.pi * s) ** 2
     margins = np.full(times.size, np.inf)
-    margins[single] = height - profile
+    margins[single] = height - _clearance_profile(settings, s)
     add("clearance", margins, "m")
 
 

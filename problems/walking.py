@@ -183,9 +183,35 @@ class WalkingStep:
         solution = solve(transcription, **options)
         return WalkingGait(self, solution, law)
 
-    def settings(self) -> dict[str, Any]:
-        """The step's parameters as plain data (exported with the gait's files)."""
+    def clearance_table(self, times=None) -> dict[str, list[float]] | None:
+        """A callable clearance profile as data, so that it travels with the gait's files:
+        ``{"s": fractions t / T of the single support, "height": the profile there, m}``,
+        sampled at the single-support samples among ``times`` (s; what
+        :meth:`Gait.to_trajectory` exports, so :func:`problems.verify_gait` checks each
+        sample against the profile's own value), or at s = 0, 0.01, ..., 1 without ``times``.
+        None for the default profile (its height ``clearance`` says it all)."""
+        if not callable(self.clearance):
+            return None
+        if times is None:
+            fractions = np.linspace(0.0, 1.0, 101)
+        else:
+            fractions = np.asarray(times, dtype=float) / self.single_support_time
+            fractions = fractions[fractions <= 1.0 + 1e-12]
+        heights = np.asarray(self.clearance(fractions), dtype=float).reshape(-1)
+        if heights.shape != fractions.shape or not np.all(np.isfinite(heights)):
+            raise DefinitionError(
+                "`clearance`: a profile must map s = t / T (K,) to finite heights (K,), m; "
+                f"at {fractions.size} fractions it gave shape {heights.shape}"
+            )
+        return {"s": fractions.tolist(), "height": heights.tolist()}
+
+    def settings(self, times=None) -> dict[str, Any]:
+        """The step's parameters as plain data (exported with the gait's files). A callable
+        clearance profile goes in as ``clearance_profile`` (:meth:`clearance_table`, sampled
+        at ``times``, s, when given) with ``clearance`` None."""
+        table = self.clearance_table(times)
         return {
+            **({} if table is None else {"clearance_profile": table}),
             "problem": "walking_step",
             "step_length": self.step_length,
             "step_time": self.step_time,

@@ -110,12 +110,19 @@ def _limits(motion: WorldMotion) -> tuple[float, float, float, float]:
 
 def world_strip(motion: WorldMotion, frames_per_step: int = 6) -> Figure:
     """Poses of several steps drawn where they happen (world x), the footholds marked."""
+    x0, x1, _, _ = _limits(motion)
+    figure = Figure(figsize=(min(4.0 + 3.0 * (x1 - x0), 16.0), 4.0), layout="constrained")
+    draw_world(figure.add_subplot(), motion, frames_per_step)
+    return figure
+
+
+def draw_world(ax, motion: WorldMotion, frames_per_step: int = 6) -> None:
+    """:func:`world_strip`'s drawing on a given matplotlib Axes ``ax`` (to combine it with
+    other panels in one figure)."""
     steps = int(motion.step.max()) + 1
     count = max(2, frames_per_step * steps)
     picks = np.unique(np.linspace(0, motion.time.size - 1, count).round().astype(int))
     x0, x1, y0, y1 = _limits(motion)
-    figure = Figure(figsize=(min(4.0 + 3.0 * (x1 - x0), 16.0), 4.0), layout="constrained")
-    ax = figure.add_subplot()
     for j, (name, segment) in enumerate(motion.segments.items()):
         for k, index in enumerate(picks):
             ax.plot(segment[index].real, segment[index].imag, color=COLOURS[j % len(COLOURS)],
@@ -127,7 +134,6 @@ def world_strip(motion: WorldMotion, frames_per_step: int = 6) -> Figure:
     ax.set_title(f"{steps} steps in world coordinates (later poses darker)")
     ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize="small", frameon=False,
               title="bodies, named\nas in step 1", title_fontsize="small")  # fmt: skip
-    return figure
 
 
 def animate_walk(
@@ -183,4 +189,4 @@ def save_figure(figure: Figure, path: str | os.PathLike, dpi: float = 100.0) -> 
     return path
 
 
-__all__ = ["animate_walk", "gait_figure", "save_figure", "world_strip"]
+__all__ = ["animate_walk", "draw_world", "gait_figure", "save_figure", "world_strip"]

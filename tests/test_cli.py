@@ -263,7 +263,7 @@ def test_round_trip_torques_then_simulate_reproduces_the_law(capsys, tmp_path, p
         "csv,json",
     )
     assert code == 0, err
-    assert "simulate with cvodes" in err
+    assert "simulating with cvodes" in err
     motion = Trajectory.load(tmp_path / "simulated.csv")
     law = GaitLaw.preset("paper22")
     assert motion.time[-1] == pytest.approx(0.2)
@@ -288,6 +288,47 @@ def test_round_trip_torques_then_simulate_reproduces_the_law(capsys, tmp_path, p
     assert code == 0 and err == ""
     again = Trajectory.load(tmp_path / "json" / "simulated.csv")
     assert np.max(np.abs(again.psi - law.psi(again.time))) < 1e-6
+
+
+def test_simulate_says_it_still_runs_between_progress_reports(monkeypatch, tmp_path, profile_files):
+    # A long integration block is silent: the command's heartbeat fills the silence. The
+    # integration here waits until the heartbeat has spoken (an event, not a clock), then runs.
+    import functools
+    import io
+    import time
+
+    from problems import cli
+
+    stream = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", stream)
+    monkeypatch.setattr(sys, "stdout", io.StringIO())
+    monkeypatch.setattr(cli, "Reporter", functools.partial(cli.Reporter, heartbeat_s=0.05))
+    real = cli.simulate
+    fractions = []
+
+    def slow_simulate(*args, progress, **options):
+        deadline = time.monotonic() + 60.0  # a bound against hanging, not a timing assertion
+        while "still simulating" not in stream.getvalue() and time.monotonic() < deadline:
+            time.sleep(0.01)
+
+        def recorded(fraction, message):
+            fractions.append(fraction)
+            progress(fraction, message)
+
+        return real(*args, progress=recorded, **options)
+
+    monkeypatch.setattr(cli, "simulate", slow_simulate)
+    code = main(["simulate", str(profile_files / "torques.csv"), "--method", "rk", "--steps",
+                 "400", "--no-plots", "--output-dir", str(tmp_path)])  # fmt: skip
+    lines = stream.getvalue().splitlines()
+    assert code == 0, lines
+    assert lines[0].endswith("] simulating with rk over [0, 0.3] s")
+    assert re.search(r"\] still simulating with rk over \[0, 0.3\] s: [0-9.]+ s so far$", lines[1])
+    assert "simulate: t = 0.300 s of 0.3 s (100%)" in stream.getvalue()
+    # 400 steps per interval: blocks of 4 intervals, so the fractions come often (about
+    # 0.3 s / 10 ms = 30 intervals plus the output times: several blocks, not one).
+    assert len(fractions) >= 5 and fractions[-1] == 1.0
+    assert np.all(np.diff(fractions) > 0)
 
 
 # ---- bad input ------------------------------------------------------------------------------
@@ -533,7 +574,10 @@ def test_simulate_integration_failure_is_one_line(capfd, tmp_path):
     captured = capfd.readouterr()
     lines = captured.err.strip().splitlines()
     assert code == 1, captured.err
-    assert len(lines) <= 3, captured.err[:2000]
+    # Progress lines ("[  1.02 s] still simulating ...": the heartbeat while cvodes works)
+    # and the error line; none of SUNDIALS' or CasADi's.
+    others = [line for line in lines if not re.match(r"\[ *[0-9.]+ s\] ", line)]
+    assert len(others) == 1, captured.err[:2000]
     assert "Traceback" not in captured.err and "Input 0" not in captured.err
     assert re.fullmatch(
         rf"{PROG} simulate: error: integrator 'cvodes' failed between t = 0 s and t = 0.01 s: "
@@ -885,10 +929,47 @@ def test_walk_quick_writes_the_torques_the_solution_and_the_pictures(walk_run):
     assert profile.time[-1] == pytest.approx(0.5)
     solution = Trajectory.load(folder / "solution.npz")
     assert solution.n_samples == 13  # the 12 intervals' nodes
+    # The GIF shows two steps: frames for 2 x 0.5 s at 15 frames per second, three footholds
+    # 0.5 m apart, and the body advanced by two step lengths from the first frame to the last.
+    count, (first, last) = gif_end_frames(folder / "walk.gif")
+    assert count - 1 >= 2 * 0.5 * 15
+    footholds, advance = footholds_and_advance(first, last)
+    assert len(footholds) == 3, footholds
+    step_pixels = np.diff(footholds)
+    assert np.ptp(step_pixels) <= 2, footholds  # evenly spaced
+    assert advance / step_pixels.mean() == pytest.approx(2.0, abs=0.05)
+
+
+def gif_end_frames(path):
+    """The frame count and the first and last frames (RGB, int arrays) of a GIF."""
     from PIL import Image
 
-    with Image.open(folder / "walk.gif") as gif:
-        assert gif.n_frames >= 10  # two steps of 0.5 s at 15 frames per second
+    with Image.open(path) as gif:
+        ends = []
+        for k in (0, gif.n_frames - 1):
+            gif.seek(k)
+            ends.append(np.asarray(gif.convert("RGB"), dtype=int))
+        return gif.n_frames, ends
+
+
+def footholds_and_advance(first, last):
+    """Read a walk's picture back: the pixel columns of the black foothold markers on the
+    grey ground line (between the axes' black frame lines), and how far (pixels) the
+    coloured bodies moved from the first frame to the last (centroid of the pixels coloured in
+    one frame only: the legend and the markers cancel)."""
+    grey = np.abs(first - 128).max(axis=2) < 20
+    ground = int(np.argmax(grey.sum(axis=1)))
+    black = (first.max(axis=2) < 60) | (last.max(axis=2) < 60)  # bodies hide some markers
+    frame_lines = np.flatnonzero(black.sum(axis=0) > 100)
+    inside = np.zeros(black.shape[1], dtype=bool)
+    inside[frame_lines.min() + 1 : frame_lines.max()] = True
+    columns = np.flatnonzero(black[ground - 10 : ground + 3].any(axis=0) & inside)
+    runs = np.split(columns, np.flatnonzero(np.diff(columns) > 1) + 1)
+    footholds = [float(run.mean()) for run in runs if run.size]
+    coloured_first, coloured_last = np.ptp(first, axis=2) > 60, np.ptp(last, axis=2) > 60
+    before = np.nonzero(coloured_first & ~coloured_last)[1].mean()
+    after = np.nonzero(coloured_last & ~coloured_first)[1].mean()
+    return footholds, float(after - before)
 
 
 def test_walk_refuses_a_tree_that_is_not_a_biped(capsys):

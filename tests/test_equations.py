@@ -655,3 +655,13 @@ def test_model_bench_quick_run_prints_the_table(capsys):
     assert all(0.0 <= float(value) < 1e-10 for pair in rows.values() for value in pair), rows
     drift = float(re.search(r"energy drift (\S+)", out).group(1))
     assert 0.0 < drift < 1e-6
+    # Issue 8's quoted reference (dense 10 x 10 KKT, measured where the issue was written)
+    # stands beside our impact-map rows, marked as quoted; ours is the library's Function.
+    quoted = next(line for line in out.splitlines() if "QUOTED" in line)
+    assert quoted.split()[6:9] == ["4.90", "-", "2144"], quoted
+    assert "not measured here" in quoted
+    impact = presets.six_link_anthropoid().dynamics().impact("swing_shank").function()
+    sparse = next(line for line in out.splitlines() if line.startswith("impact map: sparse"))
+    assert sparse.split()[-3] == str(impact.n_instructions())
+    ratio = 2144 / impact.n_instructions()
+    assert f"quoted reference / ours: {ratio:.1f}x instructions" in out

@@ -73,6 +73,27 @@ def _check_replay(out: str) -> None:
     assert 1e-16 <= e0 <= 2e-11, (horizon, rate, e0)
 
 
+def test_the_readme_planning_example_draws_a_walk(tmp_path):
+    out = _run(
+        "planning_example.py", "--output-dir", tmp_path, "--trajectory", tmp_path / "step.csv"
+    )
+    assert re.search(r"^cost [\d.]+ in \d+ iterations$", out, re.MULTILINE)
+    from PIL import Image
+
+    with Image.open(tmp_path / "planning_example.png") as image:
+        assert image.size[0] > 500 and image.size[1] > 400
+    # What the picture shows, checked with the oracle on the saved nodes: the bounds of the
+    # README's block hold and the walk stays above the ground.
+    from reference import newton_euler as ne
+
+    six = presets.six_link_anthropoid()
+    step = Trajectory.load(tmp_path / "step.csv")
+    hinges = ne.hinge_positions(six, step.psi)
+    assert np.all(hinges[:, six.index("stance_thigh") + 1].imag >= 0.8 - 1e-7)  # the hip
+    assert np.all(hinges.imag >= -1e-8)  # no hinge, foot or head below the ground
+    assert np.all(np.abs(step.torques) <= 100.0 + 1e-6)
+
+
 def test_second_problem_compares_with_the_law_of_its_file(tmp_path):
     _run("first_problem.py", "--law", "walking", "--output-dir", tmp_path)
     out = _run("second_problem.py", "--output-dir", tmp_path)

@@ -302,9 +302,11 @@ def contact_landing(linkage, point, psi, dpsi, stiffness):
     return result.y[n + 2 :, -1]
 
 
+@pytest.mark.slow
 def test_stiff_contact_converges_to_the_impact_map():
     # A walking posture at heel strike: stance leg leaning forward, swing foot coming down.
-    # Each landing takes ~0.5 s to integrate, so this limit is in the default suite.
+    # Behind the slow marker, as issue 8 asks (the stiffest landings dominate its run time);
+    # run with `python -m pytest -m slow tests/test_impact.py`.
     psi = np.array([1.35, 1.45, -1.2, -1.45, 1.6, 1.57])
     dpsi = np.array([-1.2, -1.0, 0.4, 0.2, 0.1, 0.0])
     point = LinkPoint("swing_shank")

@@ -107,6 +107,24 @@ def test_polynomial_controls_are_integrated_exactly_along_a_grid(method, restart
         assert np.all(slopes >= (4 if method == "rk" else 5) - 0.3), slopes
 
 
+@pytest.mark.parametrize(("steps", "calls"), [(4, 1), (8, 1), (400, 5), (2000, 20)])
+def test_progress_comes_as_often_when_the_steps_grow(steps, calls):
+    # A one-step chain takes 1600 finite elements per call: 20 intervals of 4 or 8 steps in one
+    # call, of 400 steps in blocks of 4, of 2000 steps one by one; the split changes nothing
+    # (rk4 is exact for the cubic control).
+    grid = np.linspace(0.0, 1.0, 21)
+    reports = []
+    run = integrator_of_u(method="rk", steps=steps).along(
+        [0.7], grid, continuous_coefficients(grid), progress=lambda f, t: reports.append((f, t))
+    )
+    expected = 0.7 + GLOBAL.integ()(grid) - GLOBAL.integ()(grid[0])
+    np.testing.assert_allclose(run.states[:, 0], expected, atol=1e-13)
+    fractions, reached = np.array(reports).T
+    assert len(reports) == calls
+    np.testing.assert_allclose(fractions, np.arange(1, calls + 1) / calls, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(reached, grid[:: 20 // calls][1:], rtol=0, atol=1e-15)
+
+
 def test_independent_intervals_restart_from_their_own_states():
     simulator = integrator_of_u(rtol=1e-12, atol=1e-12)
     starts = np.array([[0.0], [5.0], [-1.0]])

@@ -238,6 +238,7 @@ def test_mayer_term_and_periodic_map():
 def test_benchmark_quick_run():
     """The benchmark runs as a user runs it (a subprocess, --quick) and prints its tables."""
     import os
+    import re
     import subprocess
     import sys
     from pathlib import Path
@@ -267,6 +268,26 @@ def test_benchmark_quick_run():
         assert expected in result.stdout, expected
     assert "Maximum_Iterations" not in result.stdout
     assert "multipliers were not reused" not in result.stdout
+    out = result.stdout
+    # The before/after table (issue 10): its header and a Hermite-Simpson row whose ratio is
+    # the ratio of the two solve times it prints.
+    assert "\nbefore/after: before = mu_strategy monotone" in out
+    assert re.search(r"case +iters +solve ms +after/before +cost +\|d cost\|", out)
+    table = re.search(
+        r"hermite-simpson N=20 +(\d+) -> +(\d+) +(\d+) -> +(\d+) +(\d+\.\d\d)x +([\d.]+)", out
+    )
+    assert table, out
+    before_ms, after_ms, ratio = int(table[3]), int(table[4]), float(table[5])
+    assert ratio == pytest.approx(after_ms / before_ms, abs=0.01 + 1.0 / before_ms)
+    # The solve-time exponents: one per transcription, and before/after for Hermite-Simpson.
+    number = r"-?\d+\.\d\d"
+    for label in ("trapezoid", "hermite-simpson", "radau(3)", "legendre(3)", "before", "after"):
+        assert re.search(
+            rf"^  {re.escape(label)} +solve time ~ N\^{number}, time per iteration ~ N\^{number}$",
+            out,
+            re.MULTILINE,
+        ), label
+    assert "fitted over N = 20..40" in out and "hermite-simpson, fitted over N = 20..40:" in out
 
 
 # ---- warm start of the multipliers ---------------------------------------------------------

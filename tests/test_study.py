@@ -552,6 +552,41 @@ def test_command_line_study_runs_resumes_and_refuses_another(tmp_path, capsys):
     assert "start:stop:count" in capsys.readouterr().err
 
 
+def test_command_line_study_takes_every_registered_transcription_and_a_degree(tmp_path, capsys):
+    from planner.schemes import REGISTRY
+
+    parser = cli.build_parser()
+    for name in REGISTRY:  # the planner's registry, not a list of the command line's own
+        assert parser.parse_args(["study", "--transcription", name]).transcription == name
+    assert cli.main(["study", "--transcription", "simpson"]) == 2
+    assert "--transcription: invalid choice: 'simpson'" in capsys.readouterr().err
+    # --degree reaches the points: the study's point is the walking step solved one by one
+    # with that degree, and its saved solution says so.
+    folder = tmp_path / "radau2"
+    argv = ["study", "--step-length", "0.5", "--step-time", "0.5", "-N", "8", "--workers", "1",
+            "--transcription", "radau", "--degree", "2", "--no-plots",
+            "--output-dir", folder]  # fmt: skip
+    assert cli.main([str(a) for a in argv]) == 0
+    out = capsys.readouterr().out
+    assert "walking study of six-link (radau(2) N = 8)" in out
+    row = StudyResult.load(folder).rows[0]
+    alone = walking_step(N=8, transcription="radau", degree=2).solve(progress=False)
+    assert row["cost"] == pytest.approx(alone.cost, rel=1e-6)
+    default = walking_step(N=8, transcription="radau").solve(progress=False)  # degree 3
+    assert abs(row["cost"] - default.cost) > 1e-3 * default.cost
+    saved = Trajectory.load(next((folder / "solutions").glob("p*.npz")))
+    assert (saved.metadata["transcription"], saved.metadata["degree"]) == ("radau", 2)
+    # Bad degrees are refused before any point is defined, naming the option.
+    for extra, message in (
+        (["--degree", "3"], "--degree: applies to --transcription radau or legendre only"),
+        (["--transcription", "legendre", "--degree", "10"],
+         "--degree: must be in 1..9 for legendre collocation, got 10"),
+    ):  # fmt: skip
+        assert cli.main(["study", *extra, "--output-dir", str(tmp_path / "bad")]) == 2
+        assert message in capsys.readouterr().err
+        assert not (tmp_path / "bad").exists()
+
+
 @pytest.mark.parametrize(
     ("text", "values"),
     [("0.5", (0.5,)), ("0.4,0.5", (0.4, 0.5)), ("0.3:0.7:5", (0.3, 0.4, 0.5, 0.6, 0.7))],

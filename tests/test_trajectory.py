@@ -13,6 +13,7 @@ import dataclasses
 import errno
 import json
 import os
+import re
 import subprocess
 import sys
 import zipfile
@@ -857,6 +858,44 @@ def test_malformed_numbers_in_json_and_npz_are_file_errors(tmp_path):
             TrajectoryFileError, match=r"version must be an integer, got array\(\[1"
         ):
             Trajectory.load(tmp_path / "v.npz")
+
+
+def test_a_huge_version_or_format_is_quoted_short(tmp_path):
+    # A 400-digit version (newer than any), a negative one, a 5000-digit one (beyond Python's
+    # int-to-str limit: json itself refuses it) and a 10,000-character format name: each
+    # message names the field and stays one short line, never all the digits.
+    def message(path):
+        with pytest.raises(TrajectoryFileError) as caught:
+            Trajectory.load(path)
+        text = str(caught.value)
+        assert len(text) < 300 and "0" * 40 not in text and "x" * 50 not in text, text
+        return text
+
+    path = linkage_trajectory().save(tmp_path / "x.json")
+    document = json.loads(path.read_text())
+    cases = [
+        (
+            "version",
+            10**400,
+            r"format version an integer of 401 digits \(100000000000\.\.\.\) is newer",
+        ),
+        ("version", -(10**400), r"unknown format version an integer of 401 digits \(-10000000000"),
+        ("format", "x" * 10_000, r"format is 'xxxxxxxx.*\.\.\. \(10002 characters\), expected"),
+    ]
+    for key, value, expected in cases:
+        path.write_text(json.dumps({**document, key: value}))
+        assert re.search(rf"x\.json: top level: {expected}", message(path)), key
+    # Beyond 4300 digits json.loads raises ValueError: a file error here, quoted short.
+    path.write_text(path.read_text().replace('"version": 1', '"version": ' + "9" * 5000, 1))
+    assert "not a readable JSON trajectory (Exceeds the limit" in message(path)
+    # The same in a CSV's `# version:` comment.
+    csv_path = linkage_trajectory().save(tmp_path / "x.csv")
+    text = csv_path.read_text()
+    assert "# version: 1\n" in text
+    csv_path.write_text(text.replace("# version: 1\n", f"# version: {10**400}\n", 1))
+    assert re.search(r"format version an integer of 401 digits \(1000", message(csv_path))
+    csv_path.write_text(text.replace("# version: 1\n", f"# version: {'7' * 5000}\n", 1))
+    assert re.search(r"line \d+: the `# version:` comment cannot be read", message(csv_path))
 
 
 def test_saved_file_gets_ordinary_permissions(tmp_path):

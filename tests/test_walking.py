@@ -5,8 +5,9 @@ through ``reference.newton_euler`` and ``reference.gait_oracle`` (a dense KKT im
 leg swap written from the link names), never through the planner's constraint functions:
 periodicity under impact and relabelling, the landing foot at rest, lift-off, the impulse and
 the stance reaction in the friction cone, clearance, knee and posture limits, torque bounds,
-and the exported torques against the oracle's inverse dynamics. Both the six-link preset and
-the five-link biped without a head; mesh refinement; the law's cost as the benchmark.
+and the exported torques against the oracle's inverse dynamics. The six-link preset, the
+five-link biped without a head, two legs with no upper body and a branched upper body (torso,
+head, two arms; these two at N = 12); mesh refinement; the law's cost as the benchmark.
 """
 
 from __future__ import annotations
@@ -31,12 +32,27 @@ from problems import (
 
 SIX = presets.six_link_anthropoid()
 FIVE = presets.five_link_biped()
+#: Two two-link legs meeting at the hip, nothing above it.
+LEGS = SIX.drop("torso")
+#: A branched upper body: the torso carries a head and two arms at the shoulder.
+BRANCHED = Linkage(
+    [
+        *SIX.links,
+        Link("left_arm", "torso", 0.6, 3.5, 0.45),
+        Link("right_arm", "torso", 0.6, 3.5, 0.45),
+    ]
+)
+LINKAGES = {"six": SIX, "five": FIVE, "legs": LEGS, "branched": BRANCHED}
+#: The other upper bodies on a small mesh: the checks are the same, the solves cost less.
+SMALL_N = {"legs": 12, "branched": 12}
+BIPEDS = list(LINKAGES)
 
 
 @functools.cache
 def gait(linkage_name: str = "six", **options) -> WalkingGait:
-    linkage = {"six": SIX, "five": FIVE}[linkage_name]
-    return walking_step(linkage, **options).solve(progress=False)
+    if linkage_name in SMALL_N:
+        options = {"N": SMALL_N[linkage_name], **options}
+    return walking_step(LINKAGES[linkage_name], **options).solve(progress=False)
 
 
 def node_data(result: WalkingGait):
@@ -44,7 +60,7 @@ def node_data(result: WalkingGait):
     return trajectory, trajectory.psi, trajectory.dpsi, trajectory.ddpsi, trajectory.torques
 
 
-@pytest.mark.parametrize("name", ["six", "five"])
+@pytest.mark.parametrize("name", BIPEDS)
 def test_the_gait_is_periodic_through_impact_and_leg_swap(name):
     result = gait(name)
     linkage = result.problem.linkage
@@ -72,7 +88,7 @@ def test_the_gait_is_periodic_through_impact_and_leg_swap(name):
     assert abs(after + base) < 1e-10
 
 
-@pytest.mark.parametrize("name", ["six", "five"])
+@pytest.mark.parametrize("name", BIPEDS)
 def test_path_constraints_hold_node_by_node(name):
     result = gait(name)
     problem = result.problem
@@ -96,11 +112,12 @@ def test_path_constraints_hold_node_by_node(name):
     assert np.all(knees >= problem.knee_range[0] - 1e-7)
     assert np.all(knees <= problem.knee_range[1] + 1e-7)
     upright = [names.index(n) for n in problem.upright]
+    assert len(upright) == linkage.n - 4  # default: every upper-body link (none for "legs")
     assert np.all(np.abs(psi[:, upright] - math.pi / 2) <= problem.posture + 1e-7)
     assert np.all(np.abs(torques) <= 150.0 + 1e-6)
 
 
-@pytest.mark.parametrize("name", ["six", "five"])
+@pytest.mark.parametrize("name", BIPEDS)
 def test_exported_torques_are_the_oracle_inverse_dynamics(name):
     result = gait(name)
     linkage = result.problem.linkage
@@ -248,6 +265,82 @@ def test_verify_gait_finds_what_is_wrong_node_by_node():
         path.unlink()
 
 
+def raised_profile(s):
+    """A clearance profile other than the default (numpy or SX): 7 cm at mid-swing, flat at
+    both ends, m."""
+    return 1.12 * s**2 * (1.0 - s) ** 2
+
+
+def with_settings(trajectory, **gait):
+    metadata = {**trajectory.metadata, "gait": {**trajectory.metadata["gait"], **gait}}
+    return Trajectory.from_linkage(
+        trajectory.time, trajectory.psi, trajectory.dpsi, trajectory.torques,
+        trajectory.link_names, ddpsi=trajectory.ddpsi, metadata=metadata,
+    )  # fmt: skip
+
+
+def test_a_callable_clearance_profile_travels_with_the_gait_and_is_verified(tmp_path):
+    result = walking_step(N=16, clearance=raised_profile).solve(progress=False)
+    trajectory = result.to_trajectory()
+    s = trajectory.time / trajectory.time[-1]
+    # The oracle: the swing foot above the profile at every node (the planner's rows).
+    height = go.swing_foot(SIX, trajectory.psi).imag
+    margin = height - raised_profile(s)
+    assert np.all(margin >= -1e-8), margin
+    # The profile travels as data at the exported samples, written from the callable.
+    table = trajectory.metadata["gait"]["clearance_profile"]
+    np.testing.assert_allclose(table["s"], s, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(table["height"], raised_profile(s), rtol=0, atol=1e-15)
+    report = verify_gait(trajectory, SIX)
+    assert report.ok, str(report)
+    assert report["clearance"].margin == pytest.approx(margin.min(), abs=1e-12)
+    # A profile the gait misses at one node: reported there, by the amount it misses.
+    node = 5
+    bumped = raised_profile(s)
+    bumped[node] = height[node] + 0.01
+    report = verify_gait(with_settings(trajectory, clearance_profile={"s": s.tolist(),
+                                                                     "height": bumped.tolist()}),
+                         SIX)  # fmt: skip
+    assert [c.name for c in report.failures] == ["clearance"]
+    assert report["clearance"].where == f"sample {node} (t = {trajectory.time[node]:.4g} s)"
+    assert report["clearance"].margin == pytest.approx(-0.01, abs=1e-12)
+    with pytest.raises(
+        GaitVerificationError, match=rf"clearance misses by 0.01 m at sample {node}"
+    ):
+        report.raise_if_failed()
+    # Twice as high: the worst node is where the oracle says, not where height >= 0 would.
+    doubled = {"s": s.tolist(), "height": (2.0 * raised_profile(s)).tolist()}
+    report = verify_gait(trajectory, SIX, settings={"clearance_profile": doubled})
+    worst = int(np.argmin(height - 2.0 * raised_profile(s)))
+    assert report["clearance"].where.startswith(f"sample {worst} ")
+    assert report["clearance"].margin == pytest.approx(
+        np.min(height - 2.0 * raised_profile(s)), abs=1e-12
+    )
+    # At another rate the table is sampled there (path rows hold at the dynamics points
+    # only, so between nodes the foot may dip below the profile by the collocation error:
+    # the check then reports the oracle's margin at those samples).
+    fine = result.to_trajectory(rate_hz=200)
+    s_fine = fine.time / fine.time[-1]
+    np.testing.assert_allclose(
+        fine.metadata["gait"]["clearance_profile"]["height"], raised_profile(s_fine), atol=1e-15
+    )
+    oracle = go.swing_foot(SIX, fine.psi).imag - raised_profile(s_fine)
+    assert verify_gait(fine, SIX)["clearance"].margin == pytest.approx(oracle.min(), abs=1e-12)
+    # A file read back carries the profile.
+    for suffix in ("json", "csv", "npz"):
+        loaded = Trajectory.load(trajectory.save(tmp_path / f"profile.{suffix}"))
+        assert loaded.metadata["gait"]["clearance_profile"] == table, suffix
+        assert verify_gait(loaded, SIX).ok, suffix
+    assert result.problem.settings()["clearance"] is None
+    # A malformed or too short table is refused, naming the field.
+    with pytest.raises(DefinitionError, match=r"`settings\['clearance_profile'\]`: 's' and"):
+        verify_gait(trajectory, SIX, settings={"clearance_profile": {"s": [0, 1], "height": [0]}})
+    with pytest.raises(DefinitionError, match=r"it covers s in \[0, 0.5\]"):
+        verify_gait(
+            trajectory, SIX, settings={"clearance_profile": {"s": [0, 0.5], "height": [0, 0]}}
+        )
+
+
 def test_the_ocp_is_a_value_the_user_can_change():
     step = walking_step(N=20)
     tighter = step.ocp.bound("M", -40.0, 40.0)
@@ -269,6 +362,8 @@ def test_biped_detection_and_the_law_fit():
         "swing_shank",
     )
     assert biped.upper_body == ("torso", "head")
+    assert Biped.of(LEGS).upper_body == ()
+    assert Biped.of(BRANCHED).upper_body == ("torso", "head", "left_arm", "right_arm")
     # Inverse kinematics: the feet where asked, knees ahead of the legs.
     psi = biped.posture(complex(0.2, 0.8), complex(0.45, 0.0))
     hinges = ne.hinge_positions(SIX, psi)

@@ -228,21 +228,41 @@ def _write_npz(trajectory: Trajectory, handle) -> None:
     )
 
 
+#: Longest repr of a value from a file that an error message quotes in full.
+SHOWN_CHARACTERS = 40
+
+
+def shown(value: object, limit: int = SHOWN_CHARACTERS) -> str:
+    """``repr(value)`` for an error message, cut to ``limit`` characters: a file may hold a
+    400-digit integer or a megabyte string where a version or a name belongs."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        try:
+            text = str(value)
+        except ValueError:  # beyond Python's int-to-str limit (4300 digits)
+            return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
+        digits = len(text.lstrip("-"))
+        return text if len(text) <= limit else f"an integer of {digits} digits ({text[:12]}...)"
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
+
+
 def _check_format(path: Path, where: str, name: object, version: object) -> None:
     if name != FORMAT_NAME:
         raise TrajectoryFileError(
-            f"{path}: {where}: format is {name!r}, expected {FORMAT_NAME!r}; this is not a "
-            "trajectory file written by Trajectory.save"
+            f"{path}: {where}: format is {shown(name)}, expected {FORMAT_NAME!r}; this is not "
+            "a trajectory file written by Trajectory.save"
         )
     if isinstance(version, bool) or not isinstance(version, int):
-        raise TrajectoryFileError(f"{path}: {where}: version must be an integer, got {version!r}")
+        raise TrajectoryFileError(
+            f"{path}: {where}: version must be an integer, got {shown(version)}"
+        )
     if version > FORMAT_VERSION:
         raise TrajectoryFileError(
-            f"{path}: {where}: format version {version} is newer than this library reads "
-            f"({FORMAT_VERSION}); upgrade anthropoid-planner"
+            f"{path}: {where}: format version {shown(version)} is newer than this library "
+            f"reads ({FORMAT_VERSION}); upgrade anthropoid-planner"
         )
     if version < 1:
-        raise TrajectoryFileError(f"{path}: {where}: unknown format version {version!r}")
+        raise TrajectoryFileError(f"{path}: {where}: unknown format version {shown(version)}")
 
 
 def _assemble(
@@ -352,6 +372,11 @@ def _read_csv(path: Path) -> dict[str, Any]:
                         f"{path}: line {number}: the `# {key}:` comment is not valid JSON "
                         f"({error.msg} at character {error.colno}); fix or delete the line"
                     ) from None
+                except ValueError as error:  # an integer beyond the int-to-str limit
+                    raise TrajectoryFileError(
+                        f"{path}: line {number}: the `# {key}:` comment cannot be read "
+                        f"({str(error).split(':')[0][:80]}); fix or delete the line"
+                    ) from None
             continue
         if header is None:
             header_line = number
@@ -445,6 +470,11 @@ def _read_json(path: Path) -> dict[str, Any]:
         raise TrajectoryFileError(
             f"{path}: line {error.lineno}, column {error.colno}: not valid JSON ({error.msg})"
         ) from None
+    except ValueError as error:  # an integer beyond Python's int-to-str limit
+        raise TrajectoryFileError(
+            f"{path}: not a readable JSON trajectory ({str(error).split(':')[0][:80]}): "
+            "a number in it has thousands of digits"
+        ) from None
     if not isinstance(document, dict):
         raise TrajectoryFileError(
             f"{path}: the top level must be an object with format, version, metadata, columns "
@@ -506,11 +536,8 @@ def _read_json(path: Path) -> dict[str, Any]:
             except OverflowError:  # an integer beyond the largest float
                 finite = False
             if not finite:
-                shown = (
-                    f"an integer of {len(str(abs(v)))} digits" if isinstance(v, int) else repr(v)
-                )
                 raise TrajectoryFileError(
-                    f"{path}: data[{name!r}][{k}] must be finite, got {shown}; fill "
+                    f"{path}: data[{name!r}][{k}] must be finite, got {shown(v)}; fill "
                     "or remove the sample"
                 )
         arrays.append(np.array(values, dtype=np.float64))
