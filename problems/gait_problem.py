@@ -238,7 +238,7 @@ class Gait:
         metadata = {
             **joined.metadata,
             "gait": {
-                **self.problem.settings(times=joined["time"]),
+                **self.problem.settings(times=joined.time),
                 "cost": self.cost,
                 "law_cost": self.law_cost,
                 "before_events": before,
