@@ -263,7 +263,10 @@ def test_benchmark_quick_run():
         "walking pieces",
         "+ all three",
         "phases: the headline",
-        "two phases",
+        "two, continuous",
+        "two, jump",
+        # the headline cut in two with continuous controls is the one-phase NLP
+        "; 0 variables more: the same NLP",
     ):
         assert expected in result.stdout, expected
     assert "Maximum_Iterations" not in result.stdout
