@@ -499,15 +499,17 @@ class UnitsCase:
     expect: Tol = Tol(1e-6)
     iterations: float = 0.2
     slow: bool = False
+    tol: float = 1e-8  # IPOPT's
 
 
 UNITS_CASES: list[UnitsCase] = [
     UnitsCase("walking step in mm and g", "walk"),
     UnitsCase(
-        "walking step with a double support, in mm and g",
+        "walking step with a double support, in mm and g (tol 1e-10)",
         "walk",
         {"double_support": 0.1, "N": 20},
         slow=True,
+        tol=1e-10,  # its optimum is flat: at 1e-8 two solves end up to 5e-6 apart in torque
     ),
     UnitsCase("fixed-base gait in mm and g", "gait", slow=True),
 ]
