@@ -119,9 +119,15 @@ def evaluate_guess_layer(
         elif array.ndim == 1 and K == 1 and array.size == m:
             array = array[None, :]
         if array.shape != (K, m):
+            per_time = (
+                f": {array.shape[1]} values per time where `{key}` has {m} "
+                f"({', '.join(names)}); a guess (a gait law) for another system?"
+                if array.ndim == 2 and array.shape[0] == K
+                else ""
+            )
             raise DefinitionError(
                 f"`guess[{key}]`: the function returned shape {array.shape} for {K} times; "
-                f"expected ({K}, {m})"
+                f"expected ({K}, {m}){per_time}"
             )
         if not np.all(np.isfinite(array)):
             raise DefinitionError(f"`guess[{key}]`: the function returned NaN or inf")

@@ -326,15 +326,13 @@ def nlp_solver(
     if isinstance(problem["x"], ca.MX) and expand:
         solver_options["expand"] = True
     elif isinstance(problem["x"], ca.MX):
-        # Reverse mode for the MX Jacobian: 14 adjoint instead of 21 forward colours on the
-        # six-link gait, 25% less time in nlp_jac_g (planner_bench.py, Hermite-Simpson N=50).
         problem = ca.Function(
             "nlp",
             [problem["x"], problem["p"]],
             [problem["f"], problem["g"]],
             ["x", "p"],
             ["f", "g"],
-            {"ad_weight": 1.0},
+            {"ad_weight": jacobian_mode(problem["g"], problem["x"])},
         )
     try:
         with captured() as output:
@@ -354,6 +352,25 @@ def nlp_solver(
     # the solver object keeps it, and solve() reads the callback's error from there.
     solver._planner_progress = callback
     return solver
+
+
+def jacobian_mode(g: ca.MX, w: ca.MX) -> float:
+    """CasADi's ``ad_weight`` for the NLP's constraint Jacobian: 1.0 (reverse mode) unless it
+    needs more than twice the sweeps of forward mode (colourings of its sparsity), then 0.0.
+
+    Reverse mode is the faster one on the gait problems, even with a few more sweeps: the
+    six-link gait needs 14 adjoint instead of 21 forward sweeps, 25% less time in nlp_jac_g
+    (planner_bench.py, Hermite-Simpson N=50); the walking step (N = 30) 24 adjoint against 21
+    forward sweeps, 0.107 s against 0.134 s in nlp_jac_g over a solve. But a variable in every
+    row (a free duration T, a static parameter) makes every pair of rows share a column: one
+    adjoint sweep per row, a build and an evaluation growing as N^2 (measured, a free-time
+    double integrator at N = 400: 1600 adjoint against 6 forward sweeps, 5.8 s against
+    0.34 s in all; 33 s at N = 1000).
+    """
+    pattern = ca.jacobian_sparsity(g, w)
+    forward = pattern.uni_coloring().size2()
+    reverse = pattern.T.uni_coloring().size2()
+    return 1.0 if reverse <= 2 * forward else 0.0
 
 
 def _user_options(options) -> dict:
@@ -533,6 +550,15 @@ def solve(
     if w0.shape != (transcription.n_w,):
         raise DefinitionError(
             f"`guess`: expected a decision vector of shape ({transcription.n_w},), got {w0.shape}"
+        )
+    bad = np.flatnonzero(~np.isfinite(w0))
+    if bad.size:
+        # IPOPT would start, evaluate NaN everywhere and stop (Invalid_Number_Detected).
+        names = getattr(transcription, "w_names", ())
+        which = ", ".join(names[i] if i < len(names) else f"entry {i}" for i in bad[:3])
+        raise DefinitionError(
+            f"`guess`: contains NaN or inf at {bad.size} of {w0.size} entries ({which}"
+            f"{', ...' if bad.size > 3 else ''}); give finite values"
         )
     start = time.perf_counter()
 

@@ -15,7 +15,9 @@ logs on ``planner.progress``: shown here by default, ``--quiet`` turns them off)
 gives one line "anthropoid-planner <command>: error: ..." and exit status 2; a failed
 computation (the library's own errors, such as a SimulationError) or a file that cannot be
 written, one line and exit status 1. Only the library's errors and OSError are caught:
-anything else is a bug and keeps its traceback. Commands that could run for long or write
+anything else is a bug and keeps its traceback. A command creates its output folder only when
+it has results to write (walk: a converged, verified gait), so a run that fails leaves
+nothing on disk. Commands that could run for long or write
 large files refuse beyond LIMIT_SAMPLES samples (or about LIMIT_SECONDS of fixed-step
 integration) unless given --force, and beyond MAX_SAMPLES always.
 """
@@ -57,6 +59,7 @@ from problems.dynamics_problems import (
     torques_along,
 )
 from problems.gait_law import LAW_PRESETS, GaitLaw
+from problems.gait_problem import WORK_REGULARISATION
 from problems.walking import walking_step
 
 PROG = "anthropoid-planner"
@@ -678,13 +681,25 @@ def _save(trajectory, folder: Path, stem: str, formats) -> list[Path]:
 
 
 def _output_folder(text: str) -> Path:
+    """The folder of --output-dir, checked now and created only when there are results to
+    write (:func:`_created`), so that a run that fails leaves nothing on disk."""
     folder = Path(text)
     if folder.exists() and not folder.is_dir():
         raise UsageError(f"--output-dir: {text!r} exists and is not a folder")
+    existing = folder.absolute()
+    while not existing.exists():
+        existing = existing.parent
+    if not existing.is_dir():  # a file where a parent folder would go
+        raise UsageError(f"--output-dir: cannot create {text!r}: Not a directory")
+    return folder
+
+
+def _created(folder: Path) -> Path:
+    """``folder``, created now (with its parents) if it does not exist."""
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise UsageError(f"--output-dir: cannot create {text!r}: {exc.strerror}") from exc
+        raise UsageError(f"--output-dir: cannot create {str(folder)!r}: {exc.strerror}") from exc
     return folder
 
 
@@ -752,7 +767,7 @@ def _cmd_torques(args, out: TextIO, report: Reporter) -> int:
     folder = _output_folder(args.output_dir)
     with report.working(f"torques along {law.name!r}: {count} samples over {duration:g} s"):
         trajectory = torques_along(dynamics, law, np.linspace(0.0, duration, count))
-        written = _save(trajectory, folder, "torques", args.formats)
+        written = _save(trajectory, _created(folder), "torques", args.formats)
     if not args.no_plots:
         written += _write_plots(dynamics, trajectory, folder, "torques", True, args.gif, report)
     print(str(law), file=out)
@@ -947,7 +962,7 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
         for words, option_words in _FAILURE_WORDS:
             message = message.replace(words, option_words)
         raise CommandFailed(message) from exc
-    written = _save(result, folder, "simulated", args.formats)
+    written = _save(result, _created(folder), "simulated", args.formats)
     if not args.no_plots:
         written += _write_plots(dynamics, result, folder, "simulated", False, False, report)
     states, _ = profile.at(np.asarray(result.time))
@@ -1076,7 +1091,7 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
     objective_words = {
         "torque": "integral of sum M_i^2, N^2 m^2 s",
         "torque-rate": "integral of sum dM_i^2 (+ 1e-3 sum M_i^2)",
-        "work": "positive work (+ 1e-3 sum M_i^2), J",
+        "work": f"positive work (+ {WORK_REGULARISATION / args.torque_limit_nm:.3g} sum M_i^2), J",
     }[args.objective]
     phases = f", double support {step.double_support:g} s" if step.double_support > 0 else ""
     print(
@@ -1125,7 +1140,16 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         + ("" if check.ok else " - " + "; ".join(c.name for c in check.failures)),
         file=out,
     )
+    # A failed solve or a gait that failed its verification is not written: torques.csv is
+    # what a drive controller reads.
+    if not solution.success:
+        raise CommandFailed(f"IPOPT did not converge: {solution.status}; nothing written")
+    if not check.ok:
+        raise CommandFailed(
+            f"the gait failed its verification: {check.failures[0]}; nothing written"
+        )
     written = []
+    _created(folder)
     with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
         profile = gait.to_trajectory(args.rate_hz)
         written += _save(profile, folder, "torques", ("csv", "json"))
@@ -1146,10 +1170,6 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
                 written.append(walking_plots.animate_walk(motion, folder / "walk.gif", fps=fps))
     for path in written:
         print(f"wrote {path}", file=out)
-    if not solution.success:
-        raise CommandFailed(f"IPOPT did not converge: {solution.status}")
-    if not check.ok:
-        raise CommandFailed(f"the gait failed its verification: {check.failures[0]}")
     return 0
 
 

@@ -9,7 +9,10 @@ Objectives (``OBJECTIVES``), integrated over the step or period:
   ``REGULARISATION`` s^-2 times the torque term so that the torque level stays determined;
 * ``"work"``: the positive mechanical power of the hinge drives sum max(0, M_i w_i) (w_i the
   hinge's relative rate: dpsi_i - dpsi_parent), smoothed as (P + sqrt(P^2 + eps^2)) / 2 with
-  eps = ``WORK_EPSILON`` W, plus ``REGULARISATION`` W/(N m)^2 times the torque term.
+  eps = ``WORK_EPSILON`` P_s, plus ``WORK_REGULARISATION`` P_s / L^2 times the torque term.
+  L is the median torque limit (N m) and P_s = L x 1 rad/s its power scale, so the objective
+  means the same in any units (millimetres and grams: W and N m are 1e9 of theirs): with the
+  walking step's 150 N m, eps = 1 W and the torque term's weight 1e-3 W/(N m)^2.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError, check_real
+from model.errors import DefinitionError, check_positive, check_real
 from model.linkage import Linkage
 from planner.phases_solution import PhasesSolution
 from planner.problem import OCP
@@ -32,9 +35,13 @@ from problems.verification import GaitReport, verify_gait
 
 OBJECTIVES = ("torque", "torque-rate", "work")
 HALF_PI = 0.5 * math.pi
-#: Smoothing of max(0, P) in the positive-work objective, W.
-WORK_EPSILON = 1.0
-#: Weight of the torque term added to the torque-rate and work objectives.
+#: Smoothing of max(0, P) in the positive-work objective, as a fraction of the power scale
+#: (median torque limit x 1 rad/s): 1 W at 150 N m.
+WORK_EPSILON = 1.0 / 150.0
+#: Weight of the torque term of the work objective, times P_s / L^2 (L the median torque
+#: limit): 1e-3 W/(N m)^2 at 150 N m.
+WORK_REGULARISATION = 0.15
+#: Weight of the torque term added to the torque-rate objective, s^-2.
 REGULARISATION = 1e-3
 
 
@@ -57,19 +64,23 @@ def joint_rates(linkage: Linkage, dpsi):
     return [dpsi[i] - (dpsi[p] if p >= 0 else 0) for i, p in enumerate(parents)]
 
 
-def objective_integrand(linkage: Linkage, objective: str):
-    """The integrand of ``objective`` as a callable of a planner Point."""
+def objective_integrand(linkage: Linkage, objective: str, torque_limit: float = 150.0):
+    """The integrand of ``objective`` as a callable of a planner Point; ``torque_limit``
+    (the median |M_i| bound, N m, in the problem's units) sets the work objective's scales."""
     check_objective(objective)
     if objective == "torque":
         return lambda p: ca.sumsqr(p.M)
     if objective == "torque-rate":
         return lambda p: ca.sumsqr(p.dM) + REGULARISATION * ca.sumsqr(p.M)
+    power_scale = check_positive("torque_limit", torque_limit)  # x 1 rad/s
+    epsilon = WORK_EPSILON * power_scale
+    weight = WORK_REGULARISATION / power_scale
 
     def positive_work(p):
         rates = joint_rates(linkage, p.dpsi)
         power = [p.M[i] * rates[i] for i in range(linkage.n)]
-        smooth = [0.5 * (w + ca.sqrt(w * w + WORK_EPSILON**2)) for w in power]
-        return ca.sum1(ca.vertcat(*smooth)) + REGULARISATION * ca.sumsqr(p.M)
+        smooth = [0.5 * (w + ca.sqrt(w * w + epsilon**2)) for w in power]
+        return ca.sum1(ca.vertcat(*smooth)) + weight * ca.sumsqr(p.M)
 
     return positive_work
 
@@ -138,8 +149,10 @@ def finish_gait_ocp(ocp: OCP, linkage: Linkage, objective: str, limits, law) -> 
     """The objective, nominal scales and the law as the guess, the same for both problems:
     angles ~1 rad, rates a few rad/s, accelerations tens of rad/s^2, torques a third of
     their limit (the law's inverse dynamics is of that size)."""
-    typical = float(np.median(list(limits.values()))) / 3.0
-    ocp = ocp.minimize(integral=objective_integrand(linkage, objective)).scale(dpsi=3.0, M=typical)
+    limit = float(np.median(list(limits.values())))
+    typical = limit / 3.0
+    integrand = objective_integrand(linkage, objective, limit)
+    ocp = ocp.minimize(integral=integrand).scale(dpsi=3.0, M=typical)
     if ocp.system.nz:
         ocp = ocp.scale(ddpsi=30.0)
     return ocp.guess(law)
@@ -289,6 +302,7 @@ __all__ = [
     "OBJECTIVES",
     "REGULARISATION",
     "WORK_EPSILON",
+    "WORK_REGULARISATION",
     "Gait",
     "check_links",
     "check_objective",

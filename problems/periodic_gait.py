@@ -56,6 +56,11 @@ from problems.gait_problem import (
 
 #: Fractions of the period at which the swing foot follows the law by default.
 KEYPOINTS = (0.25, 0.5, 0.75)
+#: Scale of the clearance rows as a fraction of the foot's reach (the lengths from H0 to the
+#: foot: 0.043 m for the six-link swing foot, 1.72 m away), and the least scale of the
+#: keypoint rows, twice that. Derived from the linkage, not metres, so that the same gait in
+#: other units (millimetres and grams) is the same scaled NLP for IPOPT.
+CLEARANCE_SCALE = 0.025
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,6 +87,16 @@ class PeriodicGaitProblem:
     def foot(self):
         """The swing foot: the end of ``foot_link`` (``model.PointKinematics``)."""
         return self.dynamics.point(self.foot_link)
+
+    @property
+    def foot_reach(self) -> float:
+        """The largest distance of the foot from H0, m: the lengths (and displaced hinges) of
+        the links from the root to the foot."""
+        linkage = self.linkage
+        i = linkage.index(self.foot_link)
+        path = (*linkage.ancestors(i), i)
+        hinges = sum(abs(linkage.origin_in_parent(k)) for k in path[1:])
+        return hinges + linkage.links[i].length + abs(linkage.origin_in_parent(path[0]))
 
     def law_cost(self, ocp: OCP | None = None) -> float:
         """The law's objective on ``ocp``'s mesh (default this problem's)."""
@@ -215,11 +230,12 @@ def _periodic_ocp(problem: PeriodicGaitProblem, N, transcription, degree, formul
     position = problem.foot.function("position")
     mesh = {"N": N, "transcription": transcription, "degree": degree, "formulation": formulation}
     ocp = gait_ocp(problem.dynamics, problem.law.period, mesh, problem.torque_limit)
+    scale = CLEARANCE_SCALE * problem.foot_reach
     ocp = ocp.constrain(
         "clearance",
         lambda p: position(p.psi)[1],
         lower=problem.foot_minimum - problem.margin,
-        scale=0.05,
+        scale=scale,
     )
     if problem.keypoints:
         ocp = ocp.constrain_at(
@@ -228,10 +244,10 @@ def _periodic_ocp(problem: PeriodicGaitProblem, N, transcription, degree, formul
             fraction=list(problem.keypoints),
             lower=problem.foot_targets,
             upper=problem.foot_targets,
-            scale=max(float(np.max(np.abs(problem.foot_targets))), 0.1),
+            scale=max(float(np.max(np.abs(problem.foot_targets))), 2.0 * scale),
         )
     ocp = keep_upright(ocp, problem.upright, problem.posture).periodic()
     return finish_gait_ocp(ocp, linkage, problem.objective, problem.torque_limit, problem.law)
 
 
-__all__ = ["KEYPOINTS", "PeriodicGait", "PeriodicGaitProblem", "periodic_gait"]
+__all__ = ["CLEARANCE_SCALE", "KEYPOINTS", "PeriodicGait", "PeriodicGaitProblem", "periodic_gait"]

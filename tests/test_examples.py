@@ -181,3 +181,19 @@ def test_gait_benchmark_quick_run():
     # Every gait of the table passed its verification.
     rows = [line for line in out.splitlines() if line.startswith(("walking step", "fixed-base"))]
     assert rows and all(line.rstrip().endswith("yes") for line in rows[:2])
+
+
+def test_units_comparison_quick_run():
+    """The script behind README's millimetre-gram numbers: it runs, and the row it prints
+    shows the same gait (differences <= 1e-6) in iterations within 20 % and an objective
+    scale 1e18 larger (parsed from the table, so stale or wrong output fails)."""
+    result = _call("benchmarks/units_compare.py", "--quick")
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.strip().splitlines()
+    assert lines[0].startswith("problem") and len(lines) == 2
+    cells = lines[1].split()  # ... status iter status iter angles rates torques cost ratio
+    si_iterations, mm_iterations = int(cells[-8]), int(cells[-6])
+    assert cells[-9] == cells[-7] == "Solve_Succeeded", lines[1]
+    assert abs(mm_iterations - si_iterations) <= 0.2 * si_iterations, lines[1]
+    assert all(float(v) <= 1e-6 for v in cells[-5:-1]), lines[1]
+    assert float(cells[-1]) == pytest.approx(1e18, rel=1e-9)

@@ -607,12 +607,16 @@ def test_nothing_is_printed_on_a_refused_option_value_or_a_nan(capfd):
         r'Setting: "bogus" is not a valid setting for Option: mu_strategy',
     ):
         rest_to_rest().solve(options={"mu_strategy": "bogus"}, progress=False, cache=False)
-    # CasADi warns on stderr for every NaN in a function evaluation
+    # A NaN in a guess vector is refused before IPOPT starts, naming the variable
     transcription = Transcription(rest_to_rest())
     guess = transcription.initial_guess()
     guess[0] = np.nan
-    with pytest.raises(SolverError, match=r"Invalid_Number_Detected \(NaN or inf in constraints"):
+    with pytest.raises(
+        DefinitionError,
+        match=r"`guess`: contains NaN or inf at 1 of 33 entries \(bound\[q\] node 0\); give",
+    ):
         solve(transcription, guess=guess, progress=False)
+    # CasADi warns on stderr for every NaN in a function evaluation
     root = rest_to_rest().constrain("root", lambda p: ca.sqrt(-1.0 - p.u[0] ** 2), upper=1.0)
     with pytest.raises(SolverError, match=r"Invalid_Number_Detected"):
         root.solve(progress=False)
