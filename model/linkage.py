@@ -338,6 +338,28 @@ class Linkage:
             ],
         }
 
+    # ---- the same body in other units ------------------------------------------------------
+    def in_units(self, length: float = 1.0, mass: float = 1.0) -> Linkage:
+        """The same linkage with lengths in a unit ``length`` times smaller than the metre
+        and masses in one ``mass`` times smaller than the kilogram (millimetres and grams:
+        ``in_units(length=1e3, mass=1e3)``): lengths and attachment offsets x length, masses
+        x mass, inertias x mass length^2, gravity x length (time stays in seconds, angles in
+        radians). Torques of its dynamics come out x mass length^2 (g mm^2/s^2 = 1e-9 N m);
+        the fractions com and com_lateral are unit-free."""
+        length = check_positive("length", length, "(metres per unit)")
+        mass = check_positive("mass", mass, "(kilograms per unit)")
+        links = [
+            replace(
+                link,
+                length=link.length * length,
+                mass=link.mass * mass,
+                inertia=None if link.inertia is None else link.inertia * mass * length**2,
+                origin=None if link.origin is None else link.origin * length,
+            )
+            for link in self._links
+        ]
+        return Linkage(links, gravity=self._gravity * length)
+
     # ---- sub-scenes ---------------------------------------------------------------------
     def drop(self, *names: str) -> Linkage:
         """A new Linkage without the named links and their whole subtrees.

@@ -30,7 +30,6 @@ from extremes import (
 )
 from reference import newton_euler as ne
 from reference.checks import relative_error
-from test_solve import millimetre_gram  # the SI -> mm/g conversion of the solver's tests
 
 from model import Link, Linkage, LinkPoint, presets
 from planner import OCP, SolverError, Transcription
@@ -243,7 +242,7 @@ def test_gait_case(case):
 # ---- units: millimetres and grams against SI -------------------------------------------------
 def _in_units(kind: str, options: dict, length: float, torque: float):
     six = presets.six_link_anthropoid()
-    linkage = six if length == 1.0 else millimetre_gram(six)
+    linkage = six if length == 1.0 else six.in_units(length=1e3, mass=1e3)
     if kind == "walk":
         return walking_step(
             linkage,
@@ -285,7 +284,7 @@ def test_work_objective_means_the_same_in_millimetres_and_grams():
     its integrand in mm/g is exactly 1e9 times the SI one (W -> g mm^2/s^3) at the same
     motion; with the constants in W it was not (1 W is 1e-9 of the mm/g power scale)."""
     six = presets.six_link_anthropoid()
-    mm = millimetre_gram(six)
+    mm = six.in_units(length=1e3, mass=1e3)
     rng = np.random.default_rng(4)
     dpsi = rng.normal(0.0, 0.02, (64, 6))  # powers near 0, where the smoothing matters
     torques = rng.normal(0.0, 30.0, (64, 6))

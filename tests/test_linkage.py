@@ -584,3 +584,35 @@ def test_lock_errors():
         six.lock("head", True)
     with pytest.raises(DefinitionTypeError, match="`angle`: must be a real number, got '0'"):
         six.lock("head", "0")
+
+
+# ---- the same body in other units -------------------------------------------------------------
+def test_the_same_body_in_millimetres_and_grams_moves_with_the_same_physics():
+    """The converted linkage, through the Newton-Euler oracle: hinges at 1e3 times the
+    distances, mass matrix and torques (g mm^2/s^2) 1e9 times the SI ones, at random states of
+    random trees with attachment offsets and lateral centres of mass."""
+    rng = np.random.default_rng(21)
+    for _ in range(4):
+        tree = ne.random_tree(rng, 6, general=True)
+        mm = tree.in_units(length=1e3, mass=1e3)
+        psi, dpsi, ddpsi = rng.normal(size=(3, tree.n))
+        np.testing.assert_allclose(
+            ne.hinge_positions(mm, psi), 1e3 * ne.hinge_positions(tree, psi), rtol=1e-12
+        )
+        M = ne.mass_matrix(tree, psi)  # entries spread over decades: round-off of the largest
+        np.testing.assert_allclose(
+            ne.mass_matrix(mm, psi), 1e9 * M, rtol=1e-11, atol=1e-12 * 1e9 * np.abs(M).max()
+        )
+        si = ne.inverse_dynamics(tree, psi, dpsi, ddpsi)
+        np.testing.assert_allclose(
+            ne.inverse_dynamics(mm, psi, dpsi, ddpsi),
+            1e9 * si,
+            rtol=1e-10,
+            atol=1e-9 * np.abs(si).max(),
+        )
+    six = presets.six_link_anthropoid()
+    assert six.in_units() == six
+    with pytest.raises(DefinitionError, match=r"`length`: must be > 0"):
+        six.in_units(length=0.0)
+    with pytest.raises(DefinitionError, match=r"`mass`: must be > 0"):
+        six.in_units(mass=-1.0)

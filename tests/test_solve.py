@@ -634,18 +634,6 @@ def test_solve_module_is_importable_under_its_own_name():
 # ---- units: the objective is scaled, so other units solve like SI ------------------------------
 
 
-def millimetre_gram(linkage):
-    """The same linkage in millimetres and grams: lengths x 1e3, masses x 1e3, inertias
-    x 1e9 (g mm^2), gravity x 1e3 (mm/s^2); torques come out in g mm^2/s^2 (x 1e9 N m)."""
-    from model import Link, Linkage
-
-    links = [
-        Link(k.name, k.parent, k.length * 1e3, k.mass * 1e3, k.com, k.inertia * 1e9)
-        for k in linkage.links
-    ]
-    return Linkage(links, gravity=linkage.gravity * 1e3)
-
-
 def swing_up(linkage, torque_unit, N=30):
     """A pendulum from hanging to upright at rest in 2 s, |M| <= 20 N m, min integral M^2."""
     return (
@@ -671,7 +659,7 @@ def test_si_and_millimetre_gram_pendulum_give_the_same_swing_up_in_as_many_itera
 
     pendulum = Linkage([Link("rod", None, length=1.0, mass=1.0)])
     si = swing_up(pendulum, 1.0).solve(progress=False)
-    mm = swing_up(millimetre_gram(pendulum), 1e9).solve(progress=False)
+    mm = swing_up(pendulum.in_units(length=1e3, mass=1e3), 1e9).solve(progress=False)
     assert_same_physical_answer(si, mm, 1e9)
     assert abs(mm.iterations - si.iterations) <= 0.2 * si.iterations + 2, (
         si.iterations,
@@ -682,7 +670,7 @@ def test_si_and_millimetre_gram_pendulum_give_the_same_swing_up_in_as_many_itera
     assert si.stats["objective_scale"] == 1.0 and mm.stats["objective_scale"] > 1e8
     # without it (IPOPT's own scaling stops at 1e-8) the mm/g problem does not converge in
     # ten times the SI iterations (measured: 3000 iterations, Maximum_Iterations_Exceeded)
-    unscaled = swing_up(millimetre_gram(pendulum), 1e9).scale(objective=1.0)
+    unscaled = swing_up(pendulum.in_units(length=1e3, mass=1e3), 1e9).scale(objective=1.0)
     with pytest.raises(SolverError, match="Maximum_Iterations_Exceeded"):
         unscaled.solve(progress=False, options={"max_iter": 10 * si.iterations})
 
@@ -700,7 +688,7 @@ def test_si_and_millimetre_gram_six_link_gait_give_the_same_gait_in_as_many_iter
 
     six = presets.six_link_anthropoid()
     si = bounded_gait(six, 1.0).solve(progress=False)
-    mm = bounded_gait(millimetre_gram(six), 1e9).solve(progress=False)
+    mm = bounded_gait(six.in_units(length=1e3, mass=1e3), 1e9).solve(progress=False)
     # the same scaled NLP (both objective scales outside the range left as it is, 1e18
     # apart), so the same optimum in the same iterations (27 and 27)
     assert mm.stats["objective_scale"] == pytest.approx(1e18 * si.stats["objective_scale"])
@@ -709,7 +697,7 @@ def test_si_and_millimetre_gram_six_link_gait_give_the_same_gait_in_as_many_iter
         si.iterations,
         mm.iterations,
     )
-    unscaled = bounded_gait(millimetre_gram(six), 1e9).scale(objective=1.0)
+    unscaled = bounded_gait(six.in_units(length=1e3, mass=1e3), 1e9).scale(objective=1.0)
     with pytest.raises(SolverError, match="Maximum_Iterations_Exceeded"):
         unscaled.solve(progress=False, options={"max_iter": 2 * si.iterations})
 

@@ -23,16 +23,8 @@ import sys
 
 import numpy as np
 
-from model import Link, Linkage, presets
+from model import Linkage, presets
 from problems import periodic_gait, walking_step
-
-
-def millimetre_gram(linkage: Linkage) -> Linkage:
-    links = [
-        Link(k.name, k.parent, k.length * 1e3, k.mass * 1e3, k.com, k.inertia * 1e9)
-        for k in linkage.links
-    ]
-    return Linkage(links, gravity=linkage.gravity * 1e3)
 
 
 def problem(kind: str, linkage: Linkage, length: float, torque: float, **options):
@@ -54,7 +46,7 @@ def compare(label: str, kind: str, tol: float = 1e-8, **options) -> str:
     si = problem(kind, six, 1.0, 1.0, **options).solve(
         progress=False, raise_on_failure=False, options=ipopt
     )
-    mm = problem(kind, millimetre_gram(six), 1e3, 1e9, **options).solve(
+    mm = problem(kind, six.in_units(length=1e3, mass=1e3), 1e3, 1e9, **options).solve(
         progress=False, raise_on_failure=False, options=ipopt
     )
     a, b = si.to_trajectory(), mm.to_trajectory()
