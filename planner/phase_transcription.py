@@ -335,22 +335,6 @@ class PhaseTranscription:
         """Whether a dynamics point lies at t = T (controls at the last node)."""
         return bool(self.mesh.s_dyn[-1] == 1.0)
 
-    @cached_property
-    def time_free_paths(self) -> frozenset[str]:
-        """Names of the path constraints whose rows read neither t nor T (the same rows at a
-        node whatever the phase's clock)."""
-        s = self.system
-        x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
-        t, T = ca.SX.sym("t"), ca.SX.sym("T")
-        params = self.ocp.param_fields(ca.SX.sym("params", len(self.ocp.params)))
-        point = Point(s, x, u, z, t, T, params, du=ca.SX.sym("du", s.nu))
-        names = set()
-        for c in self._path_constraints():
-            value = evaluate_expression(f"path[{c.name}]", c.expression, point)
-            if not ca.depends_on(value, ca.vertcat(t, T)):
-                names.add(c.name)
-        return frozenset(names)
-
     def _layout(self) -> None:
         s, mesh = self.system, self.mesh
         nX, nC = mesh.n_state_points, mesh.n_dyn_points

@@ -179,16 +179,18 @@ class Transcription:
             # are one set (the first column of U and Z here, the last there).
             for key, count in (("U", s.nu), ("Z", s.nz)):
                 share(block.slice_of(key).start, before.slice_of(key).stop - count, count)
-            common = _common(before, block, before._path_constraints(), block._path_constraints())
             shared.update(
                 controls=True,
                 residual=_same_dynamics(before.ocp, block.ocp),
-                point_paths=common & before.time_free_paths & block.time_free_paths,
+                point_paths=_common(
+                    before, block, before._path_constraints(), block._path_constraints()
+                ),
             )
         # The phase before holds its state-only path rows at its last node, at a dynamics
-        # point or a free state point: the same rows here are left out.
-        common_state = _common(before, block, before.state_paths, block.state_paths)
-        common_state &= before.time_free_paths & block.time_free_paths
+        # point or a free state point: the same rows at a free state point here are left out.
+        common_state = frozenset()
+        if block._free_starts:
+            common_state = _common(before, block, before.state_paths, block.state_paths)
         return SharedStart(state_paths=common_state, **shared), index, own, source
 
     # ---- rows between the phases ----------------------------------------------------------
@@ -552,16 +554,18 @@ def _common(
     before: PhaseTranscription, block: PhaseTranscription, constraints, others
 ) -> frozenset[str]:
     """Names of the path constraints of two phases (``constraints`` of the phase before,
-    ``others`` of the next) that give the same rows: the same name, bounds and scale, and the
-    same expression (the same callable, or expressions equal on one symbolic point)."""
+    ``others`` of the next) that give the same rows at a shared node whatever the phases'
+    clocks: the same name, bounds and scale, an expression that reads neither t nor T, and
+    the same expression (the same callable, or expressions equal on one symbolic point).
+    Only constraints that agree in name, bounds and scale are evaluated."""
     s = before.system
+    clock = ca.SX.sym("t"), ca.SX.sym("T")
     point = Point(
         s,
         ca.SX.sym("x", s.nx),
         ca.SX.sym("u", s.nu),
         ca.SX.sym("z", s.nz),
-        ca.SX.sym("t"),
-        ca.SX.sym("T"),
+        *clock,
         before.ocp.param_fields(ca.SX.sym("params", len(before.ocp.params))),
         du=ca.SX.sym("du", s.nu),
     )
@@ -575,12 +579,15 @@ def _common(
             and before.ocp.constraint_scale(c).tolist() == block.ocp.constraint_scale(d).tolist()
         ):
             continue
+        rows = evaluate_expression(c.name, c.expression, point)
+        if ca.depends_on(rows, ca.vertcat(*clock)):
+            continue
         if c.expression is not d.expression:
             try:
-                rows = [evaluate_expression(e.name, e.expression, point) for e in (c, d)]
+                others_rows = evaluate_expression(d.name, d.expression, point)
             except DefinitionError:  # e.g. a parameter the phase before does not have
                 continue
-            if not ca.is_equal(rows[0], rows[1], 64):
+            if not ca.is_equal(rows, others_rows, 64):
                 continue
         names.add(c.name)
     return frozenset(names)
