@@ -10,6 +10,7 @@
 from planner.ocp import Point
 from planner.phases import EventPoint, PhasesSolution, PhasesTranscription
 from planner.problem import OCP, Phases
+from planner.refinement import RefinementError, RefinementHistory, RefinementPass, refine_to
 from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
 from planner.solution import IntegrationError, Replay, Solution
 from planner.solver import SolverError, solve
@@ -26,6 +27,9 @@ __all__ = [
     "PhasesSolution",
     "PhasesTranscription",
     "Point",
+    "RefinementError",
+    "RefinementHistory",
+    "RefinementPass",
     "Replay",
     "Scheme",
     "Solution",
@@ -34,5 +38,6 @@ __all__ = [
     "Trajectory",
     "Transcription",
     "make_scheme",
+    "refine_to",
     "solve",
 ]

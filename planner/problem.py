@@ -7,7 +7,7 @@ definitions: ``transcribe()`` (the NLP, :mod:`planner.transcription`) and ``solv
 read them; these two classes live above, so every import inside ``planner`` runs one way:
 
     schemes, simulation, trajectory, ... -> solution -> guesses -> ocp -> transcription
-        -> phases -> solver -> problem
+        -> phases -> solver -> refinement -> problem
 
 Builders return the class they are called on (``dataclasses.replace``), so a chain started
 from ``OCP(...)`` or ``Phases.sequence(...)`` stays solvable.
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from planner.ocp import OCPDefinition
 from planner.phases import PhasesDefinition, PhasesSolution
+from planner.refinement import refine_to
 from planner.solution import Solution
 from planner.solver import solve
 from planner.transcription import Transcription
@@ -30,9 +31,17 @@ class OCP(OCPDefinition):
         """The NLP of this OCP (:class:`planner.transcription.Transcription`), built now."""
         return Transcription(self, expand=expand)
 
-    def solve(self, **kwargs) -> Solution:
-        """Transcribe and solve; see :func:`planner.solver.solve` for the keyword arguments."""
-        return solve(self, **kwargs)
+    def solve(self, accuracy: float | None = None, **kwargs) -> Solution:
+        """Transcribe and solve; see :func:`planner.solver.solve` for the keyword arguments.
+
+        ``accuracy`` (a number): refine the mesh until the per-interval re-integration
+        error of every state, divided by its nominal scale, is within it
+        (:func:`planner.refinement.refine_to`, which takes ``max_passes`` and
+        ``max_intervals`` too); the Solution's ``stats["refinement"]`` holds the passes.
+        """
+        if accuracy is None:
+            return solve(self, **kwargs)
+        return refine_to(self, accuracy, **kwargs)
 
 
 class Phases(PhasesDefinition):
