@@ -12,6 +12,7 @@ from planner.phase_transcription import PhaseTranscription
 from planner.phases import EventPoint
 from planner.phases_solution import PhasesSolution
 from planner.problem import OCP, Phases
+from planner.refinement import RefinementError, RefinementHistory, RefinementPass, refine_to
 from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
 from planner.solution import IntegrationError, Replay, Solution
 from planner.solver import SolverError, solve
@@ -28,6 +29,9 @@ __all__ = [
     "Phases",
     "PhasesSolution",
     "Point",
+    "RefinementError",
+    "RefinementHistory",
+    "RefinementPass",
     "Replay",
     "Scheme",
     "Solution",
@@ -36,5 +40,6 @@ __all__ = [
     "Trajectory",
     "Transcription",
     "make_scheme",
+    "refine_to",
     "solve",
 ]

@@ -7,7 +7,8 @@ definitions: ``transcribe()`` (the NLP, :mod:`planner.transcription`) and ``solv
 read them; these two classes live above, so every import inside ``planner`` runs one way:
 
     schemes, simulation, trajectory, ... -> solution -> phases_solution -> guesses -> ocp
-        -> phases -> phase_transcription -> transcription -> solver -> problem
+        -> phases -> phase_transcription -> transcription -> solver -> refinement
+        -> problem
 
 A single OCP is a problem of one phase: both transcribe through the one
 :class:`planner.transcription.Transcription`.
@@ -21,6 +22,7 @@ from __future__ import annotations
 from planner.ocp import OCPDefinition
 from planner.phases import PhasesDefinition
 from planner.phases_solution import PhasesSolution
+from planner.refinement import refine_to
 from planner.solution import Solution
 from planner.solver import solve
 from planner.transcription import Transcription
@@ -34,9 +36,17 @@ class OCP(OCPDefinition):
         """The NLP of this OCP (:class:`planner.transcription.Transcription`), built now."""
         return Transcription(self, expand=expand)
 
-    def solve(self, **kwargs) -> Solution:
-        """Transcribe and solve; see :func:`planner.solver.solve` for the keyword arguments."""
-        return solve(self, **kwargs)
+    def solve(self, accuracy: float | None = None, **kwargs) -> Solution:
+        """Transcribe and solve; see :func:`planner.solver.solve` for the keyword arguments.
+
+        ``accuracy`` (a number): refine the mesh until the per-interval re-integration
+        error of every state, divided by its nominal scale, is within it
+        (:func:`planner.refinement.refine_to`, which takes ``max_passes`` and
+        ``max_intervals`` too); the Solution's ``stats["refinement"]`` holds the passes.
+        """
+        if accuracy is None:
+            return solve(self, **kwargs)
+        return refine_to(self, accuracy, **kwargs)
 
 
 class Phases(PhasesDefinition):

@@ -6,6 +6,8 @@
 * :func:`replay_law`: both together, with the deviation from the law measured.
 * :func:`periodic_gait`: the paper's periodic gait on a pinned stance foot, optimised.
 * :func:`walking_step`: the hybrid walking step (single support, heel strike, leg swap).
+* :data:`ACCURACY_PRESETS`: "draft", "balanced", "precise" for both gait problems
+  (``accuracy=``), chosen from ``examples/benchmarks/speed_accuracy.py``.
 * :func:`verify_gait`: a gait checked again in numpy from its samples.
 * :class:`Study` / :func:`run_study`: walking studies over a grid of values, with warm starts,
   resumable, on a process pool or a Dask cluster (:class:`StudyResult` reads a study folder).
@@ -13,6 +15,7 @@
 The command line is ``python -m problems`` (see ``problems.cli``).
 """
 
+from problems.accuracy import ACCURACY_PRESETS, AccuracyPreset
 from problems.biped import Biped
 from problems.dynamics_problems import (
     FIT_WINDOW,
@@ -38,6 +41,7 @@ from problems.verification import Check, GaitReport, GaitVerificationError, veri
 from problems.walking import WalkingGait, WalkingStep, WorldMotion, walking_step
 
 __all__ = [
+    "ACCURACY_PRESETS",
     "FIT_WINDOW",
     "KEYPOINTS",
     "LAW_PRESETS",
@@ -45,6 +49,7 @@ __all__ = [
     "METHODS",
     "MIN_TOLERANCE",
     "OBJECTIVES",
+    "AccuracyPreset",
     "Biped",
     "Check",
     "Gait",

@@ -43,12 +43,14 @@ from model import equations
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.presets import PRESETS, six_link_anthropoid
 from planner.files import atomic_path
-from planner.schemes import TRANSCRIPTIONS, WITH_DEGREE
+from planner.refinement import check_accuracy
+from planner.schemes import REGISTRY, TRANSCRIPTIONS, WITH_DEGREE
 from planner.simulation import tolerance_problem
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory, TrajectoryFileError
 from planner.units import si_unit
 from problems import study_cli
+from problems.accuracy import ACCURACY_PRESETS
 from problems.dynamics_problems import (
     FIT_WINDOW,
     METHODS,
@@ -205,6 +207,23 @@ def _tolerance(text: str) -> float:
     if problem is not None:
         raise argparse.ArgumentTypeError(problem)
     return value
+
+
+def _accuracy(text: str) -> str | float:
+    """--accuracy: a preset name, or a refinement target (a number in [1e-9, 1))."""
+    if text in ACCURACY_PRESETS:
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a preset ({_one_of(tuple(ACCURACY_PRESETS))}) or a refinement target "
+            f"such as 1e-5, got {text!r}"
+        ) from None
+    try:
+        return check_accuracy(value)
+    except DefinitionError as error:
+        raise argparse.ArgumentTypeError(str(error).replace("`accuracy`: ", "")) from None
 
 
 def _count(text: str) -> int:
@@ -494,7 +513,7 @@ def _walk_parser(commands, common) -> None:
     )
     walk.add_argument(
         "--transcription",
-        default="hermite-simpson",
+        default=None,
         choices=TRANSCRIPTIONS,
         help="collocation scheme (default: hermite-simpson)",
     )
@@ -502,6 +521,16 @@ def _walk_parser(commands, common) -> None:
                       help="mesh intervals (default: 30, 12 with --quick)")  # fmt: skip
     walk.add_argument("--degree", type=_count, default=None, metavar="D",
                       help=f"degree of {_DEGREES} (default: {_DEFAULT_DEGREES})")  # fmt: skip
+    presets = "; ".join(f"{p.name}: {p.summary}" for p in ACCURACY_PRESETS.values())
+    walk.add_argument(
+        "--accuracy",
+        type=_accuracy,
+        default=None,
+        metavar="PRESET|TARGET",
+        help=f"a preset instead of -N/--transcription/--degree ({presets}), or a number: "
+        "refine the mesh (from -N/--transcription) until the per-interval re-integration error "
+        "per nominal state scale (1 rad, 3 rad/s) is within it, e.g. 1e-5",
+    )
     walk.add_argument(
         "--formulation",
         default="implicit",
@@ -1046,17 +1075,43 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         )
     if args.degree is not None and args.transcription not in WITH_DEGREE:
         raise UsageError(f"--degree: applies to --transcription {_one_of(WITH_DEGREE)} only")
+    preset = args.accuracy if isinstance(args.accuracy, str) else None
+    target = args.accuracy if isinstance(args.accuracy, float) else None
+    if preset is not None:
+        given = [
+            option
+            for option, value in (
+                ("-N", args.intervals),
+                ("--transcription", args.transcription),
+                ("--degree", args.degree),
+            )
+            if value is not None
+        ]
+        if given:
+            raise UsageError(
+                f"--accuracy {preset}: the preset sets the mesh; drop {', '.join(given)} (or "
+                "give a number to --accuracy to refine from that mesh)"
+            )
+        mesh = {"accuracy": preset}
+    else:
+        mesh = {
+            "N": args.intervals or (12 if args.quick else 30),
+            "transcription": args.transcription or "hermite-simpson",
+            "degree": args.degree,
+        }
+    if target is not None and args.double_support_s > 0:
+        raise UsageError(
+            "--accuracy: a refinement target needs a single support; with --double-support-s "
+            "give a preset or -N"
+        )
     linkage = _linkage(args.preset)
-    intervals = args.intervals or (12 if args.quick else 30)
     folder = _output_folder(str(args.output_dir or _new_folder("walk")))
     report.step(f"defining the walking step of {args.preset} ({linkage.n} links)")
     step = walking_step(
         linkage,
         args.step_length_m,
         args.step_time_s,
-        N=intervals,
-        transcription=args.transcription,
-        degree=args.degree,
+        **mesh,
         formulation=args.formulation,
         mu=args.mu,
         torque_limit=args.torque_limit_nm,
@@ -1076,10 +1131,14 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
                 f"max violation {row['infeasibility']:.2e}"
             )
 
-    with report.working(f"solving with IPOPT ({args.transcription}, N = {intervals})"):
-        gait = step.solve(progress=iteration, raise_on_failure=False)
+    scheme = step.ocp.transcription + (f"({step.ocp.degree})" if step.ocp.degree else "")
+    doing = f"solving with IPOPT ({scheme}, N = {step.ocp.N}"
+    doing += f", refining to {target:g})" if target is not None else ")"
+    with report.working(doing):
+        gait = step.solve(progress=iteration, raise_on_failure=False, accuracy=target)
     solution = gait.solution
     stats = solution.stats
+    history = stats.get("refinement")
     with report.working("estimating the accuracy (re-integration per interval)"):
         # The largest error of any phase (each phase's own intervals).
         accuracy = max(
@@ -1094,15 +1153,26 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         "work": f"positive work (+ {WORK_REGULARISATION / args.torque_limit_nm:.3g} sum M_i^2), J",
     }[args.objective]
     phases = f", double support {step.double_support:g} s" if step.double_support > 0 else ""
+    single = gait.segments()[0][0]
+    scheme = single.scheme.label
+    if preset is not None:
+        chosen = ACCURACY_PRESETS[preset]
+        scheme += f" (accuracy {preset}: tol {chosen.tol:g}, stated torque error <= "
+        scheme += f"{chosen.torque_error:g} N m)"
     print(
         f"walking step of {args.preset}: {step.step_length:g} m in {step.step_time:g} s "
-        f"({step.speed:.3g} m/s){phases}, {args.transcription} N = {intervals}, "
-        f"{args.formulation}",
+        f"({step.speed:.3g} m/s){phases}, {scheme} N = {single.N}"
+        + ("" if single.mesh.uniform else " (refined mesh)")
+        + f", {args.formulation}",
         file=out,
     )
+    if history is not None:
+        for line in history.table().splitlines():
+            print(f"  {line}", file=out)
     print(
         f"IPOPT: {solution.status} in {solution.iterations} iterations; build "
-        f"{stats['build_seconds']:.3f} s, solve {stats['solve_seconds']:.3f} s",
+        f"{stats['build_seconds']:.3f} s, solve {stats['solve_seconds']:.3f} s"
+        + ("" if history is None else f" (last pass; all passes {history.seconds:.3f} s)"),
         file=out,
     )
     print(
@@ -1130,9 +1200,13 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         f"{after}",
         file=out,
     )
+    worst = accuracy.worst_state
+    nominal = single.ocp.variable_scale(worst)
+    unit = single.system.state_units[single.state_names.index(worst)]
     print(
-        f"accuracy: largest per-interval re-integration error {accuracy.max:.2e} "
-        f"({accuracy.worst_state}, interval {accuracy.worst_interval})",
+        f"accuracy: largest per-interval re-integration error {accuracy.max:.2e} {unit} "
+        f"({worst}, interval {accuracy.worst_interval}; {accuracy.max / nominal:.2e} of its "
+        f"nominal scale {nominal:g} {unit}, the units of --accuracy)",
         file=out,
     )
     print(
@@ -1140,13 +1214,17 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         + ("" if check.ok else " - " + "; ".join(c.name for c in check.failures)),
         file=out,
     )
-    # A failed solve or a gait that failed its verification is not written: torques.csv is
-    # what a drive controller reads.
+    # A failed solve, a gait that failed its verification or missed its accuracy target is
+    # not written: torques.csv is what a drive controller reads.
     if not solution.success:
         raise CommandFailed(f"IPOPT did not converge: {solution.status}; nothing written")
     if not check.ok:
         raise CommandFailed(
             f"the gait failed its verification: {check.failures[0]}; nothing written"
+        )
+    if history is not None and not history.reached:
+        raise CommandFailed(
+            f"the accuracy target {target:g} was not reached: {history.reason}; nothing written"
         )
     written = []
     _created(folder)

@@ -39,8 +39,10 @@ from model.errors import DefinitionError, DefinitionTypeError, check_positive, c
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
 from planner.problem import OCP
+from planner.refinement import refine_to
 from planner.solver import solve
 from planner.transcription import Transcription
+from problems.accuracy import resolve_mesh, solve_accuracy
 from problems.biped import Biped
 from problems.gait_law import GaitLaw
 from problems.gait_problem import (
@@ -66,8 +68,9 @@ CLEARANCE_SCALE = 0.025
 @dataclass(frozen=True, eq=False)
 class PeriodicGaitProblem:
     """The fixed-base periodic gait as a problem: ``ocp`` (a planner OCP value to inspect or
-    change) and the law, foot and task around it. ``solve(ocp=None, **options)`` returns a
-    :class:`PeriodicGait`."""
+    change) and the law, foot and task around it. ``solve(ocp=None, accuracy=None,
+    **options)`` returns a :class:`PeriodicGait`; ``accuracy`` is the preset the problem was
+    built with (``periodic_gait(accuracy=...)``), whose IPOPT tolerance ``solve`` uses."""
 
     linkage: Linkage
     dynamics: Dynamics
@@ -82,6 +85,7 @@ class PeriodicGaitProblem:
     upright: tuple[str, ...]
     objective: str
     ocp: OCP | None
+    accuracy: str | None = None
 
     @property
     def foot(self):
@@ -102,11 +106,32 @@ class PeriodicGaitProblem:
         """The law's objective on ``ocp``'s mesh (default this problem's)."""
         return objective_at_guess(Transcription(self.ocp if ocp is None else ocp))
 
-    def solve(self, ocp: OCP | None = None, **options) -> PeriodicGait:
-        """Solve ``ocp`` (default this problem's); ``options`` go to :func:`planner.solve`."""
+    def solve(
+        self, ocp: OCP | None = None, accuracy: str | float | None = None, **options
+    ) -> PeriodicGait:
+        """Solve ``ocp`` (default this problem's); ``options`` go to :func:`planner.solve`.
+
+        ``accuracy``: a preset name (:data:`problems.ACCURACY_PRESETS`: ``ocp`` re-meshed
+        with the preset's transcription and density, solved at its tolerance), or a number:
+        the mesh refined until the per-interval re-integration error per nominal state scale
+        is within it (:func:`planner.refine_to`, which takes ``max_passes`` and
+        ``max_intervals``; ``gait.solution.stats["refinement"]`` is the history). Without
+        it, the tolerance of the preset the problem was built with applies.
+        ``options={"tol": ...}`` overrides a preset's tolerance.
+        """
         ocp = self.ocp if ocp is None else ocp
         if not isinstance(ocp, OCP):
             raise DefinitionTypeError(f"`ocp`: must be a planner.OCP, got {type(ocp).__name__}")
+        preset, target = solve_accuracy(accuracy)
+        preset = preset or (None if self.accuracy is None else solve_accuracy(self.accuracy)[0])
+        if preset is not None:
+            options = {**options, "options": {**preset.options, **(options.get("options") or {})}}
+        if target is not None:
+            solution = refine_to(ocp, target, **options)
+            final = ocp.refine(mesh=solution.interval_lengths / solution.T)
+            return PeriodicGait(self, solution, self.law_cost(final))
+        if accuracy is not None:
+            ocp = ocp.refine(**preset.mesh(self.law.period))
         transcription = Transcription(ocp)
         law = objective_at_guess(transcription)
         return PeriodicGait(self, solve(transcription, **options), law)
@@ -139,10 +164,11 @@ def periodic_gait(
     linkage: Linkage | None = None,
     law: GaitLaw | str = "walking",
     *,
-    N: int = 50,
-    transcription: str = "hermite-simpson",
+    N: int | None = None,
+    transcription: str | None = None,
     degree: int | None = None,
     formulation: str = "implicit",
+    accuracy: str | None = None,
     foot: str | None = None,
     keypoints: Sequence[float] = KEYPOINTS,
     margin: float = 0.02,
@@ -158,7 +184,12 @@ def periodic_gait(
     linkage : default the six-link anthropoid.
     law : a :class:`GaitLaw` with one value per link, or a preset name ("walking": the swing
         leg about -pi/2; "paper22": every link about the upward vertical, as printed).
-    N, transcription, degree, formulation : the mesh (``planner.OCP``).
+    N, transcription, degree, formulation : the mesh (``planner.OCP``; default
+        Hermite-Simpson, N = 50).
+    accuracy : instead of N, transcription and degree, a preset of
+        :data:`problems.ACCURACY_PRESETS` ("draft", "balanced", "precise"): its transcription,
+        its intervals per second of the period, and its IPOPT tolerance in
+        :meth:`PeriodicGaitProblem.solve`.
     foot : the link whose end is the swing foot; default the biped's swing shank (or the
         last link of a tree that is not a biped).
     keypoints : fractions of the period in (0, 1) where the foot follows the law; () for none.
@@ -200,6 +231,8 @@ def periodic_gait(
         upright = biped.upper_body if biped is not None else ()
     upright = check_links("upright", upright, linkage)
     check_objective(objective)
+    mesh, _ = resolve_mesh(accuracy, law.period, 50 if accuracy is None and N is None else N,
+                           transcription, degree)  # fmt: skip
     dynamics = linkage.dynamics()
     point = dynamics.point(foot)
     period = law.period
@@ -221,7 +254,9 @@ def periodic_gait(
         upright=upright,
         objective=objective,
         ocp=None,  # built from the problem's pieces, below
+        accuracy=accuracy,
     )
+    N, transcription, degree = mesh["N"], mesh["transcription"], mesh["degree"]
     return replace(problem, ocp=_periodic_ocp(problem, N, transcription, degree, formulation))
 
 

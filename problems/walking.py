@@ -56,8 +56,10 @@ from model.errors import (
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
 from planner.problem import OCP, Phases
+from planner.refinement import refine_to
 from planner.solver import solve
 from planner.transcription import Transcription
+from problems.accuracy import resolve_mesh, solve_accuracy
 from problems.biped import Biped
 from problems.gait_law import GaitLaw
 from problems.gait_problem import (
@@ -97,8 +99,9 @@ class WalkingStep:
     still change with ``.bound``, ``.constrain``, ``.refine``, ...) and what a gait needs
     around it (the biped, its model, the foot, the impact and step maps, the fitted law).
 
-    ``solve(ocp=None, **options)`` solves ``ocp`` (or a changed copy) and returns a
-    :class:`WalkingGait`.
+    ``solve(ocp=None, accuracy=None, **options)`` solves ``ocp`` (or a changed copy) and
+    returns a :class:`WalkingGait`. ``accuracy``: the preset the step was built with
+    (``walking_step(accuracy=...)``), whose IPOPT tolerance ``solve`` uses, or None.
     """
 
     biped: Biped
@@ -117,6 +120,7 @@ class WalkingStep:
     ocp: OCP | None
     double_support: float = 0.0
     phases: Phases | None = None
+    accuracy: str | None = None
 
     @property
     def linkage(self) -> Linkage:
@@ -197,11 +201,39 @@ class WalkingStep:
         dynamics, integrated by the transcription's own quadrature."""
         return objective_at_guess(self._transcription(problem))
 
-    def solve(self, ocp: OCP | Phases | None = None, **options) -> WalkingGait:
+    def solve(
+        self, ocp: OCP | Phases | None = None, accuracy: str | float | None = None, **options
+    ) -> WalkingGait:
         """Solve this step's problem, or ``ocp`` (a changed copy of :attr:`ocp`, or of
         :attr:`phases` with a double support); ``options`` go to :func:`planner.solve`
         (IPOPT options, progress, ...). Raises :class:`planner.SolverError` on failure unless
-        ``raise_on_failure=False``."""
+        ``raise_on_failure=False``.
+
+        ``accuracy``: a preset name (:data:`problems.ACCURACY_PRESETS`: the single-support
+        OCP re-meshed with the preset's transcription and density, solved at its tolerance),
+        or a number: the mesh refined until the per-interval re-integration error per
+        nominal state scale is within it (:func:`planner.refine_to`; single support only;
+        ``max_passes``, ``max_intervals`` go there; ``gait.solution.stats["refinement"]``
+        is the history). Without it, the tolerance of the preset the step was built with
+        applies. ``options={"tol": ...}`` overrides a preset's tolerance.
+        """
+        preset, target = solve_accuracy(accuracy)
+        preset = preset or (None if self.accuracy is None else solve_accuracy(self.accuracy)[0])
+        if preset is not None:
+            options = {**options, "options": {**preset.options, **(options.get("options") or {})}}
+        if accuracy is not None:
+            problem = self.problem if ocp is None else ocp
+            if not isinstance(problem, OCP) or self.phases is not None:
+                raise DefinitionError(
+                    f"`accuracy`: solve(accuracy={accuracy!r}) re-meshes a single-support "
+                    "step; with a double support give the preset to walking_step(accuracy=...)"
+                    " or the mesh (N) instead"
+                )
+            if target is not None:
+                solution = refine_to(problem, target, **options)
+                final = problem.refine(mesh=solution.interval_lengths / solution.T)
+                return WalkingGait(self, solution, self.law_cost(final))
+            ocp = problem.refine(**preset.mesh(self.single_support_time))
         transcription = self._transcription(ocp)
         law = objective_at_guess(transcription)
         solution = solve(transcription, **options)
@@ -258,10 +290,11 @@ def walking_step(
     step_length: float = 0.5,
     step_time: float = 0.5,
     *,
-    N: int = 30,
-    transcription: str = "hermite-simpson",
+    N: int | None = None,
+    transcription: str | None = None,
     degree: int | None = None,
     formulation: str = "implicit",
+    accuracy: str | None = None,
     mu: float = 0.8,
     torque_limit: float | Mapping[str, float] = 150.0,
     passive: Sequence[str] = (),
@@ -281,7 +314,12 @@ def walking_step(
     linkage : a biped (``model.swap_legs`` accepts it); default the six-link anthropoid.
     step_length : distance between the feet at heel strike, m (> 0).
     step_time : duration of the step, s (> 0).
-    N, transcription, degree, formulation : the mesh (``planner.OCP``).
+    N, transcription, degree, formulation : the mesh (``planner.OCP``; default
+        Hermite-Simpson, N = 30).
+    accuracy : instead of N, transcription and degree, a preset of
+        :data:`problems.ACCURACY_PRESETS` ("draft", "balanced", "precise"): its transcription,
+        its intervals per second of the single support, and its IPOPT tolerance in
+        :meth:`WalkingStep.solve`.
     mu : friction coefficient of the ground (> 0).
     torque_limit : |M_i| bound, N m: one number or one per link name.
     passive : names of links whose hinge torque is 0 (a passive ankle: the stance shank).
@@ -349,6 +387,8 @@ def walking_step(
             f"{double_support!r}"
         )
     single_time = step_time - double_support
+    mesh, _ = resolve_mesh(accuracy, single_time, 30 if accuracy is None and N is None else N,
+                           transcription, degree)  # fmt: skip
     # The law lands the foot when the single support ends; a double support holds the pose
     # the law lands in (periodicity: the law starts from that pose with the legs swapped).
     lift = GUESS_LIFT * biped.leg_length
@@ -370,7 +410,9 @@ def walking_step(
         law=law,
         ocp=None,  # the OCP is built from the step's pieces (foot, impact, step map), below
         double_support=double_support,
+        accuracy=accuracy,
     )
+    N, transcription, degree = mesh["N"], mesh["transcription"], mesh["degree"]
     step = replace(step, ocp=_walking_ocp(step, N, transcription, degree, formulation))
     if double_support == 0.0:
         return step

@@ -11,7 +11,7 @@ import pytest
 from model import equations, presets
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory
-from problems import GaitLaw, torques_along
+from problems import ACCURACY_PRESETS, GaitLaw, torques_along
 from problems.__main__ import main
 
 PROG = "anthropoid-planner"
@@ -993,3 +993,52 @@ def test_walk_reports_a_failed_solve_with_status_1(capsys, tmp_path):
     assert status == 1
     assert re.search(r"error: IPOPT did not converge: \w+", err)
     assert "IPOPT:" in out  # the summary is still printed, with the status
+
+
+def test_walk_accuracy_refines_to_a_target_and_prints_its_passes(capsys, tmp_path):
+    status, out, err = run(
+        capsys, "walk", "-q", "-N", "10", "--accuracy", "1e-2", "--no-plots",
+        "--output-dir", tmp_path / "refined",
+    )  # fmt: skip
+    assert status == 0, err
+    assert "refinement to 1.0e-02 (per-interval re-integration error / nominal scale): " in out
+    assert ": reached (" in out
+    N = int(re.search(r"hermite-simpson N = (\d+) \(refined mesh\)", out).group(1))
+    passes = re.findall(r"^\s+(\d+)\s+(\d+)\s+([\d.e+-]+) ", out, flags=re.MULTILINE)
+    assert passes[0][1] == "10" and int(passes[-1][1]) == N > 10
+    assert float(passes[-1][2]) <= 1e-2
+    # the accuracy line in the same units: the error over its state's nominal scale
+    line = re.search(r"accuracy: .* error ([\d.e+-]+) (rad/s|rad) \(.*; ([\d.e+-]+) of its", out)
+    scale = 3.0 if line.group(2) == "rad/s" else 1.0
+    assert float(line.group(3)) == pytest.approx(float(line.group(1)) / scale, rel=0.01)
+    assert float(line.group(3)) <= 1e-2
+    profile = Trajectory.load(tmp_path / "refined" / "solution.npz")
+    assert profile.n_samples == N + 1
+
+
+def test_walk_accuracy_preset_sets_the_mesh(capsys, tmp_path):
+    draft = ACCURACY_PRESETS["draft"]
+    status, out, err = run(
+        capsys, "walk", "-q", "--accuracy", "draft", "--no-plots", "--output-dir", tmp_path / "d"
+    )
+    assert status == 0, err
+    assert f"{draft.transcription} (accuracy draft: tol {draft.tol:g}" in out
+    assert f") N = {draft.intervals(0.5)}, implicit" in out
+
+
+def test_walk_accuracy_bad_input(capsys):
+    assert_one_line_error(
+        capsys, r"--accuracy draft: the preset sets the mesh; drop -N, --transcription",
+        "walk", "--accuracy", "draft", "-N", "20", "--transcription", "radau",
+    )  # fmt: skip
+    assert_one_line_error(
+        capsys, r"argument --accuracy: expected a preset \(draft, balanced or precise\) or a "
+        r"refinement target such as 1e-5, got 'fast'", "walk", "--accuracy", "fast",
+    )  # fmt: skip
+    assert_one_line_error(
+        capsys, r"argument --accuracy: must lie in \[1e-09, 1\)", "walk", "--accuracy", "0",
+    )  # fmt: skip
+    assert_one_line_error(
+        capsys, r"--accuracy: a refinement target needs a single support",
+        "walk", "--accuracy", "1e-4", "--double-support-s", "0.1",
+    )  # fmt: skip

@@ -1,5 +1,6 @@
 """The examples run as a user runs them (a subprocess each), in their --quick form."""
 
+import json
 import math
 import os
 import re
@@ -197,3 +198,43 @@ def test_units_comparison_quick_run():
     assert abs(mm_iterations - si_iterations) <= 0.2 * si_iterations, lines[1]
     assert all(float(v) <= 1e-6 for v in cells[-5:-1]), lines[1]
     assert float(cells[-1]) == pytest.approx(1e18, rel=1e-9)
+
+
+def test_speed_accuracy_benchmark_quick_run(tmp_path):
+    """The study behind README's speed/accuracy table, Pareto plot, refinement and preset
+    numbers runs in its quick form, writes its figure and data, and what it measured is
+    consistent: every run's torque error falls with N at a fixed transcription and tolerance,
+    the re-integration error too, and the refinement reached its target."""
+    figure, data = tmp_path / "pareto.png", tmp_path / "runs.json"
+    result = _call("benchmarks/speed_accuracy.py", "--quick", "--plot", figure, "--json", data)
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    out = result.stdout
+    for expected in (
+        "fastest run reaching each torque max error",
+        "mesh refinement to a target",
+        "accuracy presets",
+        "references (one per local optimum met)",
+    ):
+        assert expected in out, expected
+    measured = json.loads(data.read_text())
+    rows = measured["rows"]
+    assert len(rows) == 8 and all(r["status"] == "Solve_Succeeded" for r in rows)
+    for problem in ("walking step", "fixed-base gait"):
+        for scheme in ("trapezoid", "hermite-simpson"):
+            curve = sorted(
+                (r for r in rows if r["problem"] == problem and r["scheme"] == scheme),
+                key=lambda r: r["N"],
+            )
+            assert [r["N"] for r in curve] == [10, 20]
+            assert curve[1]["integration"] < curve[0]["integration"], curve
+            assert 0 < curve[1]["torque_max"] < curve[0]["torque_max"], curve
+            assert all(r["torque_rms"] <= r["torque_max"] for r in curve)
+    assert all(r["reached"] for r in measured["refinement"])
+    assert {p["preset"] for p in measured["presets"]} == {"draft"}
+    assert figure.stat().st_size > 20_000
+    # the figure again from the saved measurements
+    again = tmp_path / "again.png"
+    result = _call("benchmarks/speed_accuracy.py", "--replot", data, "--plot", again)
+    assert result.returncode == 0, result.stderr
+    assert again.stat().st_size > 20_000

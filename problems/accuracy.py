@@ -1,0 +1,145 @@
+"""Accuracy presets of the gait problems: a transcription, a mesh density and an IPOPT
+tolerance, chosen from the measurement of ``examples/benchmarks/speed_accuracy.py``.
+
+``walking_step(accuracy="draft" | "balanced" | "precise")``, the same for ``periodic_gait``,
+and ``python -m problems walk --accuracy NAME``. The mesh is given as intervals per second of
+motion, so that a longer step or period gets proportionally more intervals (N = ceil(density
+x duration), at least ``MIN_INTERVALS``). ``torque_error`` is the bound the preset states on
+the largest torque error against the converged optimum of the same local minimum (any hinge,
+any instant of a 1 kHz grid, N m), set from the measurement with a margin; ``tests/
+test_accuracy.py`` checks it on problems the presets were not chosen on (another step length,
+the five-link biped).
+
+A number instead of a name (``gait_problem.solve(accuracy=1e-5)``) refines the mesh to that
+per-interval re-integration error instead (:func:`planner.refine_to`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from model.errors import DefinitionError, DefinitionTypeError
+from planner.refinement import check_accuracy
+
+#: No preset mesh has fewer intervals.
+MIN_INTERVALS = 8
+
+
+@dataclass(frozen=True)
+class AccuracyPreset:
+    """A named accuracy: ``transcription`` (and ``degree``), ``intervals_per_second`` of
+    motion, IPOPT ``tol``; ``torque_error`` the stated bound on the torque error, N m;
+    ``summary`` one line for help texts."""
+
+    name: str
+    transcription: str
+    degree: int | None
+    intervals_per_second: float
+    tol: float
+    torque_error: float
+    summary: str
+
+    def intervals(self, duration: float) -> int:
+        """N for a motion of ``duration`` s."""
+        return max(MIN_INTERVALS, math.ceil(self.intervals_per_second * duration - 1e-9))
+
+    @property
+    def options(self) -> dict[str, float]:
+        """The IPOPT options of the preset."""
+        return {"tol": self.tol}
+
+    def mesh(self, duration: float) -> dict:
+        """``N``, ``transcription``, ``degree`` for a motion of ``duration`` s."""
+        return {
+            "N": self.intervals(duration),
+            "transcription": self.transcription,
+            "degree": self.degree,
+        }
+
+
+ACCURACY_PRESETS: dict[str, AccuracyPreset] = {
+    preset.name: preset
+    for preset in (
+        # Measured (speed_accuracy.py): six-link step 1.4 N m in 0.5 s, fixed-base gait 0.8 N m;
+        # not chosen on: 0.4 m step 0.9, five-link step 1.4, five-link gait 0.7 N m.
+        AccuracyPreset(
+            "draft",
+            "hermite-simpson",
+            None,
+            40.0,
+            1e-4,
+            3.0,
+            "a quick study: Hermite-Simpson, 40 intervals/s, tol 1e-4; torques within 3 N m",
+        ),
+        # six-link step 0.29 N m, gait 0.045; 0.4 m step 0.10, five-link step 0.22, gait 0.04.
+        AccuracyPreset(
+            "balanced",
+            "hermite-simpson",
+            None,
+            160.0,
+            1e-8,
+            0.6,
+            "Hermite-Simpson, 160 intervals/s, tol 1e-8; torques within 0.6 N m",
+        ),
+        # six-link step 0.05 N m; 0.4 m step 0.04, five-link step 0.06, five-link gait < 0.001.
+        AccuracyPreset(
+            "precise",
+            "radau",
+            3,
+            320.0,
+            1e-8,
+            0.15,
+            "hardware-ready torques: Radau degree 3, 320 intervals/s, tol 1e-8; within 0.15 N m",
+        ),
+    )
+}
+
+
+def preset(name: object) -> AccuracyPreset:
+    """The preset called ``name``; raises naming the known ones."""
+    if not isinstance(name, str):
+        raise DefinitionTypeError(
+            f"`accuracy`: a preset name {tuple(ACCURACY_PRESETS)} or a number, got {name!r}"
+        )
+    if name not in ACCURACY_PRESETS:
+        raise DefinitionError(
+            f"`accuracy`: unknown preset {name!r}; use one of {tuple(ACCURACY_PRESETS)}, or a "
+            "number (a refinement target, e.g. 1e-5)"
+        )
+    return ACCURACY_PRESETS[name]
+
+
+def resolve_mesh(accuracy, duration: float, N, transcription, degree) -> tuple[dict, dict]:
+    """(mesh, IPOPT options) of a gait problem: the preset's for ``accuracy`` (a name; N,
+    transcription and degree must then be None), else the given ones (None: Hermite-Simpson,
+    ``N`` as given); options are the preset's tolerance or empty."""
+    if accuracy is None:
+        return {"N": N, "transcription": transcription or "hermite-simpson", "degree": degree}, {}
+    if not isinstance(accuracy, str):
+        raise DefinitionTypeError(
+            f"`accuracy`: the problem takes a preset name {tuple(ACCURACY_PRESETS)}, got "
+            f"{accuracy!r}; a refinement target (a number) goes to solve(accuracy=...)"
+        )
+    chosen = preset(accuracy)
+    given = [name for name, value in (("N", N), ("transcription", transcription),
+                                      ("degree", degree)) if value is not None]  # fmt: skip
+    if given:
+        raise DefinitionError(
+            f"`accuracy`: the preset {chosen.name!r} sets N, transcription and degree; give "
+            f"either accuracy or {', '.join(given)}, not both"
+        )
+    return chosen.mesh(duration), chosen.options
+
+
+def solve_accuracy(accuracy) -> tuple[AccuracyPreset | None, float | None]:
+    """``solve(accuracy=...)``: (a preset, None) for a name, (None, target) for a number,
+    (None, None) for None."""
+    if accuracy is None:
+        return None, None
+    if isinstance(accuracy, str):
+        return preset(accuracy), None
+    return None, check_accuracy(accuracy)
+
+
+__all__ = ["ACCURACY_PRESETS", "MIN_INTERVALS", "AccuracyPreset", "preset", "resolve_mesh"]
