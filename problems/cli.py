@@ -44,7 +44,7 @@ from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.presets import PRESETS, six_link_anthropoid
 from planner.files import atomic_path
 from planner.refinement import check_accuracy
-from planner.schemes import REGISTRY, TRANSCRIPTIONS, WITH_DEGREE
+from planner.schemes import TRANSCRIPTIONS, WITH_DEGREE
 from planner.simulation import tolerance_problem
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory, TrajectoryFileError

@@ -238,3 +238,7 @@ def test_speed_accuracy_benchmark_quick_run(tmp_path):
     result = _call("benchmarks/speed_accuracy.py", "--replot", data, "--plot", again)
     assert result.returncode == 0, result.stderr
     assert again.stat().st_size > 20_000
+    # ... with the summaries printed again from them: the same dominance lines as the run's
+    summary = [line for line in result.stdout.splitlines() if line.startswith("  <=")]
+    assert summary and all(line in out for line in summary)
+    assert result.stdout.count("the other knobs") == 2

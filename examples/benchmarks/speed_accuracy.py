@@ -3,7 +3,7 @@ a fine reference of the same local optimum.
 
     python examples/benchmarks/speed_accuracy.py           # the grid, refinement, presets
     python examples/benchmarks/speed_accuracy.py --quick   # smoke run (CI): seconds
-    python examples/benchmarks/speed_accuracy.py --replot results.json   # the figure again
+    python examples/benchmarks/speed_accuracy.py --replot results.json   # summaries, figure
 
 Problems: the six-link walking step (``problems.walking_step``, 0.5 m in 0.5 s) and the
 fixed-base periodic gait (``problems.periodic_gait``, the "walking" law, period 1 s).
@@ -317,6 +317,46 @@ def dominance(rows: list[Row], problem: str) -> list[str]:
             f"{best.tol:.0e}: {best.solve:.3f} s, error {best.torque_max:.2g} N m"
             + (f"  [{', '.join(others)}]" if others else "")
         )
+    return lines
+
+
+def knobs(rows: list[Row], problem: str) -> list[str]:
+    """The two knobs other than the mesh, each as same-run ratios over the grid's pairs that
+    differ in that knob only: explicit against implicit dynamics (solve time, torque error)
+    and tol 1e-4 against 1e-8 (solve time, iterations, torque error)."""
+    usable = {
+        (r.scheme, r.N, r.formulation, r.tol): r
+        for r in rows
+        if r.problem == problem and r.basin >= 0
+    }
+
+    def ratios(changed: str, a, b, field: str) -> list[float]:
+        out = []
+        for (scheme, N, formulation, tol), r in usable.items():
+            key = (scheme, N, a, tol) if changed == "formulation" else (scheme, N, formulation, a)
+            if (formulation if changed == "formulation" else tol) != b or key not in usable:
+                continue
+            out.append(getattr(usable[key], field) / getattr(r, field))
+        return out
+
+    def spread(values: list[float]) -> str:
+        if not values:
+            return "no pairs"
+        return f"median {np.median(values):.2f} ({min(values):.2f}..{max(values):.2f})"
+
+    lines = [f"{problem}: the other knobs, same-run ratios over pairs differing in it only"]
+    pairs = ratios("formulation", "explicit", "implicit", "solve")
+    lines.append(
+        f"  explicit / implicit dynamics ({len(pairs)} pairs): solve time "
+        f"{spread(pairs)}, torque max error "
+        f"{spread(ratios('formulation', 'explicit', 'implicit', 'torque_max'))}"
+    )
+    pairs = ratios("tol", 1e-4, 1e-8, "solve")
+    lines.append(
+        f"  tol 1e-4 / tol 1e-8 ({len(pairs)} pairs): solve time {spread(pairs)}, iterations "
+        f"{spread(ratios('tol', 1e-4, 1e-8, 'iterations'))}, torque max error "
+        f"{spread(ratios('tol', 1e-4, 1e-8, 'torque_max'))}"
+    )
     return lines
 
 
@@ -638,7 +678,11 @@ def main(argv: list[str] | None = None) -> int:
         "none with --quick unless given)",
     )
     parser.add_argument("--json", default=None, help="write the measurements here")
-    parser.add_argument("--replot", default=None, help="draw the figure from a --json file")
+    parser.add_argument(
+        "--replot",
+        default=None,
+        help="print the summaries and draw the figure again from a --json file",
+    )
     parser.add_argument(
         "--skip",
         default="",
@@ -646,8 +690,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     root = Path(__file__).resolve().parents[1]
-    if args.replot:
+    if args.replot:  # the summaries and the figure again, from the measurements
         data = json.loads(Path(args.replot).read_text())
+        rows = [Row(**r) for r in data["rows"]]
+        for problem in dict.fromkeys(r.problem for r in rows):
+            for line in dominance(rows, problem) + knobs(rows, problem):
+                print(line)
         print(f"wrote {plot(data, Path(args.plot or root / 'pictures' / 'speed_accuracy.png'))}")
         return 0
     quick = args.quick
@@ -717,7 +765,7 @@ def main(argv: list[str] | None = None) -> int:
         )
     print("", file=out)
     for problem in problems if rows else ():
-        for line in dominance(rows, problem):
+        for line in dominance(rows, problem) + knobs(rows, problem):
             print(line, file=out)
     refinement = []
     if not skip & {"refinement", "grid"}:  # against the grid's uniform meshes
