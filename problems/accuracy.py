@@ -20,7 +20,7 @@ import math
 from dataclasses import dataclass
 
 from model.errors import DefinitionError, DefinitionTypeError
-from planner.refinement import check_accuracy
+from planner.refinement import check_accuracy, refine_to
 
 #: No preset mesh has fewer intervals.
 MIN_INTERVALS = 8
@@ -110,12 +110,17 @@ def preset(name: object) -> AccuracyPreset:
     return ACCURACY_PRESETS[name]
 
 
-def resolve_mesh(accuracy, duration: float, N, transcription, degree) -> tuple[dict, dict]:
-    """(mesh, IPOPT options) of a gait problem: the preset's for ``accuracy`` (a name; N,
-    transcription and degree must then be None), else the given ones (None: Hermite-Simpson,
-    ``N`` as given); options are the preset's tolerance or empty."""
+def resolve_mesh(accuracy, duration: float, N, transcription, degree, default_N: int) -> dict:
+    """The mesh (``N``, ``transcription``, ``degree``) of a gait problem: the preset's for
+    ``accuracy`` (a name; N, transcription and degree must then be None), else the given ones
+    (None: Hermite-Simpson on ``default_N`` intervals). The preset's tolerance goes to IPOPT
+    in the problem's ``solve`` (:func:`solve_plan`)."""
     if accuracy is None:
-        return {"N": N, "transcription": transcription or "hermite-simpson", "degree": degree}, {}
+        return {
+            "N": default_N if N is None else N,
+            "transcription": transcription or "hermite-simpson",
+            "degree": degree,
+        }
     if not isinstance(accuracy, str):
         raise DefinitionTypeError(
             f"`accuracy`: the problem takes a preset name {tuple(ACCURACY_PRESETS)}, got "
@@ -129,17 +134,38 @@ def resolve_mesh(accuracy, duration: float, N, transcription, degree) -> tuple[d
             f"`accuracy`: the preset {chosen.name!r} sets N, transcription and degree; give "
             f"either accuracy or {', '.join(given)}, not both"
         )
-    return chosen.mesh(duration), chosen.options
+    return chosen.mesh(duration)
 
 
-def solve_accuracy(accuracy) -> tuple[AccuracyPreset | None, float | None]:
-    """``solve(accuracy=...)``: (a preset, None) for a name, (None, target) for a number,
-    (None, None) for None."""
-    if accuracy is None:
-        return None, None
+def solve_plan(accuracy, built_with: str | None, options: dict):
+    """What a gait problem's ``solve(accuracy=..., **options)`` does: (the preset to re-mesh
+    with, for a name, else None; the refinement target, for a number, else None; ``options``
+    with the tolerance of that preset, or of the one the problem was built with
+    (``built_with``), beneath the caller's own IPOPT options)."""
+    remesh = target = None
     if isinstance(accuracy, str):
-        return preset(accuracy), None
-    return None, check_accuracy(accuracy)
+        remesh = preset(accuracy)
+    elif accuracy is not None:
+        target = check_accuracy(accuracy)
+    tolerance = remesh or (None if built_with is None else preset(built_with))
+    if tolerance is not None:
+        options = {**options, "options": {**tolerance.options, **(options.get("options") or {})}}
+    return remesh, target, options
 
 
-__all__ = ["ACCURACY_PRESETS", "MIN_INTERVALS", "AccuracyPreset", "preset", "resolve_mesh"]
+def refine_gait(ocp, target: float, options: dict):
+    """(the Solution of :func:`planner.refine_to` on ``ocp``, ``ocp`` on its final mesh: where
+    the gait's law cost is evaluated)."""
+    solution = refine_to(ocp, target, **options)
+    return solution, ocp.refine(mesh=solution.interval_lengths / solution.T)
+
+
+__all__ = [
+    "ACCURACY_PRESETS",
+    "MIN_INTERVALS",
+    "AccuracyPreset",
+    "preset",
+    "refine_gait",
+    "resolve_mesh",
+    "solve_plan",
+]

@@ -39,10 +39,9 @@ from model.errors import DefinitionError, DefinitionTypeError, check_positive, c
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
 from planner.problem import OCP
-from planner.refinement import refine_to
 from planner.solver import solve
 from planner.transcription import Transcription
-from problems.accuracy import resolve_mesh, solve_accuracy
+from problems.accuracy import refine_gait, resolve_mesh, solve_plan
 from problems.biped import Biped
 from problems.gait_law import GaitLaw
 from problems.gait_problem import (
@@ -122,16 +121,12 @@ class PeriodicGaitProblem:
         ocp = self.ocp if ocp is None else ocp
         if not isinstance(ocp, OCP):
             raise DefinitionTypeError(f"`ocp`: must be a planner.OCP, got {type(ocp).__name__}")
-        preset, target = solve_accuracy(accuracy)
-        preset = preset or (None if self.accuracy is None else solve_accuracy(self.accuracy)[0])
-        if preset is not None:
-            options = {**options, "options": {**preset.options, **(options.get("options") or {})}}
+        remesh, target, options = solve_plan(accuracy, self.accuracy, options)
         if target is not None:
-            solution = refine_to(ocp, target, **options)
-            final = ocp.refine(mesh=solution.interval_lengths / solution.T)
+            solution, final = refine_gait(ocp, target, options)
             return PeriodicGait(self, solution, self.law_cost(final))
-        if accuracy is not None:
-            ocp = ocp.refine(**preset.mesh(self.law.period))
+        if remesh is not None:
+            ocp = ocp.refine(**remesh.mesh(self.law.period))
         transcription = Transcription(ocp)
         law = objective_at_guess(transcription)
         return PeriodicGait(self, solve(transcription, **options), law)
@@ -231,8 +226,7 @@ def periodic_gait(
         upright = biped.upper_body if biped is not None else ()
     upright = check_links("upright", upright, linkage)
     check_objective(objective)
-    mesh, _ = resolve_mesh(accuracy, law.period, 50 if accuracy is None and N is None else N,
-                           transcription, degree)  # fmt: skip
+    mesh = resolve_mesh(accuracy, law.period, N, transcription, degree, default_N=50)
     dynamics = linkage.dynamics()
     point = dynamics.point(foot)
     period = law.period

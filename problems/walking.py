@@ -56,10 +56,9 @@ from model.errors import (
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
 from planner.problem import OCP, Phases
-from planner.refinement import refine_to
 from planner.solver import solve
 from planner.transcription import Transcription
-from problems.accuracy import resolve_mesh, solve_accuracy
+from problems.accuracy import refine_gait, resolve_mesh, solve_plan
 from problems.biped import Biped
 from problems.gait_law import GaitLaw
 from problems.gait_problem import (
@@ -217,10 +216,7 @@ class WalkingStep:
         is the history). Without it, the tolerance of the preset the step was built with
         applies. ``options={"tol": ...}`` overrides a preset's tolerance.
         """
-        preset, target = solve_accuracy(accuracy)
-        preset = preset or (None if self.accuracy is None else solve_accuracy(self.accuracy)[0])
-        if preset is not None:
-            options = {**options, "options": {**preset.options, **(options.get("options") or {})}}
+        remesh, target, options = solve_plan(accuracy, self.accuracy, options)
         if accuracy is not None:
             problem = self.problem if ocp is None else ocp
             if not isinstance(problem, OCP) or self.phases is not None:
@@ -230,10 +226,9 @@ class WalkingStep:
                     " or the mesh (N) instead"
                 )
             if target is not None:
-                solution = refine_to(problem, target, **options)
-                final = problem.refine(mesh=solution.interval_lengths / solution.T)
+                solution, final = refine_gait(problem, target, options)
                 return WalkingGait(self, solution, self.law_cost(final))
-            ocp = problem.refine(**preset.mesh(self.single_support_time))
+            ocp = problem.refine(**remesh.mesh(self.single_support_time))
         transcription = self._transcription(ocp)
         law = objective_at_guess(transcription)
         solution = solve(transcription, **options)
@@ -387,8 +382,7 @@ def walking_step(
             f"{double_support!r}"
         )
     single_time = step_time - double_support
-    mesh, _ = resolve_mesh(accuracy, single_time, 30 if accuracy is None and N is None else N,
-                           transcription, degree)  # fmt: skip
+    mesh = resolve_mesh(accuracy, single_time, N, transcription, degree, default_N=30)
     # The law lands the foot when the single support ends; a double support holds the pose
     # the law lands in (periodicity: the law starts from that pose with the legs swapped).
     lift = GUESS_LIFT * biped.leg_length
