@@ -42,12 +42,21 @@ import numpy as np
 
 from model.errors import DefinitionError, DefinitionTypeError
 from planner.ocp import OCPDefinition, Point, evaluate_expression
-from planner.phase_transcription import Mesh, PhaseTranscription, SharedStart
+from planner.phase_transcription import PhaseTranscription, SharedStart
 from planner.phases import EventPoint, PhasesDefinition, event_value
 from planner.phases_solution import PhasesSolution
 from planner.solution import Solution
 
 logger = logging.getLogger(__name__)
+
+
+def _single_phase(name: str, what: str) -> property:
+    """A property of :class:`Transcription` that reads ``name`` of its only phase's block."""
+
+    def read(self):
+        return getattr(self._only(name), name)
+
+    return property(read, doc=f"{what} of the single phase (a Phases NLP raises)")
 
 
 class Transcription:
@@ -490,41 +499,17 @@ class Transcription:
             )
         return self.phases[0]
 
-    @property
-    def ocp(self) -> OCPDefinition:
-        return self._only("ocp").ocp
-
-    @property
-    def system(self):
-        return self._only("system").system
-
-    @property
-    def scheme(self):
-        return self._only("scheme").scheme
-
-    @property
-    def mesh(self) -> Mesh:
-        return self._only("mesh").mesh
-
-    @property
-    def state_scale(self) -> np.ndarray:
-        return self._only("state_scale").state_scale
-
-    @property
-    def control_scale(self) -> np.ndarray:
-        return self._only("control_scale").control_scale
-
-    @property
-    def aux_scale(self) -> np.ndarray:
-        return self._only("aux_scale").aux_scale
-
-    @property
-    def point_function(self) -> ca.Function:
-        return self._only("point_function").point_function
-
-    @property
-    def boundary_function(self) -> ca.Function:
-        return self._only("boundary_function").boundary_function
+    # What one phase's block holds, read through the NLP of a single OCP (a Phases NLP
+    # refuses: read phases[k].<name>).
+    ocp = _single_phase("ocp", "the OCP definition (OCPDefinition)")
+    system = _single_phase("system", "the System of its dynamics")
+    scheme = _single_phase("scheme", "the transcription's Scheme")
+    mesh = _single_phase("mesh", "the Mesh (interval lengths, node and point times)")
+    state_scale = _single_phase("state_scale", "(nx,) nominal scales of the states")
+    control_scale = _single_phase("control_scale", "(nu,) nominal scales of the controls")
+    aux_scale = _single_phase("aux_scale", "(nz,) nominal scales of the auxiliaries")
+    point_function = _single_phase("point_function", "the Function of one dynamics point")
+    boundary_function = _single_phase("boundary_function", "the Function of the boundary rows")
 
 
 def _assemble(own_values, own: np.ndarray, source: np.ndarray, before):
