@@ -1,5 +1,6 @@
 """The command line, in process through problems.__main__.main(argv), plus one real subprocess."""
 
+import functools
 import os
 import re
 import subprocess
@@ -8,6 +9,7 @@ import sys
 import numpy as np
 import pytest
 
+import problems.accuracy as problems_accuracy
 from model import equations, presets
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory
@@ -1014,6 +1016,28 @@ def test_walk_accuracy_refines_to_a_target_and_prints_its_passes(capsys, tmp_pat
     assert float(line.group(3)) <= 1e-2
     profile = Trajectory.load(tmp_path / "refined" / "solution.npz")
     assert profile.n_samples == N + 1
+
+
+def test_walk_accuracy_target_missed_fails_with_status_1_and_writes_nothing(
+    capsys, tmp_path, monkeypatch
+):
+    # One pass allowed: a target far below N = 10's error cannot be reached.
+    monkeypatch.setattr(
+        problems_accuracy, "refine_to", functools.partial(problems_accuracy.refine_to, max_passes=1)
+    )
+    folder = tmp_path / "missed"
+    status, out, err = run(
+        capsys, "walk", "-q", "-N", "10", "--accuracy", "1e-7", "--no-plots",
+        "--output-dir", folder,
+    )  # fmt: skip
+    assert status == 1
+    assert re.search(
+        r"error: the accuracy target 1e-07 was not reached: max_passes = 1 used, error "
+        r"[\d.e+-]+; nothing written",
+        err,
+    )
+    assert "NOT reached" in out  # the passes are still printed
+    assert not folder.exists()
 
 
 def test_walk_accuracy_preset_sets_the_mesh(capsys, tmp_path):
