@@ -65,18 +65,24 @@ def lagrange_matrix(points: np.ndarray, tau, derivative: int = 0) -> np.ndarray:
     ----------
     points : (m,) distinct nodes of the basis.
     tau : scalar or (K,) evaluation points.
-    derivative : order r >= 0 of the derivative with respect to tau.
+    derivative : order r >= 0 of the derivative with respect to tau, or -1 for the
+        antiderivative that vanishes at tau = 0 (the integral from 0 to tau).
 
     Returns
     -------
     (K, m) array W with p(tau_k) = sum_j W[k, j] p(points[j]) for every polynomial p of degree
-    < m (its r-th derivative for ``derivative=r``).
+    < m (its r-th derivative for ``derivative=r``, its integral over [0, tau_k] for -1).
     """
     points = np.asarray(points, dtype=float)
     tau = np.atleast_1d(np.asarray(tau, dtype=float))
     coefficients = lagrange_coefficients(points)  # (m, m): basis j, power k
     m = points.size
     powers = np.arange(m)
+    if derivative == -1:  # integral of tau^k over [0, tau] = tau^(k+1) / (k+1)
+        monomials = tau[:, None] ** (powers[None, :] + 1) / (powers[None, :] + 1)
+        return monomials @ coefficients.T
+    if derivative < -1:
+        raise ValueError(f"`derivative`: must be >= -1, got {derivative}")
     factor = np.ones(m)  # d^r/dtau^r tau^k = k (k-1) ... (k-r+1) tau^(k-r)
     for r in range(derivative):
         factor = factor * np.clip(powers - r, 0, None)

@@ -178,6 +178,21 @@ def linkage_system(
     if aux:
         groups = (*groups, (ACCELERATIONS, aux), ("z", aux))
 
+    # The drives a motion needs: the residual is affine in the applied torques (inverse
+    # dynamics less the applied torques), so M = ID(psi, dpsi, a) - the contact forces' moments.
+    a = ca.SX.sym("a", n)
+    exerted = ca.SX.zeros(n)
+    for j, p in enumerate(points):
+        exerted = exerted + p.function("hinge_moments")(x[:n], u[n + 2 * j : n + 2 * j + 2])
+    inverse = dynamics.function("inverse_dynamics")
+    drives_for_motion = ca.Function(
+        "drives_for_motion",
+        [x, a, u],
+        [inverse(x[:n], x[n:], a) - exerted],
+        ["x", "a", "u"],
+        [TORQUES],
+    )
+
     def inverse_dynamics(values: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Torques that make the guessed motion dynamically consistent: inverse dynamics of
         the guessed psi, dpsi, ddpsi (when the guesses give all three), so that a gait law
@@ -214,6 +229,9 @@ def linkage_system(
         drives=TORQUES,
         accelerations=ACCELERATIONS,
         model=dynamics.linkage.parameters(),
+        positions=ANGLES,
+        velocities=RATES,
+        drives_for_motion=drives_for_motion,
     )
 
 

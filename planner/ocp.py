@@ -331,7 +331,9 @@ class Constraint:
 
     ``rows``: suffixes naming the rows of g (see :func:`expression_rows`). For ``where`` =
     "at", ``instants`` (K,) are the times (s) or, ``fraction`` True, the fractions of T where
-    g holds, and ``lower``, ``upper`` are (K, rows); otherwise they are (rows,).
+    g holds, ``on`` the interpolant the point is read from ("transcription" or "motion",
+    see :meth:`OCP.constrain_at`), and ``lower``, ``upper`` are (K, rows); otherwise they
+    are (rows,).
     """
 
     name: str
@@ -343,6 +345,7 @@ class Constraint:
     rows: tuple[str, ...] = ()
     instants: tuple[float, ...] = ()
     fraction: bool = False
+    on: str = "transcription"
 
     @property
     def size(self) -> int:
@@ -766,7 +769,16 @@ class OCPDefinition:
         return -np.inf, np.inf
 
     def _add_constraint(
-        self, name, expression, lower, upper, where, scale, instants=(), fraction=False
+        self,
+        name,
+        expression,
+        lower,
+        upper,
+        where,
+        scale,
+        instants=(),
+        fraction=False,
+        on="transcription",
     ) -> Self:
         if not isinstance(name, str) or not name:
             raise DefinitionTypeError(f"`name`: a constraint needs a non-empty name, got {name!r}")
@@ -789,7 +801,7 @@ class OCPDefinition:
         if scale is not None:
             scale_array = _positive_array(f"{label} scale", scale, value.size1())
         constraint = Constraint(
-            name, expression, lo, hi, where, scale_array, rows, tuple(instants), fraction
+            name, expression, lo, hi, where, scale_array, rows, tuple(instants), fraction, on
         )
         return dataclasses.replace(self, constraints=(*self.constraints, constraint))
 
@@ -840,6 +852,7 @@ class OCPDefinition:
         lower=None,
         upper=None,
         scale=None,
+        on: str = "transcription",
     ) -> Self:
         """A constraint lower <= g(point) <= upper at given instants (keypoints).
 
@@ -859,6 +872,13 @@ class OCPDefinition:
         instants; (K,) for a scalar g). Rows are named "at[name] t=0.25 s (interval 12)"
         (with ``fraction``: "t=0.5 T"). ``expression`` and ``scale`` as in :meth:`constrain`.
 
+        ``on="motion"`` reads the point from the consistent motion instead
+        (:meth:`planner.solution.Solution.motion`, what the solution's files sample: positions
+        integrated from the velocity polynomial, accelerations its slope, drives by
+        ``drives_for_motion``): so that a bound holds on exactly the exported samples
+        (:func:`planner.hold_at_samples`). It needs a system with that role (a linkage) and
+        an expression that reads no control rate.
+
         >>> ocp.constrain_at("foot", foot_xy, fraction=[0.25, 0.5], lower=targets, upper=targets)
         """
         label = f"at[{name}]"
@@ -875,8 +895,17 @@ class OCPDefinition:
             )
         key, value = ("t", t) if t is not None else ("fraction", fraction)
         instants = _instants(label, key, value, self.T if t is not None else 1.0)
+        if on not in ("transcription", "motion"):
+            raise DefinitionError(
+                f"`{label}`: on must be 'transcription' or 'motion', got {on!r}"
+            )
+        if on == "motion" and not self.system.has_motion:
+            raise DefinitionError(
+                f"`{label}`: on='motion' needs a system with positions, velocities and "
+                "drives_for_motion (a linkage); this one has none: use on='transcription'"
+            )
         return self._add_constraint(
-            name, expression, lower, upper, "at", scale, instants, fraction is not None
+            name, expression, lower, upper, "at", scale, instants, fraction is not None, on
         )
 
     def boundary(self, name: str, expression, at: str, lower=None, upper=None, scale=None) -> Self:

@@ -736,6 +736,11 @@ class PhaseTranscription:
         point = Point(s, xs, us, zs, t, T, self.ocp.param_fields(P), du=dus)
         label = f"at[{constraint.name}]"
         value = evaluate_expression(label, constraint.expression, point)
+        if constraint.on == "motion" and _reads(value, dus):
+            raise DefinitionError(
+                f"`{label}`: reads a control rate, which the consistent motion does not offer "
+                "(its drives come from the inverse dynamics); constrain it on='transcription'"
+            )
         function = ca.Function(
             "at",
             [xs, us, zs, t, T, P, dus],
@@ -764,10 +769,65 @@ class PhaseTranscription:
             Us, mesh.interval_matrix(k, scheme.control_weights(tau, 1), state=False, power=-1)
         )
         K = k.size
+        if constraint.on == "motion":
+            x, u, z = self._motion_at(k, tau, x, u, z, Xs, Fs, h, function)
         rows = function.map(K)(
             x, u, z, T * ca.DM(s).T, ca.repmat(T, 1, K), ca.repmat(params, 1, K), du / h
         )
         return ca.vec(rows)
+
+    def _motion_at(self, k, tau, x, u, z, Xs, Fs, h, function):
+        """(x, u, z) at K instants of intervals k, local times tau, on the consistent motion
+        (what ``Solution.motion`` samples): positions q_k + h_k (integral of the velocity
+        polynomial), velocities that polynomial, accelerations its slope (z, when z holds
+        them), the drives from ``drives_for_motion`` (only when ``function``, the rows, read
+        a control or z: the inverse dynamics is the costly part); the rest as ``x``, ``u``,
+        ``z`` (the transcription's interpolant, (n, K) each)."""
+        s, mesh, scheme = self.system, self.mesh, self.scheme
+        index = {name: i for i, name in enumerate(s.state_names)}
+        positions = [index[name] for name in s.group(s.positions)]
+        velocities = [index[name] for name in s.group(s.velocities)]
+        V, A = Xs[velocities, :], Fs[velocities, :]
+
+        def velocity_polynomial(derivative: int, power: int):
+            # v's polynomial (derivative 0), its integral (-1, times h_k) or slope (1, / h_k):
+            # V Wx r^power + h A Wf r^(power + 1), r_k the interval's relative length.
+            wx, wf = scheme.motion_weights(tau, derivative)
+            value = ca.mtimes(V, mesh.interval_matrix(k, wx, state=True, power=power))
+            if np.any(wf != 0.0):
+                weights = mesh.interval_matrix(k, wf, state=False, power=power + 1)
+                value = value + h * ca.mtimes(A, weights)
+            return value
+
+        # At an interval's end (tau = 1) the next node's own values, as Solution.motion.
+        end = np.asarray(tau) == 1.0
+        unit = np.eye(scheme.ms + 1)
+        start_weights = np.where(end[:, None], 0.0, unit[0])
+        end_weights = np.where(end[:, None], unit[scheme.ms], 0.0)
+        start = mesh.interval_matrix(k, start_weights, state=True)
+        q = ca.mtimes(Xs[positions, :], start) + h * velocity_polynomial(-1, 1)
+        v = velocity_polynomial(0, 0)
+        if np.any(end):
+            inside = ca.diag(ca.DM((~end).astype(float)))
+            finish = mesh.interval_matrix(k, end_weights, state=True)
+            q = ca.mtimes(q, inside) + ca.mtimes(Xs[positions, :], finish)
+            v = ca.mtimes(v, inside) + ca.mtimes(Xs[velocities, :], finish)
+        a = velocity_polynomial(1, -1) / h
+        rows = [x[i, :] for i in range(s.nx)]
+        for j, (p, w) in enumerate(zip(positions, velocities, strict=True)):
+            rows[p], rows[w] = q[j, :], v[j, :]
+        x = ca.vertcat(*rows)
+        if s.nz and s.group(s.accelerations) == s.aux_names:
+            z = a
+        reads = function.sparsity_jac("u", "rows").nnz() + function.sparsity_jac("z", "rows").nnz()
+        if not reads:  # positions and velocities only: the drives are not needed
+            return x, u, z
+        drives = [s.control_names.index(name) for name in s.role_names("drives")]
+        values = s.drives_for_motion.map(k.size)(x, a, u)
+        controls = [u[i, :] for i in range(s.nu)]
+        for j, i in enumerate(drives):
+            controls[i] = values[j, :]
+        return x, ca.vertcat(*controls), z
 
     def _bounds_and_names(self) -> None:
         s, ocp, mesh = self.system, self.ocp, self.mesh

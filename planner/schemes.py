@@ -66,6 +66,8 @@ class Scheme:
     point_label : how rows name an interior point j of an interval ("midpoint", "point {j}").
     state_basis : the closed-form state interpolant (:data:`StateBasis`), or None for the
         Lagrange polynomial through the node and the dynamics points (collocation).
+    motion_basis : the velocity polynomial of a consistent motion
+        (:meth:`motion_weights`) when it is not the state interpolant, or None.
     """
 
     name: str
@@ -80,6 +82,7 @@ class Scheme:
     order: int
     point_label: str = "point {j}"
     state_basis: StateBasis | None = None
+    motion_basis: StateBasis | None = None
 
     @property
     def ms(self) -> int:
@@ -118,7 +121,10 @@ class Scheme:
         return self.point_label.format(j=j)
 
     def state_weights(self, tau, derivative: int = 0) -> tuple[np.ndarray, np.ndarray]:
-        """(Wx (K, ms+1), Wf (K, ndc)): d^r x/dtau^r = X_k Wx^T + h F_k Wf^T at ``tau``."""
+        """(Wx (K, ms+1), Wf (K, ndc)): d^r x/dtau^r = X_k Wx^T + h F_k Wf^T at ``tau``;
+        ``derivative=-1``: the integral of x over [0, tau] (in units of tau)."""
+        if derivative < -1:
+            raise ValueError(f"`derivative`: must be >= -1, got {derivative}")
         tau = np.atleast_1d(np.asarray(tau, dtype=float))
         if self.state_basis is not None:
             return self.state_basis(tau, derivative)
@@ -128,6 +134,21 @@ class Scheme:
         wx = np.zeros((tau.size, self.ms + 1))
         wx[:, : points.size] = w
         return wx, np.zeros((tau.size, self.ndc))
+
+    def motion_weights(self, tau, derivative: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """(Wx, Wf) as :meth:`state_weights`, of the velocity polynomial of a consistent motion
+        (:meth:`planner.solution.Solution.motion`): v(tau) = V_k Wx^T + h A_k Wf^T with V the
+        velocities at the state points and A the accelerations at the dynamics points, whose
+        integral over the interval must be the scheme's own position defect, so that the
+        positions it integrates to meet the next node. The state interpolant has that
+        property on Hermite-Simpson (Simpson's rule is exact on its cubic) and collocation
+        (the quadrature is exact on the state polynomial); the trapezoid's quadratic does not
+        (its integral misses h (v0 + v1) / 2 by h^2 (a0 - a1) / 12), so it has its own."""
+        if self.motion_basis is None:
+            return self.state_weights(tau, derivative)
+        if derivative < -1:
+            raise ValueError(f"`derivative`: must be >= -1, got {derivative}")
+        return self.motion_basis(np.atleast_1d(np.asarray(tau, dtype=float)), derivative)
 
     def control_weights(self, tau, derivative: int = 0) -> np.ndarray:
         """Wu (K, ndc): u(tau) = U_k Wu^T, the polynomial through the dynamics points."""
@@ -140,7 +161,12 @@ def _trapezoid_state(tau: np.ndarray, derivative: int) -> tuple[np.ndarray, np.n
     if derivative > 2:
         return np.zeros((tau.size, 2)), np.zeros((tau.size, 2))
     one, zero = np.ones_like(tau), np.zeros_like(tau)
-    poly = [(one, tau - tau**2 / 2, tau**2 / 2), (zero, 1 - tau, tau), (zero, -one, one)]
+    poly = {
+        -1: (tau, tau**2 / 2 - tau**3 / 6, tau**3 / 6),  # the integral over [0, tau]
+        0: (one, tau - tau**2 / 2, tau**2 / 2),
+        1: (zero, 1 - tau, tau),
+        2: (zero, -one, one),
+    }
     constant, f0, f1 = poly[derivative]
     return np.column_stack([constant, zero]), np.column_stack([f0, f1])
 
@@ -151,6 +177,12 @@ def _hermite_simpson_state(tau: np.ndarray, derivative: int) -> tuple[np.ndarray
     if derivative > 3:
         return np.zeros((tau.size, 3)), np.zeros((tau.size, 3))
     basis = {
+        -1: (  # the integral over [0, tau]
+            tau**4 / 2 - tau**3 + tau,
+            tau**4 / 4 - 2 * tau**3 / 3 + tau**2 / 2,
+            -(tau**4) / 2 + tau**3,
+            tau**4 / 4 - tau**3 / 3,
+        ),
         0: (
             2 * tau**3 - 3 * tau**2 + 1,
             tau**3 - 2 * tau**2 + tau,
@@ -171,6 +203,26 @@ def _hermite_simpson_state(tau: np.ndarray, derivative: int) -> tuple[np.ndarray
     return np.column_stack([h00, zero, h01]), np.column_stack([h10, zero, h11])
 
 
+def _trapezoid_motion(tau: np.ndarray, derivative: int) -> tuple[np.ndarray, np.ndarray]:
+    # The quartic through v0, v1 with slopes h a0, h a1 whose integral over the interval is
+    # the trapezoid's position defect (v0 + v1) / 2: the cubic Hermite plus the bump
+    # b = tau^2 (1 - tau)^2 (zero value and slope at both ends, integral 1/30) times
+    # -30 h (a0 - a1) / 12, which cancels the Hermite's own h (a0 - a1) / 12.
+    if derivative > 4:
+        return np.zeros((tau.size, 2)), np.zeros((tau.size, 2))
+    wx, wf = _hermite_simpson_state(tau, derivative)
+    h00, h01, h10, h11 = wx[:, 0], wx[:, 2], wf[:, 0], wf[:, 2]
+    bump = {
+        -1: tau**3 / 3 - tau**4 / 2 + tau**5 / 5,
+        0: tau**2 - 2 * tau**3 + tau**4,
+        1: 2 * tau - 6 * tau**2 + 4 * tau**3,
+        2: 2 - 12 * tau + 12 * tau**2,
+        3: -12 + 24 * tau,
+        4: 24 + 0 * tau,
+    }[derivative]
+    return np.column_stack([h00, h01]), np.column_stack([h10 - 2.5 * bump, h11 + 2.5 * bump])
+
+
 def _trapezoid(degree: int | None) -> Scheme:
     return Scheme(
         "trapezoid",
@@ -184,6 +236,7 @@ def _trapezoid(degree: int | None) -> Scheme:
         quadrature=np.array([0.5, 0.5]),
         order=2,
         state_basis=_trapezoid_state,
+        motion_basis=_trapezoid_motion,
     )
 
 

@@ -47,6 +47,9 @@ from planner.trajectory import Trajectory
 #: where f - dx/dt changes sign, so the rule is not exact (its degree 2 * 12 - 1 exactness
 #: holds for smooth polynomials only): an estimate, whose error is not bounded by that degree.
 RESIDUAL_QUADRATURE_POINTS = 12
+#: What :meth:`Solution.to_trajectory` samples: the consistent motion or the transcription's
+#: own polynomials.
+MOTIONS = ("consistent", "transcription")
 
 
 @dataclass(frozen=True)
@@ -360,6 +363,72 @@ class Solution:
         values = derived.function.map(times.size)(x.T, z.T, u.T, times[None, :])
         return np.asarray(values).T
 
+    def motion(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The solution as a consistent motion at times t: (x (K, nx), xdot (K, nx), u (K, nu)).
+
+        For a system with ``positions``, ``velocities`` and ``drives_for_motion`` (a linkage):
+
+        * velocities v(t): the transcription's own polynomial of the velocity states (on the
+          trapezoid a quartic through the same values and slopes, whose integral is the
+          trapezoid's position defect: ``Scheme.motion_weights``);
+        * accelerations a(t) = dv/dt, its derivative (at the dynamics points: the NLP's
+          accelerations; between them the polynomial's own slope);
+        * positions q(t) = q_k + integral of v from the interval's start node t_k: the
+          antiderivative of the velocity polynomial, restarted at every node. It meets the
+          next node's position to the solver's tolerance on the position defects (each
+          scheme's position defect is the exact integral of this velocity polynomial);
+        * drives (u's ``drives`` group) = ``drives_for_motion``(x, a, u): the torques that
+          make exactly this motion with the other controls (contact forces) of the
+          transcription's control polynomial.
+
+        So dq/dt = v, dv/dt = a and the equations of motion hold at every t to round-off, not
+        only at the collocation points; positions differ from the transcription's own state
+        polynomial by the collocation error, drives from its control polynomial likewise
+        (``Solution.state``, ``Solution.control`` keep the transcription's polynomials).
+        xdot holds (v, a) in the rows of (positions, velocities) and the state polynomial's
+        derivative in the rows of any other state. Raises DefinitionError for a system
+        without these roles.
+        """
+        s = self.system
+        if not s.has_motion:
+            raise DefinitionError(
+                "`motion`: the system has no positions, velocities and drives_for_motion "
+                "(a linkage's psi, dpsi and inverse dynamics); use state(t) and control(t)"
+            )
+        times, k, tau = self._locate(t)
+        x = self.state(times)
+        xdot = self.state(times, derivative=1)
+        u = self.control(times)
+        positions = [s.state_names.index(name) for name in s.group(s.positions)]
+        velocities = [s.state_names.index(name) for name in s.group(s.velocities)]
+        mesh = self.mesh
+        nodes = self.state_values[mesh.node_state_cols]
+        for kk in np.unique(k):
+            sel = k == kk
+            h = self.T / self.N * mesh.relative[kk]
+            v_k = self.state_values[mesh.state_cols[kk]][:, velocities]
+            a_k = self.rate_values[mesh.dyn_cols[kk]][:, velocities]
+            for derivative, target, columns, factor in (
+                (-1, x, positions, h),  # q = q_k + h (integral of v over [0, tau])
+                (0, x, velocities, 1.0),
+                (1, xdot, velocities, 1.0 / h),  # a = dv/dtau / h
+            ):
+                wx, wf = self.scheme.motion_weights(tau[sel], derivative)
+                value = factor * (wx @ v_k + h * (wf @ a_k))
+                if derivative == -1:
+                    value = value + nodes[kk, positions]
+                if derivative < 1:
+                    # The node's own value at the interval's end (the polynomials meet it to
+                    # the defect tolerance): node samples are the NLP's states bit for bit.
+                    end = tau[sel][:, None] == 1.0
+                    value = np.where(end, nodes[kk + 1, columns], value)
+                target[np.ix_(sel, columns)] = value
+        xdot[:, positions] = x[:, velocities]
+        drives = [s.control_names.index(name) for name in s.role_names("drives")]
+        values = s.drives_for_motion.map(times.size)(x.T, xdot[:, velocities].T, u.T)
+        u[:, drives] = np.asarray(values).T
+        return x, xdot, u
+
     def __call__(self, t) -> tuple[np.ndarray, np.ndarray]:
         """(states (K, nx), controls (K, nu)) at times t through the transcription's polynomials."""
         return self.state(t), self.control(t)
@@ -637,17 +706,31 @@ class Solution:
             times = np.append(times, self.T)
         return times
 
-    def to_trajectory(self, rate_hz: float | None = None):
+    def to_trajectory(self, rate_hz: float | None = None, motion: str | None = None):
         """The solution as a :class:`planner.trajectory.Trajectory`.
 
-        At the nodes (``rate_hz`` None) or resampled at ``rate_hz`` through this solution's
-        own interpolant, in the system's names: its drives as the controls, the other
-        controls, the auxiliary variables and the derived accelerations as extras (a
-        linkage: psi_, dpsi_ states, M_ controls, ddpsi_ and contact-force extras).
+        At the nodes (``rate_hz`` None) or sampled at ``rate_hz``, in the system's names: its
+        drives as the controls, the other controls, the auxiliary variables and the
+        accelerations as extras (a linkage: psi_, dpsi_ states, M_ controls, ddpsi_ and
+        contact-force extras).
+
+        ``motion``: ``"consistent"`` (the default when the system offers it, a linkage: the
+        samples of :meth:`motion`, whose positions, velocities, accelerations and drives obey
+        the kinematics and the equations of motion at every sample to round-off; what a
+        drive controller needs) or ``"transcription"`` (the transcription's own polynomials,
+        :meth:`state`, :meth:`control`, :meth:`acceleration`: consistent at the collocation
+        points only; the default for other systems). ``metadata["motion"]`` says which.
         """
-        times = self.sample_times(rate_hz)
-        states, controls = self(times)
         s = self.system
+        if motion is None:
+            motion = "consistent" if s.has_motion else "transcription"
+        if motion not in MOTIONS:
+            raise DefinitionError(f"`motion`: must be one of {MOTIONS}, got {motion!r}")
+        times = self.sample_times(rate_hz)
+        if motion == "consistent":
+            states, rates, controls = self.motion(times)
+        else:
+            states, controls = self(times)
         # The drives are the trajectory's controls; the other controls (a linkage's contact
         # forces) and the auxiliary and derived channels are its extras.
         drives = s.role_names("drives") if s.drives is not None else s.control_names
@@ -658,6 +741,10 @@ class Solution:
             units.update(zip(derived.names, derived.units, strict=True))
         values = self._extras(times)
         values.update({n: controls[:, i] for i, n in enumerate(s.control_names) if n not in drives})
+        if motion == "consistent":  # the accelerations are the velocity polynomial's slope
+            velocities = [s.state_names.index(name) for name in s.group(s.velocities)]
+            for name, column in zip(s.role_names("accelerations"), velocities, strict=True):
+                values[name] = rates[:, column]
         return Trajectory(
             times,
             states,
@@ -667,14 +754,13 @@ class Solution:
             tuple(drives),
             tuple(units[n] for n in drives),
             {name: (value, units[name]) for name, value in values.items()},
-            self.metadata,
+            {**self.metadata, "motion": motion},
         )
 
-    def save(self, path, rate_hz: float | None = None):
-        """``to_trajectory(rate_hz).save(path)``: format by suffix (.csv, .json, .npz).
-
-        Returns the path written."""
-        return self.to_trajectory(rate_hz).save(path)
+    def save(self, path, rate_hz: float | None = None, motion: str | None = None):
+        """``to_trajectory(rate_hz, motion).save(path)``: format by suffix (.csv, .json,
+        .npz). Returns the path written."""
+        return self.to_trajectory(rate_hz, motion).save(path)
 
     def __repr__(self) -> str:
         return (

@@ -268,23 +268,43 @@ def warm_start_multipliers(
     if source.lam_x is None or source.lam_g is None or not source.success:
         logger.debug("multipliers not reused: the guess Solution has none or failed")
         return None
-    if source.nlp_signature != transcription.signature:
-        logger.debug(
-            "multipliers not reused: NLP layout %s differs from the guess's %s",
-            transcription.signature,
-            source.nlp_signature,
-        )
-        return None
     old = source.transcription
+    lam_g_old, g_scale_old = source.lam_g, old.g_scale
+    if source.nlp_signature != transcription.signature:
+        rows = _same_rows(old, transcription)
+        if rows is None:
+            logger.debug(
+                "multipliers not reused: NLP layout %s differs from the guess's %s",
+                transcription.signature,
+                source.nlp_signature,
+            )
+            return None
+        # The same variables with rows added or removed (limits added at samples): each row
+        # the two share keeps its multiplier, a new row starts at 0.
+        known = rows >= 0
+        lam_g_old = np.where(known, source.lam_g[np.maximum(rows, 0)], 0.0)
+        g_scale_old = np.where(known, old.g_scale[np.maximum(rows, 0)], 1.0)
     # The physical multipliers lam * f_scale / scale are invariant (the Lagrangian is
     # f / f_scale + lam^T (v / scale)): lam_new = lam_old * (new / old scale) * (old / new
     # f_scale).
     ratio = float(source.stats.get("objective_scale", 1.0)) / objective_scale
     lam_x = source.lam_x * (transcription.w_scale / old.w_scale) * ratio
-    lam_g = source.lam_g * (transcription.g_scale / old.g_scale) * ratio
+    lam_g = lam_g_old * (transcription.g_scale / g_scale_old) * ratio
     if not (np.all(np.isfinite(lam_x)) and np.all(np.isfinite(lam_g))):
         return None
     return lam_x, lam_g
+
+
+def _same_rows(old: Transcription, new: Transcription) -> np.ndarray | None:
+    """For two NLPs with the same variables (by name, in order): the index of each of
+    ``new``'s rows among ``old``'s rows by name (-1 for a row ``old`` lacks); None when the
+    variables differ or a row name repeats."""
+    if tuple(old.w_names) != tuple(new.w_names):
+        return None
+    index = {name: i for i, name in enumerate(old.g_names)}
+    if len(index) != len(old.g_names) or len(set(new.g_names)) != len(new.g_names):
+        return None
+    return np.array([index.get(name, -1) for name in new.g_names], dtype=int)
 
 
 def nlp_solver(
@@ -492,8 +512,10 @@ def solve(
     guess : a scaled decision vector to start from (default: the OCP's guesses).
     warm_start : when the OCP's last guess is a converged Solution of an NLP with the same
         layout (:attr:`Transcription.signature`: same transcription, degree, N, variables and
-        constraint rows; bounds, scales, cost and T may differ), also start IPOPT from that
-        Solution's multipliers (``lam_x0``, ``lam_g0``) with the options
+        constraint rows; bounds, scales, cost and T may differ), or with the same variables
+        and rows added or removed (matched by name, new rows starting at 0: limits added at
+        samples, :mod:`planner.sampled_limits`), also start IPOPT from that Solution's
+        multipliers (``lam_x0``, ``lam_g0``) with the options
         :data:`WARM_START_IPOPT` (``options`` override them). False: primal guess only, as
         for any other guess. Ignored with an explicit ``guess`` vector, and when the layouts
         differ (coarse-to-fine, another transcription): then the guess is re-gridded only.

@@ -79,6 +79,16 @@ class System:
     second time derivatives of the states (``Solution.acceleration``, ``Solution.ddpsi``);
     None when the system has none. ``model``: a JSON-serialisable description of the model
     for exported metadata, or None.
+
+    A motion and the drives it needs (what :meth:`planner.solution.Solution.motion` and the
+    exported files use; all three or none): ``positions`` and ``velocities``, two state
+    groups of equal length whose rates are each other's (d position_i/dt = velocity_i,
+    checked on ``rate``: a linkage's psi and dpsi), and ``drives_for_motion``, an SX Function
+    (x (nx,), a (nv,), u (nu,)) -> drives: the values of the ``drives`` group that give the
+    velocities the rates a at state x with the other controls of u (a linkage's inverse
+    dynamics less the hinge moments of its contact forces). With them a sampled motion is
+    consistent by construction: positions, velocities, accelerations and drives obey the
+    kinematics and the dynamics at every instant, not only at the collocation points.
     """
 
     rate: ca.Function
@@ -103,6 +113,9 @@ class System:
     accelerations: str | None = None
     model: Mapping | None = None
     params: tuple[str, ...] = ()
+    positions: str | None = None
+    velocities: str | None = None
+    drives_for_motion: ca.Function | None = None
 
     def __post_init__(self) -> None:
         if self.residual is not None and len(self.residual_names) != self.residual.size1_out(0):
@@ -121,6 +134,61 @@ class System:
                     f"`{role}`: {group!r} is neither a group nor a derived field of the system; "
                     f"groups: {[key for key, _ in self.groups]}"
                 )
+        self._check_motion_roles()
+
+    def _check_motion_roles(self) -> None:
+        """positions, velocities and drives_for_motion: all or none, the rates of the
+        positions exactly the velocity states, the Function's shapes right."""
+        given = [self.positions is not None, self.velocities is not None]
+        given.append(self.drives_for_motion is not None)
+        if not any(given):
+            return
+        if not all(given) or self.drives is None or self.accelerations is None:
+            raise DefinitionError(
+                "`positions`, `velocities`, `drives_for_motion`: give all three (with the "
+                "`drives` and `accelerations` roles) or none"
+            )
+        positions, velocities = self.group(self.positions), self.group(self.velocities)
+        for role, members in (("positions", positions), ("velocities", velocities)):
+            if members is None or any(m not in self.state_names for m in members):
+                raise DefinitionError(
+                    f"`{role}`: {getattr(self, role)!r} must be a group of states"
+                )
+        if len(positions) != len(velocities):
+            raise DefinitionError(
+                f"`velocities`: {len(velocities)} velocities for {len(positions)} positions; "
+                "give one velocity per position"
+            )
+        x = ca.SX.sym("x", self.nx)
+        inputs = [x, ca.SX.sym("z", self.nz), ca.SX.sym("u", self.nu), ca.SX.sym("t")]
+        inputs += [ca.SX.sym("p", len(self.params))] if self.params else []
+        rate = self.rate.call(inputs)[0]
+        for p, v in zip(positions, velocities, strict=True):
+            i, j = self.state_names.index(p), self.state_names.index(v)
+            if not ca.is_equal(rate[i], x[j], 1):
+                raise DefinitionError(
+                    f"`positions`: the rate of {p!r} is not the state {v!r} ({rate[i]}); "
+                    "positions and velocities must be each other's integral and derivative"
+                )
+        function = self.drives_for_motion
+        n_drives = len(self.role_names("drives"))
+        shapes = [(self.nx, 1), (len(velocities), 1), (self.nu, 1)]
+        if (
+            function.n_in() != 3
+            or [function.size_in(k) for k in range(3)] != shapes
+            or function.n_out() != 1
+            or function.size_out(0) != (n_drives, 1)
+        ):
+            raise DefinitionError(
+                f"`drives_for_motion`: must map (x ({self.nx},), a ({len(velocities)},), u "
+                f"({self.nu},)) to the {n_drives} drives, got {function}"
+            )
+
+    @property
+    def has_motion(self) -> bool:
+        """Whether the system offers consistent motions (``positions``, ``velocities``,
+        ``drives_for_motion``)."""
+        return self.drives_for_motion is not None
 
     def bind(self, values: Mapping[str, float]) -> System:
         """This system with its static parameters fixed at ``values`` (name -> value): the
