@@ -598,6 +598,7 @@ class OCPDefinition:
     params: tuple[Param, ...] = ()
     contacts: tuple[Any, ...] = ()
     dynamics_params: tuple[str, ...] = ()
+    margins: tuple[tuple[str, np.ndarray, np.ndarray, bool], ...] = ()
 
     def __post_init__(self) -> None:
         dynamics = self.dynamics
@@ -1025,6 +1026,68 @@ class OCPDefinition:
         params = tuple(parameter if p.name == name else p for p in self.params)
         return dataclasses.replace(self, params=params)
 
+    def back_off(self, name: str, lower=None, upper=None, at_ends: bool = True) -> Self:
+        """Tighten a path constraint or a variable's bounds by margins per mesh interval: at
+        the points of interval k the rows hold lower + lower_margin[k] <= g <= upper -
+        upper_margin[k] (a point shared by two intervals takes the larger margin).
+        ``at_ends`` False keeps the plain bounds at the first and last node (where a
+        boundary condition may pin the row: a landing foot at height 0 and a clearance).
+
+        ``name``: a path constraint's name or a variable's; ``lower``, ``upper``: margins
+        >= 0 in the row's units, (N,) or (N, rows), or None for none. What the dynamics
+        points cannot see (a bound the exported motion passes between them) is held this
+        way without changing the NLP's structure (:func:`planner.hold_at_samples`). The
+        margins belong to this mesh: :meth:`refine` drops them. Giving a name again replaces
+        its margins.
+        """
+        label = f"back_off[{name}]"
+        paths = {c.name: c for c in self.constraints if c.where == "path"}
+        if name in paths:
+            rows = paths[name].size
+        elif name in self.system.variable_names:
+            rows = 1
+        else:
+            raise DefinitionError(
+                f"`{label}`: no path constraint or variable called {name!r}; path constraints: "
+                f"{list(paths)}"
+            )
+        arrays = []
+        for side, value in (("lower", lower), ("upper", upper)):
+            if value is None:
+                arrays.append(np.zeros((self.N, rows)))
+                continue
+            array = as_float_array(f"{label} {side}", value, f"margins of shape ({self.N}, {rows})")
+            if array.ndim == 1 and rows == 1:
+                array = array[:, None]
+            if array.shape != (self.N, rows):
+                raise DefinitionError(
+                    f"`{label}`: {side} margins must have shape ({self.N}, {rows}) (one per mesh "
+                    f"interval and row), got {array.shape}"
+                )
+            check_finite(f"{label} {side}", array, "margins")
+            if np.any(array < 0):
+                raise DefinitionError(f"`{label}`: {side} margins must be >= 0, got {array.min()}")
+            arrays.append(array.copy())
+        if name in paths:
+            equal = paths[name].lower == paths[name].upper
+            if np.any(equal & np.any((arrays[0] > 0) | (arrays[1] > 0), axis=0)):
+                raise DefinitionError(
+                    f"`{label}`: rows {np.flatnonzero(equal).tolist()} are equalities; an "
+                    "equality cannot be backed off (give 0 margins there)"
+                )
+        if not isinstance(at_ends, bool):
+            raise DefinitionTypeError(f"`{label}`: at_ends must be True or False, got {at_ends!r}")
+        kept = tuple(m for m in self.margins if m[0] != name)
+        return dataclasses.replace(self, margins=(*kept, (name, *arrays, at_ends)))
+
+    def margin(self, name: str) -> tuple[np.ndarray, np.ndarray, bool] | None:
+        """(lower (N, rows), upper (N, rows), at_ends) of :meth:`back_off` for ``name``, or
+        None."""
+        for key, lower, upper, at_ends in self.margins:
+            if key == name:
+                return lower, upper, at_ends
+        return None
+
     def scale(self, **scales) -> Self:
         """Nominal magnitudes of variables, groups or constraints: ``scale(M=100, clearance=0.05)``.
 
@@ -1192,6 +1255,8 @@ class OCPDefinition:
                 changes["degree"] = None
         if degree is not None:
             changes["degree"] = degree
+        if changes:
+            changes["margins"] = ()  # per interval of the old mesh
         return dataclasses.replace(self, **changes)
 
     # ---- printing ----------------------------------------------------------------------

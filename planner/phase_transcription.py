@@ -848,6 +848,12 @@ class PhaseTranscription:
             sl = self._slices[key]
             lbx[sl] = np.tile(lo, count)
             ubx[sl] = np.tile(hi, count)
+            times = mesh.s_state if key == "X" else mesh.s_dyn
+            for j, n in enumerate(var_names):
+                margin = self._point_margins(n, times)
+                if margin is not None:
+                    lbx[sl][j :: len(var_names)] += margin[0][:, 0] / scale[j]
+                    ubx[sl][j :: len(var_names)] -= margin[1][:, 0] / scale[j]
             names.extend(f"bound[{n}] {label(c)}" for c in range(count) for n in var_names)
         if ocp.free_time:
             index = self._slices["T"].start
@@ -900,11 +906,13 @@ class PhaseTranscription:
         ):
             if constraints:
                 row_names, lo, hi, scale = self._constraint_rows(constraints)
+                times = (mesh.s_dyn if label == mesh.dyn_label else mesh.s_state)[list(columns)]
+                lows, highs = self._row_margins(constraints, times, scale)
                 for i, col in enumerate(columns):
                     rows = keep if i == 0 and keep is not None else range(len(row_names))
                     g_names.extend(f"{row_names[r]} {label(int(col))}" for r in rows)
-                    lbg.append(lo[list(rows)])
-                    ubg.append(hi[list(rows)])
+                    lbg.append((lo + lows[i])[list(rows)])
+                    ubg.append((hi - highs[i])[list(rows)])
                     g_scale.append(scale[list(rows)])
         if self.node_side_function is not None and self._rate_paths and N > 1:
             # The rate-reading path rows again at each interior node, with the slope of the
@@ -945,6 +953,37 @@ class PhaseTranscription:
             raise RuntimeError(
                 f"internal: {self.lbg.size} constraint bounds for {self.rows.size1()} rows"
             )
+
+    def _point_margins(self, name: str, times: np.ndarray):
+        """(lower (K, rows), upper (K, rows)) margins of ``name`` (``OCP.back_off``) at the
+        normalised times of K points, each the largest of the intervals that hold the point
+        (a node shared by two intervals takes both into account; none at the phase's ends
+        unless ``at_ends``); None without margins."""
+        margins = self.ocp.margin(name)
+        if margins is None:
+            return None
+        breaks = self.mesh.breaks
+        tolerance = 1e-12
+        first = np.clip(np.searchsorted(breaks, times - tolerance, side="right") - 1, 0, None)
+        last = np.clip(np.searchsorted(breaks, times + tolerance, side="left") - 1, None, None)
+        first = np.minimum(first, self.ocp.N - 1)
+        last = np.clip(np.maximum(last, first), 0, self.ocp.N - 1)
+        ends = ((times <= tolerance) | (times >= 1.0 - tolerance)) & (not margins[2])
+        out = []
+        for array in margins[:2]:
+            out.append(np.where(ends[:, None], 0.0, np.maximum(array[first], array[last])))
+        return out[0], out[1]
+
+    def _row_margins(self, constraints, times: np.ndarray, scale: np.ndarray):
+        """Scaled (lower, upper) margins (K, rows of ``constraints`` stacked) at K points."""
+        lows, highs = [], []
+        for c in constraints:
+            margins = self._point_margins(c.name, times)
+            if margins is None:
+                margins = (np.zeros((times.size, c.size)), np.zeros((times.size, c.size)))
+            lows.append(margins[0])
+            highs.append(margins[1])
+        return np.hstack(lows) / scale, np.hstack(highs) / scale
 
     def _constraint_rows(self, constraints) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
         """Row names ("path[c]", "start[b][1]"), scaled lower and upper bounds and nominal

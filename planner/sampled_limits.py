@@ -9,19 +9,21 @@ collocation points its torques can leave their bounds (a 150 N m limit reached 1
 
 :func:`sample_misses` evaluates every inequality path constraint and every finite variable
 bound of each phase on the consistent motion at the samples of an export rate, plus
-``DENSE_POINTS`` points inside every mesh interval (so that the limits also hold at other
-rates in practice, not only at the chosen samples), and lists the samples where one is
-missed by more than ``tolerance`` of the row's nominal scale. :func:`hold_at_samples` is the
-exchange method of semi-infinite programming: solve, find the misses, add the missed rows at
-the worst instant of each interval as keypoint rows on the motion
-(``OCP.constrain_at(..., on="motion")``, named "<constraint> (samples)" and
-"bounds[<variable>] (samples)"), solve again warm-started, until nothing is missed. A plan
-whose constraints are all inactive between the points needs no second solve.
+``DENSE_POINTS`` points inside every mesh interval, and lists the samples where one is missed
+by more than ``tolerance`` of the row's nominal scale. :func:`hold_at_samples` makes them
+hold: where the motion misses a bound in an interval (its largest miss found between the
+check points too), the bound is backed off at that interval's dynamics points by the miss
+(:meth:`planner.OCP.back_off`, ``SAFETY`` times it) and the problem solved again from the
+last solution, until nothing misses. Backing off keeps the NLP's structure (only bounds
+change): the solver is reused and IPOPT restarts from the multipliers, a few iterations per
+round. Keypoint rows at the missed instants (``OCP.constrain_at(..., on="motion")``) were
+measured first: on the 0.8 m step they grew the NLP by ~2000 rows, took four rounds and
+25 s, and still missed at other rates by 0.1 N m between the rows.
 
-Equality path constraints are not added between the points (a polynomial cannot satisfy
+Equality path constraints are not held between the points (a polynomial cannot satisfy
 infinitely many equalities; the double support's foot hold drifts with the collocation error
-there, which the verification bounds), nor constraints that read a control rate (the motion's
-drives have no polynomial rate).
+there, which the verification bounds), nor constraints that read a control rate (the
+motion's drives have no polynomial rate).
 """
 
 from __future__ import annotations
@@ -49,9 +51,26 @@ TOLERANCE = 1e-6
 #: Points inside every mesh interval checked besides the export samples.
 DENSE_POINTS = 32
 #: Solves after the first before :func:`hold_at_samples` gives up.
-MAX_ROUNDS = 6
-#: The suffix of the rows this module adds.
-SUFFIX = " (samples)"
+MAX_ROUNDS = 10
+#: Points between an interval's worst check time and its neighbours evaluated to find the
+#: largest miss between the samples.
+REFINE = 16
+#: Intervals whose worst check point comes within this fraction of a row's scale of its
+#: bound are searched between the check points for a larger miss.
+NEAR = 0.01
+#: A back-off is the miss times this (a little more than the miss, so that the next solve
+#: lands inside from the safe side and the rounds end).
+SAFETY = 1.5
+#: A miss larger than this fraction of the row's nominal scale cuts its interval in two
+#: instead of backing off (the motion and the plan part by much: the mesh is too coarse).
+SPLIT = 0.1
+#: Intervals a phase may reach by those cuts.
+MAX_INTERVALS = 400
+#: A drive held at one value (a passive joint) may be needed by the motion up to this
+#: fraction of its nominal scale (0.5 N m of the walking step's 50): beyond, the interval is
+#: cut in two. The motion of an underactuated linkage is consistent at such a joint only to
+#: the collocation error; :func:`sample_misses` and the verification report what is left.
+PASSIVE = 0.01
 
 
 class SampleLimitError(AnthropoidError):
@@ -100,18 +119,41 @@ class _Rows:
     scale: np.ndarray
     source: Any  # the Constraint, or the variable name of a bound
     keep: tuple[int, ...] = (0,)  # the constraint's rows checked (its inequality rows)
+    #: A drive held at one value (a passive joint, M = 0): the motion's drive there is what
+    #: the motion needs of a joint that has none; it is held by refining, not backing off.
+    equality: bool = False
+
+
+#: The checked rows of recent OCPs (a hold's rounds share their constraints): key -> blocks.
+_CHECKED: dict[tuple, tuple[list[_Rows], ca.Function]] = {}
 
 
 def _checked_rows(ocp: OCPDefinition) -> list[_Rows]:
     """The inequality path constraints (rows with lower < upper) that read no control rate,
     and the finite bounds of states and controls, of one phase's OCP."""
+    return _checks(ocp)[0]
+
+
+def _checks(ocp: OCPDefinition) -> tuple[list[_Rows], ca.Function]:
+    """(blocks, one Function of (x, u, z, t, T, params) stacking every block's rows): built
+    once for the constraints, bounds and scales of ``ocp`` (the rounds of a hold differ in
+    margins only)."""
+    key = (
+        id(ocp.system),
+        tuple(id(c) for c in ocp.constraints),
+        ocp.bounds,
+        ocp.scales,
+        tuple(p.name for p in ocp.params),
+    )
+    if key in _CHECKED:
+        return _CHECKED[key]
     s = ocp.system
     x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
     t, T, du = ca.SX.sym("t"), ca.SX.sym("T"), ca.SX.sym("du", s.nu)
     P = ca.SX.sym("params", len(ocp.params))
     point = Point(s, x, u, z, t, T, ocp.param_fields(P), du=du)
     inputs, names = [x, u, z, t, T, P], ["x", "u", "z", "t", "T", "params"]
-    blocks = []
+    blocks, values = [], []
     for c in ocp.constraints:
         if c.where != "path" or not np.any(c.lower < c.upper):
             continue
@@ -120,8 +162,9 @@ def _checked_rows(ocp: OCPDefinition) -> list[_Rows]:
             continue  # a rate: not on the motion
         keep = np.flatnonzero(c.lower < c.upper)
         rows = c.rows or tuple(f"[{i}]" for i in range(c.size))
-        function = ca.Function(c.name, inputs, [value[keep.tolist()]], names, ["rows"])
+        function = ca.Function("rows", inputs, [value[keep.tolist()]], names, ["rows"])
         scale = ocp.constraint_scale(c)[keep]
+        values.append(value[keep.tolist()])
         blocks.append(
             _Rows(c.name, tuple(rows[i] for i in keep), function, c.lower[keep],
                   c.upper[keep], scale, c, tuple(keep.tolist()))  # fmt: skip
@@ -129,15 +172,22 @@ def _checked_rows(ocp: OCPDefinition) -> list[_Rows]:
     for name, lower, upper in ocp.bounds:
         if name not in s.state_names + s.control_names:
             continue
-        if not (np.isfinite(lower) or np.isfinite(upper)) or lower == upper:
+        if not (np.isfinite(lower) or np.isfinite(upper)):
             continue
-        function = ca.Function(name, inputs, [point[name]], names, ["rows"])
+        if lower == upper and name not in s.role_names("drives"):
+            continue  # a fixed state or control is the NLP's value on the motion too
+        function = ca.Function("rows", inputs, [point[name]], names, ["rows"])
         scale = np.array([ocp.variable_scale(name)])
+        values.append(point[name])
         blocks.append(
             _Rows(f"bounds[{name}]", ("",), function, np.array([lower]), np.array([upper]),
-                  scale, name)  # fmt: skip
+                  scale, name, (0,), lower == upper)  # fmt: skip
         )
-    return blocks
+    stacked = ca.Function("checks", inputs, [ca.vertcat(*values)], names, ["rows"], {"cse": True})
+    if len(_CHECKED) > 32:
+        _CHECKED.clear()
+    _CHECKED[key] = blocks, stacked
+    return blocks, stacked
 
 
 def check_times(solution: Solution, rate_hz: float | None, dense: int = DENSE_POINTS):
@@ -166,18 +216,12 @@ def _phase_misses(k: int, solution: Solution, times: np.ndarray, tolerance: floa
     blocks = _checked_rows(solution.ocp)
     if not blocks:
         return []
-    x, u, z = _motion_point(solution, times)
-    params = np.array([solution.params[p.name] for p in solution.ocp.params]).reshape(-1, 1)
-    K = times.size
     misses = []
-    for block in blocks:
-        values = block.function.map(K)(
-            x.T, u.T, z.T, times[None, :], solution.T, np.repeat(params, K, axis=1)
-        )
-        values = np.asarray(values).T  # (K, rows)
+    for block, values in zip(blocks, _evaluate(solution, blocks, times), strict=True):
         with np.errstate(invalid="ignore"):  # inf - inf where a side is unbounded
             margin = np.minimum(values - block.lower, block.upper - values) / block.scale
-        for i, j in zip(*np.nonzero(margin < -tolerance), strict=True):
+        allowed = PASSIVE if block.equality else tolerance
+        for i, j in zip(*np.nonzero(margin < -allowed), strict=True):
             misses.append(
                 SampleMiss(k, block.name, block.rows[j], float(times[i]), float(values[i, j]),
                            float(block.lower[j]), float(block.upper[j]), float(margin[i, j]))
@@ -211,80 +255,153 @@ def sample_misses(
     return sorted(misses, key=lambda m: m.margin)
 
 
-def _worst_instants(
-    phase: Solution, misses: list[SampleMiss], dense: int
-) -> dict[Any, list[float]]:
-    """Per checked block (constraint or bound), as fractions of the phase's duration: the
-    worst missed instant of each mesh interval with a miss and the ``dense`` points inside
-    that interval (a row active over an arc bulges between single instants: rows at all of
-    them settle it in one round)."""
-    chosen: dict[str, dict[int, SampleMiss]] = {}
-    for miss in misses:
-        (interval,), _ = phase.mesh.locate(np.array([miss.t / phase.T]))
-        per = chosen.setdefault(miss.name, {})
-        if interval not in per or miss.margin < per[interval].margin:
-            per[interval] = miss
-    breaks = phase.mesh.breaks
-    inside = np.arange(1, dense + 1) / (dense + 1)
-    instants = {}
-    for name, per in chosen.items():
-        fractions = {m.t / phase.T for m in per.values()}
-        for k in per:
-            fractions.update((breaks[k] + inside * (breaks[k + 1] - breaks[k])).tolist())
-        instants[name] = sorted(fractions)
-    return instants
+def _excesses(phase: Solution, blocks: list[_Rows], times: np.ndarray, refine: int):
+    """Per block: (lower (N, rows), upper (N, rows)) the largest excess of the consistent
+    motion over each bound in each mesh interval, in the row's units (> 0: missed), on the
+    check ``times`` and, around each interval's worst check time, ``refine`` more points
+    between its neighbours (so that the maximum between the samples is found)."""
+    N = phase.N
+    _, owner, _ = phase._locate(times)
+    values = _evaluate(phase, blocks, times)
+    results = []
+    extra_times: list[np.ndarray] = []
+    places = []
+    for block, value in zip(blocks, values, strict=True):
+        with np.errstate(invalid="ignore"):
+            sides = [block.lower - value, value - block.upper]  # (K, rows) each
+        per_side = []
+        for side in sides:
+            side = np.where(np.isnan(side), -np.inf, side)
+            excess = np.full((N, side.shape[1]), -np.inf)
+            np.maximum.at(excess, owner, side)
+            per_side.append(excess)
+            # the worst check time of each interval and row, refined where it comes near
+            near = excess > -NEAR * block.scale
+            for k, j in zip(*np.nonzero(near), strict=True):
+                inside = np.flatnonzero(owner == k)
+                i = inside[np.argmax(side[inside, j])]
+                left = times[max(i - 1, 0)]
+                right = times[min(i + 1, times.size - 1)]
+                extra_times.append(np.linspace(left, right, refine + 2)[1:-1])
+                places.append((len(results), len(per_side) - 1, k, j))
+        results.append(per_side)
+    if extra_times and refine:
+        fine = np.concatenate(extra_times)
+        fine_values = _evaluate(phase, blocks, fine)
+        offset = 0
+        for (b, side_index, k, j), chunk in zip(places, extra_times, strict=True):
+            block = blocks[b]
+            value = fine_values[b][offset : offset + chunk.size, j]
+            offset += chunk.size
+            excess = (block.lower[j] - value) if side_index == 0 else (value - block.upper[j])
+            excess = excess[np.isfinite(excess)]
+            if excess.size:
+                results[b][side_index][k, j] = max(results[b][side_index][k, j], excess.max())
+    return results
 
 
-def _with_sample_rows(ocp: OCPDefinition, instants: dict[str, list[float]]) -> OCPDefinition:
-    """``ocp`` with keypoint rows on the motion at ``instants`` (fractions of T) for each
-    block name; an earlier round's rows of the same block are merged in."""
-    blocks = {block.name: block for block in _checked_rows(ocp)}
-    for name, fractions in instants.items():
-        block = blocks[name]
-        label = name + SUFFIX
-        earlier = [c for c in ocp.constraints if c.name == label]
-        if earlier:
-            fractions = sorted(set(fractions) | set(earlier[0].instants))
-            kept = tuple(c for c in ocp.constraints if c.name != label)
-            ocp = dataclasses.replace(ocp, constraints=kept)
-        if isinstance(block.source, str):  # a variable's bound
-            variable = block.source
-            expression = lambda p, variable=variable: p[variable]  # noqa: E731
+def _evaluate(phase: Solution, blocks: list[_Rows], times: np.ndarray) -> list[np.ndarray]:
+    """Each block's rows on the consistent motion at ``times``: [(K, rows)] (``blocks``:
+    the phase's checked rows, evaluated together)."""
+    _, stacked = _checks(phase.ocp)
+    x, u, z = _motion_point(phase, times)
+    params = np.array([phase.params[p.name] for p in phase.ocp.params]).reshape(-1, 1)
+    K = times.size
+    values = np.asarray(
+        stacked.map(K)(x.T, u.T, z.T, times[None, :], phase.T, np.repeat(params, K, axis=1))
+    ).T
+    out, start = [], 0
+    for block in blocks:
+        size = len(block.rows)
+        out.append(values[:, start : start + size])
+        start += size
+    return out
+
+
+def _split(ocp: OCPDefinition, intervals: set[int]) -> OCPDefinition:
+    """``ocp`` with each of ``intervals`` cut in two halves; the margins of an interval go
+    to both its halves."""
+    widths = np.full(ocp.N, 1.0 / ocp.N) if ocp.mesh is None else np.asarray(ocp.mesh)
+    pieces, parent = [], []
+    for k, width in enumerate(widths):
+        halves = 2 if k in intervals else 1
+        pieces.extend([width / halves] * halves)
+        parent.extend([k] * halves)
+    refined = ocp.refine(mesh=pieces)
+    for name, lower, upper, at_ends in ocp.margins:
+        refined = refined.back_off(name, lower=lower[parent], upper=upper[parent],
+                                   at_ends=at_ends)  # fmt: skip
+    return refined
+
+
+def _backed_off(ocp: OCPDefinition, blocks: list[_Rows], excesses, tolerance: float, pinned=()):
+    """``ocp`` with each block's margins raised where its motion misses a bound: by the
+    excess times SAFETY plus ``tolerance`` of the row's scale (so that the next solve lands
+    inside from the safe side). Returns (ocp, how many interval rows were raised, the names
+    raised in the first or last interval)."""
+    raised = 0
+    at_edges = set()
+    for block, (lower_excess, upper_excess) in zip(blocks, excesses, strict=True):
+        if block.equality:
+            continue
+        name = block.source if isinstance(block.source, str) else block.source.name
+        rows = 1 if isinstance(block.source, str) else block.source.size
+        margins = ocp.margin(name)
+        if margins is None:
+            lower, upper = np.zeros((ocp.N, rows)), np.zeros((ocp.N, rows))
+            at_ends = name not in pinned
         else:
-            keep = list(block.keep)
-            source = block.source.expression
-            label_path = f"path[{block.source.name}]"
+            lower, upper, at_ends = margins[0].copy(), margins[1].copy(), margins[2]
+        changed = False
+        for side, excess in ((lower, lower_excess), (upper, upper_excess)):
+            missed = excess > tolerance * block.scale[None, :]
+            if not np.any(missed):
+                continue
+            step = SAFETY * excess + tolerance * block.scale[None, :]
+            for k, j in zip(*np.nonzero(missed), strict=True):
+                side[k, block.keep[j]] += step[k, j]
+                raised += 1
+                if k in (0, ocp.N - 1):
+                    at_edges.add(name)
+            changed = True
+        if changed:
+            source = block.source
+            low = np.array([ocp.variable_bounds(source)[0]]) if isinstance(source, str) else (
+                source.lower)  # fmt: skip
+            high = np.array([ocp.variable_bounds(source)[1]]) if isinstance(source, str) else (
+                source.upper)  # fmt: skip
+            closed = (low[None, :] + lower) > (high[None, :] - upper)
+            if np.any(closed):
+                k, j = (int(v[0]) for v in np.nonzero(closed))
+                raise SampleLimitError(
+                    f"{block.name}: the motion misses its bounds [{low[j]:g}, {high[j]:g}] by "
+                    f"more than the room between them in mesh interval {k} (backed off by "
+                    f"{lower[k, j]:.3g} and {upper[k, j]:.3g}); refine the mesh (N) or loosen "
+                    "the limits",
+                    None,
+                    [],
+                )
+            ocp = ocp.back_off(name, lower=lower, upper=upper, at_ends=at_ends)
+    return ocp, raised, at_edges
 
-            def expression(p, source=source, keep=keep, label_path=label_path):
-                return evaluate_expression(label_path, source, p)[keep]
 
-        lower = np.where(np.isfinite(block.lower), block.lower, -np.inf)
-        upper = np.where(np.isfinite(block.upper), block.upper, np.inf)
-        ocp = ocp.constrain_at(
-            label,
-            expression,
-            fraction=fractions,
-            lower=None if np.all(np.isneginf(lower)) else lower,
-            upper=None if np.all(np.isposinf(upper)) else upper,
-            scale=block.scale,
-            on="motion",
-        )
-    return ocp
+def _without_ends(problem, names_per_phase: list[set[str]]):
+    """``problem`` with the margins of the named rows off at the phases' ends."""
 
+    def release(ocp, names):
+        for name in names:
+            margins = ocp.margin(name)
+            if margins is not None and margins[2]:
+                ocp = ocp.back_off(name, lower=margins[0], upper=margins[1], at_ends=False)
+        return ocp
 
-def with_sample_rows(problem, solution, misses: list[SampleMiss], dense: int = DENSE_POINTS):
-    """``problem`` (an OCP or Phases) with the rows of ``misses`` added at the worst instant
-    of each interval of each phase (:func:`hold_at_samples`'s step)."""
-    phases = _phases(solution)
     if isinstance(problem, PhasesDefinition):
-        updated = []
-        for k, (name, ocp) in enumerate(problem.phases):
-            own = [m for m in misses if m.phase == k]
-            if own:
-                ocp = _with_sample_rows(ocp, _worst_instants(phases[k], own, dense))
-            updated.append((name, ocp))
-        return dataclasses.replace(problem, phases=tuple(updated))
-    return _with_sample_rows(problem, _worst_instants(phases[0], misses, dense))
+        return dataclasses.replace(
+            problem,
+            phases=tuple((name, release(ocp, names)) for (name, ocp), names in
+                         zip(problem.phases, names_per_phase, strict=True)),  # fmt: skip
+        )
+    return release(problem, names_per_phase[0])
 
 
 def hold_at_samples(
@@ -296,83 +413,151 @@ def hold_at_samples(
     tolerance: float = TOLERANCE,
     dense: int = DENSE_POINTS,
     max_rounds: int = MAX_ROUNDS,
+    max_intervals: int = MAX_INTERVALS,
+    pinned: tuple[str, ...] = (),
 ):
     """Solve ``problem`` (an OCP or Phases) so that its inequality path constraints and
-    bounds hold on the consistent motion at the samples of ``rate_hz`` and ``dense`` points
-    inside every interval, to ``tolerance`` of each row's nominal scale.
+    bounds hold on the consistent motion at every instant, to ``tolerance`` of each row's
+    nominal scale: checked at the samples of ``rate_hz`` (the nodes for None), at ``dense``
+    points inside every interval and around each interval's worst point (``REFINE`` more:
+    the maximum between the samples, so that the limits hold at any other rate too).
+
+    Where the motion misses a bound by more than ``SPLIT`` of the row's scale, the mesh is
+    too coarse there to say what the motion does: those intervals are cut in two (up to
+    ``max_intervals`` per phase) and the problem solved again on the finer mesh. Where it
+    misses by less, the constraint is backed off in that interval
+    (:meth:`OCP.back_off`: the bound at the interval's dynamics points tightened by the miss
+    times ``SAFETY``) and the problem solved again from the last solution: the NLP keeps its
+    structure, so the solver is reused and IPOPT restarts from the multipliers. A plan whose
+    constraints are inactive between the points needs no second solve.
+
+    Margins apply at the phases' end nodes too (a row may approach its bound through
+    them) except for the rows named in ``pinned``, which boundary conditions fix there (a
+    landing foot at height 0 and its clearance); a re-solve that fails after margins reached
+    an end is tried once more without them there.
 
     ``solve``: problem -> Solution (or PhasesSolution), raising on failure (e.g.
     ``lambda p: planner.solve(p, options=...)``); ``solution``: the solve of ``problem``
-    already made, or None to make it. Each round adds the missed rows
-    (:func:`with_sample_rows`) and solves again from the last solution. Returns the last
-    solution, with ``stats["sampled_limits"]``: {"rate_hz", "tolerance", "rounds": [{"misses",
-    "worst", "rows", "iterations"}], "rows_added"}. Raises :class:`SampleLimitError` when a
-    round's solve fails or the limits still miss after ``max_rounds`` rounds.
+    already made, or None to make it. Returns the last solution, with
+    ``stats["sampled_limits"]``: {"rate_hz", "tolerance", "rounds": [{"worst", "raised",
+    "split", "iterations"}], "problem"} (the problem solved last, with its margins and
+    mesh). Raises
+    :class:`SampleLimitError` when a round's solve fails or the limits still miss after
+    ``max_rounds`` re-solves.
     """
     solution = solve(problem) if solution is None else solution
+    if rate_hz is not None:
+        check_positive("rate_hz", rate_hz, "Hz")
+    tolerance = check_positive("tolerance", tolerance)
     rounds = []
-    added = 0
     for round_index in range(max_rounds + 1):
-        misses = sample_misses(solution, rate_hz, tolerance, dense)
-        record = {
-            "misses": len(misses),
-            "worst": misses[0].margin if misses else 0.0,
-            "iterations": solution.iterations,
-        }
-        rounds.append(record)
-        if not misses:
+        phases = _phases(solution)
+        ocps = [phase.ocp for phase in phases]
+        worst = -np.inf
+        raised = refined = 0
+        updated, new_edges = [], []
+        for phase, ocp in zip(phases, ocps, strict=True):
+            if not phase.system.has_motion:
+                raise DefinitionError(
+                    "`problem`: its system has no consistent motion (positions, velocities, "
+                    "drives_for_motion) to hold limits on"
+                )
+            blocks = _checked_rows(ocp)
+            excesses = _excesses(phase, blocks, check_times(phase, rate_hz, dense), REFINE)
+            coarse: set[int] = set()
+            for block, pair in zip(blocks, excesses, strict=True):
+                for excess in pair:
+                    relative = excess / block.scale[None, :]
+                    if block.equality:  # a passive joint: refine until it needs little
+                        coarse.update(np.flatnonzero(relative[:, 0] > PASSIVE).tolist())
+                        continue
+                    worst = max(worst, float(np.max(relative)))
+                    coarse.update(np.flatnonzero(np.max(relative, axis=1) > SPLIT).tolist())
+            if coarse and ocp.N + len(coarse) <= max_intervals:
+                # Misses this large say the mesh is too coarse there (the motion and the
+                # plan part by much): cut those intervals in two rather than back off.
+                updated.append(_split(ocp, coarse))
+                raised += len(coarse)
+                refined += len(coarse)
+                new_edges.append(set())
+                continue
+            try:
+                ocp, count, edges = _backed_off(ocp, blocks, excesses, tolerance, pinned)
+            except SampleLimitError as error:
+                raise SampleLimitError(str(error), solution, sample_misses(
+                    solution, rate_hz, tolerance, dense)) from None  # fmt: skip
+            raised += count
+            new_edges.append({name for name in edges if (ocp.margin(name) or (0, 0, False))[2]})
+            updated.append(ocp)
+        rounds.append(
+            {
+                "worst": worst,
+                "raised": raised - refined,
+                "split": refined,
+                "iterations": solution.iterations,
+            }
+        )
+        if not raised:
             break
         if round_index == max_rounds:
+            misses = sample_misses(solution, rate_hz, tolerance, dense)
             raise SampleLimitError(
-                f"the limits still miss at {len(misses)} samples after {max_rounds} re-solves "
-                f"with rows added there (worst: {misses[0]}); refine the mesh (N) or loosen "
-                "the limits",
+                f"the limits still miss between the collocation points after {max_rounds} "
+                f"re-solves with them backed off there (worst {worst:.3g} of a row's scale"
+                + (f": {misses[0]}" if misses else "")
+                + "); refine the mesh (N) or loosen the limits",
                 solution,
                 misses,
             )
-        before = _row_count(problem)
-        problem = with_sample_rows(problem, solution, misses, dense)
-        record["rows"] = _row_count(problem) - before
-        added += record["rows"]
+        if isinstance(problem, PhasesDefinition):
+            problem = dataclasses.replace(
+                problem,
+                phases=tuple((name, ocp) for (name, _), ocp in zip(problem.phases, updated,
+                                                                  strict=True)),  # fmt: skip
+            )
+        else:
+            problem = updated[0]
         logger.info(
-            "limits missed at %d samples (worst %s); solving again with %d rows there",
-            len(misses),
-            misses[0],
-            record["rows"],
+            "limits missed between the points (worst %.3g of a row's scale); solving again "
+            "with %d interval rows backed off",
+            worst,
+            raised,
         )
-        guessed = problem.guess(solution)
         try:
-            solution = solve(guessed)
+            try:
+                solution = solve(problem.guess(solution))
+            except AnthropoidError:
+                if not any(new_edges):
+                    raise
+                # A boundary condition may pin a row at the phase's end (a landing foot at
+                # height 0 under its clearance): keep the plain bounds there and try again.
+                problem = _without_ends(problem, new_edges)
+                solution = solve(problem.guess(solution))
         except AnthropoidError as error:
             raise SampleLimitError(
-                f"solving again with the limits at the samples failed: {error}",
+                f"solving again with the limits backed off between the points failed: {error}",
                 getattr(error, "solution", solution),
-                misses,
+                [],
             ) from error
     solution.stats["sampled_limits"] = {
         "rate_hz": rate_hz,
         "tolerance": tolerance,
         "rounds": rounds,
-        "rows_added": added,
+        "problem": problem,
     }
     return solution
 
 
-def _row_count(problem) -> int:
-    ocps = [ocp for _, ocp in problem.phases] if isinstance(problem, PhasesDefinition) else [problem]
-    return sum(
-        c.size * len(c.instants) for ocp in ocps for c in ocp.constraints if c.name.endswith(SUFFIX)
-    )
-
-
 __all__ = [
     "DENSE_POINTS",
+    "MAX_INTERVALS",
     "MAX_ROUNDS",
+    "PASSIVE",
+    "SPLIT",
     "TOLERANCE",
     "SampleLimitError",
     "SampleMiss",
     "check_times",
     "hold_at_samples",
     "sample_misses",
-    "with_sample_rows",
 ]

@@ -17,6 +17,7 @@ Objectives (``OBJECTIVES``), integrated over the step or period:
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -29,7 +30,9 @@ from model.errors import DefinitionError, check_positive, check_real
 from model.linkage import Linkage
 from planner.phases_solution import PhasesSolution
 from planner.problem import OCP
+from planner.sampled_limits import hold_at_samples
 from planner.solution import Solution
+from planner.solver import solve
 from planner.trajectory import Trajectory
 from problems.verification import GaitReport, verify_gait
 
@@ -43,6 +46,31 @@ WORK_EPSILON = 1.0 / 150.0
 WORK_REGULARISATION = 0.15
 #: Weight of the torque term added to the torque-rate objective, s^-2.
 REGULARISATION = 1e-3
+
+
+#: The export rate at which the gait problems hold their limits unless told another, Hz
+#: (what ``python -m problems walk`` writes by default).
+RATE_HZ = 1000.0
+#: The keyword arguments of :func:`planner.solve` (a gait's solve options may hold others,
+#: for the refinement).
+_SOLVE_KEYWORDS = frozenset(inspect.signature(solve).parameters) - {"problem"}
+
+
+def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=()):
+    """``solution`` of ``problem`` (an OCP or Phases), solved again with its limits backed
+    off where its exported motion at ``rate_hz`` misses them between the collocation points
+    (:func:`planner.sampled_limits.hold_at_samples`; ``pinned``: rows boundary conditions
+    fix at the phases' ends), with the same solve ``options``; a failed re-solve raises.
+    ``solution`` itself when nothing misses or it failed."""
+    if not solution.success:
+        return solution
+    kept = {key: value for key, value in options.items() if key in _SOLVE_KEYWORDS}
+    kept["raise_on_failure"] = True
+
+    def again(changed):
+        return solve(changed, **kept)
+
+    return hold_at_samples(problem, rate_hz, again, solution, pinned=tuple(pinned))
 
 
 def check_objective(objective: str) -> str:
@@ -300,6 +328,7 @@ class Gait:
 __all__ = [
     "HALF_PI",
     "OBJECTIVES",
+    "RATE_HZ",
     "REGULARISATION",
     "WORK_EPSILON",
     "WORK_REGULARISATION",
@@ -308,6 +337,7 @@ __all__ = [
     "check_objective",
     "finish_gait_ocp",
     "gait_ocp",
+    "hold_limits",
     "joint_rates",
     "keep_upright",
     "objective_at_guess",

@@ -45,6 +45,7 @@ from problems.accuracy import refine_gait, resolve_mesh, solve_plan
 from problems.biped import Biped
 from problems.gait_law import GaitLaw
 from problems.gait_problem import (
+    RATE_HZ,
     Gait,
     check_links,
     check_objective,
@@ -54,6 +55,7 @@ from problems.gait_problem import (
     objective_at_guess,
     torque_limits,
 )
+from problems.gait_problem import hold_limits as hold_gait_limits
 
 #: Fractions of the period at which the swing foot follows the law by default.
 KEYPOINTS = (0.25, 0.5, 0.75)
@@ -106,7 +108,13 @@ class PeriodicGaitProblem:
         return objective_at_guess(Transcription(self.ocp if ocp is None else ocp))
 
     def solve(
-        self, ocp: OCP | None = None, accuracy: str | float | None = None, **options
+        self,
+        ocp: OCP | None = None,
+        accuracy: str | float | None = None,
+        *,
+        rate_hz: float | None = RATE_HZ,
+        hold_limits: bool = True,
+        **options,
     ) -> PeriodicGait:
         """Solve ``ocp`` (default this problem's); ``options`` go to :func:`planner.solve`.
 
@@ -116,7 +124,9 @@ class PeriodicGaitProblem:
         is within it (:func:`planner.refine_to`, which takes ``max_passes`` and
         ``max_intervals``; ``gait.solution.stats["refinement"]`` is the history). Without
         it, the tolerance of the preset the problem was built with applies.
-        ``options={"tol": ...}`` overrides a preset's tolerance.
+        ``options={"tol": ...}`` overrides a preset's tolerance. ``rate_hz``,
+        ``hold_limits``: the limits also hold on the exported motion at that rate, as in
+        :meth:`problems.walking.WalkingStep.solve`.
         """
         ocp = self.ocp if ocp is None else ocp
         if not isinstance(ocp, OCP):
@@ -124,12 +134,17 @@ class PeriodicGaitProblem:
         remesh, target, options = solve_plan(accuracy, self.accuracy, options)
         if target is not None:
             solution, final = refine_gait(ocp, target, options)
+            if hold_limits:
+                solution = hold_gait_limits(final, solution, rate_hz, options)
             return PeriodicGait(self, solution, self.law_cost(final))
         if remesh is not None:
             ocp = ocp.refine(**remesh.mesh(self.law.period))
         transcription = Transcription(ocp)
         law = objective_at_guess(transcription)
-        return PeriodicGait(self, solve(transcription, **options), law)
+        solution = solve(transcription, **options)
+        if hold_limits:
+            solution = hold_gait_limits(ocp, solution, rate_hz, options)
+        return PeriodicGait(self, solution, law)
 
     def settings(self, times=None) -> dict[str, Any]:
         """The problem's parameters as plain data (exported with the gait's files).

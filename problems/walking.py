@@ -14,9 +14,19 @@ Constraints (names as in the OCP, each row scaled by a nominal magnitude):
   psi, dpsi and ddpsi) inside the friction cone at every dynamics point, mu Fy -+ Fx >= 0
   (which implies Fy >= 0: the foot pushes, it is not pulled);
 * ``clearance``: the swing foot's height >= the clearance profile at every dynamics point
-  (default h sin^2(pi t / T), h = ``clearance``: zero slope at lift-off and strike);
+  (default h sin^2(pi t / T) + v_td (T - t) exp(-((T - t) / w)^4), h = ``clearance``: the
+  mid-swing height, and in the last instants the line coming down into the landing point at
+  the touchdown speed v_td, w = ``APPROACH_TIME``, so that the foot does not graze in: see
+  ``touchdown_speed``);
+* ``ground``: every other point of the body (each link's end: knees, hip, neck, head top,
+  the joints of any upper body; ``ground_points``) at or above ``ground_margin`` at every
+  dynamics point;
+* ``centre of pressure``: the ankle torque M at the stance foot implies a centre of
+  pressure x_p = M / Fy from the ankle (a point foot cannot transmit a torque: a real foot
+  puts its pressure there); it stays on the sole, -heel <= x_p <= toe (``foot``), written
+  -heel Fy <= M <= toe Fy (so that it holds as Fy -> 0);
 * ``landing`` (t = T): the swing foot at (s, 0); ``lift off`` (t = 0): it moves up; ``heel
-  strike`` (t = T): it moves down;
+  strike`` (t = T): it moves down at ``touchdown_speed`` or faster;
 * ``impulse`` (t = T): the ground's impulse on the landing foot in the friction cone,
   mu Ly -+ Lx >= 0. After the impact the old stance foot moves with the base velocity of the
   impact map, which through the periodicity is the new swing foot's velocity at t = 0: the
@@ -62,6 +72,7 @@ from problems.accuracy import refine_gait, resolve_mesh, solve_plan
 from problems.biped import Biped
 from problems.gait_law import GaitLaw
 from problems.gait_problem import (
+    RATE_HZ,
     Gait,
     check_links,
     check_objective,
@@ -71,6 +82,7 @@ from problems.gait_problem import (
     objective_at_guess,
     torque_limits,
 )
+from problems.gait_problem import hold_limits as hold_gait_limits
 
 #: The largest part of the weight on the rear foot when a double support ends.
 UNLOADED = 0.05
@@ -90,6 +102,24 @@ SPEED_SCALE = 0.1
 #: guess used in metres before (a rounder 0.02 took 30 iterations instead of 29 for the
 #: default step, 61 instead of 41 with a 0.05 s double support: the same optima).
 GUESS_LIFT = 0.02 / 0.86
+#: The landing foot's least downward speed at heel strike, m/s: a touchdown that a tracking
+#: error of a millimetre moves by about 3 ms (1 mm / 0.3 m/s) instead of 10-30 ms at the
+#: 0.05-0.10 m/s of a grazing foot (examples/benchmarks/touchdown.py measures the trade).
+TOUCHDOWN_SPEED = 0.3
+#: Window of the clearance profile's approach term v_td (T - t) exp(-((T - t) / w)^4), s: in
+#: its last ~0.7 w the foot stays above the line coming down into the landing point at v_td,
+#: so a foot that runs d low touches down at most about d / v_td early (3.3 ms per mm); the
+#: term is largest 0.71 w before T (0.55 v_td w: 5 mm at 0.3 m/s) and gone by 1.5 w. With
+#: the touchdown speed: touchdown shifts 2.5 / 5.1 / 11.6 ms early and 2.3 / 4.5 / 8.5 ms
+#: late for 1 / 2 / 4 mm of error, against 18 / 32 / 45 and 7 / 12 / 19 ms for the grazing
+#: step, for 2 % more cost (examples/benchmarks/touchdown.py).
+APPROACH_TIME = 0.03
+#: Rows the step's boundary conditions fix at its ends: the swing foot lifts off from and
+#: lands on the ground, where its clearance profile is 0 (:func:`planner.hold_at_samples`).
+PINNED = ("clearance",)
+#: The default sole: from the ankle (the stance foot's contact point) back to the heel and
+#: forward to the toe, m: a 0.20 m foot for the six-link's 0.43 m shank.
+FOOT = (0.05, 0.15)
 
 
 @dataclass(frozen=True, eq=False)
@@ -120,6 +150,10 @@ class WalkingStep:
     double_support: float = 0.0
     phases: Phases | None = None
     accuracy: str | None = None
+    touchdown_speed: float = TOUCHDOWN_SPEED
+    foot_sole: tuple[float, float] | None = FOOT
+    ground_points: tuple[str, ...] = ()
+    ground_margin: float = 0.0
 
     @property
     def linkage(self) -> Linkage:
@@ -173,12 +207,19 @@ class WalkingStep:
         return self.clearance
 
     def clearance_at(self, s):
-        """The clearance profile at normalised times s = t / T (numpy or SX), m."""
+        """The clearance profile at normalised times s = t / T of the single support (numpy
+        or SX), m: the callable ``clearance``, or h sin^2(pi s) + v_td T (1 - s) s^8 (the
+        approach term: see the module docstring)."""
         if callable(self.clearance):
             return self.clearance(s)
+        T = self.single_support_time
         if isinstance(s, ca.SX | ca.MX):
-            return self.clearance * ca.sin(math.pi * s) ** 2
-        return self.clearance * np.sin(np.pi * np.asarray(s, dtype=float)) ** 2
+            swing, fade = ca.sin(math.pi * s) ** 2, ca.exp(-(((1 - s) * T / APPROACH_TIME) ** 4))
+        else:
+            s = np.asarray(s, dtype=float)
+            swing = np.sin(np.pi * s) ** 2
+            fade = np.exp(-(((1 - s) * T / APPROACH_TIME) ** 4))
+        return self.clearance * swing + self.touchdown_speed * (1 - s) * T * fade
 
     def _transcription(self, problem: OCP | Phases | None):
         problem = self.problem if problem is None else problem
@@ -201,12 +242,25 @@ class WalkingStep:
         return objective_at_guess(self._transcription(problem))
 
     def solve(
-        self, ocp: OCP | Phases | None = None, accuracy: str | float | None = None, **options
+        self,
+        ocp: OCP | Phases | None = None,
+        accuracy: str | float | None = None,
+        *,
+        rate_hz: float | None = RATE_HZ,
+        hold_limits: bool = True,
+        **options,
     ) -> WalkingGait:
         """Solve this step's problem, or ``ocp`` (a changed copy of :attr:`ocp`, or of
         :attr:`phases` with a double support); ``options`` go to :func:`planner.solve`
         (IPOPT options, progress, ...). Raises :class:`planner.SolverError` on failure unless
         ``raise_on_failure=False``.
+
+        ``hold_limits`` (default): the path constraints and bounds must also hold on the
+        exported motion at ``rate_hz`` (the samples of ``gait.to_trajectory(rate_hz)``, Hz;
+        None: the nodes) and at points inside every interval: where they miss, the missed
+        rows are added there and the step solved again warm-started
+        (:func:`planner.sampled_limits.hold_at_samples`; ``stats["sampled_limits"]``);
+        :class:`planner.SampleLimitError` when that fails.
 
         ``accuracy``: a preset name (:data:`problems.ACCURACY_PRESETS`: the single-support
         OCP re-meshed with the preset's transcription and density, solved at its tolerance),
@@ -227,11 +281,16 @@ class WalkingStep:
                 )
             if target is not None:
                 solution, final = refine_gait(problem, target, options)
+                if hold_limits:
+                    solution = hold_gait_limits(final, solution, rate_hz, options, PINNED)
                 return WalkingGait(self, solution, self.law_cost(final))
             ocp = problem.refine(**remesh.mesh(self.single_support_time))
         transcription = self._transcription(ocp)
         law = objective_at_guess(transcription)
         solution = solve(transcription, **options)
+        if hold_limits:
+            solved = transcription.single or transcription.problem
+            solution = hold_gait_limits(solved, solution, rate_hz, options, PINNED)
         return WalkingGait(self, solution, law)
 
     def clearance_table(self, times=None) -> dict[str, list[float]] | None:
@@ -276,6 +335,11 @@ class WalkingStep:
             "objective": self.objective,
             "swing_foot": self.biped.swing_shank,
             "double_support": self.double_support,
+            "touchdown_speed": self.touchdown_speed,
+            "approach_time": APPROACH_TIME,
+            "foot": None if self.foot_sole is None else list(self.foot_sole),
+            "ground_points": list(self.ground_points),
+            "ground_margin": self.ground_margin,
             "law": self.law.to_dict(),
         }
 
@@ -301,6 +365,10 @@ def walking_step(
     swing: tuple[str, str] | None = None,
     double_support: float = 0.0,
     N_double: int | None = None,
+    touchdown_speed: float = TOUCHDOWN_SPEED,
+    foot: tuple[float, float] | None = FOOT,
+    ground_points: Sequence[str] | None = None,
+    ground_margin: float = 0.0,
 ) -> WalkingStep:
     """A periodic walking step of a biped (see the module docstring).
 
@@ -318,8 +386,20 @@ def walking_step(
     mu : friction coefficient of the ground (> 0).
     torque_limit : |M_i| bound, N m: one number or one per link name.
     passive : names of links whose hinge torque is 0 (a passive ankle: the stance shank).
-    clearance : mid-swing height h of the default profile h sin^2(pi t / T), m (>= 0), or a
-        callable of s = t / T (numpy or CasADi SX) giving the minimum height, m.
+    clearance : mid-swing height h of the default profile h sin^2(pi t / T) + v_td (T - t)
+        exp(-((T - t) / w)^4), w = ``APPROACH_TIME``, m (>= 0), or a callable of s = t / T
+        (numpy or CasADi SX) giving the minimum height, m (taken as it is: no approach term).
+    touchdown_speed : v_td, the landing foot's least downward speed at heel strike and the
+        slope of the clearance's approach line, m/s (>= 0; default 0.3: a millimetre of
+        tracking error moves the touchdown by ~3 ms; 0: the foot may graze in).
+    foot : (heel, toe): the sole extends heel m behind and toe m ahead of the stance foot's
+        contact point (the ankle, H0); the centre of pressure M / Fy of the ankle torque stays
+        on it (default (0.05, 0.15)). None: no bound (a torque at a point foot, which no
+        robot has); a true point foot is ``passive=(stance shank,)``.
+    ground_points : links whose end points stay at or above ``ground_margin`` (default: every
+        link but the swing shank, whose end is the swing foot: knees, hip, neck, head top and
+        any upper body's joints); () for none.
+    ground_margin : m (>= 0).
     knee_range : (lower, upper) knee flexion psi_thigh - psi_shank, rad, both legs.
     posture : largest deviation of an upright link from the vertical, rad.
     upright : links kept near upright (default: every upper-body link).
@@ -373,6 +453,35 @@ def walking_step(
         raise DefinitionError(f"`knee_range`: lower must be < upper, got {knees}")
     posture = check_positive("posture", posture, "rad")
     upright = biped.upper_body if upright is None else check_links("upright", upright, linkage)
+    touchdown_speed = check_real("touchdown_speed", touchdown_speed)
+    if touchdown_speed < 0:
+        raise DefinitionError(
+            f"`touchdown_speed`: the landing foot's downward speed must be >= 0 m/s, got "
+            f"{touchdown_speed!r}"
+        )
+    if foot is not None:
+        if isinstance(foot, str) or len(foot) != 2:
+            raise DefinitionError(
+                f"`foot`: give (heel, toe), m behind and ahead of the ankle, or None, got "
+                f"{foot!r}"
+            )
+        foot = (check_real("foot[0]", foot[0]), check_real("foot[1]", foot[1]))
+        if foot[0] < 0 or foot[1] < 0 or foot[0] + foot[1] <= 0:
+            raise DefinitionError(
+                f"`foot`: heel and toe must be >= 0 m with a sole longer than 0, got {foot}; "
+                "for a point foot give passive=(the stance shank,) instead"
+            )
+    if ground_points is None:
+        ground_points = tuple(name for name in linkage.names if name != biped.swing_shank)
+    ground_points = check_links("ground_points", ground_points, linkage)
+    if biped.swing_shank in ground_points:
+        raise DefinitionError(
+            f"`ground_points`: {biped.swing_shank!r} ends in the swing foot, a contact: its "
+            "height is the clearance's (give the other links)"
+        )
+    ground_margin = check_real("ground_margin", ground_margin)
+    if ground_margin < 0:
+        raise DefinitionError(f"`ground_margin`: must be >= 0 m, got {ground_margin!r}")
     if step_time <= 0:
         raise DefinitionError(f"`step_time`: must be > 0 s, got {step_time!r}")
     double_support = check_real("double_support", double_support)
@@ -405,6 +514,10 @@ def walking_step(
         ocp=None,  # the OCP is built from the step's pieces (foot, impact, step map), below
         double_support=double_support,
         accuracy=accuracy,
+        touchdown_speed=touchdown_speed,
+        foot_sole=foot,
+        ground_points=ground_points,
+        ground_margin=ground_margin,
     )
     N, transcription, degree = mesh["N"], mesh["transcription"], mesh["degree"]
     step = replace(step, ocp=_walking_ocp(step, N, transcription, degree, formulation))
@@ -458,6 +571,10 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
     def foot_vertical_velocity(p):
         return velocity(p.x[:n], p.x[n:])[1]
 
+    def pressure(p):
+        fx, fy = reaction(p.psi, p.dpsi, p.ddpsi)
+        return centre_of_pressure_rows(step, p, fy)
+
     momentum = dynamics.floating.function("linear_momentum")
 
     def impulse(p):
@@ -492,11 +609,22 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
             scale=step.step_length,
         )
         .boundary("lift off", foot_vertical_velocity, at="start", lower=0.0, scale=speed)
-        .boundary("heel strike", foot_vertical_velocity, at="end", upper=0.0, scale=speed)
+        .boundary(
+            "heel strike",
+            foot_vertical_velocity,
+            at="end",
+            upper=-step.touchdown_speed,
+            scale=speed,
+        )
         .boundary("impulse", impulse, at="end", lower=0.0, scale=biped.total_mass * speed)
     )
     if step.double_support == 0.0:
         ocp = ocp.periodic(step.step_map)
+    ocp = keep_off_the_ground(ocp, step)
+    if step.foot_sole is not None and biped.stance_shank not in step.passive:
+        ocp = ocp.constrain(
+            "centre of pressure", pressure, lower=0.0, scale=weight * sum(step.foot_sole)
+        )
     ocp = keep_upright(ocp, step.upright, step.posture)
     return finish_gait_ocp(ocp, linkage, step.objective, step.torque_limit, step.law)
 
@@ -558,11 +686,54 @@ def _double_support_ocp(step: WalkingStep, mesh: dict) -> OCP:
         )
         .scale(F=weight / 2)
     )
+    ocp = keep_off_the_ground(ocp, step)
+    if step.foot_sole is not None and biped.stance_shank not in step.passive:
+        # The rear foot's ankle torque over its own normal force (the front foot is a point
+        # contact: it carries no torque).
+        ocp = ocp.constrain(
+            "centre of pressure",
+            lambda p: centre_of_pressure_rows(
+                step, p, reaction(p.psi, p.dpsi, p.ddpsi)[1] - p.F[1]
+            ),
+            lower=0.0,
+            scale=weight * sum(step.foot_sole),
+        )
     ocp = keep_upright(ocp, step.upright, step.posture)
     # The guess holds the pose the law lands in; the feet share the weight.
     strike = step.law(step.single_support_time)
     ocp = finish_gait_ocp(ocp, linkage, step.objective, step.torque_limit, step.law)
     return replace(ocp, guesses=()).guess(psi=strike[0], dpsi=0.0, ddpsi=0.0, F=[0.0, weight / 2])
+
+
+def centre_of_pressure_rows(step: WalkingStep, p, fy):
+    """M + heel Fy >= 0 and toe Fy - M >= 0 (N m) for the ankle torque M at the stance foot
+    and its normal force Fy: the centre of pressure M / Fy within [-heel, toe] of the ankle."""
+    heel, toe = step.foot_sole
+    moment = p[f"M_{step.biped.stance_shank}"]
+    return ca.vertcat(moment + heel * fy, toe * fy - moment)
+
+
+def ground_function(step: WalkingStep) -> ca.Function:
+    """psi -> the heights of the ends of ``step.ground_points`` (m), one output per point
+    (rows named after the points)."""
+    psi = ca.SX.sym("psi", step.linkage.n)
+    points = [step.dynamics.point(name) for name in step.ground_points]
+    heights = [point.function("position")(psi)[1] for point in points]
+    return ca.Function("ground", [psi], heights, ["psi"], [p.label for p in points])
+
+
+def keep_off_the_ground(ocp: OCP, step: WalkingStep) -> OCP:
+    """``ground`` rows: the ends of ``step.ground_points`` at or above ``ground_margin`` at
+    every dynamics point (none when there are no such points)."""
+    if not step.ground_points:
+        return ocp
+    leg = step.biped.leg_length
+    return ocp.constrain(
+        "ground",
+        ground_function(step),
+        lower=step.ground_margin,
+        scale=max(step.clearance_height, CLEARANCE_SCALE * leg),
+    )
 
 
 # ---- the solved gait ----------------------------------------------------------------------

@@ -16,7 +16,7 @@ from scipy.integrate import quad
 from model import DefinitionError, presets
 from planner import OCP, Transcription
 from planner.schemes import make_scheme
-from tests.reference import newton_euler
+from reference import newton_euler
 
 CHAIN = presets.n_link_chain(2)
 DOWN = -np.pi / 2
