@@ -39,7 +39,8 @@ ANGLE_UNIT, RATE_UNIT, ACCELERATION_UNIT, TORQUE_UNIT, FORCE_UNIT = (
     "N m",
     "N",
 )
-#: Extras of the ground reaction at H0 in a trajectory, N.
+#: Extras of the ground reaction at H0 in trajectories written before contact-named columns
+#: (read back as the ground reaction, N).
 GROUND_REACTION = ("Fx", "Fy")
 #: The convention in words, for messages.
 CONVENTION = f"states {ANGLES}_<link> [{ANGLE_UNIT}] then {RATES}_<link> [{RATE_UNIT}]"
@@ -92,6 +93,18 @@ def links_of(state_names: Sequence[str], state_units: Sequence[str]) -> tuple[st
     return links
 
 
+def contact_force_names(contact: str) -> tuple[str, str]:
+    """The extras of a contact's ground force, N: ``F_<contact>_x``, ``F_<contact>_y`` (the
+    contact named after its point: ``swing_shank_end``; the root's start hinge H0, pinned
+    to the ground, is ``<root>_start``)."""
+    return f"F_{contact}_x", f"F_{contact}_y"
+
+
+def root_contact(links: Sequence[str]) -> str:
+    """The name of the contact at H0, the start of the root link: ``<root>_start``."""
+    return f"{links[0]}_start"
+
+
 def link_of(name: str) -> str | None:
     """The link of a channel psi_<link>, dpsi_<link> or M_<link>, else None."""
     for group in (ANGLES, RATES, TORQUES):
@@ -106,7 +119,7 @@ def infer_group(name: str) -> str:
     rest states."""
     if name.startswith(f"{TORQUES}_"):
         return "control"
-    if name.startswith(f"{ACCELERATIONS}_") or name in GROUND_REACTION:
+    if name.startswith((f"{ACCELERATIONS}_", "F_", "CoP_")) or name in GROUND_REACTION:
         return "extra"
     return "state"
 
@@ -232,7 +245,31 @@ def linkage_system(
         positions=ANGLES,
         velocities=RATES,
         drives_for_motion=drives_for_motion,
+        nominal=_nominal(dynamics.linkage, torques, forces),
     )
+
+
+def _nominal(linkage, torques, forces) -> dict[str, float]:
+    """Natural magnitudes from the linkage (``System.nominal``), in whatever units it is
+    given: torques NOMINAL_TORQUE times its weight W times its mean link length l, contact
+    forces W. (Angles, rates and accelerations do not change with the units of length and
+    mass: their default scale 1 rad, rad/s, rad/s^2 stays.) Without gravity, W is the mass
+    times 9.81 l / s^2."""
+    length = float(np.mean([link.length for link in linkage.links]))
+    gravity = linkage.gravity if linkage.gravity > 0 else 9.81 * length
+    weight = float(sum(link.mass for link in linkage.links)) * gravity
+    return {
+        **dict.fromkeys(torques, NOMINAL_TORQUE * weight * length),
+        **dict.fromkeys(forces, weight),
+    }
+
+
+#: The torque scale of a linkage without torque bounds, as a fraction of its weight times
+#: its mean link length: 27 N m for the six-link anthropoid (whose gaits' torques are tens of
+#: N m), 1 N m for the 2-link chain of 1 kg, 0.5 m links. The full W l (268 N m) left the
+#: benchmark gait of examples/benchmarks/planner_bench.py at Solved_To_Acceptable_Level
+#: (its dynamics rows, scaled by the torque scale, too small for tol 1e-8).
+NOMINAL_TORQUE = 0.1
 
 
 __all__ = [
@@ -250,11 +287,13 @@ __all__ = [
     "TORQUE_UNIT",
     "acceleration_names",
     "angle_names",
+    "contact_force_names",
     "force_names",
     "infer_group",
     "link_of",
     "linkage_system",
     "links_of",
     "rate_names",
+    "root_contact",
     "torque_names",
 ]

@@ -1121,6 +1121,9 @@ class OCPDefinition:
         return float(given[-1]) if given else None
 
     def variable_scale(self, name: str) -> float:
+        """A variable's nominal magnitude: given by :meth:`scale`, else its largest finite
+        bound, else the system's natural magnitude (``System.nominal``: a linkage's weight
+        times its mean link length for torques, ...), else 1."""
         value = None
         for key, v in self.scales:
             if key == name:
@@ -1128,6 +1131,10 @@ class OCPDefinition:
         if value is not None:
             return float(value)
         lo, hi = self.variable_bounds(name)
+        if not (np.isfinite(lo) and lo != 0.0) and not (np.isfinite(hi) and hi != 0.0):
+            nominal = self.system.nominal or {}
+            if name in nominal:
+                return float(nominal[name])
         return float(default_scale(np.array([lo]), np.array([hi]))[0])
 
     def constraint_scale(self, constraint: Constraint) -> np.ndarray:

@@ -64,6 +64,9 @@ SAFETY = 1.5
 #: A miss larger than this fraction of the row's nominal scale cuts its interval in two
 #: instead of backing off (the motion and the plan part by much: the mesh is too coarse).
 SPLIT = 0.1
+#: A miss in a phase's first or last interval that a round of backing off leaves at this
+#: fraction of itself or more is stuck (a row pinned at the end): that interval is cut in two.
+STUCK = 0.5
 #: Intervals a phase may reach by those cuts.
 MAX_INTERVALS = 400
 #: A drive held at one value (a passive joint) may be needed by the motion up to this
@@ -450,12 +453,14 @@ def hold_at_samples(
         check_positive("rate_hz", rate_hz, "Hz")
     tolerance = check_positive("tolerance", tolerance)
     rounds = []
+    previous: dict[tuple, np.ndarray] = {}
     for round_index in range(max_rounds + 1):
         phases = _phases(solution)
         ocps = [phase.ocp for phase in phases]
         worst = -np.inf
         raised = refined = 0
         updated, new_edges = [], []
+        following: dict[tuple, np.ndarray] = {}
         for phase, ocp in zip(phases, ocps, strict=True):
             if not phase.system.has_motion:
                 raise DefinitionError(
@@ -466,13 +471,25 @@ def hold_at_samples(
             excesses = _excesses(phase, blocks, check_times(phase, rate_hz, dense), REFINE)
             coarse: set[int] = set()
             for block, pair in zip(blocks, excesses, strict=True):
-                for excess in pair:
+                for side, excess in enumerate(pair):
                     relative = excess / block.scale[None, :]
                     if block.equality:  # a passive joint: refine until it needs little
                         coarse.update(np.flatnonzero(relative[:, 0] > PASSIVE).tolist())
                         continue
                     worst = max(worst, float(np.max(relative)))
                     coarse.update(np.flatnonzero(np.max(relative, axis=1) > SPLIT).tolist())
+                    # A miss in the first or last interval that backing off did not halve
+                    # since the last round (a row a boundary condition pins at the phase's
+                    # end, where the miss lies just inside): the interval is cut in two.
+                    missed = np.max(relative, axis=1)
+                    key = (len(updated), block.name, side)
+                    before = previous.get(key)
+                    if before is not None and before.shape == missed.shape:
+                        stuck = (missed > tolerance) & (before > tolerance)
+                        stuck &= missed >= STUCK * before
+                        stuck[1:-1] = False
+                        coarse.update(np.flatnonzero(stuck).tolist())
+                    following[key] = missed
             if coarse and ocp.N + len(coarse) <= max_intervals:
                 # Misses this large say the mesh is too coarse there (the motion and the
                 # plan part by much): cut those intervals in two rather than back off.
@@ -497,6 +514,7 @@ def hold_at_samples(
                 "iterations": solution.iterations,
             }
         )
+        previous = {} if refined else following  # a cut mesh renumbers the intervals
         if not raised:
             break
         if round_index == max_rounds:

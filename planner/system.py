@@ -80,6 +80,11 @@ class System:
     None when the system has none. ``model``: a JSON-serialisable description of the model
     for exported metadata, or None.
 
+    ``nominal``: a variable's natural magnitude from the model (name -> positive number, in
+    its units), the scale of a variable that has neither a scale nor a finite bound in the
+    OCP (a linkage's torques: its weight times its mean link length), so that the same
+    problem in other units (millimetres and grams) is the same scaled NLP; None: 1.
+
     A motion and the drives it needs (what :meth:`planner.solution.Solution.motion` and the
     exported files use; all three or none): ``positions`` and ``velocities``, two state
     groups of equal length whose rates are each other's (d position_i/dt = velocity_i,
@@ -116,6 +121,7 @@ class System:
     positions: str | None = None
     velocities: str | None = None
     drives_for_motion: ca.Function | None = None
+    nominal: Mapping[str, float] | None = None
 
     def __post_init__(self) -> None:
         if self.residual is not None and len(self.residual_names) != self.residual.size1_out(0):

@@ -350,8 +350,9 @@ def _torque_source(
 ) -> _TorqueSource:
     n = len(names)
     if hasattr(torques, "to_trajectory") and not isinstance(torques, Trajectory):
-        # A planner Solution samples its own interpolant (the transcription's polynomials)
-        # at a rate: the nodes alone would lose e.g. Hermite-Simpson's midpoint controls.
+        # A planner Solution samples what its files hold (its consistent motion, the
+        # torques the inverse dynamics of that motion) at a rate: the nodes alone would
+        # lose what happens between them.
         try:
             accepts_rate = "rate_hz" in inspect.signature(torques.to_trajectory).parameters
         except (TypeError, ValueError):  # a callable without an introspectable signature

@@ -17,6 +17,7 @@ Objectives (``OBJECTIVES``), integrated over the step or period:
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import math
 from collections.abc import Mapping, Sequence
@@ -70,7 +71,34 @@ def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=
     def again(changed):
         return solve(changed, **kept)
 
-    return hold_at_samples(problem, rate_hz, again, solution, pinned=tuple(pinned))
+    held = hold_at_samples(problem, rate_hz, again, solution, pinned=tuple(pinned))
+    history = solution.stats.get("refinement")
+    if history is not None and held is not solution:
+        # The refinement reached its target with the first solve; the limits held between
+        # the points moved the solution: its accuracy is measured again, and the history
+        # says whether the held plan still meets the target.
+        error = scaled_integration_error(held)
+        held.stats["error_after_limits"] = error
+        if history.reached and error > history.target:
+            history = dataclasses.replace(
+                history,
+                reached=False,
+                reason=f"the limits held between the points left an error of {error:.2e}",
+            )
+    if history is not None:
+        held.stats["refinement"] = history
+    return held
+
+
+def scaled_integration_error(solution) -> float:
+    """The largest per-interval re-integration error per nominal state scale over every
+    phase (the units of ``accuracy=``)."""
+    phases = solution.phases if isinstance(solution, PhasesSolution) else [solution]
+    worst = 0.0
+    for phase in phases:
+        scales = np.array([phase.ocp.variable_scale(n) for n in phase.state_names])
+        worst = max(worst, float(np.max(phase.integration_error().per_interval / scales)))
+    return worst
 
 
 def check_objective(objective: str) -> str:
@@ -186,6 +214,15 @@ def finish_gait_ocp(ocp: OCP, linkage: Linkage, objective: str, limits, law) -> 
     return ocp.guess(law)
 
 
+def centre_of_pressure(moment: np.ndarray, force: np.ndarray) -> np.ndarray:
+    """x_p = M / Fy (m) of an ankle torque M (K,) N m over the ground force Fy (K,) complex
+    Fx + j Fy, N: where a sole puts its pressure to transmit M; 0 where Fy <= 0 (a foot
+    that carries nothing transmits no torque either: the rows -heel Fy <= M <= toe Fy)."""
+    fy = np.asarray(force).imag
+    safe = np.where(fy > 0, fy, 1.0)
+    return np.where(fy > 0, np.asarray(moment) / safe, 0.0)
+
+
 def objective_at_guess(transcription) -> float:
     """The NLP's objective at its initial guess, in the objective's physical units (a
     :class:`planner.Transcription` of an OCP or of phases)."""
@@ -258,9 +295,12 @@ class Gait:
         return total
 
     def to_trajectory(self, rate_hz: float | None = None) -> Trajectory:
-        """The solution's interpolant at ``rate_hz`` (default the nodes), with the ground
-        reaction on the root's foot (Fx, Fy, N), the contact forces of a phase with more
-        contacts (zero where they are not held), and the problem's settings
+        """The solution's consistent motion at ``rate_hz`` (default the nodes;
+        :meth:`planner.Solution.motion`: torques the inverse dynamics of the sampled motion),
+        with the ground reaction on the root's foot (``F_<root>_start_x``, ``_y``, N), the
+        centre of pressure its ankle torque implies (``CoP_<root>_start_x``, m from the
+        ankle along x: M / Fy, 0 where the foot carries nothing), the contact forces of a
+        phase with more contacts (zero where they are not held), and the problem's settings
         (``metadata["gait"]``). On a multi-phase solution the phases follow each other
         (``PhasesSolution.to_trajectory``); where two meet, the later phase's first sample is
         kept (after an impact) and the state just before it goes into
@@ -297,12 +337,26 @@ class Gait:
         )
         for name in contacts:
             trajectory = trajectory.with_extra(name, joined.extras[name][0], "N")
+        root = f"{self.problem.linkage.names[0]}_start"
+        trajectory = trajectory.with_extra(
+            f"CoP_{root}_x", centre_of_pressure(joined.torques[:, 0], force), "m"
+        )
         return trajectory
 
-    def verify(self, **options) -> GaitReport:
-        """:func:`problems.verify_gait` on the node trajectory (``options``: ``tolerance``,
-        ``settings`` overrides)."""
-        return verify_gait(self.to_trajectory(), self.problem.linkage, **options)
+    def centre_of_pressure(self, rate_hz: float | None = None) -> tuple[float, float]:
+        """(least, largest) centre of pressure of the stance foot over the samples at
+        ``rate_hz``, m from the ankle along x (M / Fy of the root's torque and ground force)."""
+        trajectory = self.to_trajectory(rate_hz)
+        force = trajectory.ground_reaction
+        loaded = force.imag > 0
+        values = centre_of_pressure(trajectory.torques[:, 0], force)[loaded]
+        return (float(values.min()), float(values.max())) if values.size else (0.0, 0.0)
+
+    def verify(self, rate_hz: float | None = RATE_HZ, **options) -> GaitReport:
+        """:func:`problems.verify_gait` on the trajectory at ``rate_hz`` (default 1 kHz, what
+        the files hold; None: the nodes) (``options``: ``tolerance``, ``settings``
+        overrides, ...)."""
+        return verify_gait(self.to_trajectory(rate_hz), self.problem.linkage, **options)
 
     def summary(self) -> dict[str, Any]:
         """Status, cost and law cost, positive work, peak and RMS torque per hinge (N m),
@@ -333,6 +387,7 @@ __all__ = [
     "WORK_EPSILON",
     "WORK_REGULARISATION",
     "Gait",
+    "centre_of_pressure",
     "check_links",
     "check_objective",
     "finish_gait_ocp",

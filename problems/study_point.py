@@ -73,8 +73,8 @@ class Measured:
 def _peak_friction_use(point: Measured) -> float:
     """max over the loaded nodes of |Fx| / (mu Fy) of the stance foot (1: on the cone's
     edge); NaN when no node carries UNLOADED x the weight."""
-    fx = np.asarray(point.trajectory.extras["Fx"][0])
-    fy = np.asarray(point.trajectory.extras["Fy"][0])
+    force = np.asarray(point.trajectory.ground_reaction)
+    fx, fy = force.real, force.imag
     biped = point.gait.problem.biped
     loaded = fy >= UNLOADED * biped.total_mass * biped.linkage.gravity
     if not np.any(loaded):

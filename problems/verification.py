@@ -1,17 +1,38 @@
-"""Gait verification, written again in numpy on the exported trajectory.
+"""Gait verification: the physics of a gait, checked again in numpy on its samples.
 
-:func:`verify_gait` checks a gait from its samples (psi, dpsi, ddpsi, M of a
-:class:`planner.Trajectory`, e.g. read back from a file) and the linkage, with kinematics
-written here in plain numpy (complex sums over the tree), not with the planner's constraint
-functions or the model's SX expressions. The leg relabelling is the model's
+:func:`verify_gait` checks a gait from what a file holds (psi, dpsi, ddpsi, M and contact
+forces of a :class:`planner.Trajectory`, e.g. read back from ``torques.csv``) and the
+linkage, with kinematics and dynamics written here in plain numpy (complex sums over the
+tree; hinge torques as the moments about each hinge of the inertia and weight of the part
+beyond it), not with the planner's constraint functions or the model's SX expressions. It
+checks the physics on every sample whatever rows the OCP had; the limits come from the
+gait's settings (``metadata["gait"]``). The leg relabelling is the model's
 (``model.swap_legs``): it defines what the next step's labels mean.
 
-Checks (each reports its worst margin, > 0 inside, and the node where it is reached; a
-failure names the node, its time and by how much the gait misses):
+Checks (each reports its worst margin, > 0 inside, where it is reached and how many values
+it checked; a failure names the sample, its time and by how much the gait misses):
 
+every gait, at every sample
+  * ``duration``: the samples span the step (or period) the settings state, s;
+  * ``kinematics``: psi and dpsi agree (psi_k+1 - psi_k against the corrected trapezoid of
+    dpsi and ddpsi, with an allowance for the acceleration's own change), rad;
+    ``rates``: dpsi and ddpsi agree (the trapezoid of ddpsi, with an allowance of
+    2.5 h^3 max|d2 ddpsi/dt2| estimated from the samples), rad/s; both skip the instants of
+    an impact;
+  * ``dynamics``: each hinge torque M_i equals the inverse dynamics of the sampled motion
+    (and of the held foot's ground force in a double support): the moment about hinge i of
+    sum m_k (a_k + j g) and J_k ddpsi_k over the part beyond it, N m;
+  * ``passive joints``: a passive hinge (``passive``) carries at most ``passive_tolerance``
+    of the torque limit: what the motion needs of a joint that has no drive, N m;
+  * ``torque bounds``; ``ground``: every link end but the swing foot (``ground_points``) at
+    or above ``ground_margin``, m; ``friction cone``: mu Fy - |Fx| >= 0, N;
+    ``centre of pressure``: the ankle torque's centre of pressure M / Fy on the sole
+    (``foot``: -heel Fy <= M <= toe Fy), N m, and its range as a fact of the report;
+    ``knees`` and ``posture``, rad;
 walking step (``metadata["gait"]["problem"] == "walking_step"``)
   * ``periodic angles``: psi(0) = the leg swap of psi(T) (mod 2 pi), rad;
-  * ``landing``: the swing foot at (step_length, 0) at T, m; ``heel strike``: it moves down;
+  * ``landing``: the swing foot at (step_length, 0) at T, m; ``heel strike``: it comes down
+    at ``touchdown_speed`` or faster, m/s;
   * ``impact momentum``: across heel strike, from x(T) before and x(0) (relabelled back)
     after, the angular momentum about the landing foot of the whole tree and about every
     hinge of the part beyond it without the landing foot is conserved, kg m^2/s
@@ -19,15 +40,19 @@ walking step (``metadata["gait"]["problem"] == "walking_step"``)
   * ``foot at rest``: the landing foot's velocity after impact, m/s;
   * ``impulse cone``: the impulse Lambda = m (v_com+ - v_com-) with mu Ly - |Lx| >= 0, N s;
   * ``lift off``: the old stance foot's vertical velocity after impact >= 0, m/s;
-  * ``friction cone``: mu Fy - |Fx| >= 0 at every sample, F = sum m_i (a_i + j g), N;
-  * ``clearance``: swing-foot height - the clearance profile >= 0 at every sample, m (the
-    default profile from ``clearance``; a callable one travels as the sampled table
-    ``clearance_profile``, written at the exported samples by ``WalkingGait.to_trajectory``);
-  * ``torque bounds``, ``knees``, ``posture`` at every sample.
+  * ``clearance``: swing-foot height - the clearance profile >= 0, m (the default profile
+    from ``clearance``, ``touchdown_speed`` and ``approach_time``; a callable one travels as
+    the sampled table ``clearance_profile``);
+  * with a double support: the impact with both feet held, the front foot held at rest,
+    both feet's ground forces in their cones, the rear foot's centre of pressure;
 fixed-base periodic gait (``"periodic_gait"``)
-  * ``periodic state``: x(0) = x(T); ``clearance`` above the law's minimum minus the margin;
-    ``torque bounds``, ``posture`` (the keypoints between samples are the planner's
-    interpolant's business: a sampled file cannot show them exactly).
+  * ``periodic state``: x(0) = x(T); ``clearance`` above the law's minimum minus the margin
+    (the keypoints between samples are the planner's interpolant's business).
+
+What it cannot check: anything between the samples it is given (a file at 1 kHz says
+nothing of the motion between its rows), the model itself (it uses the linkage it is given:
+a wrong mass is a wrong plan verified consistently), and that the motion is the optimum
+the plan claims (the cost).
 """
 
 from __future__ import annotations
@@ -77,10 +102,13 @@ class Check:
 
 @dataclass(frozen=True)
 class GaitReport:
-    """The result of :func:`verify_gait`: ``checks`` in order, ``ok`` when all passed."""
+    """The result of :func:`verify_gait`: ``checks`` in order, ``ok`` when all passed;
+    ``facts``: what it measured besides (samples, duration s, the largest |M - inverse
+    dynamics| N m, the centre of pressure's range (min, max) m from the ankle)."""
 
     checks: tuple[Check, ...]
     settings: dict[str, Any] = field(default_factory=dict)
+    facts: dict[str, Any] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -174,6 +202,29 @@ class _Kinematics:
         _, _, acceleration = self.coms(psi, dpsi, ddpsi)
         return (acceleration + 1j * self.linkage.gravity) @ self.mass
 
+    def inverse_dynamics(self, psi, dpsi, ddpsi, contacts=()) -> np.ndarray:
+        """Hinge torques (K, n), N m: M_i = sum over the links k beyond hinge i (its subtree)
+        of (w_k - h_i) x m_k (a_k + j g) + J_k ddpsi_k, less the moments about h_i of the
+        ground forces ``contacts`` (link, offset, force (K,) complex) on that part: Euler's
+        law for the part beyond hinge i about the point where the hinge is (written here
+        independently of the model's Lagrange equations)."""
+        psi, dpsi, ddpsi = (np.atleast_2d(a) for a in (psi, dpsi, ddpsi))
+        starts, _, _ = self.starts(psi)
+        position, _, acceleration = self.coms(psi, dpsi, ddpsi)
+        force = self.mass[None, :] * (acceleration + 1j * self.linkage.gravity)
+        torques = np.empty(psi.shape)
+        applied = [(i, self.point(i, offset, psi)[0], f) for i, offset, f in contacts]
+        for i in range(self.n):
+            part = list(self.linkage.subtree(i))
+            lever = position[:, part] - starts[:, i : i + 1]
+            moment = np.sum((np.conj(lever) * force[:, part]).imag, axis=1)
+            moment += ddpsi[:, part] @ self.inertia[part]
+            for link, point, f in applied:
+                if link in part:
+                    moment -= (np.conj(point - starts[:, i]) * f).imag
+            torques[:, i] = moment
+        return torques
+
     def angular_momentum(self, psi, dpsi, base_velocity, about, links) -> float:
         """sum over ``links`` of (w_i - about) x m_i v_i + J_i dpsi_i, the base moving with
         ``base_velocity`` (complex), about the fixed point ``about`` (complex)."""
@@ -202,24 +253,30 @@ def verify_gait(
     settings: Mapping[str, Any] | None = None,
     tolerance: float = 1e-6,
     hold_tolerance: float = 1e-3,
+    passive_tolerance: float = 0.01,
 ) -> GaitReport:
     """Verify a gait from its samples (see the module docstring).
 
     Parameters
     ----------
-    trajectory : a linkage Trajectory with ddpsi (``WalkingGait.to_trajectory()``,
+    trajectory : a linkage Trajectory with ddpsi (``WalkingGait.to_trajectory(rate_hz)``,
         ``Trajectory.load(...)`` of a file it wrote, or any at the nodes of a solution).
     linkage : the linkage it was made for.
     settings : the gait's parameters (the keys of ``metadata["gait"]``: problem, step_length,
-        mu, clearance, torque_limit, knee_range, posture, upright, ...); default the
-        trajectory's ``metadata["gait"]``; given keys override it.
+        mu, clearance, torque_limit, knee_range, posture, upright, foot, passive, ...); default
+        the trajectory's ``metadata["gait"]``; given keys override it.
     tolerance : relative tolerance of every check: margins are in physical units and a check
         passes when margin >= -tolerance * its scale (1 for angles, m and m/s; the weight m g
-        for forces; m * 1 m/s for impulses; the torque limit for torques).
+        for forces; m * 1 m/s for impulses; the largest torque limit for torques, or the
+        weight times the leg length without limits).
     hold_tolerance : m and m/s: how far the front foot of a double support may drift from
         its foothold and from rest. The planner holds it through its acceleration (the
         closed chain as a constraint on ddpsi), so position and velocity drift with the
         collocation error (0.1 mm and 0.7 mm/s on the default mesh, fourth order in h).
+    passive_tolerance : the largest torque a passive hinge may show, as a fraction of the
+        largest torque limit: the motion of an underactuated linkage is consistent at such
+        a joint to the collocation error only (the planner refines its mesh until the
+        motion needs at most 1 % of the torque scale there).
     """
     if not isinstance(trajectory, Trajectory):
         raise DefinitionTypeError(
@@ -242,16 +299,14 @@ def verify_gait(
             "`settings`: say which gait this is: settings={'problem': 'walking_step' or "
             f"'periodic_gait', ...}} (the trajectory's metadata has none), got {problem!r}"
         )
-    for name, value in (("tolerance", tolerance), ("hold_tolerance", hold_tolerance)):
+    for name, value in (
+        ("tolerance", tolerance),
+        ("hold_tolerance", hold_tolerance),
+        ("passive_tolerance", passive_tolerance),
+    ):
         if isinstance(value, bool) or not (isinstance(value, float | int) and 0 < value < 1):
             raise DefinitionError(f"`{name}`: must be a number in (0, 1), got {value!r}")
     kin = _Kinematics(linkage)
-    psi, dpsi, ddpsi, torques = (
-        trajectory.psi,
-        trajectory.dpsi,
-        trajectory.ddpsi,
-        trajectory.torques,
-    )
     times = trajectory.time
     weight = float(np.sum(kin.mass)) * linkage.gravity
     checks: list[Check] = []
@@ -267,12 +322,16 @@ def verify_gait(
             value = float(margins.min())
         checks.append(Check(name, value, unit, where, tolerance * scale, margins.size))
 
-    if problem == "walking_step" and float(merged.get("double_support") or 0.0) > 0.0:
+    facts: dict[str, Any] = {"samples": int(times.size), "duration": float(times[-1] - times[0])}
+    double = problem == "walking_step" and float(merged.get("double_support") or 0.0) > 0.0
+    contacts = _contacts(kin, merged, trajectory) if double else []
+    _verify_physics(add, kin, merged, trajectory, contacts, weight, passive_tolerance, facts)
+    if double:
         _verify_double_support(add, kin, merged, trajectory, weight, hold_tolerance / tolerance)
     elif problem == "walking_step":
-        _verify_walking(add, kin, merged, psi, dpsi, ddpsi, times, weight)
+        _verify_walking(add, kin, merged, trajectory, weight)
     else:
-        state = np.hstack([psi, dpsi])
+        state = np.hstack([trajectory.psi, trajectory.dpsi])
         add(
             "periodic state",
             -np.abs(state[0] - state[-1]),
@@ -282,21 +341,173 @@ def verify_gait(
         minimum = merged.get("foot_minimum")
         if minimum is not None:
             foot = _foot(kin, merged)
-            height = kin.point(*foot, psi)[0].imag
+            height = kin.point(*foot, trajectory.psi)[0].imag
             add("clearance", height - float(minimum), "m")
-    limits = merged.get("torque_limit")
+    return GaitReport(tuple(checks), merged, facts)
+
+
+def _contacts(kin: _Kinematics, settings, trajectory) -> list[tuple[int, complex, np.ndarray]]:
+    """The held feet's ground forces of a double support: (link, offset, force (K,)) from the
+    extras ``F_<point>_x`` / ``_y`` of points other than the root's (its reaction is what
+    the dynamics leave), each the swing foot's (the front foot)."""
+    link, offset = _foot(kin, settings)
+    root = _root_contact(kin.linkage)
+    names = [k for k in trajectory.extras if k.startswith("F_") and k.endswith("_x")]
+    found = []
+    for name in names:
+        if name == f"F_{root}_x" or name == "Fx":
+            continue
+        force = trajectory.extras[name][0] + 1j * trajectory.extras[name[:-1] + "y"][0]
+        found.append((link, offset, np.asarray(force)))
+    return found
+
+
+def _root_contact(linkage: Linkage) -> str:
+    """The stance foot's contact name in files: the root link's start, ``<root>_start``."""
+    return f"{linkage.names[0]}_start"
+
+
+def _torque_scale(kin: _Kinematics, settings) -> float:
+    limits = settings.get("torque_limit")
+    if limits:
+        return float(max(float(v) for v in limits.values()))
+    leg = kin.linkage.links[0].length
+    return float(np.sum(kin.mass)) * kin.linkage.gravity * leg
+
+
+def _impact_instants(settings, trajectory) -> np.ndarray:
+    """Times (s) where the state jumps between two samples (the impact at a double
+    support's start): the kinematic checks skip the pair that holds one."""
+    events = settings.get("before_events") or []
+    return np.array([float(e["t"]) for e in events])
+
+
+def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, facts) -> None:
+    """What every gait must obey at every sample, whatever its OCP held: the duration, the
+    kinematics, the equations of motion, passive joints, torque bounds, the ground, the
+    friction cone and centre of pressure of the stance foot, knees and posture."""
+    linkage = kin.linkage
+    psi, dpsi, ddpsi, torques = (trajectory.psi, trajectory.dpsi, trajectory.ddpsi,
+                                 trajectory.torques)  # fmt: skip
+    times = trajectory.time
+    problem = settings.get("problem")
+    duration = settings.get("step_time") if problem == "walking_step" else settings.get("period")
+    if duration is not None:
+        span = float(times[-1] - times[0])
+        add("duration", np.array([-abs(span - float(duration))]), "s", float(duration),
+            where=f"{times.size} samples over {span:.6g} s")  # fmt: skip
+    # Kinematics: the corrected trapezoid of dpsi (exact for cubic rates) against psi; an
+    # acceleration that jumps or kinks between two samples (a mesh node) costs up to
+    # h^2 |da| / 12 of it, allowed. Rates against the trapezoid of ddpsi, allowed
+    # 2.5 h^3 max |d2 ddpsi / dt2| (the rule's error with a safety for kinks at the nodes).
+    h = np.diff(times)[:, None]
+    keep = np.ones(h.shape[0], dtype=bool)
+    for t in _impact_instants(settings, trajectory):
+        keep &= ~((times[:-1] < t + 1e-12) & (times[1:] > t - 1e-12))
+    change = ddpsi[1:] - ddpsi[:-1]
+    residual = psi[1:] - psi[:-1] - h / 2 * (dpsi[1:] + dpsi[:-1]) + h**2 / 12 * change
+    allowance = 2.0 * h**2 / 12 * np.abs(change)
+    margins = np.full(residual.shape, np.inf)
+    margins[keep] = (allowance - np.abs(residual))[keep]
+    add("kinematics", _per_sample(margins), "rad")
+    curvature = np.zeros_like(ddpsi)
+    if times.size > 2:
+        curvature[1:-1] = np.abs(ddpsi[2:] - 2 * ddpsi[1:-1] + ddpsi[:-2]) / (h[1:] * h[:-1])
+    near = np.maximum(curvature[:-1], curvature[1:])
+    near = np.maximum(near, np.vstack([near[1:], near[-1:]]))
+    near = np.maximum(near, np.vstack([near[:1], near[:-1]]))
+    residual = dpsi[1:] - dpsi[:-1] - h / 2 * (ddpsi[1:] + ddpsi[:-1])
+    margins = np.full(residual.shape, np.inf)
+    margins[keep] = (2.5 * h**3 * near - np.abs(residual))[keep]
+    intervals = _mesh_intervals(trajectory.metadata)
+    if intervals is None or times.size - 1 >= RATES_DENSITY * intervals:
+        add("rates", _per_sample(margins), "rad/s")
+    else:
+        # An acceleration polynomial bulges inside a mesh interval: samples at the nodes
+        # alone cannot bound the trapezoid's error from the samples themselves.
+        facts["rates"] = (
+            f"not checked: {times.size} samples for {intervals} mesh intervals (at least "
+            f"{RATES_DENSITY} per interval needed)"
+        )
+    # The equations of motion: the torques against the inverse dynamics of the motion.
+    scale = _torque_scale(kin, settings)
+    expected = kin.inverse_dynamics(psi, dpsi, ddpsi, contacts)
+    gap = torques - expected
+    facts["dynamics residual"] = float(np.max(np.abs(gap)))
+    add("dynamics", -np.abs(gap), "N m", scale)
+    passive_links = [linkage.index(name) for name in settings.get("passive") or ()]
+    limits = settings.get("torque_limit")
+    if passive_links:
+        allowed = passive * scale  # what the motion may need of a joint without a drive
+        add("passive joints", allowed - np.abs(torques[:, passive_links]), "N m", scale)
     if limits:
         limit = np.array([float(limits[name]) for name in linkage.names])
-        add("torque bounds", limit[None, :] - np.abs(torques), "N m", float(np.max(limit)))
-    if merged.get("knee_range") and problem == "walking_step":
-        lower, upper = merged["knee_range"]
-        flexion = _knees(linkage, merged, psi)
+        add("torque bounds", limit[None, :] - np.abs(torques), "N m", scale)
+    # The ground: every point of the body that is not a contact stays above it.
+    margin = float(settings.get("ground_margin") or 0.0)
+    foot_link = settings.get("swing_foot")
+    points = settings.get("ground_points")
+    if points is None:
+        points = [name for name in linkage.names if name != foot_link]
+    if points:
+        heights = np.column_stack(
+            [kin.point(linkage.index(name), complex(linkage.links[linkage.index(name)].length),
+                       psi)[0].imag for name in points]  # fmt: skip
+        )
+        add("ground", heights - margin, "m")
+    # The stance foot: friction cone and centre of pressure (the front foot of a double
+    # support is a point contact: its cone is checked with the double support).
+    reaction = kin.ground_reaction(psi, dpsi, ddpsi)
+    for _, _, force in contacts:
+        reaction = reaction - force
+    mu = settings.get("mu")
+    if mu is not None:
+        add("friction cone", float(mu) * reaction.imag - np.abs(reaction.real), "N", weight)
+    moment = torques[:, 0]
+    loaded = reaction.imag > 0.05 * weight
+    if np.any(loaded):
+        pressure = moment[loaded] / reaction.imag[loaded]
+        facts["centre of pressure"] = (float(pressure.min()), float(pressure.max()))
+    foot = settings.get("foot")
+    if foot is not None and problem == "walking_step" and 0 not in passive_links:
+        heel, toe = (float(v) for v in foot)
+        rows = np.column_stack([moment + heel * reaction.imag, toe * reaction.imag - moment])
+        add("centre of pressure", rows, "N m", weight * (heel + toe))
+    if settings.get("knee_range") and problem == "walking_step":
+        lower, upper = settings["knee_range"]
+        flexion = _knees(linkage, settings, psi)
         add("knees", np.minimum(flexion - lower, upper - flexion), "rad")
-    if merged.get("upright"):
-        columns = [linkage.index(name) for name in merged["upright"]]
+    if settings.get("upright"):
+        columns = [linkage.index(name) for name in settings["upright"]]
         lean = np.abs(psi[:, columns] - HALF_PI)
-        add("posture", float(merged["posture"]) - lean, "rad")
-    return GaitReport(tuple(checks), merged)
+        add("posture", float(settings["posture"]) - lean, "rad")
+
+
+#: Samples per mesh interval the ``rates`` check needs (a file at 1 kHz has 16 on the
+#: default step's 30 intervals of 16.7 ms).
+RATES_DENSITY = 4
+
+
+def _mesh_intervals(metadata) -> int | None:
+    """The mesh intervals of the solution a trajectory was sampled from (its metadata's N,
+    or the sum over its phases), or None when it does not say."""
+    phases = metadata.get("phases")
+    if phases:
+        counts = [p.get("N") for p in phases]
+        if all(isinstance(c, int) and not isinstance(c, bool) for c in counts):
+            return int(sum(counts))
+        return None
+    count = metadata.get("N")
+    return count if isinstance(count, int) and not isinstance(count, bool) else None
+
+
+def _per_sample(margins: np.ndarray) -> np.ndarray:
+    """Margins of sample pairs (K-1, c) as margins of samples (K, c): each sample takes the
+    worse of the two pairs it belongs to (so that a failure names a sample)."""
+    out = np.full((margins.shape[0] + 1, margins.shape[1]), np.inf)
+    out[:-1] = margins
+    out[1:] = np.minimum(out[1:], margins)
+    return out
 
 
 def _foot(kin: _Kinematics, settings) -> tuple[int, complex]:
@@ -326,11 +537,19 @@ def _clearance_profile(settings, s: np.ndarray) -> np.ndarray | float:
     """The swing foot's minimum height (m) at fractions ``s`` of the single support: a
     sampled profile (``settings["clearance_profile"]``, {"s": [...], "height": [...]}: the
     values at the exported samples themselves, linear in between), else the default
-    h sin^2(pi s) with h = ``settings["clearance"]`` (0 when None: height >= 0)."""
+    h sin^2(pi s) + v_td (T - t) exp(-((T - t) / w)^4) with h = ``settings["clearance"]``
+    (0 when None: height >= 0), v_td = ``touchdown_speed``, w = ``approach_time`` and T the
+    single support's duration (the approach term only when all three are given)."""
     table = settings.get("clearance_profile")
     if table is None:
         clearance = settings.get("clearance")
-        return 0.0 if clearance is None else float(clearance) * np.sin(np.pi * s) ** 2
+        height = 0.0 if clearance is None else float(clearance) * np.sin(np.pi * s) ** 2
+        speed, window = settings.get("touchdown_speed"), settings.get("approach_time")
+        if speed and window and settings.get("step_time"):
+            single = float(settings["step_time"]) - float(settings.get("double_support") or 0)
+            left = (1.0 - s) * single
+            height = height + float(speed) * left * np.exp(-((left / float(window)) ** 4))
+        return height
     field = "`settings['clearance_profile']`"
     try:
         grid = np.asarray(table["s"], dtype=float)
@@ -362,7 +581,8 @@ def _clearance_profile(settings, s: np.ndarray) -> np.ndarray | float:
     return np.interp(s, grid, heights)
 
 
-def _verify_walking(add, kin: _Kinematics, settings, psi, dpsi, ddpsi, times, weight) -> None:
+def _verify_walking(add, kin: _Kinematics, settings, trajectory, weight) -> None:
+    psi, dpsi, times = trajectory.psi, trajectory.dpsi, trajectory.time
     linkage = kin.linkage
     n = linkage.n
     mu = float(settings["mu"])
@@ -374,7 +594,9 @@ def _verify_walking(add, kin: _Kinematics, settings, psi, dpsi, ddpsi, times, we
     swapped, _ = swap.map_state(psi[-1], dpsi[-1])
     add("periodic angles", -np.abs(_wrap(psi[0] - swapped)), "rad", where="t = 0 vs swap(T)")
     landing, approach, _ = kin.point(foot_link, foot_offset, psi[-1:], dpsi[-1:])
-    add("heel strike", np.array([-approach[0].imag]), "m/s", where="t = T (foot moving down)")
+    speed = float(settings.get("touchdown_speed") or 0.0)
+    add("heel strike", np.array([-approach[0].imag - speed]), "m/s",
+        where=f"t = T (foot coming down at {speed:g} m/s or faster)")  # fmt: skip
     add(
         "landing",
         -np.abs(np.array([landing[0].real - step_length, landing[0].imag])),
@@ -420,8 +642,6 @@ def _verify_walking(add, kin: _Kinematics, settings, psi, dpsi, ddpsi, times, we
         if margin < worst:
             worst, where = margin, f"about the {label}"
     add("impact momentum", np.array([worst]), "kg m^2/s", scale, where=where)
-    force = kin.ground_reaction(psi, dpsi, ddpsi)
-    add("friction cone", mu * force.imag - np.abs(force.real), "N", weight)
     height = kin.point(foot_link, foot_offset, psi)[0].imag
     s = (times - times[0]) / (times[-1] - times[0])
     add("clearance", height - _clearance_profile(settings, s), "m")
@@ -499,21 +719,13 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     # Lift-off of the rear foot: the next step's swing foot starts upwards (or at rest).
     _, lift, _ = kin.point(foot_link, foot_offset, psi[:1], dpsi[:1])
     add("lift off", np.array([lift[0].imag]), "m/s", where="t = 0")
-    # Reactions: the whole tree's, less the front foot's ground force (a control), is the
-    # rear foot's; both in their cones.
-    total = kin.ground_reaction(psi, dpsi, ddpsi)
-    names = [k for k in trajectory.extras if k.startswith("F_") and k.endswith("_x")]
+    # The front foot's ground force (a control) in its cone while it is held (the rear
+    # foot's, the whole tree's reaction less it, is the stance foot's cone above).
     front_force = np.zeros(times.size, dtype=complex)
-    for name in names:
-        front_force += trajectory.extras[name][0] + 1j * trajectory.extras[name[:-1] + "y"][0]
-    rear_force = total - front_force
-    cones = np.column_stack(
-        [
-            mu * rear_force.imag - np.abs(rear_force.real),
-            np.where(double, mu * front_force.imag - np.abs(front_force.real), 0.0),
-        ]
-    )
-    add("friction cone", cones, "N", weight)
+    for _, _, force in _contacts(kin, settings, trajectory):
+        front_force += force
+    cone = mu * front_force.imag - np.abs(front_force.real)
+    add("front foot cone", np.where(double, cone, np.inf), "N", weight)
     single = ~double
     height = kin.point(foot_link, foot_offset, psi[single])[0].imag
     s = times[single] / strike_time

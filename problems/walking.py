@@ -102,10 +102,12 @@ SPEED_SCALE = 0.1
 #: guess used in metres before (a rounder 0.02 took 30 iterations instead of 29 for the
 #: default step, 61 instead of 41 with a 0.05 s double support: the same optima).
 GUESS_LIFT = 0.02 / 0.86
-#: The landing foot's least downward speed at heel strike, m/s: a touchdown that a tracking
-#: error of a millimetre moves by about 3 ms (1 mm / 0.3 m/s) instead of 10-30 ms at the
-#: 0.05-0.10 m/s of a grazing foot (examples/benchmarks/touchdown.py measures the trade).
-TOUCHDOWN_SPEED = 0.3
+#: The landing foot's least downward speed at heel strike, in leg lengths per second: 0.3 m/s
+#: for the six-link legs (0.86 m), a touchdown that a tracking error of a millimetre moves by
+#: about 3 ms (1 mm / 0.3 m/s) instead of 10-30 ms at the 0.05-0.10 m/s of a grazing foot
+#: (examples/benchmarks/touchdown.py measures the trade). In leg lengths, so that a biped
+#: given in millimetres gets 300 mm/s.
+TOUCHDOWN_SPEED = 0.3 / 0.86
 #: Window of the clearance profile's approach term v_td (T - t) exp(-((T - t) / w)^4), s: in
 #: its last ~0.7 w the foot stays above the line coming down into the landing point at v_td,
 #: so a foot that runs d low touches down at most about d / v_td early (3.3 ms per mm); the
@@ -118,8 +120,11 @@ APPROACH_TIME = 0.03
 #: lands on the ground, where its clearance profile is 0 (:func:`planner.hold_at_samples`).
 PINNED = ("clearance",)
 #: The default sole: from the ankle (the stance foot's contact point) back to the heel and
-#: forward to the toe, m: a 0.20 m foot for the six-link's 0.43 m shank.
-FOOT = (0.05, 0.15)
+#: forward to the toe, in leg lengths: (0.05, 0.15) m, a 0.20 m foot, for the six-link's
+#: 0.86 m legs.
+FOOT = (0.05 / 0.86, 0.15 / 0.86)
+#: What ``touchdown_speed`` and ``foot`` take for their defaults (scaled by the leg length).
+DEFAULT = "default"
 
 
 @dataclass(frozen=True, eq=False)
@@ -150,8 +155,8 @@ class WalkingStep:
     double_support: float = 0.0
     phases: Phases | None = None
     accuracy: str | None = None
-    touchdown_speed: float = TOUCHDOWN_SPEED
-    foot_sole: tuple[float, float] | None = FOOT
+    touchdown_speed: float = 0.3
+    foot_sole: tuple[float, float] | None = (0.05, 0.15)
     ground_points: tuple[str, ...] = ()
     ground_margin: float = 0.0
 
@@ -365,8 +370,8 @@ def walking_step(
     swing: tuple[str, str] | None = None,
     double_support: float = 0.0,
     N_double: int | None = None,
-    touchdown_speed: float = TOUCHDOWN_SPEED,
-    foot: tuple[float, float] | None = FOOT,
+    touchdown_speed: float | str = DEFAULT,
+    foot: tuple[float, float] | None | str = DEFAULT,
     ground_points: Sequence[str] | None = None,
     ground_margin: float = 0.0,
 ) -> WalkingStep:
@@ -390,12 +395,14 @@ def walking_step(
         exp(-((T - t) / w)^4), w = ``APPROACH_TIME``, m (>= 0), or a callable of s = t / T
         (numpy or CasADi SX) giving the minimum height, m (taken as it is: no approach term).
     touchdown_speed : v_td, the landing foot's least downward speed at heel strike and the
-        slope of the clearance's approach line, m/s (>= 0; default 0.3: a millimetre of
-        tracking error moves the touchdown by ~3 ms; 0: the foot may graze in).
+        slope of the clearance's approach line, m/s (>= 0; default 0.3 m/s for 0.86 m legs,
+        scaled with the leg length: a millimetre of tracking error moves the touchdown by
+        ~3 ms; 0: the foot may graze in).
     foot : (heel, toe): the sole extends heel m behind and toe m ahead of the stance foot's
         contact point (the ankle, H0); the centre of pressure M / Fy of the ankle torque stays
-        on it (default (0.05, 0.15)). None: no bound (a torque at a point foot, which no
-        robot has); a true point foot is ``passive=(stance shank,)``.
+        on it (default (0.05, 0.15) m for 0.86 m legs, scaled with the leg length). None: no
+        bound (a torque at a point foot, which no robot has); a true point foot is
+        ``passive=(stance shank,)``.
     ground_points : links whose end points stay at or above ``ground_margin`` (default: every
         link but the swing shank, whose end is the swing foot: knees, hip, neck, head top and
         any upper body's joints); () for none.
@@ -453,6 +460,11 @@ def walking_step(
         raise DefinitionError(f"`knee_range`: lower must be < upper, got {knees}")
     posture = check_positive("posture", posture, "rad")
     upright = biped.upper_body if upright is None else check_links("upright", upright, linkage)
+    leg = biped.leg_length
+    if isinstance(touchdown_speed, str) and touchdown_speed == DEFAULT:
+        touchdown_speed = TOUCHDOWN_SPEED * leg
+    if isinstance(foot, str) and foot == DEFAULT:
+        foot = (FOOT[0] * leg, FOOT[1] * leg)
     touchdown_speed = check_real("touchdown_speed", touchdown_speed)
     if touchdown_speed < 0:
         raise DefinitionError(
@@ -836,6 +848,7 @@ class WalkingGait(Gait):
             "cost_of_transport": self.cost_of_transport,
             "impulse": impact["impulse"].tolist(),
             "lift_off": impact["lift_off"].tolist(),
+            "centre_of_pressure": list(self.centre_of_pressure(RATE_HZ)),
         }
 
 

@@ -54,7 +54,7 @@ def test_plot_trajectory_panels_per_group_and_unit(walk):
     assert figure.get_suptitle() == "paper22"
     with_extras = walk.plot(extras=True)
     labels = [ax.get_ylabel() for ax in with_extras.axes]
-    assert labels[3:] == ["ddpsi [rad/s^2]", "Fx, Fy [N]"]
+    assert labels[3:] == ["ddpsi [rad/s^2]", "F [N]"]
     assert [len(ax.lines) for ax in with_extras.axes] == [6, 6, 6, 6, 2]
 
 

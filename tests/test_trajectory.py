@@ -97,14 +97,14 @@ def test_from_linkage_builds_the_convention():
     assert traj.control_units == ("N m",) * n
     assert [(name, unit) for name, (_, unit) in traj.extras.items()] == [
         *((f"ddpsi_{v}", "rad/s^2") for v in LINKS),
-        ("Fx", "N"),
-        ("Fy", "N"),
+        (f"F_{LINKS[0]}_start_x", "N"),  # the contact at H0: the root's start
+        (f"F_{LINKS[0]}_start_y", "N"),
     ]
     assert traj.is_linkage and traj.link_names == LINKS
     assert traj.psi.shape == traj.dpsi.shape == traj.torques.shape == traj.ddpsi.shape == (41, n)
     np.testing.assert_array_equal(traj.dpsi, traj.states[:, n:])
     assert traj.ground_reaction.dtype.kind == "c"
-    np.testing.assert_array_equal(traj.ground_reaction.imag, traj.extras["Fy"][0])
+    np.testing.assert_array_equal(traj.ground_reaction.imag, traj.extras["F_shank_start_y"][0])
     # numpy scalars and tuples in the metadata become JSON types on the way in
     assert traj.metadata == {"source": "test", "N": 40, "cost": 0.1, "v": [1, 2]}
     assert type(traj.metadata["N"]) is int
@@ -121,7 +121,7 @@ def test_ground_reaction_as_real_columns_and_arrays_read_only():
         traj.states[0, 0] = 1.0
     with pytest.raises(AttributeError):
         traj.time = t  # frozen
-    assert not traj.time.flags.writeable and not traj.extras["Fx"][0].flags.writeable
+    assert not traj.time.flags.writeable and not traj.extras["F_a_start_x"][0].flags.writeable
 
 
 def test_copies_are_independent_of_the_inputs():
@@ -632,38 +632,64 @@ def test_csv_layout_is_readable_by_spreadsheets_numpy_and_pandas(tmp_path):
     traj = linkage_trajectory(k=3)
     path = traj.save(tmp_path / "m.csv")
     lines = path.read_text().splitlines()
-    comments = [line for line in lines if line.startswith("#")]
-    header = lines[0]  # the header first, the comments right after it
-    assert lines[1 : 1 + len(comments)] == comments and len(comments) == 4
+    header = lines[0]
+    assert len(lines) == 1 + 3 and not any(line.startswith("#") for line in lines)
     assert header.startswith("t [s],psi_shank [rad],psi_thigh [rad],psi_torso [rad],dpsi_shank")
-    assert "M_torso [N m],ddpsi_shank [rad/s^2]" in header and header.endswith("Fx [N],Fy [N]")
-    assert json.loads(comments[0].split(":", 1)[1]) == FORMAT_NAME
-    meta = [c for c in comments if c.startswith("# metadata: ")]
-    assert json.loads(meta[0][len("# metadata: ") :]) == traj.metadata
-    table = np.loadtxt(path, delimiter=",", comments="#", skiprows=1)
+    assert "M_torso [N m],ddpsi_shank [rad/s^2]" in header
+    assert header.endswith("F_shank_start_x [N],F_shank_start_y [N]")
+    # the rest beside it, in the sidecar
+    sidecar = json.loads((tmp_path / "m.csv.meta.json").read_text())
+    assert sidecar["format"] == FORMAT_NAME and sidecar["metadata"] == traj.metadata
+    assert sidecar["groups"]["control"] == list(traj.control_names)
+    # every reader with no options
+    table = np.loadtxt(path, delimiter=",", skiprows=1)
     assert table.shape == (3, 1 + 6 + 3 + 5)
     assert bits(table[:, 1:7]) == bits(traj.states)
-    # numpy's reader with names from the header (sanitised: "t [s]" -> "t_s")
-    named = np.genfromtxt(path, delimiter=",", names=True, comments="#")
+    named = np.genfromtxt(path, delimiter=",", names=True)  # "t [s]" -> "t_s"
     assert named.dtype.names[:2] == ("t_s", "psi_shank_rad") and named.shape == (3,)
     assert bits(named["psi_shank_rad"]) == bits(traj.states[:, 0])
-    assert bits(named["Fy_N"]) == bits(traj.extras["Fy"][0])
-    # pandas.read_csv(path, comment="#")'s rules: the first line names the columns, lines
-    # starting with "#" are skipped (the same rows through the csv module here)
+    assert bits(named["F_shank_start_y_N"]) == bits(traj.extras["F_shank_start_y"][0])
     with open(path, newline="") as handle:
-        rows = [row for row in csv.reader(handle) if not row[0].startswith("#")]
+        rows = list(csv.reader(handle))
     assert rows[0][0] == "t [s]" and len(rows) == 1 + 3
     assert bits(np.array(rows[1:], dtype=float)[:, 1:7]) == bits(traj.states)
+    pandas = pytest.importorskip("pandas")
+    frame = pandas.read_csv(path)
+    assert list(frame.columns[:2]) == ["t [s]", "psi_shank [rad]"] and frame.shape == (3, 15)
+    assert bits(frame["psi_shank [rad]"].to_numpy()) == bits(traj.states[:, 0])
+    # without its sidecar it reads as a file made by hand: the same columns and groups
+    (tmp_path / "m.csv.meta.json").unlink()
+    alone = Trajectory.load(path)
+    assert alone.metadata == {} and alone.control_names == traj.control_names
+    assert bits(alone.states) == bits(traj.states)
+
+
+def _old_layout(traj, path, before: bool = True) -> None:
+    """``traj`` as the CSV files of earlier versions wrote it: the format, version, groups
+    and metadata as ``#`` comment lines before (or right after) the header, no sidecar."""
+    written = traj.save(path)
+    lines = written.read_text().splitlines()
+    groups = {"state": list(traj.state_names), "control": list(traj.control_names),
+              "extra": list(traj.extras)}  # fmt: skip
+    comments = [
+        f"# format: {json.dumps(FORMAT_NAME)}",
+        "# version: 1",
+        f"# groups: {json.dumps(groups)}",
+        f"# metadata: {json.dumps(traj.metadata)}",
+    ]
+    layout = [*comments, *lines] if before else [lines[0], *comments, *lines[1:]]
+    written.write_text("\n".join(layout) + "\n")
+    (path.parent / (path.name + ".meta.json")).unlink()
 
 
 def test_a_csv_with_the_comments_before_the_header_still_reads_back(tmp_path):
-    # the layout of files written before the header moved first
+    # the layouts of files written before the sidecar: comments before or after the header
     traj = linkage_trajectory(k=4)
-    path = traj.save(tmp_path / "old.csv")
-    lines = path.read_text().splitlines()
-    path.write_text("\n".join([*lines[1:5], lines[0], *lines[5:]]) + "\n")
-    assert path.read_text().startswith("# format:")
-    assert_identical(Trajectory.load(path), traj)
+    path = tmp_path / "old.csv"
+    for before in (True, False):
+        _old_layout(traj, path, before)
+        assert_identical(Trajectory.load(path), traj)
+    _old_layout(traj, path)
     lines = path.read_text().splitlines()
     path.write_text("\n".join([*lines[:5], lines[1], *lines[5:]]) + "\n")  # a second version
     with pytest.raises(TrajectoryFileError, match=r"line 6: a second `# version:` comment"):
@@ -698,15 +724,24 @@ def test_a_file_reordered_in_a_spreadsheet_reads_back_in_group_order(tmp_path):
 def test_a_file_saved_again_by_a_spreadsheet_reads_back(tmp_path):
     # spreadsheets pad every row to the widest one and quote cells holding commas or quotes
     traj = linkage_trajectory(k=5)
-    path = traj.save(tmp_path / "m.csv")
-    rows = [next(csv.reader([line])) for line in path.read_text().splitlines()]
-    width = max(len(row) for row in rows)
-    with open(tmp_path / "resaved.csv", "w", newline="") as handle:
-        writer = csv.writer(handle, lineterminator="\r\n")
-        for row in rows:
-            writer.writerow(row + [""] * (width - len(row)))
-    assert '\n"# format: ""anthropoid' in (tmp_path / "resaved.csv").read_text()
-    assert_identical(Trajectory.load(tmp_path / "resaved.csv"), traj)
+    for old in (False, True):  # this version's file with its sidecar, and an old one
+        path = tmp_path / "m.csv"
+        if old:
+            _old_layout(traj, path)
+        else:
+            traj.save(path)
+        rows = [next(csv.reader([line])) for line in path.read_text().splitlines()]
+        width = max(len(row) for row in rows)
+        with open(tmp_path / "resaved.csv", "w", newline="") as handle:
+            writer = csv.writer(handle, lineterminator="\r\n")
+            for row in rows:
+                writer.writerow(row + [""] * (width - len(row)))
+        sidecar = tmp_path / "m.csv.meta.json"
+        if sidecar.exists():
+            sidecar.rename(tmp_path / "resaved.csv.meta.json")
+        else:
+            assert '"# format: ""anthropoid' in (tmp_path / "resaved.csv").read_text()
+        assert_identical(Trajectory.load(tmp_path / "resaved.csv"), traj)
 
 
 def test_save_errors(tmp_path):
@@ -757,7 +792,7 @@ def test_atomic_write_keeps_the_old_file_when_the_writer_fails(tmp_path, monkeyp
     with pytest.raises(RuntimeError, match="writer broke"):
         generic_trajectory().save(path)
     assert path.read_bytes() == before
-    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+    assert sorted(p.name for p in tmp_path.iterdir()) == _written(path)
 
 
 @pytest.mark.parametrize("suffix", FORMATS)
@@ -777,7 +812,12 @@ def test_a_full_disk_names_the_file_and_leaves_nothing(tmp_path, monkeypatch, su
     assert caught.value.filename == str(path) and caught.value.errno == errno.ENOSPC
     assert isinstance(caught.value, OSError) and isinstance(caught.value, AnthropoidError)
     assert path.read_bytes() == before
-    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+    assert sorted(p.name for p in tmp_path.iterdir()) == _written(path)
+
+
+def _written(path) -> list[str]:
+    """What saving ``path`` leaves in its folder: the file, and a CSV's sidecar."""
+    return sorted([path.name] + ([path.name + ".meta.json"] if path.suffix == ".csv" else []))
 
 
 def test_a_folder_without_write_permission_names_the_file_not_the_temporary(tmp_path, monkeypatch):
@@ -888,14 +928,21 @@ def test_a_huge_version_or_format_is_quoted_short(tmp_path):
     # Beyond 4300 digits json.loads raises ValueError: a file error here, quoted short.
     path.write_text(path.read_text().replace('"version": 1', '"version": ' + "9" * 5000, 1))
     assert "not a readable JSON trajectory (Exceeds the limit" in message(path)
-    # The same in a CSV's `# version:` comment.
-    csv_path = linkage_trajectory().save(tmp_path / "x.csv")
+    # The same in an old CSV's `# version:` comment, and in a sidecar.
+    csv_path = tmp_path / "x.csv"
+    _old_layout(linkage_trajectory(), csv_path)
     text = csv_path.read_text()
     assert "# version: 1\n" in text
     csv_path.write_text(text.replace("# version: 1\n", f"# version: {10**400}\n", 1))
     assert re.search(r"format version an integer of 401 digits \(1000", message(csv_path))
     csv_path.write_text(text.replace("# version: 1\n", f"# version: {'7' * 5000}\n", 1))
     assert re.search(r"line \d+: the `# version:` comment cannot be read", message(csv_path))
+    linkage_trajectory().save(csv_path)
+    sidecar = tmp_path / "x.csv.meta.json"
+    sidecar.write_text(sidecar.read_text().replace('"version": 1', f'"version": {10**400}', 1))
+    assert re.search(r"the sidecar: format version an integer of 401 digits", message(csv_path))
+    sidecar.write_text("{not json")
+    assert "the sidecar is not valid JSON" in message(csv_path)
 
 
 def test_saved_file_gets_ordinary_permissions(tmp_path):

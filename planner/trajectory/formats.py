@@ -1,16 +1,18 @@
 """The trajectory file formats: CSV, JSON and NPZ, chosen by the file name's suffix.
 
-* ``.csv``: a header ``t [s],psi_stance_shank [rad],...``, then the comment lines
-  ``# format: ...``, ``# version: 1``, ``# groups: {"state": [...], "control": [...],
-  "extra": [...]}`` and ``# metadata: {json}``, then one row per sample, floats written
-  with ``repr`` (shortest text that reads back bit for bit). Plain readers take it:
-  ``numpy.genfromtxt(path, delimiter=",", names=True, comments="#")`` (fields named
-  ``t_s``, ``psi_stance_shank_rad``, ...) and ``pandas.read_csv(path, comment="#")``
-  (columns ``t [s]``, ...). Files of earlier versions, with the comments before the
-  header, read back too. Without a ``# groups`` line (a file made by hand) columns named
-  ``M_*`` are controls, ``ddpsi_*``/``Fx``/``Fy`` extras and the rest states. The reader
-  also takes the file back after a spreadsheet saved it again (a byte-order mark, CRLF
-  line ends, rows padded with empty cells, quoted comment lines, columns reordered).
+* ``.csv``: a header ``t [s],psi_stance_shank [rad],...`` and one row per sample, nothing
+  else, floats written with ``repr`` (shortest text that reads back bit for bit): plain
+  readers take it with no options (``csv.reader``, ``pandas.read_csv(path)``: columns
+  ``t [s]``, ...; ``numpy.genfromtxt(path, delimiter=",", names=True)``: fields ``t_s``,
+  ``psi_stance_shank_rad``, ...). What a header cannot hold goes into the sidecar
+  ``<file>.csv.meta.json`` beside it (``{"format", "version", "groups": {"state": [...],
+  "control": [...], "extra": [...]}, "metadata": {...}}``), written with the file as a pair.
+  The reader takes the sidecar when it is there; files of earlier versions, with ``# format
+  / version / groups / metadata:`` comment lines before or after the header, read back too.
+  Without either (a file made by hand) columns named ``M_*`` are controls, ``ddpsi_*``,
+  ``F_*``, ``CoP_*``, ``Fx``, ``Fy`` extras and the rest states. The reader also takes the
+  file back after a spreadsheet saved it again (a byte-order mark, CRLF line ends, rows
+  padded with empty cells, quoted comment lines, columns reordered).
 * ``.json``: ``{"format", "version", "metadata", "columns": [{"name", "unit", "group"}],
   "data": {name: [values]}}``, the time column being ``t`` [s] with group ``time``.
 * ``.npz``: arrays ``time``, ``states``, ``controls``, ``extras`` (K, n_extras), the
@@ -91,6 +93,14 @@ def save(trajectory: Trajectory, path: str | os.PathLike, rate_hz: float | None 
         trajectory = trajectory.resample(rate_hz=rate_hz)
     writer, binary = _WRITERS[suffix]
     try:
+        if suffix == ".csv":
+            # The table and its sidecar as a pair: both written to temporary files, the
+            # sidecar renamed just before the table (a failure before leaves the old pair).
+            with atomic_path(path) as table:
+                _write_into(table, lambda handle: writer(trajectory, handle), False)
+                sidecar = sidecar_path(path)
+                _atomic_write(sidecar, lambda handle: _write_sidecar(trajectory, handle), False)
+            return path
         _atomic_write(path, lambda handle: writer(trajectory, handle), binary)
     except OSError as error:
         strerror = error.strerror or str(error)
@@ -145,12 +155,36 @@ def _atomic_write(path: Path, write: Callable[[Any], None], binary: bool) -> Non
     """Run ``write(handle)`` on a temporary file beside ``path``, then rename it over ``path``
     (:func:`planner.files.atomic_path`); the data reach the disk before the rename."""
     with atomic_path(path) as temporary:
-        with (
-            open(temporary, "wb") if binary else open(temporary, "w", encoding="utf-8", newline="")
-        ) as handle:
-            write(handle)
-            handle.flush()
-            os.fsync(handle.fileno())
+        _write_into(temporary, write, binary)
+
+
+def _write_into(temporary: str, write: Callable[[Any], None], binary: bool) -> None:
+    with (
+        open(temporary, "wb") if binary else open(temporary, "w", encoding="utf-8", newline="")
+    ) as handle:
+        write(handle)
+        handle.flush()
+        os.fsync(handle.fileno())
+
+
+#: What follows a CSV file's name to name its sidecar.
+SIDECAR_SUFFIX = ".meta.json"
+
+
+def sidecar_path(path: str | os.PathLike) -> Path:
+    """The sidecar of a CSV trajectory file: ``<file>.csv.meta.json`` beside it."""
+    path = Path(path)
+    return path.with_name(path.name + SIDECAR_SUFFIX)
+
+
+def _write_sidecar(trajectory: Trajectory, handle) -> None:
+    document = {
+        "format": FORMAT_NAME,
+        "version": FORMAT_VERSION,
+        "groups": _groups(trajectory),
+        "metadata": trajectory.metadata,
+    }
+    handle.write(json.dumps(document, indent=1) + "\n")
 
 
 def _float_text(values: np.ndarray) -> list[str]:
@@ -167,14 +201,10 @@ def _groups(trajectory: Trajectory) -> dict[str, list[str]]:
 
 
 def _write_csv(trajectory: Trajectory, handle) -> None:
+    # The header and the rows, nothing else: what readers with no options take (the groups
+    # and the metadata go to the sidecar).
     columns = trajectory.columns
-    # The header comes first and the comments after it: numpy.genfromtxt(names=True) takes
-    # the first line for the names, comment or not; pandas and csv readers skip "#" lines.
     handle.write(",".join(f"{name} [{unit}]" for name, unit, _ in columns) + "\n")
-    handle.write(f"# format: {json.dumps(FORMAT_NAME)}\n")
-    handle.write(f"# version: {FORMAT_VERSION}\n")
-    handle.write(f"# groups: {json.dumps(_groups(trajectory))}\n")
-    handle.write(f"# metadata: {json.dumps(trajectory.metadata)}\n")
     table = np.column_stack(
         [trajectory.time, trajectory.states, trajectory.controls, trajectory._extra_values]
     )
@@ -450,9 +480,15 @@ def _read_csv(path: Path) -> dict[str, Any]:
             "increasing time, without duplicates"
         )
     names = [n for n, _ in header[1:]]
+    where = "the `# groups:` comment"
+    sidecar = sidecar_path(path)
+    if sidecar.exists() and not comments:
+        document = _read_sidecar(sidecar)
+        comments = {"groups": document.get("groups"), "metadata": document.get("metadata")}
+        where = f"the sidecar {sidecar.name}'s groups"
     return _assemble(
         path,
-        "the `# groups:` comment",
+        where,
         table[:, 0],
         names,
         [u for _, u in header[1:]],
@@ -460,6 +496,21 @@ def _read_csv(path: Path) -> dict[str, Any]:
         comments.get("groups"),
         comments.get("metadata"),
     )
+
+
+def _read_sidecar(path: Path) -> dict[str, Any]:
+    """The sidecar of a CSV file: its groups and metadata, format checked."""
+    try:
+        document = json.loads(_read_text(path))
+    except json.JSONDecodeError as error:
+        raise TrajectoryFileError(
+            f"{path}: the sidecar is not valid JSON ({error.msg} at line {error.lineno}); fix "
+            "or delete it (the CSV then reads as a file made by hand)"
+        ) from None
+    if not isinstance(document, dict):
+        raise TrajectoryFileError(f"{path}: the sidecar must hold a JSON object")
+    _check_format(path, "the sidecar", document.get("format"), document.get("version"))
+    return document
 
 
 def _read_json(path: Path) -> dict[str, Any]:

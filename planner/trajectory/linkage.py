@@ -60,7 +60,8 @@ class LinkageViews:
         ddpsi : optional (K, n) rad/s^2; stored as extras ``ddpsi_<link>`` and then used as
             the derivative of dpsi by the interpolation.
         ground_reaction : optional force of the ground at H0, N: complex (K,) Fx + j Fy, or
-            real (K, 2) columns Fx, Fy; stored as extras ``Fx``, ``Fy``.
+            real (K, 2) columns Fx, Fy; stored as extras ``F_<root>_start_x`` and ``_y``
+            (the contact at H0 named after its point, the root link's start).
         metadata : optional JSON-serialisable dict.
         """
         if isinstance(names, str) or not isinstance(names, Sequence):
@@ -106,7 +107,8 @@ class LinkageViews:
                     f"`ground_reaction`: must be complex ({K},) Fx + j Fy or real ({K}, 2) "
                     f"columns Fx, Fy, got shape {pair.shape}"
                 )
-            for i, name in enumerate(naming.GROUND_REACTION):
+            names = naming.contact_force_names(naming.root_contact(links))
+            for i, name in enumerate(names):
                 extras[name] = (pair[:, i], naming.FORCE_UNIT)
         return cls(
             time=time,
@@ -190,16 +192,21 @@ class LinkageViews:
 
     @property
     def ground_reaction(self) -> np.ndarray:
-        """(K,) complex force of the ground at H0, Fx + j Fy, N."""
+        """(K,) complex force of the ground at H0, Fx + j Fy, N (extras
+        ``F_<root>_start_x``, ``_y``; ``Fx``, ``Fy`` in files written before those names)."""
         if self._links is None:
             raise self._not_linkage("ground_reaction")
-        fx, fy = naming.GROUND_REACTION
-        if fx not in self.extras or fy not in self.extras:
-            raise TrajectoryError(
-                "`ground_reaction`: this trajectory stores no ground reaction (extras Fx, Fy); "
-                "pass ground_reaction= to Trajectory.from_linkage"
-            )
-        return self.extras[fx][0] + 1j * self.extras[fy][0]
+        for fx, fy in (
+            naming.contact_force_names(naming.root_contact(self._links)),
+            naming.GROUND_REACTION,
+        ):
+            if fx in self.extras and fy in self.extras:
+                return self.extras[fx][0] + 1j * self.extras[fy][0]
+        fx, fy = naming.contact_force_names(naming.root_contact(self._links))
+        raise TrajectoryError(
+            f"`ground_reaction`: this trajectory stores no ground reaction (extras {fx}, {fy}); "
+            "pass ground_reaction= to Trajectory.from_linkage"
+        )
 
 
 __all__ = ["LinkageViews"]
