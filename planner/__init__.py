@@ -7,12 +7,14 @@
 ...     integral=lambda p: ca.sumsqr(p.M)).solve()
 """
 
+from planner.accuracy_check import ACCURACY_WARNING, AccuracyWarning, check_accuracy_of
 from planner.ocp import Point
 from planner.phase_transcription import PhaseTranscription
 from planner.phases import EventPoint
 from planner.phases_solution import PhasesSolution
 from planner.problem import OCP, Phases
 from planner.refinement import RefinementError, RefinementHistory, RefinementPass, refine_to
+from planner.sampled_limits import SampleLimitError, hold_at_samples, sample_misses
 from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
 from planner.solution import IntegrationError, Replay, Solution
 from planner.solver import SolverError, solve
@@ -21,8 +23,10 @@ from planner.trajectory import Trajectory
 from planner.transcription import Transcription
 
 __all__ = [
+    "ACCURACY_WARNING",
     "OCP",
     "TRANSCRIPTIONS",
+    "AccuracyWarning",
     "EventPoint",
     "IntegrationError",
     "PhaseTranscription",
@@ -33,13 +37,17 @@ __all__ = [
     "RefinementHistory",
     "RefinementPass",
     "Replay",
+    "SampleLimitError",
     "Scheme",
     "Solution",
     "SolverError",
     "System",
     "Trajectory",
     "Transcription",
+    "check_accuracy_of",
+    "hold_at_samples",
     "make_scheme",
     "refine_to",
+    "sample_misses",
     "solve",
 ]

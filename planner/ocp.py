@@ -897,9 +897,7 @@ class OCPDefinition:
         key, value = ("t", t) if t is not None else ("fraction", fraction)
         instants = _instants(label, key, value, self.T if t is not None else 1.0)
         if on not in ("transcription", "motion"):
-            raise DefinitionError(
-                f"`{label}`: on must be 'transcription' or 'motion', got {on!r}"
-            )
+            raise DefinitionError(f"`{label}`: on must be 'transcription' or 'motion', got {on!r}")
         if on == "motion" and not self.system.has_motion:
             raise DefinitionError(
                 f"`{label}`: on='motion' needs a system with positions, velocities and "

@@ -64,9 +64,12 @@ SAFETY = 1.5
 #: A miss larger than this fraction of the row's nominal scale cuts its interval in two
 #: instead of backing off (the motion and the plan part by much: the mesh is too coarse).
 SPLIT = 0.1
-#: A miss in a phase's first or last interval that a round of backing off leaves at this
-#: fraction of itself or more is stuck (a row pinned at the end): that interval is cut in two.
+#: A miss that a round of backing off leaves at this fraction of itself or more, and above
+#: STUCK_FLOOR times the tolerance, is stuck: its interval is cut in two.
 STUCK = 0.5
+STUCK_FLOOR = 100.0
+#: From this round on (counting the first solve as 0), a stuck miss of any size is cut.
+PERSISTENT = 4
 #: Intervals a phase may reach by those cuts.
 MAX_INTERVALS = 400
 #: A drive held at one value (a passive joint) may be needed by the motion up to this
@@ -169,8 +172,16 @@ def _checks(ocp: OCPDefinition) -> tuple[list[_Rows], ca.Function]:
         scale = ocp.constraint_scale(c)[keep]
         values.append(value[keep.tolist()])
         blocks.append(
-            _Rows(c.name, tuple(rows[i] for i in keep), function, c.lower[keep],
-                  c.upper[keep], scale, c, tuple(keep.tolist()))  # fmt: skip
+            _Rows(
+                c.name,
+                tuple(rows[i] for i in keep),
+                function,
+                c.lower[keep],
+                c.upper[keep],
+                scale,
+                c,
+                tuple(keep.tolist()),
+            )
         )
     for name, lower, upper in ocp.bounds:
         if name not in s.state_names + s.control_names:
@@ -183,8 +194,17 @@ def _checks(ocp: OCPDefinition) -> tuple[list[_Rows], ca.Function]:
         scale = np.array([ocp.variable_scale(name)])
         values.append(point[name])
         blocks.append(
-            _Rows(f"bounds[{name}]", ("",), function, np.array([lower]), np.array([upper]),
-                  scale, name, (0,), lower == upper)  # fmt: skip
+            _Rows(
+                f"bounds[{name}]",
+                ("",),
+                function,
+                np.array([lower]),
+                np.array([upper]),
+                scale,
+                name,
+                (0,),
+                lower == upper,
+            )
         )
     stacked = ca.Function("checks", inputs, [ca.vertcat(*values)], names, ["rows"], {"cse": True})
     if len(_CHECKED) > 32:
@@ -226,9 +246,17 @@ def _phase_misses(k: int, solution: Solution, times: np.ndarray, tolerance: floa
         allowed = PASSIVE if block.equality else tolerance
         for i, j in zip(*np.nonzero(margin < -allowed), strict=True):
             misses.append(
-                SampleMiss(k, block.name, block.rows[j], float(times[i]), float(values[i, j]),
-                           float(block.lower[j]), float(block.upper[j]), float(margin[i, j]))
-            )  # fmt: skip
+                SampleMiss(
+                    k,
+                    block.name,
+                    block.rows[j],
+                    float(times[i]),
+                    float(values[i, j]),
+                    float(block.lower[j]),
+                    float(block.upper[j]),
+                    float(margin[i, j]),
+                )
+            )
     return misses
 
 
@@ -332,8 +360,7 @@ def _split(ocp: OCPDefinition, intervals: set[int]) -> OCPDefinition:
         parent.extend([k] * halves)
     refined = ocp.refine(mesh=pieces)
     for name, lower, upper, at_ends in ocp.margins:
-        refined = refined.back_off(name, lower=lower[parent], upper=upper[parent],
-                                   at_ends=at_ends)  # fmt: skip
+        refined = refined.back_off(name, lower=lower[parent], upper=upper[parent], at_ends=at_ends)
     return refined
 
 
@@ -362,17 +389,25 @@ def _backed_off(ocp: OCPDefinition, blocks: list[_Rows], excesses, tolerance: fl
                 continue
             step = SAFETY * excess + tolerance * block.scale[None, :]
             for k, j in zip(*np.nonzero(missed), strict=True):
-                side[k, block.keep[j]] += step[k, j]
+                # Missed again after a back-off: grow the margin by half at least, so that
+                # a miss the back-off only partly removes ends in a few rounds.
+                side[k, block.keep[j]] += max(step[k, j], 0.5 * side[k, block.keep[j]])
                 raised += 1
                 if k in (0, ocp.N - 1):
                     at_edges.add(name)
             changed = True
         if changed:
             source = block.source
-            low = np.array([ocp.variable_bounds(source)[0]]) if isinstance(source, str) else (
-                source.lower)  # fmt: skip
-            high = np.array([ocp.variable_bounds(source)[1]]) if isinstance(source, str) else (
-                source.upper)  # fmt: skip
+            low = (
+                np.array([ocp.variable_bounds(source)[0]])
+                if isinstance(source, str)
+                else (source.lower)
+            )
+            high = (
+                np.array([ocp.variable_bounds(source)[1]])
+                if isinstance(source, str)
+                else (source.upper)
+            )
             closed = (low[None, :] + lower) > (high[None, :] - upper)
             if np.any(closed):
                 k, j = (int(v[0]) for v in np.nonzero(closed))
@@ -401,8 +436,10 @@ def _without_ends(problem, names_per_phase: list[set[str]]):
     if isinstance(problem, PhasesDefinition):
         return dataclasses.replace(
             problem,
-            phases=tuple((name, release(ocp, names)) for (name, ocp), names in
-                         zip(problem.phases, names_per_phase, strict=True)),  # fmt: skip
+            phases=tuple(
+                (name, release(ocp, names))
+                for (name, ocp), names in zip(problem.phases, names_per_phase, strict=True)
+            ),
         )
     return release(problem, names_per_phase[0])
 
@@ -443,8 +480,8 @@ def hold_at_samples(
     ``lambda p: planner.solve(p, options=...)``); ``solution``: the solve of ``problem``
     already made, or None to make it. Returns the last solution, with
     ``stats["sampled_limits"]``: {"rate_hz", "tolerance", "rounds": [{"worst", "raised",
-    "split", "iterations"}], "problem"} (the problem solved last, with its margins and
-    mesh). Raises
+    "split", "iterations", "build_seconds", "solve_seconds"}: the first solve's, then each
+    re-solve's], "problem"} (the problem solved last, with its margins and mesh). Raises
     :class:`SampleLimitError` when a round's solve fails or the limits still miss after
     ``max_rounds`` re-solves.
     """
@@ -478,16 +515,19 @@ def hold_at_samples(
                         continue
                     worst = max(worst, float(np.max(relative)))
                     coarse.update(np.flatnonzero(np.max(relative, axis=1) > SPLIT).tolist())
-                    # A miss in the first or last interval that backing off did not halve
-                    # since the last round (a row a boundary condition pins at the phase's
-                    # end, where the miss lies just inside): the interval is cut in two.
+                    # A miss that backing off did not halve since the last round (a row a
+                    # boundary condition pins at the phase's end, where the miss lies just
+                    # inside; a row whose miss moves with its own back-off): the interval
+                    # is cut in two. Misses near the tolerance only shrink slowly: they are
+                    # backed off again.
                     missed = np.max(relative, axis=1)
                     key = (len(updated), block.name, side)
                     before = previous.get(key)
                     if before is not None and before.shape == missed.shape:
-                        stuck = (missed > tolerance) & (before > tolerance)
+                        # late in the rounds, any miss that came back is cut
+                        floor = 1.0 if round_index >= PERSISTENT else STUCK_FLOOR
+                        stuck = (missed > floor * tolerance) & (before > tolerance)
                         stuck &= missed >= STUCK * before
-                        stuck[1:-1] = False
                         coarse.update(np.flatnonzero(stuck).tolist())
                     following[key] = missed
             if coarse and ocp.N + len(coarse) <= max_intervals:
@@ -501,8 +541,9 @@ def hold_at_samples(
             try:
                 ocp, count, edges = _backed_off(ocp, blocks, excesses, tolerance, pinned)
             except SampleLimitError as error:
-                raise SampleLimitError(str(error), solution, sample_misses(
-                    solution, rate_hz, tolerance, dense)) from None  # fmt: skip
+                raise SampleLimitError(
+                    str(error), solution, sample_misses(solution, rate_hz, tolerance, dense)
+                ) from None
             raised += count
             new_edges.append({name for name in edges if (ocp.margin(name) or (0, 0, False))[2]})
             updated.append(ocp)
@@ -512,6 +553,8 @@ def hold_at_samples(
                 "raised": raised - refined,
                 "split": refined,
                 "iterations": solution.iterations,
+                "build_seconds": solution.stats.get("build_seconds", 0.0),
+                "solve_seconds": solution.stats.get("solve_seconds", 0.0),
             }
         )
         previous = {} if refined else following  # a cut mesh renumbers the intervals
@@ -530,8 +573,9 @@ def hold_at_samples(
         if isinstance(problem, PhasesDefinition):
             problem = dataclasses.replace(
                 problem,
-                phases=tuple((name, ocp) for (name, _), ocp in zip(problem.phases, updated,
-                                                                  strict=True)),  # fmt: skip
+                phases=tuple(
+                    (name, ocp) for (name, _), ocp in zip(problem.phases, updated, strict=True)
+                ),
             )
         else:
             problem = updated[0]

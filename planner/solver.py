@@ -41,6 +41,7 @@ import casadi as ca
 import numpy as np
 
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from planner.accuracy_check import ACCURACY_WARNING, check_accuracy_of
 from planner.native_output import captured
 from planner.ocp import OCPDefinition
 from planner.phases import PhasesDefinition
@@ -488,6 +489,7 @@ def solve(
     guess: np.ndarray | None = None,
     warm_start: bool = True,
     cache: bool = True,
+    accuracy_warning: float | None = ACCURACY_WARNING,
 ) -> Solution:
     """Solve an OCP (or an already built Transcription) with IPOPT.
 
@@ -522,6 +524,10 @@ def solve(
     cache : take the IPOPT solver from :data:`planner.solver_cache.SOLVERS` when one was
         built for the same NLP structure and options, and keep a new one there (default);
         False builds a private solver.
+    accuracy_warning : after a successful solve, the largest per-interval re-integration
+        error per nominal state scale is measured (``stats["accuracy"]``) and an
+        :class:`planner.AccuracyWarning` raised above this (default 1e-2,
+        :data:`planner.accuracy_check.ACCURACY_WARNING`); None skips the measurement.
 
     Returns
     -------
@@ -672,6 +678,8 @@ def solve(
         "cached" if cached else "built",
         solve_seconds,
     )
+    if success and accuracy_warning is not None:
+        check_accuracy_of(solution, accuracy_warning)
     if not success and raise_on_failure:
         worst = violations(transcription, w, g)
         listed = "; ".join(f"{name}: {value:.3g}" for name, value in worst) or "none"

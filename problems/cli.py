@@ -33,6 +33,7 @@ import re
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TextIO
@@ -42,8 +43,10 @@ import numpy as np
 from model import equations
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.presets import PRESETS, six_link_anthropoid
+from planner.accuracy_check import AccuracyWarning
 from planner.files import atomic_path
 from planner.refinement import check_accuracy
+from planner.sampled_limits import SampleLimitError
 from planner.schemes import TRANSCRIPTIONS, WITH_DEGREE
 from planner.simulation import tolerance_problem
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
@@ -62,6 +65,8 @@ from problems.dynamics_problems import (
 )
 from problems.gait_law import LAW_PRESETS, GaitLaw
 from problems.gait_problem import WORK_REGULARISATION
+from problems.output_set import OutputFolderError, OutputSet
+from problems.verification import verify_gait
 from problems.walking import walking_step
 
 PROG = "anthropoid-planner"
@@ -81,6 +86,11 @@ LIMIT_SAMPLES = 200_000
 #: choose their own steps and are not estimated).
 LIMIT_SECONDS = 60.0
 SECONDS_PER_ELEMENT = {"rk": 6e-6, "collocation": 2e-4}
+#: Most mesh intervals of a plan (walk, study): ~50 variables each for the six-link step, an
+#: NLP of 100,000 variables; a finer plan comes from --accuracy (refinement where needed).
+MAX_INTERVALS = 2000
+#: Most walking steps drawn in walk.png and walk.gif (the GIF grows with them).
+MAX_DRAWN_STEPS = 50
 
 
 class UsageError(Exception):
@@ -92,7 +102,13 @@ class CommandFailed(Exception):
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (no usage dump) raised instead of exiting."""
+    """argparse with one-line errors (no usage dump) raised instead of exiting, and no
+    abbreviated options (``--step-length`` is no prefix of ``--step-length-m``: one
+    spelling of each option)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # type: ignore[override]
         raise UsageError(f"{message} (see {self.prog} --help)")
@@ -226,6 +242,32 @@ def _accuracy(text: str) -> str | float:
         raise argparse.ArgumentTypeError(str(error).replace("`accuracy`: ", "")) from None
 
 
+def _count_at_most(maximum: int, what: str, fix: str) -> Callable[[str], int]:
+    """An argparse ``type``: an integer in [1, maximum] (``what`` names it, ``fix`` says
+    what to do instead of more)."""
+
+    def parse(text: str) -> int:
+        value = _count(text)
+        if value > maximum:
+            raise argparse.ArgumentTypeError(f"at most {maximum:,} {what}, got {value:,}; {fix}")
+        return value
+
+    return parse
+
+
+def _non_negative(unit: str) -> Callable[[str], float]:
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number in {unit}, got {text!r}") from None
+        if not math.isfinite(value) or value < 0:
+            raise argparse.ArgumentTypeError(f"must be a finite number >= 0 {unit}, got {text!r}")
+        return value
+
+    return parse
+
+
 def _count(text: str) -> int:
     try:
         value = int(text)
@@ -306,7 +348,7 @@ def build_parser() -> argparse.ArgumentParser:
     commands.required = True
 
     preset_help = f"linkage preset, one of: {', '.join(PRESETS)} (default: six-link)"
-    _walk_parser(commands, common)
+    _walk_parser(commands, common, limits)
     study_cli.add_parser(commands, common)
 
     equations = commands.add_parser(
@@ -474,10 +516,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _walk_parser(commands, common) -> None:
+def _walk_parser(commands, common, limits) -> None:
     walk = commands.add_parser(
         "walk",
-        parents=[common],
+        parents=[common, limits],
         help="plan a periodic walking step: drive torques, files, plots (the main job)",
         description=(
             "Plan one periodic walking step of a biped by direct collocation on IPOPT: single "
@@ -517,8 +559,10 @@ def _walk_parser(commands, common) -> None:
         choices=TRANSCRIPTIONS,
         help="collocation scheme (default: hermite-simpson)",
     )
-    walk.add_argument("-N", "--intervals", type=_count, default=None, metavar="N",
-                      help="mesh intervals (default: 30, 12 with --quick)")  # fmt: skip
+    walk.add_argument("-N", "--intervals", type=_count_at_most(MAX_INTERVALS, "intervals",
+                      "refine with --accuracy TARGET instead"), default=None, metavar="N",
+                      help=f"mesh intervals (default: 30, 12 with --quick; at most "
+                           f"{MAX_INTERVALS:,})")  # fmt: skip
     walk.add_argument("--degree", type=_count, default=None, metavar="D",
                       help=f"degree of {_DEGREES} (default: {_DEFAULT_DEGREES})")  # fmt: skip
     presets = "; ".join(f"{p.name}: {p.summary}" for p in ACCURACY_PRESETS.values())
@@ -552,6 +596,37 @@ def _walk_parser(commands, common) -> None:
         help="no torque at the stance foot (a point foot's passive ankle)",
     )
     walk.add_argument(
+        "--foot-heel-m",
+        type=_non_negative("m"),
+        default=None,
+        metavar="H",
+        help="the sole reaches H m behind the ankle: the ankle torque's centre of pressure "
+        "M / Fy stays on the sole (default 0.05 m for 0.86 m legs, scaled with the legs)",
+    )
+    walk.add_argument(
+        "--foot-toe-m",
+        type=_non_negative("m"),
+        default=None,
+        metavar="T",
+        help="the sole reaches T m ahead of the ankle (default 0.15 m for 0.86 m legs)",
+    )
+    walk.add_argument(
+        "--touchdown-speed-mps",
+        type=_non_negative("m/s"),
+        default=None,
+        metavar="V",
+        help="least downward speed of the landing foot at heel strike, m/s, and the slope of "
+        "the clearance's approach line (default 0.3 m/s for 0.86 m legs; 0 lets it graze in)",
+    )
+    walk.add_argument(
+        "--ground-margin-m",
+        type=_non_negative("m"),
+        default=0.0,
+        metavar="G",
+        help="every point of the body but the feet (knees, hips, neck, head) stays G m above "
+        "the ground (default: 0)",
+    )
+    walk.add_argument(
         "--double-support-s",
         type=float,
         default=0.0,
@@ -579,13 +654,16 @@ def _walk_parser(commands, common) -> None:
         metavar="HZ",
         help="samples per second of the torque files, Hz (default: 1000)",
     )
-    walk.add_argument("--steps", type=_count, default=2,
-                      help="steps drawn in walk.png and walk.gif (default: 2)")  # fmt: skip
+    walk.add_argument("--steps", type=_count_at_most(MAX_DRAWN_STEPS, "steps",
+                      "the pictures repeat one step: a few show it"), default=2,
+                      help=f"steps drawn in walk.png and walk.gif (default: 2, at most "
+                           f"{MAX_DRAWN_STEPS})")  # fmt: skip
     walk.add_argument(
         "--output-dir",
         default=None,
         metavar="DIR",
-        help="output folder (created; default: a new folder walk_<date>_<time> here)",
+        help="output folder (default: a new folder walk_<date>_<time> here); a folder of an "
+        "earlier walk has its files replaced as a set, any other non-empty folder is refused",
     )
     walk.add_argument("--no-plots", action="store_true", help="write no PNG or GIF")
     walk.add_argument("--no-gif", action="store_true", help="write the PNGs but no GIF")
@@ -1075,6 +1153,14 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         )
     if args.degree is not None and args.transcription not in WITH_DEGREE:
         raise UsageError(f"--degree: applies to --transcription {_one_of(WITH_DEGREE)} only")
+    samples = math.ceil(args.step_time_s * args.rate_hz - 1e-9) + 1
+    _check_samples(
+        samples,
+        args.force,
+        f"--rate-hz {args.rate_hz:g} Hz x --step-time-s {args.step_time_s:g} s",
+        "lower --rate-hz",
+        f"files of about {samples * 2 * 600 / 1e6:,.0f} MB",
+    )
     preset = args.accuracy if isinstance(args.accuracy, str) else None
     target = args.accuracy if isinstance(args.accuracy, float) else None
     if preset is not None:
@@ -1104,9 +1190,24 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
             "--accuracy: a refinement target needs a single support; with --double-support-s "
             "give a preset or -N"
         )
+    sole = (args.foot_heel_m, args.foot_toe_m)
+    if (sole[0] is None) != (sole[1] is None):
+        raise UsageError("--foot-heel-m, --foot-toe-m: give both (the sole behind and ahead of "
+                         "the ankle) or neither")  # fmt: skip
+    if sole[0] is not None and sole[0] + sole[1] <= 0:
+        raise UsageError("--foot-heel-m, --foot-toe-m: the sole must be longer than 0 m; for a "
+                         "point foot give --passive-ankle")  # fmt: skip
     linkage = _linkage(args.preset)
-    folder = _output_folder(str(args.output_dir or _new_folder("walk")))
+    try:
+        output = OutputSet(Path(str(args.output_dir or _new_folder("walk"))), "walk")
+    except OutputFolderError as error:
+        raise UsageError(str(error)) from None
     report.step(f"defining the walking step of {args.preset} ({linkage.n} links)")
+    extra = {}
+    if sole[0] is not None:
+        extra["foot"] = sole
+    if args.touchdown_speed_mps is not None:
+        extra["touchdown_speed"] = args.touchdown_speed_mps
     step = walking_step(
         linkage,
         args.step_length_m,
@@ -1119,6 +1220,8 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         clearance=args.clearance_m,
         objective=args.objective,
         double_support=args.double_support_s,
+        ground_margin=args.ground_margin_m,
+        **extra,
     )
     last = [-math.inf]
 
@@ -1134,19 +1237,23 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
     scheme = step.ocp.transcription + (f"({step.ocp.degree})" if step.ocp.degree else "")
     doing = f"solving with IPOPT ({scheme}, N = {step.ocp.N}"
     doing += f", refining to {target:g})" if target is not None else ")"
-    with report.working(doing):
-        gait = step.solve(progress=iteration, raise_on_failure=False, accuracy=target)
+    with report.working(doing), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", AccuracyWarning)
+        try:
+            gait = step.solve(
+                progress=iteration,
+                raise_on_failure=False,
+                accuracy=target,
+                rate_hz=args.rate_hz,
+            )
+        except SampleLimitError as error:
+            raise CommandFailed(
+                f"the plan's limits could not be held at every sample: {error}; nothing written"
+            ) from None
     solution = gait.solution
     stats = solution.stats
     history = stats.get("refinement")
-    with report.working("estimating the accuracy (re-integration per interval)"):
-        # The largest error of any phase (each phase's own intervals).
-        accuracy = max(
-            (segment.integration_error() for segment, _ in gait.segments()),
-            key=lambda error: error.max,
-        )
-    with report.working("verifying the gait (numpy, independent of the planner)"):
-        check = gait.verify()
+    accuracy = stats.get("accuracy")
     objective_words = {
         "torque": "integral of sum M_i^2, N^2 m^2 s",
         "torque-rate": "integral of sum dM_i^2 (+ 1e-3 sum M_i^2)",
@@ -1169,12 +1276,39 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
     if history is not None:
         for line in history.table().splitlines():
             print(f"  {line}", file=out)
+    held = stats.get("sampled_limits")
+    rounds = held["rounds"] if held is not None else []
+    first = rounds[0] if rounds else {
+        "iterations": solution.iterations,
+        "build_seconds": stats["build_seconds"],
+        "solve_seconds": stats["solve_seconds"],
+    }  # fmt: skip
     print(
-        f"IPOPT: {solution.status} in {solution.iterations} iterations; build "
-        f"{stats['build_seconds']:.3f} s, solve {stats['solve_seconds']:.3f} s"
+        f"IPOPT: {solution.status} in {first['iterations']} iterations; build "
+        f"{first['build_seconds']:.3f} s, solve {first['solve_seconds']:.3f} s"
         + ("" if history is None else f" (last pass; all passes {history.seconds:.3f} s)"),
         file=out,
     )
+    if not solution.success:
+        raise CommandFailed(f"IPOPT did not converge: {solution.status}; nothing written")
+    if held is not None:
+        again = rounds[1:]
+        split = sum(r.get("split", 0) for r in rounds)
+        raised = sum(r.get("raised", 0) for r in rounds)
+        words = (
+            "they hold without a re-solve"
+            if not again
+            else f"{raised} interval bounds backed off"
+            + (f", {split} intervals cut in two" if split else "")
+            + f" in {len(again)} warm re-solve{'s' if len(again) > 1 else ''} "
+            f"({sum(r['iterations'] for r in again)} iterations, "
+            f"{sum(r['build_seconds'] + r['solve_seconds'] for r in again):.3f} s)"
+        )
+        print(
+            f"limits on the exported motion at {args.rate_hz:g} Hz and between the samples: "
+            f"{words}",
+            file=out,
+        )
     print(
         f"cost ({objective_words}): {gait.cost:.6g}; the gait law (22) fitted to the step, "
         f"same mesh: {gait.law_cost:.6g} ({gait.law_cost / gait.cost:.3g}x the optimum)",
@@ -1195,60 +1329,115 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         else f"the old stance foot lifts off at ({impact['lift_off'][0]:.3f}, "
         f"{impact['lift_off'][1]:.3f}) m/s"
     )
+    touchdown = gait.touchdown_velocity
     print(
-        f"heel strike: impulse ({impact['impulse'][0]:.3f}, {impact['impulse'][1]:.3f}) N s, "
-        f"{after}",
+        f"heel strike: the foot lands at ({touchdown.real:.3f}, {touchdown.imag:.3f}) m/s "
+        f"(at least {step.touchdown_speed:g} m/s down), impulse ({impact['impulse'][0]:.3f}, "
+        f"{impact['impulse'][1]:.3f}) N s, {after}",
         file=out,
     )
-    worst = accuracy.worst_state
-    nominal = single.ocp.variable_scale(worst)
-    unit = single.system.state_units[single.state_names.index(worst)]
+    low, high = gait.centre_of_pressure(args.rate_hz)
+    if args.passive_ankle:
+        sole_words = "a passive ankle (a point foot: no ankle torque)"
+    elif step.foot_sole is None:
+        sole_words = "no sole given"
+    else:
+        heel, toe = step.foot_sole
+        sole_words = f"the sole from {-1000 * heel:.0f} to {1000 * toe:.0f} mm"
     print(
-        f"accuracy: largest per-interval re-integration error {accuracy.max:.2e} {unit} "
-        f"({worst}, interval {accuracy.worst_interval}; {accuracy.max / nominal:.2e} of its "
-        f"nominal scale {nominal:g} {unit}, the units of --accuracy)",
+        f"centre of pressure of the stance foot (M / Fy from the ankle, every sample): "
+        f"{1000 * low:.1f} .. {1000 * high:.1f} mm; {sole_words}",
         file=out,
     )
-    print(
-        f"verification: {'all' if check.ok else 'NOT all'} {len(check.checks)} checks passed"
-        + ("" if check.ok else " - " + "; ".join(c.name for c in check.failures)),
-        file=out,
-    )
-    # A failed solve, a gait that failed its verification or missed its accuracy target is
-    # not written: torques.csv is what a drive controller reads.
-    if not solution.success:
-        raise CommandFailed(f"IPOPT did not converge: {solution.status}; nothing written")
-    if not check.ok:
-        raise CommandFailed(
-            f"the gait failed its verification: {check.failures[0]}; nothing written"
+    if accuracy is not None:
+        worst = accuracy["state"]
+        nominal = single.ocp.variable_scale(worst) if worst in single.state_names else 1.0
+        unit = (
+            single.system.state_units[single.state_names.index(worst)]
+            if worst in single.state_names
+            else ""
         )
+        print(
+            f"accuracy: largest per-interval re-integration error "
+            f"{accuracy['error'] * nominal:.2e} {unit} ({worst}, interval "
+            f"{accuracy['interval']}; {accuracy['error']:.2e} of its nominal scale {nominal:g} "
+            f"{unit}, the units of --accuracy)",
+            file=out,
+        )
+    for warning in caught:
+        if issubclass(warning.category, AccuracyWarning):
+            report.warn(
+                f"the plan obeys its dynamics only to {accuracy['error']:.2g} of a state's "
+                "nominal scale between the mesh points (more than "
+                f"{accuracy['threshold']:g}): refine the mesh with a larger -N, --accuracy "
+                "balanced or --accuracy 1e-3"
+            )
     if history is not None and not history.reached:
         raise CommandFailed(
             f"the accuracy target {target:g} was not reached: {history.reason}; nothing written"
         )
-    written = []
-    _created(folder)
-    with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
-        profile = gait.to_trajectory(args.rate_hz)
-        written += _save(profile, folder, "torques", ("csv", "json"))
-        written += _save(gait.to_trajectory(), folder, "solution", ("npz",))
-    if not args.no_plots:
-        from problems import walking_plots
+    # Everything goes to a staging folder first and replaces the output folder as a set once
+    # the file the drives read has been read back and verified.
+    with output:
+        with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
+            profile = gait.to_trajectory(args.rate_hz)
+            written = _save(profile, output.staging, "torques", ("csv", "json"))
+            _save(gait.to_trajectory(), output.staging, "solution", ("npz",))
+        with report.working("verifying torques.csv (numpy, independent of the planner)"):
+            check = verify_gait(Trajectory.load(written[0]), linkage)
+        dynamics = check.facts.get("dynamics residual", math.nan)
+        print(
+            f"torques.csv: {profile.n_samples} samples at {args.rate_hz:g} Hz of the consistent "
+            f"motion (positions integrate the velocities, accelerations are their slope); its "
+            f"torques are the inverse dynamics of its own motion to {dynamics:.1e} N m",
+            file=out,
+        )
+        failed = "" if check.ok else " - FAILED: " + "; ".join(c.name for c in check.failures)
+        print(
+            f"verification of torques.csv ({profile.n_samples} samples, numpy, independent of "
+            f"the planner): {'all' if check.ok else 'NOT all'} {len(check.checks)} checks "
+            f"passed{failed}; worst margins (> 0 inside):",
+            file=out,
+        )
+        for line in _check_lines(check):
+            print(f"  {line}", file=out)
+        for key in ("rates",):
+            if key in check.facts:
+                print(f"  {key}: {check.facts[key]}", file=out)
+        if not check.ok:
+            raise CommandFailed(
+                f"torques.csv failed its verification: {check.failures[0]}; nothing written"
+            )
+        if not args.no_plots:
+            from problems import walking_plots
 
-        with report.working("plotting gait.png"):
-            written.append(walking_plots.save_figure(walking_plots.gait_figure(gait),
-                                                     folder / "gait.png"))  # fmt: skip
-        motion = gait.world(steps=args.steps, rate_hz=30.0 if args.quick else 60.0)
-        with report.working("plotting walk.png"):
-            written.append(walking_plots.save_figure(walking_plots.world_strip(motion),
-                                                     folder / "walk.png"))  # fmt: skip
-        if not args.no_gif:
-            with report.working(f"writing walk.gif ({args.steps} steps)"):
-                fps = 15.0 if args.quick else 30.0
-                written.append(walking_plots.animate_walk(motion, folder / "walk.gif", fps=fps))
-    for path in written:
+            with report.working("plotting gait.png"):
+                walking_plots.save_figure(walking_plots.gait_figure(gait), output.path("gait.png"))
+            motion = gait.world(steps=args.steps, rate_hz=30.0 if args.quick else 60.0)
+            with report.working("plotting walk.png"):
+                walking_plots.save_figure(walking_plots.world_strip(motion),
+                                          output.path("walk.png"))  # fmt: skip
+            if not args.no_gif:
+                with report.working(f"writing walk.gif ({args.steps} steps)"):
+                    fps = 15.0 if args.quick else 30.0
+                    walking_plots.animate_walk(motion, output.path("walk.gif"), fps=fps)
+        paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
+    for path in paths:
         print(f"wrote {path}", file=out)
     return 0
+
+
+def _check_lines(report) -> list[str]:
+    """One line per check of a verification: name, worst margin with its unit, where, how
+    many values, the tolerance."""
+    lines = []
+    for c in report.checks:
+        verdict = "ok  " if c.passed else "FAIL"
+        lines.append(
+            f"{verdict} {c.name:<19} {c.margin:+.2e} {c.unit:<9} at {c.where} "
+            f"({c.samples} values, tolerance {c.tolerance:.0e})"
+        )
+    return lines
 
 
 COMMANDS = {

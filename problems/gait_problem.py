@@ -29,12 +29,14 @@ import numpy as np
 
 from model.errors import DefinitionError, check_positive, check_real
 from model.linkage import Linkage
+from planner.accuracy_check import ACCURACY_WARNING, check_accuracy_of
 from planner.phases_solution import PhasesSolution
 from planner.problem import OCP
 from planner.sampled_limits import hold_at_samples
 from planner.solution import Solution
 from planner.solver import solve
 from planner.trajectory import Trajectory
+from planner.transcription import Transcription
 from problems.verification import GaitReport, verify_gait
 
 OBJECTIVES = ("torque", "torque-rate", "work")
@@ -67,6 +69,7 @@ def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=
         return solution
     kept = {key: value for key, value in options.items() if key in _SOLVE_KEYWORDS}
     kept["raise_on_failure"] = True
+    kept["accuracy_warning"] = None  # measured once, on the plan the rounds end with
 
     def again(changed):
         return solve(changed, **kept)
@@ -88,6 +91,24 @@ def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=
     if history is not None:
         held.stats["refinement"] = history
     return held
+
+
+def solve_and_hold(problem, options: dict, hold: bool, rate_hz, pinned=()):
+    """What a gait problem's ``solve`` does with a built problem (an OCP, Phases or its
+    Transcription): solve it with ``options``, hold its limits on the exported motion at
+    ``rate_hz`` (when ``hold``) and measure the accuracy of the plan that comes out once
+    (``options["accuracy_warning"]``, default :data:`planner.ACCURACY_WARNING`)."""
+    options = dict(options)
+    warning = options.pop("accuracy_warning", ACCURACY_WARNING)
+    solution = solve(problem, accuracy_warning=None, **options)
+    if hold:
+        source = problem
+        if isinstance(problem, Transcription):
+            source = problem.single or problem.problem
+        solution = hold_limits(source, solution, rate_hz, options, pinned)
+    if solution.success and warning is not None:
+        check_accuracy_of(solution, warning)
+    return solution
 
 
 def scaled_integration_error(solution) -> float:
@@ -397,5 +418,6 @@ __all__ = [
     "keep_upright",
     "objective_at_guess",
     "objective_integrand",
+    "solve_and_hold",
     "torque_limits",
 ]

@@ -39,7 +39,6 @@ from model.errors import DefinitionError, DefinitionTypeError, check_positive, c
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
 from planner.problem import OCP
-from planner.solver import solve
 from planner.transcription import Transcription
 from problems.accuracy import refine_gait, resolve_mesh, solve_plan
 from problems.biped import Biped
@@ -53,6 +52,7 @@ from problems.gait_problem import (
     gait_ocp,
     keep_upright,
     objective_at_guess,
+    solve_and_hold,
     torque_limits,
 )
 from problems.gait_problem import hold_limits as hold_gait_limits
@@ -141,9 +141,7 @@ class PeriodicGaitProblem:
             ocp = ocp.refine(**remesh.mesh(self.law.period))
         transcription = Transcription(ocp)
         law = objective_at_guess(transcription)
-        solution = solve(transcription, **options)
-        if hold_limits:
-            solution = hold_gait_limits(ocp, solution, rate_hz, options)
+        solution = solve_and_hold(transcription, options, hold_limits, rate_hz)
         return PeriodicGait(self, solution, law)
 
     def settings(self, times=None) -> dict[str, Any]:

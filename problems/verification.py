@@ -387,15 +387,24 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
     kinematics, the equations of motion, passive joints, torque bounds, the ground, the
     friction cone and centre of pressure of the stance foot, knees and posture."""
     linkage = kin.linkage
-    psi, dpsi, ddpsi, torques = (trajectory.psi, trajectory.dpsi, trajectory.ddpsi,
-                                 trajectory.torques)  # fmt: skip
+    psi, dpsi, ddpsi, torques = (
+        trajectory.psi,
+        trajectory.dpsi,
+        trajectory.ddpsi,
+        trajectory.torques,
+    )
     times = trajectory.time
     problem = settings.get("problem")
     duration = settings.get("step_time") if problem == "walking_step" else settings.get("period")
     if duration is not None:
         span = float(times[-1] - times[0])
-        add("duration", np.array([-abs(span - float(duration))]), "s", float(duration),
-            where=f"{times.size} samples over {span:.6g} s")  # fmt: skip
+        add(
+            "duration",
+            np.array([-abs(span - float(duration))]),
+            "s",
+            float(duration),
+            where=f"{times.size} samples over {span:.6g} s",
+        )
     # Kinematics: the corrected trapezoid of dpsi (exact for cubic rates) against psi; an
     # acceleration that jumps or kinks between two samples (a mesh node) costs up to
     # h^2 |da| / 12 of it, allowed. Rates against the trapezoid of ddpsi, allowed
@@ -451,8 +460,12 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
         points = [name for name in linkage.names if name != foot_link]
     if points:
         heights = np.column_stack(
-            [kin.point(linkage.index(name), complex(linkage.links[linkage.index(name)].length),
-                       psi)[0].imag for name in points]  # fmt: skip
+            [
+                kin.point(
+                    linkage.index(name), complex(linkage.links[linkage.index(name)].length), psi
+                )[0].imag
+                for name in points
+            ]
         )
         add("ground", heights - margin, "m")
     # The stance foot: friction cone and centre of pressure (the front foot of a double
@@ -595,8 +608,12 @@ def _verify_walking(add, kin: _Kinematics, settings, trajectory, weight) -> None
     add("periodic angles", -np.abs(_wrap(psi[0] - swapped)), "rad", where="t = 0 vs swap(T)")
     landing, approach, _ = kin.point(foot_link, foot_offset, psi[-1:], dpsi[-1:])
     speed = float(settings.get("touchdown_speed") or 0.0)
-    add("heel strike", np.array([-approach[0].imag - speed]), "m/s",
-        where=f"t = T (foot coming down at {speed:g} m/s or faster)")  # fmt: skip
+    add(
+        "heel strike",
+        np.array([-approach[0].imag - speed]),
+        "m/s",
+        where=f"t = T (foot coming down at {speed:g} m/s or faster)",
+    )
     add(
         "landing",
         -np.abs(np.array([landing[0].real - step_length, landing[0].imag])),
@@ -655,7 +672,7 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     n = linkage.n
     mu = float(settings["mu"])
     step_length = float(settings["step_length"])
-    psi, dpsi, ddpsi, times = trajectory.psi, trajectory.dpsi, trajectory.ddpsi, trajectory.time
+    psi, dpsi, times = trajectory.psi, trajectory.dpsi, trajectory.time
     swap = swap_legs(linkage)
     foot_link, foot_offset = _foot(kin, settings)
     events = settings.get("before_events") or []

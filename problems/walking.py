@@ -66,7 +66,6 @@ from model.errors import (
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
 from planner.problem import OCP, Phases
-from planner.solver import solve
 from planner.transcription import Transcription
 from problems.accuracy import refine_gait, resolve_mesh, solve_plan
 from problems.biped import Biped
@@ -80,6 +79,7 @@ from problems.gait_problem import (
     gait_ocp,
     keep_upright,
     objective_at_guess,
+    solve_and_hold,
     torque_limits,
 )
 from problems.gait_problem import hold_limits as hold_gait_limits
@@ -292,10 +292,7 @@ class WalkingStep:
             ocp = problem.refine(**remesh.mesh(self.single_support_time))
         transcription = self._transcription(ocp)
         law = objective_at_guess(transcription)
-        solution = solve(transcription, **options)
-        if hold_limits:
-            solved = transcription.single or transcription.problem
-            solution = hold_gait_limits(solved, solution, rate_hz, options, PINNED)
+        solution = solve_and_hold(transcription, options, hold_limits, rate_hz, PINNED)
         return WalkingGait(self, solution, law)
 
     def clearance_table(self, times=None) -> dict[str, list[float]] | None:
@@ -371,7 +368,7 @@ def walking_step(
     double_support: float = 0.0,
     N_double: int | None = None,
     touchdown_speed: float | str = DEFAULT,
-    foot: tuple[float, float] | None | str = DEFAULT,
+    foot: tuple[float, float] | str | None = DEFAULT,
     ground_points: Sequence[str] | None = None,
     ground_margin: float = 0.0,
 ) -> WalkingStep:
@@ -474,8 +471,7 @@ def walking_step(
     if foot is not None:
         if isinstance(foot, str) or len(foot) != 2:
             raise DefinitionError(
-                f"`foot`: give (heel, toe), m behind and ahead of the ankle, or None, got "
-                f"{foot!r}"
+                f"`foot`: give (heel, toe), m behind and ahead of the ankle, or None, got {foot!r}"
             )
         foot = (check_real("foot[0]", foot[0]), check_real("foot[1]", foot[1]))
         if foot[0] < 0 or foot[1] < 0 or foot[0] + foot[1] <= 0:
@@ -584,7 +580,7 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
         return velocity(p.x[:n], p.x[n:])[1]
 
     def pressure(p):
-        fx, fy = reaction(p.psi, p.dpsi, p.ddpsi)
+        _, fy = reaction(p.psi, p.dpsi, p.ddpsi)
         return centre_of_pressure_rows(step, p, fy)
 
     momentum = dynamics.floating.function("linear_momentum")
@@ -792,6 +788,14 @@ class WalkingGait(Gait):
         x = self.segments()[0][0].states[-1]  # the single support's end
         dpsi_plus, impulse, base = self.problem.impact(x[:n], x[n:])
         return {"impulse": impulse, "lift_off": base, "dpsi_plus": dpsi_plus}
+
+    @property
+    def touchdown_velocity(self) -> complex:
+        """The landing foot's velocity at heel strike, m/s (complex vx + j vy; vy <= -the
+        touchdown speed)."""
+        n = self.problem.linkage.n
+        x = self.segments()[0][0].states[-1]  # the single support's end
+        return complex(np.asarray(self.problem.foot.velocity(x[:n], x[n:])).reshape(-1)[0])
 
     def world(self, steps: int = 2, rate_hz: float = 100.0) -> WorldMotion:
         """``steps`` consecutive steps in world coordinates: step k stands on the foothold

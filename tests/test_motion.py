@@ -11,12 +11,12 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pytest
+from reference import newton_euler
 from scipy.integrate import quad
 
 from model import DefinitionError, presets
 from planner import OCP, Transcription
 from planner.schemes import make_scheme
-from reference import newton_euler
 
 CHAIN = presets.n_link_chain(2)
 DOWN = -np.pi / 2
@@ -27,8 +27,14 @@ SCHEMES = [("trapezoid", None), ("hermite-simpson", None), ("radau", 3), ("legen
 def swing(transcription, degree, formulation="implicit", N=6):
     """Two-link chain from hanging at rest to a raised pose at rest in 1.5 s, min sum M^2."""
     return (
-        OCP(CHAIN.dynamics(), T=1.5, N=N, transcription=transcription, degree=degree,
-            formulation=formulation)  # fmt: skip
+        OCP(
+            CHAIN.dynamics(),
+            T=1.5,
+            N=N,
+            transcription=transcription,
+            degree=degree,
+            formulation=formulation,
+        )
         .initial(psi=[DOWN, DOWN], dpsi=0.0)
         .final(psi=TARGET, dpsi=0.0)
         .bound("M", -60, 60)
@@ -57,7 +63,7 @@ def test_antiderivative_weights_integrate_the_interpolant(name, degree):
             wx, wf = weights([tau], -1)
             for values, column in ((wx, 0), (wf, 1)):
                 for j in range(values.shape[1]):
-                    exact = quad(lambda s, j=j, c=column: weights([s])[c][0, j], 0.0, tau)[0]
+                    exact = quad(lambda s, j=j, c=column, w=weights: w([s])[c][0, j], 0.0, tau)[0]
                     assert values[0, j] == pytest.approx(exact, abs=1e-13)
                     checked += 1
     assert checked > 8
@@ -175,15 +181,20 @@ def test_motion_needs_a_system_with_that_role_and_no_control_rates():
     with pytest.raises(DefinitionError, match="on='motion' needs a system with positions"):
         generic.constrain_at("q", lambda p: p.x[0], t=0.5, lower=0.0, on="motion")
     with pytest.raises(DefinitionError, match="on must be 'transcription' or 'motion'"):
-        swing("hermite-simpson", None).constrain_at("q", lambda p: p.psi[0], t=0.5, lower=0.0,
-                                                    on="spline")  # fmt: skip
+        swing("hermite-simpson", None).constrain_at(
+            "q", lambda p: p.psi[0], t=0.5, lower=0.0, on="spline"
+        )
     rated = swing("hermite-simpson", None).constrain_at(
         "rate", lambda p: p.dM[0], t=0.5, upper=10.0, on="motion"
     )
     with pytest.raises(DefinitionError, match="reads a control rate"):
         Transcription(rated)
-    solution = generic.minimize(integral=lambda p: p.u**2).initial(x=[0, 0]).final(
-        x=[1, 0]).solve(progress=False)  # fmt: skip
+    solution = (
+        generic.minimize(integral=lambda p: p.u**2)
+        .initial(x=[0, 0])
+        .final(x=[1, 0])
+        .solve(progress=False)
+    )
     with pytest.raises(DefinitionError, match="`motion`: the system has no positions"):
         solution.motion([0.5])
     assert solution.to_trajectory().metadata["motion"] == "transcription"

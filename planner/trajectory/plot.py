@@ -60,8 +60,9 @@ def draw(
 
     One panel per group (state, control, extra) and unit, stacked with a shared time axis:
     for a linkage trajectory psi [rad], dpsi [rad/s] and M [N m] (plus ddpsi [rad/s^2] and
-    the contact forces F_<contact>_x, _y [N] with ``extras=True``). One line per channel, labelled by name; the vertical
-    axis carries the channels' common prefix (or names) and the unit.
+    the contact forces F_<contact>_x, _y [N] with ``extras=True``). One line per channel,
+    labelled by name; the vertical axis carries the channels' common prefix (or names) and
+    the unit.
 
     Parameters
     ----------
