@@ -70,6 +70,9 @@ def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=
     kept = {key: value for key, value in options.items() if key in _SOLVE_KEYWORDS}
     kept["raise_on_failure"] = True
     kept["accuracy_warning"] = None  # measured once, on the plan the rounds end with
+    # Each round restarts from the last one's multipliers, whatever the first solve started
+    # from: the rounds then end where they end for every caller (a study, a single solve).
+    kept["warm_start"] = True
 
     def again(changed):
         return solve(changed, **kept)
@@ -109,6 +112,15 @@ def solve_and_hold(problem, options: dict, hold: bool, rate_hz, pinned=()):
     if solution.success and warning is not None:
         check_accuracy_of(solution, warning)
     return solution
+
+
+def total_iterations(solution) -> int:
+    """IPOPT's iterations of a gait's solve: the first solve's and those of the rounds that
+    held its limits at the samples."""
+    held = solution.stats.get("sampled_limits")
+    if held is None:
+        return solution.iterations
+    return int(sum(r["iterations"] for r in held["rounds"]))
 
 
 def scaled_integration_error(solution) -> float:
@@ -419,5 +431,6 @@ __all__ = [
     "objective_at_guess",
     "objective_integrand",
     "solve_and_hold",
+    "total_iterations",
     "torque_limits",
 ]

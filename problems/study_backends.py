@@ -2,11 +2,14 @@
 cluster.
 
 * :class:`SerialBackend`: one point at a time in this process (``workers=1``).
-* :class:`PoolBackend`: ``concurrent.futures.ProcessPoolExecutor`` with one worker per core
+* :class:`PoolBackend`: worker processes of this machine, one per core
   (:func:`available_cores`: the cores this process may run on), the embedded default that
-  needs no service. Workers ignore Ctrl-C (the study finishes the points in flight and stops);
-  a worker that dies (killed, out of memory) breaks the pool: its points go back to the queue
-  and a new pool starts.
+  needs no service. Each worker runs one point at a time over its own pipe, so the point of a
+  worker that dies (killed, out of memory, a crash in native code) is known: only that point
+  is charged with the death, a new worker takes the dead one's place, and the other points
+  run on. Workers ignore Ctrl-C (the study finishes the points in flight and stops) and die
+  with the study's process: a ``kill -9`` of it leaves no worker behind (Linux's parent-death
+  signal, and a watchdog that sees the parent gone), so the same command resumes at once.
 * :class:`DaskBackend`: ``dask.distributed`` (``pip install ".[cluster]"``): a scheduler
   address (``tcp://host:8786``), a ``distributed.Client``, or ``"local"`` for a
   ``LocalCluster`` started for the run and closed after it. Each task carries the study's
@@ -17,19 +20,25 @@ cluster.
 Every backend offers ``submit(task) -> handle``, ``wait(handles, timeout) -> finished
 handles``, ``result(handle)`` (raises :class:`WorkerLost` when the worker died),
 ``capacity`` (how many points to keep in flight), ``workers`` and ``close(cancel)``.
+Locks the study's process holds are not the workers': ``problems.study_store`` closes them
+in every forked child.
 """
 
 from __future__ import annotations
 
 import concurrent.futures
 import contextlib
+import ctypes
+import ctypes.util
 import logging
 import multiprocessing
+import multiprocessing.connection
 import os
 import pickle
 import signal
+import threading
+import time
 from collections.abc import Iterable, Mapping
-from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
@@ -99,15 +108,94 @@ class SerialBackend:
         pass
 
 
-def _ignore_interrupts_and_install(spec: PointSpec) -> None:
+#: Seconds between a worker's checks that the study's process still lives (where the
+#: operating system cannot signal its death).
+WATCHDOG_SECONDS = 1.0
+
+
+def _die_with(parent: int) -> None:
+    """End this worker process when the study's process ``parent`` ends: the kernel's
+    parent-death signal on Linux (immediate, even in the middle of a solve), and a watchdog
+    thread everywhere (it runs between the solver's calls back into Python)."""
+    with contextlib.suppress(OSError, AttributeError, TypeError):
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    if os.getppid() != parent:  # it died before the signal was asked for
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            time.sleep(WATCHDOG_SECONDS)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="study-parent-watchdog", daemon=True).start()
+
+
+def _worker_main(connection, spec: PointSpec, parent: int) -> None:
+    """A pool worker: solve the points that come down the pipe until it closes or None
+    comes; each result (or the exception of a bug) goes back up the pipe."""
     # Ctrl-C reaches the whole process group: the study's process decides what to do (finish
     # the points in flight), the workers go on with theirs.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with(parent)
     install(spec)
+    while True:
+        try:
+            task = connection.recv()
+        except (EOFError, OSError):  # the study's process is gone
+            return
+        if task is None:
+            return
+        try:
+            reply = ("result", solve_installed(task))
+        except Exception as exc:  # a bug in a user's problem or output function
+            reply = ("error", exc)
+        try:
+            connection.send(reply)
+        except (pickle.PicklingError, TypeError, AttributeError):
+            connection.send(("error", RuntimeError(f"{type(reply[1]).__name__}: {reply[1]}")))
+        except (BrokenPipeError, OSError):
+            return
+
+
+class _Handle:
+    """A point handed to a pool worker: done when its result, its exception or its worker's
+    death is known."""
+
+    def __init__(self, task: Mapping[str, Any]) -> None:
+        self.task = task
+        self.done = False
+        self.value: dict[str, Any] | None = None
+        self.error: BaseException | None = None
+        self.worker: _Worker | None = None
+
+
+class _Worker:
+    """One worker process and the parent's end of its pipe."""
+
+    def __init__(self, context, spec: PointSpec) -> None:
+        self.connection, child = context.Pipe()
+        self.process = context.Process(
+            target=_worker_main, args=(child, spec, os.getpid()), daemon=True
+        )
+        self.process.start()
+        child.close()
+        self.handle: _Handle | None = None
+
+    def stop(self, cancel: bool) -> None:
+        if cancel:
+            self.process.kill()
+        else:
+            with contextlib.suppress(OSError):
+                self.connection.send(None)
+        self.process.join(timeout=None if not cancel else 5.0)
+        self.connection.close()
 
 
 class PoolBackend:
-    """A local process pool of ``workers`` processes (default: :func:`available_cores`).
+    """``workers`` processes of this machine (default: :func:`available_cores`), one point
+    each at a time (see the module docstring).
 
     With the fork start method (Linux) the workers inherit the spec, so any callable works as
     the problem; elsewhere the spec is pickled, and a lambda or a local function is refused
@@ -127,50 +215,85 @@ class PoolBackend:
                     "or run with workers=1"
                 ) from exc
         self._spec = spec
-        self._pool = self._new_pool()
+        self._pool = [_Worker(self._context, spec) for _ in range(self.workers)]
         self.capacity = self.workers
         self.description = f"process pool, {self.workers} workers"
 
-    def _new_pool(self) -> concurrent.futures.ProcessPoolExecutor:
-        return concurrent.futures.ProcessPoolExecutor(
-            max_workers=self.workers,
-            mp_context=self._context,
-            initializer=_ignore_interrupts_and_install,
-            initargs=(self._spec,),
-        )
+    @property
+    def pids(self) -> list[int]:
+        """The worker processes' ids."""
+        return [worker.process.pid for worker in self._pool]
 
-    def submit(self, task: Mapping[str, Any]) -> concurrent.futures.Future:
+    def submit(self, task: Mapping[str, Any]) -> _Handle:
+        handle = _Handle(task)
+        idle = [w for w in self._pool if w.handle is None]
+        if not idle:
+            raise RuntimeError("internal: a point submitted with every worker busy")
+        worker = idle[0]
+        worker.handle, handle.worker = handle, worker
         try:
-            future = self._pool.submit(solve_installed, task)
-        except BrokenProcessPool:
-            self._replace(self._pool)
-            future = self._pool.submit(solve_installed, task)
-        future.study_pool = self._pool  # which pool broke, when it breaks
-        return future
+            worker.connection.send(task)
+        except (BrokenPipeError, OSError):  # the worker died while idle: a new one
+            self._replace(worker)
+            return self.submit(task)
+        return handle
 
     def wait(self, handles: Iterable, timeout: float) -> set:
-        done, _ = concurrent.futures.wait(
-            list(handles), timeout=timeout, return_when=concurrent.futures.FIRST_COMPLETED
+        handles = list(handles)
+        finished = {h for h in handles if h.done}
+        if finished:
+            return finished
+        busy = {h.worker: h for h in handles if h.worker is not None}
+        ready = multiprocessing.connection.wait(
+            [w.connection for w in busy] + [w.process.sentinel for w in busy], timeout
         )
-        return set(done)
+        for worker, handle in busy.items():
+            if worker.connection in ready:
+                try:
+                    kind, value = worker.connection.recv()
+                except (EOFError, OSError):  # it died with the reply half-sent
+                    kind, value = "lost", None
+                if kind == "result":
+                    handle.value = value
+                elif kind == "error":
+                    handle.error = value
+                else:
+                    handle.error = self._lost(worker)
+            elif worker.process.sentinel in ready:
+                handle.error = self._lost(worker)
+            else:
+                continue
+            handle.done = True
+            worker.handle = None
+            finished.add(handle)
+        return finished
 
-    def result(self, handle) -> dict[str, Any]:
-        try:
-            return handle.result()
-        except BrokenProcessPool as exc:
-            self._replace(getattr(handle, "study_pool", None))
-            raise WorkerLost(f"a worker process died ({exc})") from exc
+    def _lost(self, worker: _Worker) -> WorkerLost:
+        worker.process.join(timeout=5.0)
+        code = worker.process.exitcode
+        how = f"killed by signal {-code}" if code is not None and code < 0 else f"exit code {code}"
+        logger.warning(
+            "study worker %s died (%s); its point only is queued again, a new worker starts",
+            worker.process.pid,
+            how,
+        )
+        self._replace(worker)
+        return WorkerLost(f"its worker process {worker.process.pid} died ({how})")
 
-    def _replace(self, broken) -> None:
-        """A new pool for the broken one (once: every point in flight reports the breakage)."""
-        if broken is not self._pool:
-            return
-        logger.warning("a study worker process died; starting a new process pool")
-        self._pool.shutdown(wait=False, cancel_futures=True)
-        self._pool = self._new_pool()
+    def _replace(self, worker: _Worker) -> None:
+        with contextlib.suppress(OSError):
+            worker.connection.close()
+        index = self._pool.index(worker)
+        self._pool[index] = _Worker(self._context, self._spec)
+
+    def result(self, handle: _Handle) -> dict[str, Any]:
+        if handle.error is not None:
+            raise handle.error
+        return handle.value
 
     def close(self, cancel: bool = False) -> None:
-        self._pool.shutdown(wait=not cancel, cancel_futures=cancel)
+        for worker in self._pool:
+            worker.stop(cancel)
 
 
 def _distributed():

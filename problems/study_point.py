@@ -41,6 +41,7 @@ from planner import (
     Trajectory,
     Transcription,
 )
+from problems.gait_problem import total_iterations
 from problems.walking import WalkingGait, WalkingStep, walking_step
 
 #: The status recorded for a point whose problem could not be defined (walking_step or the
@@ -339,7 +340,7 @@ def solve_point(spec: PointSpec, task: Mapping[str, Any]) -> dict[str, Any]:
             notes.append(f"from {label}: {_first_line(exc)}")
             gait = None
             continue
-        iterations += gait.solution.iterations
+        iterations += total_iterations(gait.solution)
         if gait.success:
             row["start"] = label
             break

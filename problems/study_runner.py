@@ -107,6 +107,7 @@ def run(
             "iterations": counts.iterations,
             "backend": backend.description,
             "ordering": chosen,
+            "damaged": list(store.damaged),
         }
         return StudyResult.load(store.path, run=stats)
 

@@ -15,8 +15,15 @@ complete (``planner.files.atomic_path``), records and the table flushed to disk 
 point's record is written after its solution: a point is settled exactly when its record
 exists, so a run killed at any instant leaves settled points with complete files and
 unsettled ones to solve again (a solution file without a record is overwritten). Temporary
-files a killed run left behind are removed when the folder is opened again. One run at a time
-holds a folder (an advisory lock on ``study.lock``, released when the process ends).
+files a killed run left behind are removed when the folder is opened again; a record or
+solution file that cannot be read (a disk that failed, a copy cut short) is reported with its
+path, moved aside as ``<name>.damaged`` and its point solved again.
+
+One run at a time holds a folder: an advisory lock (``flock``) on the folder itself, held by
+the study's process alone (closed in every process forked from it: the pool's workers), so it
+is released the moment that process ends, however it ends, and the same command resumes at
+once. A folder that is refused (another study's, or not a study folder) is left exactly as it
+was: the checks read it before anything is written.
 """
 
 from __future__ import annotations
@@ -26,8 +33,10 @@ import csv
 import hashlib
 import io
 import json
+import logging
 import os
 import re
+import zipfile
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -37,6 +46,8 @@ import numpy as np
 from model.errors import AnthropoidError, DefinitionError
 from planner.files import atomic_path
 
+logger = logging.getLogger("problems.study")
+
 try:  # POSIX advisory locks; elsewhere a folder is not locked
     import fcntl
 except ImportError:  # pragma: no cover - Windows
@@ -45,7 +56,10 @@ except ImportError:  # pragma: no cover - Windows
 FORMAT = "anthropoid-planner study 1"
 DEFINITION_FILE = "study.json"
 TABLE_FILE = "results.csv"
+#: The lock file of earlier versions (the lock is now on the folder itself).
 LOCK_FILE = "study.lock"
+#: What a damaged file is renamed with.
+DAMAGED = ".damaged"
 POINTS = "points"
 SOLUTIONS = "solutions"
 #: Columns before the outputs and after them, in this order; outputs come in between in the
@@ -137,41 +151,49 @@ class StudyFolder:
 
     def __init__(self, path: str | os.PathLike, definition: Mapping[str, Any]) -> None:
         self.path = Path(os.fspath(path))
+        self.definition = dict(definition)
+        self._lock: int | None = None
+        self.damaged: list[str] = []
         if self.path.exists() and not self.path.is_dir():
             raise StudyFolderError(f"`folder`: {str(self.path)!r} exists and is not a folder")
+        if self.path.exists():
+            self._check()  # before anything is written: a refused folder stays as it was
         self.path.mkdir(parents=True, exist_ok=True)
         self._lock = self._take_lock()
         try:
-            self.definition = dict(definition)
-            self._check_or_create()
+            self._check_or_create()  # again, now that this run holds the folder
             (self.path / POINTS).mkdir(exist_ok=True)
             (self.path / SOLUTIONS).mkdir(exist_ok=True)
             self._remove_temporary_files()
+            self.damaged = self._set_damaged_aside()
         except BaseException:
             self.close()
             raise
 
     # ---- opening ---------------------------------------------------------------------
-    def _take_lock(self):
+    def _take_lock(self) -> int | None:
         if fcntl is None:  # pragma: no cover - Windows
             return None
-        handle = open(self.path / LOCK_FILE, "a+")
+        descriptor = os.open(self.path, os.O_RDONLY)
         try:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            handle.close()
+            os.close(descriptor)
             raise StudyFolderError(
-                f"`folder`: another run is using {str(self.path)!r} (it holds {LOCK_FILE}); "
-                "wait for it to finish or stop it, or give another folder"
+                f"`folder`: another run is using {str(self.path)!r} (it holds the folder's "
+                "lock); wait for it to finish or stop it, or give another folder"
             ) from None
-        return handle
+        _HELD.add(descriptor)
+        return descriptor
 
     def close(self) -> None:
         """Release the folder's lock."""
         if self._lock is not None:
+            _HELD.discard(self._lock)
             with contextlib.suppress(OSError):
-                fcntl.flock(self._lock.fileno(), fcntl.LOCK_UN)
-            self._lock.close()
+                fcntl.flock(self._lock, fcntl.LOCK_UN)
+            with contextlib.suppress(OSError):
+                os.close(self._lock)
             self._lock = None
 
     def __enter__(self) -> StudyFolder:
@@ -180,21 +202,21 @@ class StudyFolder:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def _check_or_create(self) -> None:
+    def _check(self) -> bool:
+        """Refuse a folder that holds another study or is not a study folder (reading only);
+        True when it holds this study already."""
         path = self.path / DEFINITION_FILE
-        stamp = fingerprint(self.definition)
         if not path.exists():
             if any(self.path.iterdir()) and not self._only_lock():
                 raise StudyFolderError(
                     f"`folder`: {str(self.path)!r} is not empty and holds no {DEFINITION_FILE}: "
                     "it is not a study folder; give a new or empty folder"
                 )
-            content = {"format": FORMAT, "fingerprint": stamp, "definition": self.definition}
-            _write_bytes(path, (json.dumps(content, indent=1, sort_keys=True) + "\n").encode())
-            return
+            return False
         saved = read_definition(self.path)
+        stamp = fingerprint(self.definition)
         if saved["fingerprint"] == stamp:
-            return
+            return True
         changed = _differences(saved["definition"], json.loads(json.dumps(self.definition)))
         shown = "; ".join(
             f"{key}: {_describe(_lookup(saved['definition'], key))} in the folder, "
@@ -208,8 +230,54 @@ class StudyFolder:
             "this one to start over"
         )
 
+    def _check_or_create(self) -> None:
+        if self._check():
+            return
+        content = {
+            "format": FORMAT,
+            "fingerprint": fingerprint(self.definition),
+            "definition": self.definition,
+        }
+        path = self.path / DEFINITION_FILE
+        _write_bytes(path, (json.dumps(content, indent=1, sort_keys=True) + "\n").encode())
+
     def _only_lock(self) -> bool:
+        """The folder holds nothing but an earlier version's lock file."""
         return [p.name for p in self.path.iterdir()] == [LOCK_FILE]
+
+    def _set_damaged_aside(self) -> list[str]:
+        """Records that cannot be read, and solved points whose solution file cannot, moved
+        aside (``<name>.damaged``) so that their points are solved again; their paths."""
+        damaged = []
+        for record in sorted((self.path / POINTS).glob("*.npz")):
+            if record.name.startswith("."):
+                continue
+            problem = _damage(record, ("row",))
+            solution = self.solution_path(record.stem)
+            if problem is None:
+                try:
+                    with np.load(record, allow_pickle=False) as data:
+                        solved = bool(json.loads(str(data["row"])).get("success"))
+                except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError):
+                    solved = False
+                if solved:
+                    trouble = _damage(solution, ("time", "states", "controls"))
+                    if trouble is not None:
+                        problem = f"its solution {solution.name}: {trouble}"
+            if problem is None:
+                continue
+            for path in (record, solution):
+                if path.exists():
+                    os.replace(path, path.with_name(path.name + DAMAGED))
+            logger.warning(
+                "study record %s cannot be read (%s): moved aside as %s, its point is solved "
+                "again",
+                record,
+                problem,
+                record.name + DAMAGED,
+            )
+            damaged.append(str(record))
+        return damaged
 
     def _remove_temporary_files(self) -> None:
         for folder in (self.path, self.path / POINTS, self.path / SOLUTIONS):
@@ -262,6 +330,38 @@ class StudyFolder:
         return write_table(self.path / TABLE_FILE, rows, axes)
 
 
+def _damage(path: Path, keys: Sequence[str]) -> str | None:
+    """Why an NPZ file cannot be read (missing, not a zip, cut short, without ``keys``), or
+    None when it reads."""
+    if not path.exists():
+        return "missing"
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            for key in keys:
+                np.asarray(data[key])
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
+        return f"{type(exc).__name__}: {exc}"
+    return None
+
+
+#: Lock descriptors this process holds; a forked child closes them (os.register_at_fork) so
+#: that the lock stays the coordinating process's alone.
+_HELD: set[int] = set()
+
+
+def _close_inherited_locks() -> None:
+    # Closing the child's copy only: unlocking would release the parent's lock too (one
+    # open file description).
+    for descriptor in list(_HELD):
+        with contextlib.suppress(OSError):
+            os.close(descriptor)
+    _HELD.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_close_inherited_locks)
+
+
 def read_definition(folder: str | os.PathLike) -> dict[str, Any]:
     """study.json of a study folder: {"format", "fingerprint", "definition"}."""
     path = Path(os.fspath(folder)) / DEFINITION_FILE
@@ -292,7 +392,7 @@ def read_rows(
         try:
             with np.load(path, allow_pickle=False) as data:
                 row = json.loads(str(data["row"]))
-        except (OSError, ValueError, KeyError) as exc:
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as exc:
             raise StudyFileError(f"{str(path)!r}: not a study point record ({exc})") from exc
         rows[path.stem] = row
     return rows
