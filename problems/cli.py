@@ -466,7 +466,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="absolute tolerance of cvodes/idas, rad and rad/s, in [1e-14, 1) (default: 1e-10)",
     )
     simulate.add_argument(
-        "--steps",
+        "--substeps",
         type=_count,
         default=8,
         help="finite elements per integration interval for rk/collocation; an interval "
@@ -787,27 +787,14 @@ def _save(trajectory, folder: Path, stem: str, formats) -> list[Path]:
     return paths
 
 
-def _output_folder(text: str) -> Path:
-    """The folder of --output-dir, checked now and created only when there are results to
-    write (:func:`_created`), so that a run that fails leaves nothing on disk."""
-    folder = Path(text)
-    if folder.exists() and not folder.is_dir():
-        raise UsageError(f"--output-dir: {text!r} exists and is not a folder")
-    existing = folder.absolute()
-    while not existing.exists():
-        existing = existing.parent
-    if not existing.is_dir():  # a file where a parent folder would go
-        raise UsageError(f"--output-dir: cannot create {text!r}: Not a directory")
-    return folder
-
-
-def _created(folder: Path) -> Path:
-    """``folder``, created now (with its parents) if it does not exist."""
+def _output_set(text: str, command: str) -> OutputSet:
+    """The output folder of --output-dir as a set of files (:class:`OutputSet`): checked now
+    (a new or empty folder, or an earlier run of the same command, whose files the run
+    replaces as a set), written only when the run has results, nothing left on failure."""
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UsageError(f"--output-dir: cannot create {str(folder)!r}: {exc.strerror}") from exc
-    return folder
+        return OutputSet(Path(text), command)
+    except OutputFolderError as error:
+        raise UsageError(str(error)) from None
 
 
 def _check_samples(count: int, force: bool, asked: str, fix: str, result: str) -> None:
@@ -871,12 +858,14 @@ def _cmd_torques(args, out: TextIO, report: Reporter) -> int:
             f"gait law {law.name!r} drives {law.n} links but preset {args.preset!r} has "
             f"{linkage.n}; give --zeta-rad, --varpi-rad and --center-rad with {linkage.n} values"
         )
-    folder = _output_folder(args.output_dir)
-    with report.working(f"torques along {law.name!r}: {count} samples over {duration:g} s"):
-        trajectory = torques_along(dynamics, law, np.linspace(0.0, duration, count))
-        written = _save(trajectory, _created(folder), "torques", args.formats)
-    if not args.no_plots:
-        written += _write_plots(dynamics, trajectory, folder, "torques", True, args.gif, report)
+    output = _output_set(args.output_dir, "torques")
+    with output:
+        with report.working(f"torques along {law.name!r}: {count} samples over {duration:g} s"):
+            trajectory = torques_along(dynamics, law, np.linspace(0.0, duration, count))
+            _save(trajectory, output.staging, "torques", args.formats)
+        if not args.no_plots:
+            _write_plots(dynamics, trajectory, output.staging, "torques", True, args.gif, report)
+        written = output.commit({"argv": list(sys.argv[1:])})
     print(str(law), file=out)
     peak = np.max(np.abs(np.asarray(trajectory.torques)), axis=0)
     print(
@@ -980,7 +969,7 @@ _SIMULATE_OPTIONS = {
     "method": "--method",
     "rtol": "--rtol",
     "atol": "--atol",
-    "steps": "--steps",
+    "steps": "--substeps",
     "rate_hz": "--rate-hz",
     "t_span": "--t-end-s",
     "interpolation": "--interpolation",
@@ -991,7 +980,7 @@ _SIMULATE_OPTIONS = {
 _FAILURE_WORDS = (
     ("shorten t_span", "lower --t-end-s"),
     ("rtol/atol", "--rtol/--atol"),
-    ("raise steps", "raise --steps"),
+    ("raise steps", "raise --substeps"),
 )
 
 
@@ -1030,24 +1019,24 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
         # One interval per file sample, output time and 10 ms at most (an upper estimate).
         in_span = int(np.count_nonzero((time_grid >= t0) & (time_grid <= t_end)))
         intervals = in_span + samples + math.ceil((t_end - t0) / 0.01)
-        elements = intervals * args.steps
+        elements = intervals * args.substeps
         seconds = elements * SECONDS_PER_ELEMENT[args.method]
         if seconds > LIMIT_SECONDS and not args.force:
             raise UsageError(
-                f"--steps {args.steps} with --method {args.method} over up to {intervals:,} "
+                f"--substeps {args.substeps} with --method {args.method} over up to {intervals:,} "
                 f"integration intervals is {elements:,} finite elements, about "
-                f"{seconds:,.0f} s here (more than {LIMIT_SECONDS:g} s); give fewer --steps "
+                f"{seconds:,.0f} s here (more than {LIMIT_SECONDS:g} s); give fewer --substeps "
                 "or a shorter --t-end-s, or add --force to run it"
             )
     warning = _node_samples_warning(profile, args.torque_file, args.interpolation)
     if warning is not None:
         report.warn(warning)
-    folder = _output_folder(args.output_dir)
+    output = _output_set(args.output_dir, "simulate")
     dynamics = linkage.dynamics()
     x0 = np.concatenate([np.asarray(profile.psi)[0], np.asarray(profile.dpsi)[0]])
     try:
         # Progress comes after each block of intervals; a heartbeat fills the silence when a
-        # block takes long (many --steps, a stiff stretch for cvodes).
+        # block takes long (many --substeps, a stiff stretch for cvodes).
         with report.working(f"simulating with {args.method} over [{t0:g}, {t_end:g}] s"):
             result = simulate(
                 dynamics,
@@ -1058,7 +1047,7 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
                 method=args.method,
                 rtol=args.rtol,
                 atol=args.atol,
-                steps=args.steps,
+                steps=args.substeps,
                 interpolation=args.interpolation,
                 progress=report.progress,
             )
@@ -1069,9 +1058,11 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
         for words, option_words in _FAILURE_WORDS:
             message = message.replace(words, option_words)
         raise CommandFailed(message) from exc
-    written = _save(result, _created(folder), "simulated", args.formats)
-    if not args.no_plots:
-        written += _write_plots(dynamics, result, folder, "simulated", False, False, report)
+    with output:
+        _save(result, output.staging, "simulated", args.formats)
+        if not args.no_plots:
+            _write_plots(dynamics, result, output.staging, "simulated", False, False, report)
+        written = output.commit({"argv": list(sys.argv[1:])})
     states, _ = profile.at(np.asarray(result.time))
     reference = np.asarray(states)[:, : linkage.n]
     deviation = np.max(np.abs(np.asarray(result.psi) - reference), axis=1)
@@ -1087,7 +1078,7 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
             "deviation from the file's angles exceeds 1e-6 rad at "
             f"t = {result.time[above[0]]:.3f} s "
             "(bounded by the integration error and, for an unstable motion, by its growth; "
-            "--method rk with more --steps or tighter --rtol/--atol move it)",
+            "--method rk with more --substeps or tighter --rtol/--atol move it)",
             file=out,
         )
         rate = fit_growth_rate(result.time, deviation, FIT_WINDOW)
@@ -1198,10 +1189,7 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         raise UsageError("--foot-heel-m, --foot-toe-m: the sole must be longer than 0 m; for a "
                          "point foot give --passive-ankle")  # fmt: skip
     linkage = _linkage(args.preset)
-    try:
-        output = OutputSet(Path(str(args.output_dir or _new_folder("walk"))), "walk")
-    except OutputFolderError as error:
-        raise UsageError(str(error)) from None
+    output = _output_set(str(args.output_dir or _new_folder("walk")), "walk")
     report.step(f"defining the walking step of {args.preset} ({linkage.n} links)")
     extra = {}
     if sole[0] is not None:
@@ -1266,10 +1254,13 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         chosen = ACCURACY_PRESETS[preset]
         scheme += f" (accuracy {preset}: tol {chosen.tol:g}, stated torque error <= "
         scheme += f"{chosen.torque_error:g} N m)"
+    # The mesh solved first (the refinement's last, or the one asked for); the limits held
+    # between the points may cut intervals of it (said below).
+    planned = history.sizes[-1] if history is not None else step.ocp.N
     print(
         f"walking step of {args.preset}: {step.step_length:g} m in {step.step_time:g} s "
-        f"({step.speed:.3g} m/s){phases}, {scheme} N = {single.N}"
-        + ("" if single.mesh.uniform else " (refined mesh)")
+        f"({step.speed:.3g} m/s){phases}, {scheme} N = {planned}"
+        + (" (refined mesh)" if history is not None else "")
         + f", {args.formulation}",
         file=out,
     )
@@ -1299,7 +1290,7 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
             "they hold without a re-solve"
             if not again
             else f"{raised} interval bounds backed off"
-            + (f", {split} intervals cut in two" if split else "")
+            + (f", {split} intervals cut in two (N = {single.N})" if split else "")
             + f" in {len(again)} warm re-solve{'s' if len(again) > 1 else ''} "
             f"({sum(r['iterations'] for r in again)} iterations, "
             f"{sum(r['build_seconds'] + r['solve_seconds'] for r in again):.3f} s)"

@@ -37,6 +37,7 @@ from planner.solution import Solution
 from planner.solver import solve
 from planner.trajectory import Trajectory
 from planner.transcription import Transcription
+from problems.accuracy import refine_gait
 from problems.verification import GaitReport, verify_gait
 
 OBJECTIVES = ("torque", "torque-rate", "work")
@@ -83,7 +84,7 @@ def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=
         # The refinement reached its target with the first solve; the limits held between
         # the points moved the solution: its accuracy is measured again, and the history
         # says whether the held plan still meets the target.
-        error = scaled_integration_error(held)
+        error = check_accuracy_of(held, None)["error"]
         held.stats["error_after_limits"] = error
         if history.reached and error > history.target:
             history = dataclasses.replace(
@@ -94,6 +95,21 @@ def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=
     if history is not None:
         held.stats["refinement"] = history
     return held
+
+
+def refine_and_hold(problem, target: float, options: dict, hold: bool, rate_hz, pinned=()):
+    """A gait problem's ``solve(accuracy=target)``: the mesh refined to the target
+    (:func:`problems.accuracy.refine_gait`), the limits held on the exported motion (when
+    ``hold``), the accuracy of the plan that comes out measured once (and warned about).
+    Returns (solution, the OCP on the refined mesh)."""
+    options = dict(options)
+    warning = options.pop("accuracy_warning", ACCURACY_WARNING)
+    solution, final = refine_gait(problem, target, options)
+    if hold:
+        solution = hold_limits(final, solution, rate_hz, options, pinned)
+    if solution.success:
+        check_accuracy_of(solution, warning)
+    return solution, final
 
 
 def solve_and_hold(problem, options: dict, hold: bool, rate_hz, pinned=()):
@@ -121,17 +137,6 @@ def total_iterations(solution) -> int:
     if held is None:
         return solution.iterations
     return int(sum(r["iterations"] for r in held["rounds"]))
-
-
-def scaled_integration_error(solution) -> float:
-    """The largest per-interval re-integration error per nominal state scale over every
-    phase (the units of ``accuracy=``)."""
-    phases = solution.phases if isinstance(solution, PhasesSolution) else [solution]
-    worst = 0.0
-    for phase in phases:
-        scales = np.array([phase.ocp.variable_scale(n) for n in phase.state_names])
-        worst = max(worst, float(np.max(phase.integration_error().per_interval / scales)))
-    return worst
 
 
 def check_objective(objective: str) -> str:
@@ -430,7 +435,8 @@ __all__ = [
     "keep_upright",
     "objective_at_guess",
     "objective_integrand",
+    "refine_and_hold",
     "solve_and_hold",
-    "total_iterations",
     "torque_limits",
+    "total_iterations",
 ]

@@ -40,7 +40,7 @@ from model.linkage import Linkage
 from model.presets import six_link_anthropoid
 from planner.problem import OCP
 from planner.transcription import Transcription
-from problems.accuracy import refine_gait, resolve_mesh, solve_plan
+from problems.accuracy import resolve_mesh, solve_plan
 from problems.biped import Biped
 from problems.gait_law import GaitLaw
 from problems.gait_problem import (
@@ -52,10 +52,10 @@ from problems.gait_problem import (
     gait_ocp,
     keep_upright,
     objective_at_guess,
+    refine_and_hold,
     solve_and_hold,
     torque_limits,
 )
-from problems.gait_problem import hold_limits as hold_gait_limits
 
 #: Fractions of the period at which the swing foot follows the law by default.
 KEYPOINTS = (0.25, 0.5, 0.75)
@@ -133,9 +133,7 @@ class PeriodicGaitProblem:
             raise DefinitionTypeError(f"`ocp`: must be a planner.OCP, got {type(ocp).__name__}")
         remesh, target, options = solve_plan(accuracy, self.accuracy, options)
         if target is not None:
-            solution, final = refine_gait(ocp, target, options)
-            if hold_limits:
-                solution = hold_gait_limits(final, solution, rate_hz, options)
+            solution, final = refine_and_hold(ocp, target, options, hold_limits, rate_hz)
             return PeriodicGait(self, solution, self.law_cost(final))
         if remesh is not None:
             ocp = ocp.refine(**remesh.mesh(self.law.period))

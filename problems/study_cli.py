@@ -1,8 +1,8 @@
 """``python -m problems study``: a walking study from the command line (``problems.cli``
 dispatches here).
 
-    python -m problems study --step-length 0.3:0.7:9 --step-time 0.4:0.7:7
-    python -m problems study --step-length 0.3:0.7:9 --step-time 0.4:0.7:7 --workers 2
+    python -m problems study --step-length-m 0.3:0.7:9 --step-time-s 0.4:0.7:7
+    python -m problems study --step-length-m 0.3:0.7:9 --step-time-s 0.4:0.7:7 --workers 2
     python -m problems study ... --scheduler tcp://10.0.0.5:8786     # a Dask cluster
     python -m problems study ... --scheduler local                  # a Dask LocalCluster
 
@@ -38,6 +38,14 @@ from problems.study_result import StudyProgress, StudyResult
 from problems.study_schedule import ORDERINGS
 
 DEFAULT_FOLDER = "study_out"
+#: Most values one axis takes, and most points a study holds (each point a solve and a few
+#: files: 10,000 is hours on a laptop and ~1 GB of folder).
+MAX_VALUES = 1000
+MAX_POINTS = 10_000
+#: Most mesh intervals, IPOPT iterations per attempt and local workers.
+MAX_INTERVALS = 2000
+MAX_ITER = 100_000
+MAX_WORKERS = 256
 #: IPOPT iterations per attempt: a converging point takes 10-60 here; a failing one is
 #: stopped early (it is tried up to three times).
 DEFAULT_MAX_ITER = 500
@@ -60,6 +68,11 @@ def value_list(unit: str, upper: float = math.inf, zero: bool = False):
                 if count < 1 or (count == 1 and start != stop):
                     raise argparse.ArgumentTypeError(
                         f"{text!r}: the count must be >= 2 for a range (or give one value)"
+                    )
+                if count > MAX_VALUES:
+                    raise argparse.ArgumentTypeError(
+                        f"{text!r}: at most {MAX_VALUES:,} values on an axis, got {count:,}; "
+                        "study a coarser grid first"
                     )
                 values = tuple(float(v) for v in np.linspace(start, stop, count))
             else:
@@ -112,13 +125,13 @@ def add_parser(commands, common: argparse.ArgumentParser) -> None:
         ),
     )
     study.add_argument(
-        "--step-length",
+        "--step-length-m",
         type=value_list("m", 2.0),
         metavar="SPEC",
         help="step lengths, m (default: 0.5; --quick: 0.4,0.5)",
     )
     study.add_argument(
-        "--step-time",
+        "--step-time-s",
         type=value_list("s", 10.0),
         metavar="SPEC",
         help="step times, s (default: 0.5; --quick: 0.45,0.5)",
@@ -175,25 +188,33 @@ def add_parser(commands, common: argparse.ArgumentParser) -> None:
     study.add_argument(
         "-N",
         "--intervals",
-        type=_count,
+        type=_count_at_most(
+            MAX_INTERVALS,
+            "intervals",
+            "a finer mesh belongs to 'walk --accuracy' for the points that need it",
+        ),
         default=None,
         metavar="N",
-        help="mesh intervals (default: 30, 12 with --quick)",
+        help=f"mesh intervals (default: 30, 12 with --quick; at most {MAX_INTERVALS:,})",
     )
     study.add_argument(
         "--max-iter",
-        type=_count,
+        type=_count_at_most(
+            MAX_ITER,
+            "IPOPT iterations",
+            "a point that needs more is a point to look at alone ('walk')",
+        ),
         default=DEFAULT_MAX_ITER,
         metavar="K",
-        help=f"IPOPT iterations per attempt (default: {DEFAULT_MAX_ITER})",
+        help=f"IPOPT iterations per attempt (default: {DEFAULT_MAX_ITER}, at most {MAX_ITER:,})",
     )
     study.add_argument(
         "--workers",
-        type=_count,
+        type=_count_at_most(MAX_WORKERS, "workers", "a cluster takes more: --scheduler"),
         default=None,
         metavar="N",
         help=f"worker processes (default: one per core, here "
-        f"{available_cores()}); 1 solves in this process",
+        f"{available_cores()}); 1 solves in this process; at most {MAX_WORKERS}",
     )
     study.add_argument(
         "--scheduler",
@@ -230,8 +251,8 @@ def add_parser(commands, common: argparse.ArgumentParser) -> None:
 def _axes_and_fixed(args) -> tuple[dict[str, tuple], dict[str, Any]]:
     default = ((0.4, 0.5), (0.45, 0.5)) if args.quick else ((0.5,), (0.5,))
     axes: dict[str, tuple] = {
-        "step_length": args.step_length or default[0],
-        "step_time": args.step_time or default[1],
+        "step_length": args.step_length_m or default[0],
+        "step_time": args.step_time_s or default[1],
     }
     fixed: dict[str, Any] = {}
     for name, values in (
@@ -381,9 +402,27 @@ def summary(result: StudyResult, out: TextIO) -> None:
         print(f"failed: {row['point']} ({where}): {row['status']}", file=out)
 
 
+def _count_at_most(maximum: int, what: str, fix: str):
+    """An argparse ``type``: an integer in [1, maximum]."""
+
+    def parse(text: str) -> int:
+        value = _count(text)
+        if value > maximum:
+            raise argparse.ArgumentTypeError(f"at most {maximum:,} {what}, got {value:,}; {fix}")
+        return value
+
+    return parse
+
+
 def command(args, out: TextIO, report) -> int:
     """Run ``python -m problems study``; returns the exit status."""
     axes, fixed = _axes_and_fixed(args)
+    points = math.prod(len(values) for values in axes.values())
+    if points > MAX_POINTS:
+        raise DefinitionError(
+            f"`axes`: the grid has {points:,} points, more than {MAX_POINTS:,}; study a "
+            "coarser grid first, or split the grid into several studies"
+        )
     study = Study(axes, fixed=fixed, ipopt={"max_iter": args.max_iter})
     spans = " x ".join(_span(name, values) for name, values in axes.items())
     report.step(
@@ -422,6 +461,20 @@ def command(args, out: TextIO, report) -> int:
         file=out,
     )
     summary(result, out)
+    flagged = [row["point"] for row in result.solved if row.get("accuracy_warning")]
+    if flagged:
+        report.warn(
+            f"{len(flagged)} solved points ({', '.join(flagged[:5])}"
+            f"{', ...' if len(flagged) > 5 else ''}) obey their dynamics only to more than "
+            "1% of a state's scale between the mesh points (the table's accuracy_warning): "
+            "refine the mesh with a larger -N"
+        )
+    damaged = result.run.get("damaged") or []
+    if damaged:
+        report.warn(
+            f"{len(damaged)} damaged records were moved aside (<name>.damaged) and their points "
+            f"solved again: {', '.join(damaged[:3])}{', ...' if len(damaged) > 3 else ''}"
+        )
     written = [result.folder / "results.csv"]
     if not args.no_plots:
         # matplotlib is imported only when plots are asked for.

@@ -41,6 +41,7 @@ from planner import (
     Trajectory,
     Transcription,
 )
+from planner.accuracy_check import ACCURACY_WARNING, check_accuracy_of
 from problems.gait_problem import total_iterations
 from problems.walking import WalkingGait, WalkingStep, walking_step
 
@@ -81,6 +82,14 @@ def _peak_friction_use(point: Measured) -> float:
     if not np.any(loaded):
         return math.nan
     return float(np.max(np.abs(fx[loaded]) / (point.gait.problem.mu * fy[loaded])))
+
+
+def _accuracy(point: Measured) -> dict[str, Any]:
+    measured = point.gait.solution.stats.get("accuracy") or check_accuracy_of(
+        point.gait.solution, None
+    )
+    threshold = measured.get("threshold") or ACCURACY_WARNING
+    return {"": measured["error"], "warning": bool(measured["error"] > threshold)}
 
 
 def _verification(point: Measured) -> dict[str, Any]:
@@ -133,9 +142,11 @@ OUTPUTS: dict[str, tuple[Callable[[Measured], Any], str, str]] = {
         "the heel strike's impulse on the landing foot (columns impulse_x, impulse_y)",
     ),
     "accuracy": (
-        lambda m: m.gait.solution.integration_error().max,
-        "rad, rad/s",
-        "largest per-interval re-integration error of the states (planner accuracy estimate)",
+        lambda m: _accuracy(m),
+        "of nominal scale",
+        "largest per-interval re-integration error per nominal state scale (the units of "
+        "accuracy=); accuracy_warning: it exceeds planner.ACCURACY_WARNING, the point's plan "
+        "obeys its dynamics poorly between the mesh points (refine its mesh)",
     ),
     "verified": (
         _verification,
@@ -286,8 +297,8 @@ def _outputs(spec: PointSpec, gait: WalkingGait, trajectory: Trajectory) -> dict
         if isinstance(value, Mapping):
             if name == "verified":
                 row.update(value)
-            else:
-                row.update({f"{name}_{key}": item for key, item in value.items()})
+            else:  # columns name_<key> ("" names the column itself)
+                row.update({f"{name}_{key}" if key else name: v for key, v in value.items()})
         else:
             row[name] = value.item() if isinstance(value, np.generic) else value
     return row
@@ -363,6 +374,11 @@ def solve_point(spec: PointSpec, task: Mapping[str, Any]) -> dict[str, Any]:
     row["solve_seconds"] = stats.get("solve_seconds")
     trajectory = gait.to_trajectory()
     row.update(_outputs(spec, gait, trajectory))
+    if row.get("accuracy_warning"):
+        notes.append(
+            f"accuracy warning: re-integration error {row['accuracy']:.2g} of a state's scale; "
+            "refine the mesh (N)"
+        )
     record = warm_record(gait.solution)
     data = trajectory_bytes(trajectory)
     row["notes"] = "; ".join(notes)

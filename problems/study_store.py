@@ -270,8 +270,7 @@ class StudyFolder:
                 if path.exists():
                     os.replace(path, path.with_name(path.name + DAMAGED))
             logger.warning(
-                "study record %s cannot be read (%s): moved aside as %s, its point is solved "
-                "again",
+                "study record %s cannot be read (%s): moved aside as %s, its point is solved again",
                 record,
                 problem,
                 record.name + DAMAGED,

@@ -67,7 +67,7 @@ from model.linkage import Linkage
 from model.presets import six_link_anthropoid
 from planner.problem import OCP, Phases
 from planner.transcription import Transcription
-from problems.accuracy import refine_gait, resolve_mesh, solve_plan
+from problems.accuracy import resolve_mesh, solve_plan
 from problems.biped import Biped
 from problems.gait_law import GaitLaw
 from problems.gait_problem import (
@@ -79,10 +79,10 @@ from problems.gait_problem import (
     gait_ocp,
     keep_upright,
     objective_at_guess,
+    refine_and_hold,
     solve_and_hold,
     torque_limits,
 )
-from problems.gait_problem import hold_limits as hold_gait_limits
 
 #: The largest part of the weight on the rear foot when a double support ends.
 UNLOADED = 0.05
@@ -285,9 +285,9 @@ class WalkingStep:
                     " or the mesh (N) instead"
                 )
             if target is not None:
-                solution, final = refine_gait(problem, target, options)
-                if hold_limits:
-                    solution = hold_gait_limits(final, solution, rate_hz, options, PINNED)
+                solution, final = refine_and_hold(
+                    problem, target, options, hold_limits, rate_hz, PINNED
+                )
                 return WalkingGait(self, solution, self.law_cost(final))
             ocp = problem.refine(**remesh.mesh(self.single_support_time))
         transcription = self._transcription(ocp)

@@ -1,6 +1,7 @@
 """The command line, in process through problems.__main__.main(argv), plus one real subprocess."""
 
 import functools
+import json
 import os
 import re
 import subprocess
@@ -86,7 +87,10 @@ def test_the_command_line_offers_the_trajectory_formats(capsys, tmp_path):
         listed,
     )
     assert code == 0, err
-    assert sorted(p.suffix for p in tmp_path.iterdir()) == sorted(TRAJECTORY_FORMATS)
+    # every format, the CSV's sidecar, and the manifest of the set the run wrote
+    names = sorted(p.name for p in tmp_path.iterdir())
+    expected = [f"torques{suffix}" for suffix in TRAJECTORY_FORMATS]
+    assert names == sorted([*expected, "torques.csv.meta.json", "manifest.json"])
     for suffix in TRAJECTORY_FORMATS:
         assert Trajectory.load(tmp_path / f"torques{suffix}").n_samples == 6
     for command in ("torques", "simulate"):
@@ -126,7 +130,7 @@ def test_the_command_line_offers_the_trajectory_formats(capsys, tmp_path):
                 "--method",
                 "--rtol",
                 "--atol",
-                "--steps",
+                "--substeps",
                 "--t-end-s",
                 "--rate-hz",
                 "--interpolation",
@@ -320,7 +324,7 @@ def test_simulate_says_it_still_runs_between_progress_reports(monkeypatch, tmp_p
         return real(*args, progress=recorded, **options)
 
     monkeypatch.setattr(cli, "simulate", slow_simulate)
-    code = main(["simulate", str(profile_files / "torques.csv"), "--method", "rk", "--steps",
+    code = main(["simulate", str(profile_files / "torques.csv"), "--method", "rk", "--substeps",
                  "400", "--no-plots", "--output-dir", str(tmp_path)])  # fmt: skip
     lines = stream.getvalue().splitlines()
     assert code == 0, lines
@@ -388,7 +392,7 @@ def test_simulate_bad_files(capsys, tmp_path, profile_files):
         "5",
         *out_dir,
     )
-    assert_one_line_error(capsys, r"--steps: must be >= 1", "simulate", good, "--steps", "0")
+    assert_one_line_error(capsys, r"--substeps: must be >= 1", "simulate", good, "--substeps", "0")
     assert_one_line_error(
         capsys, r"unknown preset 'nope'", "simulate", good, "--preset", "nope", *out_dir
     )
@@ -605,7 +609,7 @@ def test_simulate_fixed_step_failure_is_one_line(capfd, tmp_path, method):
     assert code == 1, captured.err
     assert re.fullmatch(
         rf"{PROG} simulate: error: integrator '{method}' failed between t = 0 s and t = 0.01 s: "
-        r"[^\n]*; lower --t-end-s or raise --steps\n",
+        r"[^\n]*; lower --t-end-s or raise --substeps\n",
         captured.err,
     ), captured.err[:2000]
 
@@ -636,8 +640,9 @@ def planner_files(tmp_path_factory):
 
 def test_simulate_warns_about_a_planner_solution_saved_at_its_nodes(capsys, planner_files):
     common = ["--preset", "exoskeleton-leg", "--no-plots", "-q"]
+    out_dir = planner_files / "out"  # a folder of its own: the inputs' is not simulate's
     code, _out, err = run(
-        capsys, "simulate", planner_files / "nodes.csv", *common, "--output-dir", planner_files
+        capsys, "simulate", planner_files / "nodes.csv", *common, "--output-dir", out_dir
     )
     assert code == 0
     lines = err.strip().splitlines()
@@ -649,7 +654,7 @@ def test_simulate_warns_about_a_planner_solution_saved_at_its_nodes(capsys, plan
         lines[0],
     ), lines[0]
     code, _out, err = run(
-        capsys, "simulate", planner_files / "resampled.csv", *common, "--output-dir", planner_files
+        capsys, "simulate", planner_files / "resampled.csv", *common, "--output-dir", out_dir
     )
     assert code == 0
     assert re.fullmatch(
@@ -660,7 +665,7 @@ def test_simulate_warns_about_a_planner_solution_saved_at_its_nodes(capsys, plan
     ), err
     # the same solution through its own interpolant at 1 kHz: no warning
     code, _out, err = run(
-        capsys, "simulate", planner_files / "fine.csv", *common, "--output-dir", planner_files
+        capsys, "simulate", planner_files / "fine.csv", *common, "--output-dir", out_dir
     )
     assert code == 0 and err == ""
     code, out, _ = run(capsys, "simulate", "--help")
@@ -826,25 +831,25 @@ def test_long_runs_need_force_and_the_largest_are_refused(capsys, tmp_path, prof
     profile = profile_files / "torques.csv"  # 0.3 s at 1 kHz: 300 intervals and more
     line = assert_one_line_error(
         capsys,
-        r"--steps 1000000000 with --method rk over up to 362 integration intervals is "
+        r"--substeps 1000000000 with --method rk over up to 362 integration intervals is "
         r"362,000,000,000 finite elements, about 2,172,000 s here \(more than 60 s\); give "
-        r"fewer --steps or a shorter --t-end-s, or add --force to run it",
+        r"fewer --substeps or a shorter --t-end-s, or add --force to run it",
         "simulate",
         profile,
         "--method",
         "rk",
-        "--steps",
+        "--substeps",
         "1000000000",
     )
     assert "collocation" not in line
     assert_one_line_error(
         capsys,
-        r"--steps 2000 with --method collocation .* about 145 s here",
+        r"--substeps 2000 with --method collocation .* about 145 s here",
         "simulate",
         profile,
         "--method",
         "collocation",
-        "--steps",
+        "--substeps",
         "2000",
     )
     assert_one_line_error(
@@ -919,8 +924,20 @@ def test_walk_quick_writes_the_torques_the_solution_and_the_pictures(walk_run):
     law = re.search(r"same mesh: ([\d.e+]+) \(", out)
     cost = re.search(r"cost \(integral of sum M_i\^2, N\^2 m\^2 s\): ([\d.e+]+);", out)
     assert float(cost.group(1)) < float(law.group(1))
-    assert "verification: all 12 checks passed" in out
+    # the file read back is what is verified, check by check
+    assert re.search(
+        r"verification of torques.csv \(501 samples, numpy, independent of the planner\): all "
+        r"\d+ checks passed",
+        out,
+    )
+    for check in ("dynamics", "kinematics", "rates", "ground", "centre of pressure", "clearance"):
+        assert re.search(rf"\n  ok   {check} +[-+]\d", out), check
+    assert re.search(r"its torques are the inverse dynamics of its own motion to \d", out)
     assert re.search(r"accuracy: largest per-interval re-integration error", out)
+    # --quick's 12 intervals obey the dynamics to 2 % of a rate's scale: a warning names the fix
+    assert re.search(r"warning: the plan obeys its dynamics only to .* -N", err)
+    manifest = json.loads((folder / "manifest.json").read_text())
+    assert manifest["command"] == "walk" and "torques.csv" in manifest["files"]
     # Progress lines on stderr for the stages, the GIF among them.
     assert "solving with IPOPT" in err and "writing walk.gif" in err
     # The torque file is a 1 kHz profile of one step with the gait's settings, readable by
@@ -1015,7 +1032,10 @@ def test_walk_accuracy_refines_to_a_target_and_prints_its_passes(capsys, tmp_pat
     assert float(line.group(3)) == pytest.approx(float(line.group(1)) / scale, rel=0.01)
     assert float(line.group(3)) <= 1e-2
     profile = Trajectory.load(tmp_path / "refined" / "solution.npz")
-    assert profile.n_samples == N + 1
+    final = profile.metadata["N"]  # the refined mesh, cut further where a limit needed it
+    assert profile.n_samples == final + 1 and final >= N
+    cut = re.search(r"intervals cut in two \(N = (\d+)\)", out)
+    assert final == (int(cut.group(1)) if cut else N)
 
 
 def test_walk_accuracy_target_missed_fails_with_status_1_and_writes_nothing(
