@@ -8,9 +8,10 @@ and nothing of a run that failed (:meth:`OutputSet.discard`, or the context mana
 exception, removes the staging folder and any parent folder it created).
 
 Which folders a run may take: a new or empty folder, or one holding an earlier run of the
-same command (its manifest says so), whose files the new run replaces as a set. Any other
-non-empty folder is refused before the run computes anything (:class:`OutputFolderError`,
-naming what is there): a command never writes beside files it did not write.
+same command and nothing else (its manifest lists every file), whose files the new run
+replaces as a set. Any other non-empty folder is refused before the run computes anything
+(:class:`OutputFolderError`, naming what is there): a command never writes beside files it
+did not write, nor removes them.
 """
 
 from __future__ import annotations
@@ -61,13 +62,22 @@ def check_folder(folder: Path, command: str, option: str = "--output-dir") -> No
     manifest = _manifest(folder)
     if manifest is None or manifest.get("command") != command:
         owner = "no manifest" if manifest is None else f"the output of {manifest.get('command')!r}"
-        shown = ", ".join(contents[:4]) + (f" and {len(contents) - 4} more" if len(contents) > 4
-                                           else "")  # fmt: skip
         raise OutputFolderError(
-            f"{option}: {str(folder)!r} is not empty ({shown}) and is not an earlier "
-            f"{command!r} run's folder ({owner}); a run replaces only its own command's "
-            "files: give a new or empty folder"
+            f"{option}: {str(folder)!r} is not empty ({_listed(contents)}) and is not an "
+            f"earlier {command!r} run's folder ({owner}); a run replaces only its own "
+            "command's files: give a new or empty folder"
         )
+    others = [name for name in contents if name not in {*manifest.get("files", ()), MANIFEST}]
+    if others:
+        raise OutputFolderError(
+            f"{option}: {str(folder)!r} holds an earlier {command!r} run and files it did not "
+            f"write ({_listed(others)}); a run replaces only its own files: move those away or "
+            "give another folder"
+        )
+
+
+def _listed(names: list[str]) -> str:
+    return ", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else "")
 
 
 class OutputSet:

@@ -1,0 +1,133 @@
+"""planner.sampled_limits and OCP.back_off: limits that hold at every exported sample.
+
+Oracles: the exported files themselves (every sample against the bounds, at the rate held
+and at others), the Newton-Euler inverse dynamics of the exported motion, and the NLP's own
+row bounds for the back-off.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+from reference import newton_euler as ne
+
+from model import DefinitionError, presets
+from planner import OCP, SampleLimitError, Transcription, hold_at_samples, sample_misses, solve
+from problems import walking_step
+
+CHAIN = presets.n_link_chain(2)
+DOWN = -np.pi / 2
+LIMIT = 8.0  # N m: active over arcs of the swing (its motion needs 8.9 N m between points)
+
+
+def swing(N=12):
+    return (
+        OCP(CHAIN.dynamics(), T=1.5, N=N)
+        .initial(psi=[DOWN, DOWN], dpsi=0.0)
+        .final(psi=[DOWN + 1.0, DOWN + 1.5], dpsi=0.0)
+        .bound("M", -LIMIT, LIMIT)
+        .minimize(integral=lambda p: ca.sumsqr(p.M))
+        .guess(t=[0.0, 1.5], psi=[[DOWN, DOWN], [DOWN + 1.0, DOWN + 1.5]])
+    )
+
+
+def _worst_torque(solution, rate_hz):
+    trajectory = solution.to_trajectory(rate_hz)
+    oracle = ne.inverse_dynamics(CHAIN, trajectory.psi, trajectory.dpsi, trajectory.ddpsi)
+    np.testing.assert_allclose(trajectory.torques, oracle, atol=1e-9)
+    return float(np.abs(trajectory.torques).max())
+
+
+def test_a_bound_active_over_arcs_holds_at_every_rate_after_the_hold():
+    ocp = swing()
+    plain = ocp.solve(progress=False)
+    # the transcription holds |M| <= 12 at its points; its exported motion needs more
+    assert _worst_torque(plain, 1000.0) > LIMIT * (1 + 1e-4)
+    assert sample_misses(plain, 1000.0)
+    held = hold_at_samples(ocp, 1000.0, lambda p: solve(p, progress=False), plain)
+    record = held.stats["sampled_limits"]
+    assert record["rounds"][0]["worst"] > 1e-4 and len(record["rounds"]) >= 2
+    assert held.cost >= plain.cost - 1e-9  # backing off can only cost
+    for rate in (100.0, 1000.0, 7000.0):  # held at 1 kHz and between the samples
+        assert _worst_torque(held, rate) <= LIMIT * (1 + 1e-5), rate
+    assert sample_misses(held, 1000.0) == []
+    # backing off keeps the NLP (cutting an interval does not): a round after a back-off
+    # restarts IPOPT from the multipliers of the one before
+    rounds = record["rounds"]
+    if rounds[-2]["split"] == 0:
+        assert held.stats["warm_start"]
+    if not any(r["split"] for r in rounds):
+        assert held.nlp_signature == plain.nlp_signature
+    problem = record["problem"]
+    assert problem.margins  # the torque bounds backed off where the motion needed more
+    for name, lower, upper, at_ends in problem.margins:
+        assert name.startswith("M_link") and lower.shape == (problem.N, 1) and at_ends
+        assert 0 < max(lower.max(), upper.max()) < 0.2 * LIMIT
+
+
+def test_a_plan_without_misses_is_solved_once():
+    ocp = swing().bound("M", -200, 200)
+    plain = ocp.solve(progress=False)
+    calls = []
+
+    def counting(problem):
+        calls.append(problem)
+        return solve(problem, progress=False)
+
+    held = hold_at_samples(ocp, 1000.0, counting, plain)
+    assert held is plain and calls == []
+    assert held.stats["sampled_limits"]["rounds"] == [
+        {**held.stats["sampled_limits"]["rounds"][0], "raised": 0, "split": 0}
+    ]
+
+
+def test_rounds_run_out_loudly():
+    ocp = swing()
+    plain = ocp.solve(progress=False)
+    with pytest.raises(SampleLimitError, match=r"still miss .* after 0 re-solves") as caught:
+        hold_at_samples(ocp, 1000.0, lambda p: solve(p, progress=False), plain, max_rounds=0)
+    assert caught.value.solution is plain and caught.value.misses
+    assert caught.value.misses[0].name.startswith("bounds[M_link")
+
+
+def test_back_off_tightens_the_rows_at_the_intervals_points():
+    ocp = swing(N=4).constrain("lean", lambda p: p.psi[1] - p.psi[0], lower=-2.0, upper=2.0)
+    margins = np.array([[0.0], [0.1], [0.2], [0.0]])
+    backed = ocp.back_off("lean", upper=margins).back_off("M_link2", lower=np.full(4, 1.0))
+    plain, tight = Transcription(ocp), Transcription(backed)
+    assert plain.signature == tight.signature
+    rows = [i for i, n in enumerate(tight.g_names) if n.startswith("path[lean]")]
+    upper = tight.ubg[rows] * tight.g_scale[rows]
+    # Hermite-Simpson: node 0, midpoint 0, node 1 (intervals 0 and 1: the larger), ...
+    expected = 2.0 - np.array([0.0, 0.0, 0.1, 0.1, 0.2, 0.2, 0.2, 0.0, 0.0])
+    np.testing.assert_allclose(upper, expected)
+    columns = [i for i, n in enumerate(tight.w_names) if n.startswith("bound[M_link2]")]
+    lower = tight.lbx[columns] * tight.w_scale[columns]
+    np.testing.assert_allclose(lower, -LIMIT + 1.0)
+    # a refined mesh drops the margins (they belong to the intervals of this one)
+    assert backed.refine(N=8).margins == ()
+
+
+def test_back_off_refuses_what_it_cannot_do():
+    ocp = swing(N=4).constrain("pin", lambda p: p.psi[0], lower=0.0, upper=0.0)
+    with pytest.raises(DefinitionError, match=r"no path constraint or variable called 'nope'"):
+        ocp.back_off("nope", upper=np.zeros(4))
+    with pytest.raises(DefinitionError, match=r"must have shape \(4, 1\)"):
+        ocp.back_off("M_link1", upper=np.zeros(3))
+    with pytest.raises(DefinitionError, match=r"margins must be >= 0"):
+        ocp.back_off("M_link1", upper=-np.ones(4))
+    with pytest.raises(DefinitionError, match=r"are equalities; an equality cannot be backed"):
+        ocp.back_off("pin", upper=np.ones(4))
+
+
+def test_the_walking_step_keeps_its_torques_within_the_limit_at_every_sample():
+    # The issue's case: a 0.8 m step whose torques.csv reached 153.5 N m against 150.
+    step = walking_step(step_length=0.8)
+    plain = step.solve(progress=False, hold_limits=False)
+    assert np.abs(plain.to_trajectory(1000.0).torques).max() > 150.5
+    gait = step.solve(progress=False)
+    for rate in (1000.0, 4000.0):
+        torques = gait.to_trajectory(rate).torques
+        assert np.abs(torques).max() <= 150.0 * (1 + 1e-6), rate
+        assert gait.verify(rate).ok
