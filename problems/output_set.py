@@ -67,7 +67,8 @@ def check_folder(folder: Path, command: str, option: str = "--output-dir") -> No
             f"earlier {command!r} run's folder ({owner}); a run replaces only its own "
             "command's files: give a new or empty folder"
         )
-    others = [name for name in contents if name not in {*manifest.get("files", ()), MANIFEST}]
+    listed = {*manifest.get("files", ()), MANIFEST}
+    others = [name for name in contents if name not in listed or not (folder / name).is_file()]
     if others:
         raise OutputFolderError(
             f"{option}: {str(folder)!r} holds an earlier {command!r} run and files it did not "

@@ -14,7 +14,7 @@ import problems.accuracy as problems_accuracy
 from model import equations, presets
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory
-from problems import ACCURACY_PRESETS, GaitLaw, torques_along
+from problems import ACCURACY_PRESETS, GaitLaw, torques_along, verify_gait
 from problems.__main__ import main
 
 PROG = "anthropoid-planner"
@@ -1086,3 +1086,111 @@ def test_walk_accuracy_bad_input(capsys):
         capsys, r"--accuracy: a refinement target needs a single support",
         "walk", "--accuracy", "1e-4", "--double-support-s", "0.1",
     )  # fmt: skip
+
+
+# ---- files that keep their promises, sizes bounded up front, one spelling per option -------
+def test_the_walk_file_reads_with_plain_readers_and_is_its_own_inverse_dynamics(walk_run):
+    import csv
+
+    _, _, _, folder = walk_run
+    path = folder / "torques.csv"
+    with open(path, newline="") as handle:
+        rows = list(csv.reader(handle))
+    assert rows[0][0] == "t [s]" and len(rows) == 1 + 501
+    assert all(len(row) == len(rows[0]) for row in rows)
+    named = np.genfromtxt(path, delimiter=",", names=True)
+    assert named.shape == (501,) and "F_stance_shank_start_y_N" in named.dtype.names
+    pandas = pytest.importorskip("pandas")
+    frame = pandas.read_csv(path)
+    assert frame.shape == (501, len(rows[0])) and "CoP_stance_shank_start_x [m]" in frame
+    # the file's torques against the oracle's inverse dynamics of the file's motion (--quick:
+    # its 12 intervals made the transcription's own torques 23 % off their motion)
+    profile = Trajectory.load(path)
+    oracle = ne_inverse_dynamics(profile)
+    assert np.abs(profile.torques - oracle).max() < 1e-9 * np.abs(oracle).max()
+    assert verify_gait(profile, presets.six_link_anthropoid()).ok
+
+
+def ne_inverse_dynamics(profile):
+    from reference import newton_euler
+
+    return newton_euler.inverse_dynamics(
+        presets.six_link_anthropoid(), profile.psi, profile.dpsi, profile.ddpsi
+    )
+
+
+def test_walk_refuses_sizes_it_cannot_make_before_it_starts(capsys, tmp_path):
+    folder = tmp_path / "big"
+    assert_one_line_error(capsys, r"--steps: at most 50 steps, got 1,000,000; the pictures",
+                          "walk", "--steps", "1000000", "--output-dir", folder)  # fmt: skip
+    assert_one_line_error(capsys, r"-N/--intervals: at most 2,000 intervals, got 100,000; refine",
+                          "walk", "-N", "100000", "--output-dir", folder)  # fmt: skip
+    assert_one_line_error(
+        capsys,
+        r"--rate-hz 100000 Hz x --step-time-s 10 s asks for 1,000,001 samples .*, more than "
+        r"200,000; lower --rate-hz, or add --force",
+        "walk", "--rate-hz", "1e5", "--step-time-s", "10", "--output-dir", folder,
+    )  # fmt: skip
+    assert not folder.exists()
+
+
+def test_one_spelling_per_option_and_no_prefixes(capsys):
+    # walk spells --step-length-m; its prefix --step-length is no option of walk
+    assert_one_line_error(capsys, r"unrecognized arguments: --step-length 0.5", "walk",
+                          "--step-length", "0.5")  # fmt: skip
+    # the study spells it the same way
+    assert_one_line_error(capsys, r"unrecognized arguments: --step-length 0.5", "study",
+                          "--step-length", "0.5")  # fmt: skip
+    code, out, _ = run(capsys, "study", "--help")
+    assert "--step-length-m" in out and "--step-time-s" in out
+    # simulate's finite elements per interval are --substeps (walk's --steps are steps drawn)
+    code, out, _ = run(capsys, "simulate", "--help")
+    assert code == 0
+    assert "--substeps" in out and "--steps" not in out.replace("--substeps", "")
+
+
+def test_walk_replaces_its_own_folder_as_a_set_and_refuses_others(capsys, tmp_path):
+    folder = tmp_path / "walk"
+    code, _, err = run(capsys, "walk", "--quick", "-q", "--no-gif", "--output-dir", folder)
+    assert code == 0, err
+    assert {"gait.png", "walk.png", "manifest.json"} <= {p.name for p in folder.iterdir()}
+    # the same folder again without pictures: the earlier pictures do not stay beside
+    code, _, err = run(capsys, "walk", "--quick", "-q", "--no-plots", "--output-dir", folder)
+    assert code == 0, err
+    names = sorted(p.name for p in folder.iterdir())
+    assert names == ["manifest.json", "solution.npz", "torques.csv", "torques.csv.meta.json",
+                     "torques.json"]  # fmt: skip
+    assert [p.name for p in tmp_path.iterdir()] == ["walk"]  # no staging folder left
+    # a folder of other files is refused before the solve, and left as it was
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("mine")
+    message = r"--output-dir: .* is not empty \(notes.txt\) and is not an earlier 'walk' run"
+    assert_one_line_error(capsys, message, "walk", "--quick", "--output-dir", foreign)
+    assert [p.name for p in foreign.iterdir()] == ["notes.txt"]
+    # a directory where a file of the set goes, in an earlier run's folder: refused too
+    (folder / "torques.csv").unlink()
+    (folder / "torques.csv").mkdir()
+    assert_one_line_error(capsys, r"files it did not write|is not empty", "walk", "--quick",
+                          "--output-dir", folder)  # fmt: skip
+
+
+def test_a_failed_write_leaves_nothing_of_the_new_run(capsys, tmp_path, monkeypatch):
+    from planner.trajectory import formats
+
+    folder = tmp_path / "walk"
+    code, _, err = run(capsys, "walk", "--quick", "-q", "--no-plots", "--output-dir", folder)
+    assert code == 0, err
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+
+    def full_disk(trajectory, handle):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setitem(formats._WRITERS, ".json", (full_disk, False))
+    code, _, err = run(capsys, "walk", "--quick", "-q", "--no-plots", "--output-dir", folder)
+    assert code == 1 and "No space left on device" in err
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before  # the earlier run
+    assert [p.name for p in tmp_path.iterdir()] == ["walk"]
+    code, _, err = run(capsys, "walk", "--quick", "-q", "--no-plots", "--output-dir",
+                       tmp_path / "new")  # fmt: skip
+    assert code == 1 and not (tmp_path / "new").exists()

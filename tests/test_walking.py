@@ -514,3 +514,108 @@ def test_double_support_gait_verifies_and_exports_one_step():
     assert np.min(front[trajectory.time > 0.4 + 1e-9]) > 0.0
     with pytest.raises(DefinitionError, match=r"`double_support`: must lie in \[0, step_time\)"):
         walking_step(double_support=0.5)
+
+
+# ---- a plan a robot can execute: the body above the ground, a sole, a decisive touchdown --
+def _samples(result, rate_hz=2000.0):
+    return result.to_trajectory(rate_hz)
+
+
+def test_every_point_of_the_body_stays_above_the_ground_at_every_sample():
+    # the oracle: every hinge and link end from the Newton-Euler oracle's hinge positions
+    for length in (0.5, 1.0):  # the default, and the step whose knees went under the ground
+        result = gait("six", step_length=length)
+        trajectory = _samples(result)
+        hinges = ne.hinge_positions(SIX, trajectory.psi)  # (K, n + 1): H0 then each end
+        swing_foot = 1 + SIX.index("swing_shank")
+        heights = np.delete(hinges.imag, [0, swing_foot], axis=1)
+        assert heights.min() >= -1e-6, (length, heights.min())
+    # the points and a margin are the user's to choose
+    raised = gait("six", ground_margin=0.3)
+    heights = ne.hinge_positions(SIX, _samples(raised).psi).imag
+    knees = [1 + SIX.index("stance_shank"), 1 + SIX.index("swing_thigh")]
+    assert heights[:, knees].min() >= 0.3 - 1e-6
+    step = walking_step(ground_points=("head",))
+    assert step.ground_points == ("head",)
+    with pytest.raises(DefinitionError, match=r"`ground_points`: 'swing_shank' ends in the swing"):
+        walking_step(ground_points=("swing_shank",))
+    with pytest.raises(DefinitionError, match=r"`ground_margin`: must be >= 0 m"):
+        walking_step(ground_margin=-0.1)
+
+
+def test_the_default_step_is_not_changed_by_the_ground_rows():
+    # the ground rows are inactive on the default step: the same optimum without them
+    without = walking_step(ground_points=()).solve(progress=False, hold_limits=False)
+    with_rows = walking_step().solve(progress=False, hold_limits=False)
+    assert with_rows.cost == pytest.approx(without.cost, rel=1e-7)
+
+
+def test_the_ankle_torque_keeps_its_centre_of_pressure_on_the_sole():
+    result = gait("six")
+    trajectory = _samples(result)
+    force = ne.ground_reaction(SIX, trajectory.psi, trajectory.dpsi, trajectory.ddpsi)
+    pressure = trajectory.torques[:, 0] / force.imag  # M / Fy from the ankle
+    heel, toe = result.problem.foot_sole
+    assert (heel, toe) == pytest.approx((0.05, 0.15))  # 0.86 m legs
+    assert pressure.min() >= -heel - 1e-6 and pressure.max() <= toe + 1e-6
+    # the file states it per sample
+    np.testing.assert_allclose(trajectory.extras["CoP_stance_shank_start_x"][0], pressure,
+                               rtol=1e-10, atol=1e-12)  # fmt: skip
+    low, high = result.centre_of_pressure(2000.0)
+    assert low == pytest.approx(pressure.min(), abs=1e-9)
+    # a shorter sole: the plan keeps its pressure on it
+    short = gait("six", foot=(0.02, 0.05))
+    short_pressure = short.centre_of_pressure(2000.0)
+    assert -0.02 - 1e-6 <= short_pressure[0] and short_pressure[1] <= 0.05 + 1e-6
+    assert short.cost > result.cost
+    with pytest.raises(DefinitionError, match=r"`foot`: heel and toe must be >= 0 m"):
+        walking_step(foot=(-0.1, 0.1))
+    with pytest.raises(DefinitionError, match=r"`foot`: give \(heel, toe\)"):
+        walking_step(foot=(0.1,))
+
+
+def test_the_landing_foot_comes_down_decisively():
+    # The grazing step: at most 1 mm up for the last 20 ms, coming down at 0.05-0.10 m/s, so
+    # that a millimetre of error moved the touchdown by 10-30 ms. Now: at least 0.3 m/s at
+    # heel strike, and above the line coming down at 0.3 m/s in the last instants.
+    grazing = gait("six", touchdown_speed=0.0)
+    result = gait("six")
+    for plan, decisive in ((grazing, False), (result, True)):
+        trajectory = _samples(plan, 5000.0)
+        foot = go.swing_foot(SIX, trajectory.psi)
+        left = trajectory.time[-1] - trajectory.time
+        velocity = plan.touchdown_velocity
+        if decisive:
+            assert velocity.imag <= -0.3 + 1e-6
+            window = left <= 0.02
+            assert np.all(
+                foot.imag[window]
+                >= 0.3 * left[window] * np.exp(-((left[window] / 0.03) ** 4)) - 1e-6
+            )
+            # a foot 1 mm low touches down within a few ms of T
+            early = left[np.flatnonzero(foot.imag >= 1e-3)[-1]]
+            assert early <= 0.004
+        else:
+            assert -0.15 < velocity.imag < 0.0
+            assert foot.imag[left <= 0.02].max() < 1.5e-3
+    # the touchdown's cost: a few percent
+    assert result.cost < 1.05 * grazing.cost
+    with pytest.raises(DefinitionError, match=r"`touchdown_speed`: the landing foot's downward"):
+        walking_step(touchdown_speed=-0.1)
+
+
+def test_the_defaults_follow_the_legs_in_any_units():
+    mm = walking_step(SIX.in_units(length=1e3, mass=1e3), 500.0, 0.5, clearance=50.0,
+                      torque_limit=150e9)  # fmt: skip
+    assert mm.touchdown_speed == pytest.approx(300.0)
+    assert mm.foot_sole == pytest.approx((50.0, 150.0))
+
+
+def test_contact_forces_are_named_after_their_contact():
+    single = gait("six").to_trajectory()
+    assert {"F_stance_shank_start_x", "F_stance_shank_start_y"} <= set(single.extras)
+    assert not any(name in single.extras for name in ("Fx", "Fy"))
+    double = walking_step(double_support=0.1, N=20).solve(progress=False).to_trajectory()
+    assert {"F_stance_shank_start_x", "F_swing_shank_end_x", "F_swing_shank_end_y"} <= set(
+        double.extras
+    )
