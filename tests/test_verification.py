@@ -77,8 +77,10 @@ TAMPERED = {
         lambda p: {"controls": p.controls + 10.0 * (np.array(SIX.names) == "torso")},
         {"dynamics"},
     ),
-    "torso and head swapped": (lambda p: {"controls": p.controls[:, [0, 1, 2, 3, 5, 4]]},
-                               {"dynamics"}),  # fmt: skip
+    "torso and head swapped": (
+        lambda p: {"controls": p.controls[:, [0, 1, 2, 3, 5, 4]]},
+        {"dynamics"},
+    ),
     "ddpsi x1.1": (
         lambda p: {
             "extras": {
@@ -98,10 +100,14 @@ TAMPERED = {
     ),
     "torques negated": (lambda p: {"controls": -p.controls}, {"dynamics"}),
     "half the samples": (
-        lambda p: {"time": p.time[::2], "states": p.states[::2], "controls": p.controls[::2],
-                   "extras": {k: (v[::2], u) for k, (v, u) in p.extras.items()}},
+        lambda p: {
+            "time": p.time[::2],
+            "states": p.states[::2],
+            "controls": p.controls[::2],
+            "extras": {k: (v[::2], u) for k, (v, u) in p.extras.items()},
+        },
         set(),
-    ),  # fmt: skip
+    ),
 }
 
 
