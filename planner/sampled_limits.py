@@ -45,9 +45,12 @@ from planner.solution import Solution
 
 logger = logging.getLogger(__name__)
 
-#: Largest miss of a row, as a fraction of its nominal scale (a torque bound of 150 N m with
-#: the gait's nominal 50 N m: 5e-5 N m; a clearance row of scale 0.05 m: 5e-8 m).
-TOLERANCE = 1e-6
+#: Largest miss of a row, as a fraction of its nominal scale (a torque bound with the gait's
+#: nominal 50 N m: 5e-6 N m; the knee range's scale 2.5 rad: 2.5e-7 rad; a clearance row of
+#: scale 0.05 m: 5e-9 m): ten times below the verification's tolerances (1e-6 of a rad, a
+#: metre, the torque limit or the weight) for rows whose scale is up to ten of those units,
+#: so that a plan held here passes it.
+TOLERANCE = 1e-7
 #: Points inside every mesh interval checked besides the export samples.
 DENSE_POINTS = 32
 #: Solves after the first before :func:`hold_at_samples` gives up.
@@ -65,9 +68,12 @@ SAFETY = 1.5
 #: instead of backing off (the motion and the plan part by much: the mesh is too coarse).
 SPLIT = 0.1
 #: A miss that a round of backing off leaves at this fraction of itself or more, and above
-#: STUCK_FLOOR times the tolerance, is stuck: its interval is cut in two.
+#: STUCK_FLOOR of the row's scale, is stuck: its interval is cut in two.
 STUCK = 0.5
-STUCK_FLOOR = 100.0
+STUCK_FLOOR = 1e-4
+#: Rounds in a row a miss must be stuck before its interval is cut (a first back-off may
+#: move a miss within its interval rather than remove it).
+STUCK_ROUNDS = 2
 #: From this round on (counting the first solve as 0), a stuck miss of any size is cut.
 PERSISTENT = 4
 #: Intervals a phase may reach by those cuts.
@@ -490,14 +496,14 @@ def hold_at_samples(
         check_positive("rate_hz", rate_hz, "Hz")
     tolerance = check_positive("tolerance", tolerance)
     rounds = []
-    previous: dict[tuple, np.ndarray] = {}
+    previous: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
     for round_index in range(max_rounds + 1):
         phases = _phases(solution)
         ocps = [phase.ocp for phase in phases]
         worst = -np.inf
         raised = refined = 0
         updated, new_edges = [], []
-        following: dict[tuple, np.ndarray] = {}
+        following: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         for phase, ocp in zip(phases, ocps, strict=True):
             if not phase.system.has_motion:
                 raise DefinitionError(
@@ -522,14 +528,16 @@ def hold_at_samples(
                     # backed off again.
                     missed = np.max(relative, axis=1)
                     key = (len(updated), block.name, side)
-                    before = previous.get(key)
+                    before, count = previous.get(key, (None, None))
+                    stuck = np.zeros(missed.shape, dtype=int)
                     if before is not None and before.shape == missed.shape:
                         # late in the rounds, any miss that came back is cut
-                        floor = 1.0 if round_index >= PERSISTENT else STUCK_FLOOR
-                        stuck = (missed > floor * tolerance) & (before > tolerance)
-                        stuck &= missed >= STUCK * before
-                        coarse.update(np.flatnonzero(stuck).tolist())
-                    following[key] = missed
+                        floor = tolerance if round_index >= PERSISTENT else STUCK_FLOOR
+                        now = (missed > floor) & (before > tolerance)
+                        now &= missed >= STUCK * before
+                        stuck = np.where(now, count + 1, 0)
+                        coarse.update(np.flatnonzero(stuck >= STUCK_ROUNDS).tolist())
+                    following[key] = (missed, stuck)
             if coarse and ocp.N + len(coarse) <= max_intervals:
                 # Misses this large say the mesh is too coarse there (the motion and the
                 # plan part by much): cut those intervals in two rather than back off.

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import io
+import logging
 import math
 import os
 import subprocess
@@ -37,12 +38,14 @@ from problems.study_cli import ProgressBar, value_list
 from problems.study_plots import FILES, cost_map_figure, save_plots
 from problems.study_point import (
     DEFINITION_FAILED,
+    WORKER_LOST,
     PointSpec,
     check_outputs,
     guess_from,
     trajectory_bytes,
     warm_record,
 )
+from problems.study_runner import MAX_LOSSES
 from problems.study_schedule import Schedule, choose_ordering
 from problems.study_store import (
     StudyFileError,
@@ -546,10 +549,16 @@ def test_command_line_study_runs_resumes_and_refuses_another(tmp_path, capsys):
     assert len(list((folder / "solutions").glob("p*.npz"))) == 4
     assert cli.main([*argv, "--no-plots"]) == 0
     assert "this run: nothing left to solve" in capsys.readouterr().out
-    assert cli.main([*argv, "--step-time", "0.4,0.5"]) == 2
+    assert cli.main([*argv, "--step-time-s", "0.4,0.5"]) == 2
     assert "holds another study (axes.step_time" in capsys.readouterr().err
-    assert cli.main(["study", "--step-length", "0.3:0.7"]) == 2
+    assert cli.main(["study", "--step-length-m", "0.3:0.7"]) == 2
     assert "start:stop:count" in capsys.readouterr().err
+    assert cli.main(["study", "--step-length-m", "0.3:0.7:2000"]) == 2
+    assert "at most 1,000 values on an axis" in capsys.readouterr().err
+    assert cli.main(["study", "--step-length-m", "0.3:0.7:200", "--step-time-s", "0.3:1:100"]) == 2
+    assert "the grid has 20,000 points, more than 10,000" in capsys.readouterr().err
+    assert cli.main(["study", "--workers", "100000"]) == 2
+    assert "at most 256 workers" in capsys.readouterr().err
 
 
 def test_command_line_study_takes_every_registered_transcription_and_a_degree(tmp_path, capsys):
@@ -563,7 +572,7 @@ def test_command_line_study_takes_every_registered_transcription_and_a_degree(tm
     # --degree reaches the points: the study's point is the walking step solved one by one
     # with that degree, and its saved solution says so.
     folder = tmp_path / "radau2"
-    argv = ["study", "--step-length", "0.5", "--step-time", "0.5", "-N", "8", "--workers", "1",
+    argv = ["study", "--step-length-m", "0.5", "--step-time-s", "0.5", "-N", "8", "--workers", "1",
             "--transcription", "radau", "--degree", "2", "--no-plots",
             "--output-dir", folder]  # fmt: skip
     assert cli.main([str(a) for a in argv]) == 0
@@ -685,3 +694,136 @@ def test_the_study_benchmark_smoke_run():
     assert rows["pool 2 workers, lines"][-1] == "0.0e+00"
     assert rows["serial cold"][-2] == "0"  # no failed point
     assert "ordering on the pool: lines" in run.stdout
+
+
+# ---- nothing lost: kill -9, a worker that always dies, damaged files, refused folders -------
+def always_dying_step(step_length, step_time, N, victim, driver):
+    """walking_step, but the point at ``victim`` kills its worker every time."""
+    if [step_length, step_time] == victim and os.getpid() != driver:
+        os._exit(1)
+    return walking_step(step_length=step_length, step_time=step_time, N=N)
+
+
+def test_a_point_whose_worker_always_dies_is_the_only_one_charged(tmp_path):
+    log = tmp_path / "solves.txt"
+    study = Study(
+        AXES,
+        always_dying_step,
+        fixed={"N": N, "victim": [0.5, 0.5], "driver": os.getpid()},
+        outputs=("cost", ("logged", LogSolve(str(log)))),
+    )
+    result = study.run(tmp_path / "study", workers=2)
+    lost = [row for row in result.failed if row["status"] == WORKER_LOST]
+    assert [row["point"] for row in lost] == ["p1_1"] and len(result.solved) == 5
+    assert result.run["lost"] == MAX_LOSSES  # the victim's deaths, no innocent's
+    solves = _solves(log)
+    assert len(solves) == 5 and set(solves.values()) == {1}  # the others solved once each
+
+
+def _children(pid: int) -> list[int]:
+    """The live processes whose parent is ``pid`` (from /proc)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid and fields[0] != "Z":
+            found.append(int(entry.name))
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="reads the process table from /proc")
+def test_kill_9_of_a_study_leaves_no_worker_and_the_same_command_resumes(tmp_path):
+    import signal
+    import time
+
+    folder = tmp_path / "study"
+    argv = [sys.executable, "-m", "problems", "study", "--step-length-m", "0.4,0.5,0.6",
+            "--step-time-s", "0.45,0.5", "-N", "10", "--workers", "2", "--no-plots", "-q",
+            "--output-dir", str(folder)]  # fmt: skip
+    environment = {**os.environ, "MPLBACKEND": "Agg"}
+    process = subprocess.Popen(argv, env=environment, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE)  # fmt: skip
+    deadline = time.monotonic() + 120
+    workers: list[int] = []
+    while time.monotonic() < deadline:  # until the workers run and a point is settled
+        workers = _children(process.pid) or workers
+        if list((folder / "points").glob("p*.npz")) and len(workers) >= 2:
+            break
+        time.sleep(0.05)
+    assert len(workers) >= 2, "the study's workers never started"
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    deadline = time.monotonic() + 10
+    while any(_alive(pid) for pid in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(_alive(pid) for pid in workers), "a worker outlived the study's process"
+    settled = len(read_rows(folder))
+    assert 1 <= settled < 6
+    # the same command, at once: no lock held, the missing points solved
+    again = subprocess.run(argv, env=environment, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    assert "another run" not in again.stderr
+    assert f"this run: {6 - settled} solved" in again.stdout
+    _assert_complete_files(folder)
+
+
+def test_a_damaged_record_or_solution_is_reported_and_solved_again(tmp_path, caplog):
+    study = Study(AXES, fixed={"N": N})
+    folder = tmp_path / "study"
+    study.run(folder, workers=1)
+    record = folder / "points" / "p0_0.npz"
+    record.write_bytes(record.read_bytes()[:100])  # a copy cut short
+    solution = folder / "solutions" / "p1_1.npz"
+    solution.write_bytes(b"not a zip")
+    with caplog.at_level(logging.WARNING, logger="problems.study"):
+        result = study.run(folder, workers=1)
+    assert sorted(Path(p).name for p in result.run["damaged"]) == ["p0_0.npz", "p1_1.npz"]
+    assert result.run["solved"] == 2 and len(result.solved) == 6
+    messages = " ".join(r.getMessage() for r in caplog.records)
+    assert str(record) in messages and "moved aside as p0_0.npz.damaged" in messages
+    assert "its solution p1_1.npz" in messages
+    assert (folder / "points" / "p0_0.npz.damaged").exists()
+    assert (folder / "solutions" / "p1_1.npz.damaged").exists()
+    _assert_complete_files(folder)
+
+
+def _snapshot(folder: Path) -> dict:
+    return {
+        str(p.relative_to(folder)): (p.read_bytes() if p.is_file() else None, p.stat().st_mtime_ns)
+        for p in sorted(folder.rglob("*"))
+    }
+
+
+def test_a_refused_folder_is_left_exactly_as_it_was(tmp_path):
+    definition = {"axes": {"step_length": [0.4, 0.5]}, "fixed": {"N": 30}}
+    StudyFolder(tmp_path / "s", definition).close()
+    before = _snapshot(tmp_path / "s")
+    changed = {"axes": {"step_length": [0.4, 0.6]}, "fixed": {"N": 30}}
+    with pytest.raises(StudyFolderError, match="holds another study"):
+        StudyFolder(tmp_path / "s", changed)
+    assert _snapshot(tmp_path / "s") == before
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    before = _snapshot(other)
+    with pytest.raises(StudyFolderError, match="not a study folder"):
+        StudyFolder(other, definition)
+    assert _snapshot(other) == before  # no lock file left in it
+    # held by another run: refused, and nothing written either
+    with StudyFolder(tmp_path / "s", definition):
+        before = _snapshot(tmp_path / "s")
+        with pytest.raises(StudyFolderError, match="another run is using"):
+            StudyFolder(tmp_path / "s", definition)
+        assert _snapshot(tmp_path / "s") == before
