@@ -54,7 +54,7 @@ TOLERANCE = 1e-7
 #: Points inside every mesh interval checked besides the export samples.
 DENSE_POINTS = 32
 #: Solves after the first before :func:`hold_at_samples` gives up.
-MAX_ROUNDS = 10
+MAX_ROUNDS = 20
 #: Points between an interval's worst check time and its neighbours evaluated to find the
 #: largest miss between the samples.
 REFINE = 16

@@ -61,36 +61,42 @@ class AccuracyPreset:
 ACCURACY_PRESETS: dict[str, AccuracyPreset] = {
     preset.name: preset
     for preset in (
-        # Measured (speed_accuracy.py): six-link step 1.4 N m in 0.5 s, fixed-base gait 0.8 N m;
-        # not chosen on: 0.4 m step 0.9, five-link step 1.4, five-link gait 0.7 N m.
+        # Measured (speed_accuracy.py) on the walking step with its decisive touchdown (the
+        # approach line of the last 30 ms is where the torque errors gather): six-link step
+        # 3.2 N m in 0.5 s, fixed-base gait 0.8 N m; not chosen on: 0.4 m step 3.1, five-link
+        # step 3.5 N m. (Before the touchdown: 1.4, 0.8, 0.9, 1.4 against a bound of 3.)
         AccuracyPreset(
             "draft",
             "hermite-simpson",
             None,
             40.0,
             1e-4,
-            3.0,
-            "a quick study: Hermite-Simpson, 40 intervals/s, tol 1e-4; torques within 3 N m",
+            5.0,
+            "a quick study: Hermite-Simpson, 40 intervals/s, tol 1e-4; torques within 5 N m",
         ),
-        # six-link step 0.29 N m, gait 0.045; 0.4 m step 0.10, five-link step 0.22, gait 0.04.
+        # six-link step 0.83 N m, gait 0.045; 0.4 m step 0.09, five-link step 1.58.
         AccuracyPreset(
             "balanced",
             "hermite-simpson",
             None,
             160.0,
             1e-8,
-            0.6,
-            "Hermite-Simpson, 160 intervals/s, tol 1e-8; torques within 0.6 N m",
+            2.0,
+            "Hermite-Simpson, 160 intervals/s, tol 1e-8; torques within 2 N m",
         ),
-        # six-link step 0.05 N m; 0.4 m step 0.04, five-link step 0.06, five-link gait < 0.001.
+        # Hermite-Simpson at 640 intervals/s (the walking step's touchdown corner needs the
+        # density; Radau(3) at 320/s, the earlier choice, left 0.38 N m on the six-link step
+        # and 2.1 at the five-link step's start, where a Radau control is an extrapolation):
+        # six-link step 0.10 N m, gait 0.003; 0.4 m step 0.027, five-link step 0.28
+        # (speed_accuracy.py --skip grid, against Radau(5) at 1280/s).
         AccuracyPreset(
             "precise",
-            "radau",
-            3,
-            320.0,
+            "hermite-simpson",
+            None,
+            640.0,
             1e-8,
-            0.15,
-            "hardware-ready torques: Radau degree 3, 320 intervals/s, tol 1e-8; within 0.15 N m",
+            0.5,
+            "hardware-ready torques: Hermite-Simpson, 640 intervals/s, tol 1e-8; within 0.5 N m",
         ),
     )
 }

@@ -27,6 +27,7 @@ from problems.accuracy import MIN_INTERVALS
 # The modules (``problems.periodic_gait`` the attribute is the function of that name).
 walking_module = importlib.import_module("problems.walking")
 periodic_module = importlib.import_module("problems.periodic_gait")
+gait_module = importlib.import_module("problems.gait_problem")
 
 #: The reference's density per preset (intervals per second of Radau(5)), so that its own
 #: error is at most a tenth of the preset's bound.
@@ -96,8 +97,7 @@ def test_a_preset_passes_its_tolerance_to_ipopt_unless_overridden(monkeypatch):
         seen.append(options.get("options"))
         raise RuntimeError("stop")  # the options are what this test reads
 
-    monkeypatch.setattr(walking_module, "solve", spy)
-    monkeypatch.setattr(periodic_module, "solve", spy)
+    monkeypatch.setattr(gait_module, "solve", spy)  # what both problems solve with
     draft = ACCURACY_PRESETS["draft"]
     for problem in (walking_step(accuracy="draft"), periodic_gait(accuracy="draft")):
         with pytest.raises(RuntimeError, match="stop"):
@@ -119,8 +119,7 @@ def test_solve_with_a_preset_remeshes_the_problem(monkeypatch):
         seen.append((transcription.ocp.N, transcription.ocp.transcription, options["options"]))
         raise RuntimeError("stop")
 
-    monkeypatch.setattr(walking_module, "solve", spy)
-    monkeypatch.setattr(periodic_module, "solve", spy)
+    monkeypatch.setattr(gait_module, "solve", spy)  # what both problems solve with
     precise = ACCURACY_PRESETS["precise"]
     with pytest.raises(RuntimeError, match="stop"):
         walking_step(N=12).solve(accuracy="precise")
