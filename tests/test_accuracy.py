@@ -24,9 +24,7 @@ from model.errors import DefinitionError, DefinitionTypeError
 from problems import ACCURACY_PRESETS, periodic_gait, walking_step
 from problems.accuracy import MIN_INTERVALS
 
-# The modules (``problems.periodic_gait`` the attribute is the function of that name).
-walking_module = importlib.import_module("problems.walking")
-periodic_module = importlib.import_module("problems.periodic_gait")
+# The module both gait problems solve through (a spy replaces its solve).
 gait_module = importlib.import_module("problems.gait_problem")
 
 #: The reference's density per preset (intervals per second of Radau(5)), so that its own
