@@ -72,8 +72,10 @@ def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=
     kept["raise_on_failure"] = True
     kept["accuracy_warning"] = None  # measured once, on the plan the rounds end with
     # Each round restarts from the last one's multipliers, whatever the first solve started
-    # from: the rounds then end where they end for every caller (a study, a single solve).
+    # from: the rounds then end where they end for every caller (a study, a single solve);
+    # and a round of the same structure as the one before takes its solver from the cache.
     kept["warm_start"] = True
+    kept["cache"] = True
 
     def again(changed):
         return solve(changed, **kept)
@@ -137,6 +139,19 @@ def total_iterations(solution) -> int:
     if held is None:
         return solution.iterations
     return int(sum(r["iterations"] for r in held["rounds"]))
+
+
+def total_seconds(solution) -> tuple[float, float]:
+    """(build, solve) seconds of a gait's solve, the first solve's and those of the rounds
+    that held its limits at the samples."""
+    held = solution.stats.get("sampled_limits")
+    if held is None:
+        return solution.stats["build_seconds"], solution.stats["solve_seconds"]
+    rounds = held["rounds"]
+    return (
+        float(sum(r["build_seconds"] for r in rounds)),
+        float(sum(r["solve_seconds"] for r in rounds)),
+    )
 
 
 def check_objective(objective: str) -> str:
