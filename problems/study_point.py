@@ -24,6 +24,7 @@ import os
 import socket
 import tempfile
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -41,7 +42,7 @@ from planner import (
     Trajectory,
     Transcription,
 )
-from planner.accuracy_check import ACCURACY_WARNING, check_accuracy_of
+from planner.accuracy_check import ACCURACY_WARNING, AccuracyWarning, check_accuracy_of
 from problems.gait_problem import total_iterations
 from problems.walking import WalkingGait, WalkingStep, walking_step
 
@@ -339,14 +340,18 @@ def solve_point(spec: PointSpec, task: Mapping[str, Any]) -> dict[str, Any]:
                 notes.append(f"from {label}: another NLP layout, no guess")
                 continue
             attempts += 1
-            gait = step.solve(
-                problem,
-                progress=False,
-                raise_on_failure=False,
-                warm_start=spec.multipliers,
-                options=dict(spec.ipopt) or None,
-                accept_acceptable=spec.accept_acceptable,
-            )
+            with warnings.catch_warnings():
+                # the row records it (accuracy, accuracy_warning, notes), and the command
+                # line sums it up: printed from a worker it would cut through the progress
+                warnings.simplefilter("ignore", AccuracyWarning)
+                gait = step.solve(
+                    problem,
+                    progress=False,
+                    raise_on_failure=False,
+                    warm_start=spec.multipliers,
+                    options=dict(spec.ipopt) or None,
+                    accept_acceptable=spec.accept_acceptable,
+                )
         except AnthropoidError as exc:  # a guess the OCP refuses (NaN in a neighbour, ...)
             notes.append(f"from {label}: {_first_line(exc)}")
             gait = None

@@ -16,6 +16,7 @@ import math
 import os
 import subprocess
 import sys
+import warnings
 from collections import Counter
 from pathlib import Path
 
@@ -25,7 +26,7 @@ import reference.newton_euler as ne
 
 from model.errors import DefinitionError, DefinitionTypeError
 from model.presets import six_link_anthropoid
-from planner import Trajectory
+from planner import ACCURACY_WARNING, AccuracyWarning, Trajectory
 from problems import Study, StudyProgress, StudyResult, cli, run_study, verify_gait, walking_step
 from problems.study_backends import (
     CLUSTER_INSTALL,
@@ -530,8 +531,16 @@ def test_without_dask_the_study_says_how_to_install_it(tmp_path, monkeypatch):
 
 def test_cores_and_a_serial_run(tmp_path):
     assert available_cores() == len(os.sched_getaffinity(0))
-    result = run_study(tmp_path / "s", {"step_time": [0.5]}, fixed={"N": 6}, workers=1)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = run_study(tmp_path / "s", {"step_time": [0.5]}, fixed={"N": 6}, workers=1)
     assert result.run["backend"] == "serial (this process)" and len(result.solved) == 1
+    # N = 6 is too coarse for the step's dynamics: the row says so, the solve does not print
+    # it (from a worker it would cut through the progress bar)
+    (row,) = result.solved
+    assert row["accuracy"] > ACCURACY_WARNING and row["accuracy_warning"]
+    assert "accuracy warning" in row["notes"]
+    assert not [w for w in caught if issubclass(w.category, AccuracyWarning)]
 
 
 # ---- command line and progress ---------------------------------------------------------------
