@@ -32,7 +32,7 @@ from reference import newton_euler as ne
 from reference.checks import relative_error
 
 from model import Link, Linkage, LinkPoint, presets
-from planner import OCP, SolverError, Transcription
+from planner import OCP, Transcription
 from planner.solver import jacobian_mode
 from problems import periodic_gait, walking_step
 from problems.__main__ import main
@@ -226,7 +226,7 @@ def _tight_cost(kind: str) -> float:
 def test_gait_case(case):
     problem = _gait_problem(case.kind, case.options)
     if isinstance(case.expect, Raises):
-        with pytest.raises(SolverError, match=case.expect.match):
+        with pytest.raises(case.expect.error, match=case.expect.match):
             problem.solve(progress=False, options=case.ipopt)
         return
     gait = problem.solve(progress=False, options=case.ipopt)
