@@ -20,8 +20,9 @@ import pytest
 from reference import gait_oracle as go
 from reference import newton_euler as ne
 
+import planner.phase_transcription as pt
 from model import DefinitionError, DefinitionTypeError, Link, Linkage, presets
-from planner import OCP, Trajectory
+from planner import OCP, Trajectory, Transcription
 from planner.sampled_limits import PASSIVE
 from problems import (
     Biped,
@@ -619,3 +620,21 @@ def test_contact_forces_are_named_after_their_contact():
     assert {"F_stance_shank_start_x", "F_swing_shank_end_x", "F_swing_shank_end_y"} <= set(
         double.extras
     )
+
+
+def test_rows_that_read_the_same_reaction_share_its_evaluation(monkeypatch):
+    """The friction cone and the centre of pressure both read the stance foot's ground
+    reaction (the whole tree's dynamics): the point function merges them, with the same
+    values at a random point, in fewer operations than the rows built apart."""
+    ocp = walking_step(N=4).ocp
+    functions = {}
+    for merge in (False, True):
+        monkeypatch.setattr(pt, "MERGE_POINT_EXPRESSIONS", merge)
+        functions[merge] = Transcription(ocp).phases[0].point_function
+    rng = np.random.default_rng(7)
+    inputs = [
+        rng.uniform(-1.0, 1.0, functions[True].size_in(i)) for i in range(functions[True].n_in())
+    ]
+    for apart, merged in zip(functions[False](*inputs), functions[True](*inputs), strict=True):
+        np.testing.assert_allclose(np.asarray(merged), np.asarray(apart), rtol=1e-12, atol=1e-12)
+    assert functions[True].n_instructions() < 0.8 * functions[False].n_instructions()
