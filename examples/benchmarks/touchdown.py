@@ -78,7 +78,8 @@ def main(argv=None) -> int:
         variants = [variants[0], variants[3], variants[6]]
     errors = np.array(ERRORS_MM) / 1000.0
     head = (
-        f"{'variant':32s} {'cost':>8s} {'iter':>4s} {'s':>5s} {'vy(T)':>6s} {'vx(T)':>6s} "
+        f"{'variant':32s} {'cost':>8s} {'/graze':>6s} {'iter':>4s} {'s':>5s} "
+        f"{'vy(T)':>6s} {'vx(T)':>6s} "
         f"{'h-10ms':>6s} {'h-20ms':>6s} "
         + " ".join(f"{f'early{e:g}':>7s}" for e in ERRORS_MM)
         + " "
@@ -105,7 +106,8 @@ def main(argv=None) -> int:
             at = [height[np.searchsorted(times, gait.duration - d)] for d in (0.010, 0.020)]
             change = forward * max(early[1], late[1]) * 1000.0
             print(
-                f"{label:32s} {gait.cost:8.2f} {gait.solution.iterations:4d} {seconds:5.2f} "
+                f"{label:32s} {gait.cost:8.2f} {gait.cost / baseline:6.3f} "
+                f"{gait.solution.iterations:4d} {seconds:5.2f} "
                 f"{v:6.3f} {forward:6.2f} {at[0] * 1000:6.2f} {at[1] * 1000:6.2f} "
                 + " ".join(f"{1000 * e:7.1f}" for e in early)
                 + " "
@@ -114,7 +116,7 @@ def main(argv=None) -> int:
             )
     finally:
         walking.APPROACH_TIME = saved
-    print(f"(cost of the grazing step {baseline:.2f}; costs of the others relative to it above)")
+    print("(/graze: the cost over the grazing step's, the first row, same run)")
     return 0
 
 
