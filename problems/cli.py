@@ -66,6 +66,7 @@ from problems.dynamics_problems import (
 from problems.gait_law import LAW_PRESETS, GaitLaw
 from problems.gait_problem import WORK_REGULARISATION
 from problems.output_set import OutputFolderError, OutputSet
+from problems.study_cli import count_at_most, positive_count
 from problems.verification import verify_gait
 from problems.walking import walking_step
 
@@ -242,19 +243,6 @@ def _accuracy(text: str) -> str | float:
         raise argparse.ArgumentTypeError(str(error).replace("`accuracy`: ", "")) from None
 
 
-def _count_at_most(maximum: int, what: str, fix: str) -> Callable[[str], int]:
-    """An argparse ``type``: an integer in [1, maximum] (``what`` names it, ``fix`` says
-    what to do instead of more)."""
-
-    def parse(text: str) -> int:
-        value = _count(text)
-        if value > maximum:
-            raise argparse.ArgumentTypeError(f"at most {maximum:,} {what}, got {value:,}; {fix}")
-        return value
-
-    return parse
-
-
 def _non_negative(unit: str) -> Callable[[str], float]:
     def parse(text: str) -> float:
         try:
@@ -266,16 +254,6 @@ def _non_negative(unit: str) -> Callable[[str], float]:
         return value
 
     return parse
-
-
-def _count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
-    return value
 
 
 def _angles(text: str) -> tuple[float, ...]:
@@ -467,7 +445,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     simulate.add_argument(
         "--substeps",
-        type=_count,
+        type=positive_count,
         default=8,
         help="finite elements per integration interval for rk/collocation; an interval "
         "runs between consecutive file samples and output times, at most 10 ms; runs "
@@ -507,7 +485,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     demo.add_argument(
         "--rows",
-        type=_count,
+        type=positive_count,
         default=11,
         help=f"number of times in the table, at most {LIMIT_SAMPLES:,} (--force: "
         f"{MAX_SAMPLES:,}) (default: 11)",
@@ -559,11 +537,11 @@ def _walk_parser(commands, common, limits) -> None:
         choices=TRANSCRIPTIONS,
         help="collocation scheme (default: hermite-simpson)",
     )
-    walk.add_argument("-N", "--intervals", type=_count_at_most(MAX_INTERVALS, "intervals",
+    walk.add_argument("-N", "--intervals", type=count_at_most(MAX_INTERVALS, "intervals",
                       "refine with --accuracy TARGET instead"), default=None, metavar="N",
                       help=f"mesh intervals (default: 30, 12 with --quick; at most "
                            f"{MAX_INTERVALS:,})")  # fmt: skip
-    walk.add_argument("--degree", type=_count, default=None, metavar="D",
+    walk.add_argument("--degree", type=positive_count, default=None, metavar="D",
                       help=f"degree of {_DEGREES} (default: {_DEFAULT_DEGREES})")  # fmt: skip
     presets = "; ".join(f"{p.name}: {p.summary}" for p in ACCURACY_PRESETS.values())
     walk.add_argument(
@@ -654,7 +632,7 @@ def _walk_parser(commands, common, limits) -> None:
         metavar="HZ",
         help="samples per second of the torque files, Hz (default: 1000)",
     )
-    walk.add_argument("--steps", type=_count_at_most(MAX_DRAWN_STEPS, "steps",
+    walk.add_argument("--steps", type=count_at_most(MAX_DRAWN_STEPS, "steps",
                       "the pictures repeat one step: a few show it"), default=2,
                       help=f"steps drawn in walk.png and walk.gif (default: 2, at most "
                            f"{MAX_DRAWN_STEPS})")  # fmt: skip

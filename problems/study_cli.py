@@ -25,6 +25,7 @@ import logging
 import math
 import sys
 import time
+from collections.abc import Callable
 from typing import Any, TextIO
 
 import numpy as np
@@ -95,7 +96,8 @@ def value_list(unit: str, upper: float = math.inf, zero: bool = False):
     return parse
 
 
-def _count(text: str) -> int:
+def positive_count(text: str) -> int:
+    """An argparse ``type``: an integer >= 1."""
     try:
         value = int(text)
     except ValueError:
@@ -103,6 +105,19 @@ def _count(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
     return value
+
+
+def count_at_most(maximum: int, what: str, fix: str) -> Callable[[str], int]:
+    """An argparse ``type``: an integer in [1, maximum] (``what`` names it, ``fix`` says
+    what to do instead of more)."""
+
+    def parse(text: str) -> int:
+        value = positive_count(text)
+        if value > maximum:
+            raise argparse.ArgumentTypeError(f"at most {maximum:,} {what}, got {value:,}; {fix}")
+        return value
+
+    return parse
 
 
 def add_parser(commands, common: argparse.ArgumentParser) -> None:
@@ -183,12 +198,12 @@ def add_parser(commands, common: argparse.ArgumentParser) -> None:
         choices=TRANSCRIPTIONS,
         help="collocation scheme (default: hermite-simpson)",
     )
-    study.add_argument("--degree", type=_count, default=None, metavar="D",
+    study.add_argument("--degree", type=positive_count, default=None, metavar="D",
                        help=f"degree of {DEGREES} (default: {DEFAULT_DEGREES})")  # fmt: skip
     study.add_argument(
         "-N",
         "--intervals",
-        type=_count_at_most(
+        type=count_at_most(
             MAX_INTERVALS,
             "intervals",
             "a finer mesh belongs to 'walk --accuracy' for the points that need it",
@@ -199,7 +214,7 @@ def add_parser(commands, common: argparse.ArgumentParser) -> None:
     )
     study.add_argument(
         "--max-iter",
-        type=_count_at_most(
+        type=count_at_most(
             MAX_ITER,
             "IPOPT iterations",
             "a point that needs more is a point to look at alone ('walk')",
@@ -210,7 +225,7 @@ def add_parser(commands, common: argparse.ArgumentParser) -> None:
     )
     study.add_argument(
         "--workers",
-        type=_count_at_most(MAX_WORKERS, "workers", "a cluster takes more: --scheduler"),
+        type=count_at_most(MAX_WORKERS, "workers", "a cluster takes more: --scheduler"),
         default=None,
         metavar="N",
         help=f"worker processes (default: one per core, here "
@@ -400,18 +415,6 @@ def summary(result: StudyResult, out: TextIO) -> None:
     for row in result.failed:
         where = ", ".join(f"{name} {row[name]:g}" for name in result.axes)
         print(f"failed: {row['point']} ({where}): {row['status']}", file=out)
-
-
-def _count_at_most(maximum: int, what: str, fix: str):
-    """An argparse ``type``: an integer in [1, maximum]."""
-
-    def parse(text: str) -> int:
-        value = _count(text)
-        if value > maximum:
-            raise argparse.ArgumentTypeError(f"at most {maximum:,} {what}, got {value:,}; {fix}")
-        return value
-
-    return parse
 
 
 def command(args, out: TextIO, report) -> int:
