@@ -1403,7 +1403,8 @@ def _check_lines(report) -> list[str]:
     for c in report.checks:
         verdict = "ok  " if c.passed else "FAIL"
         lines.append(
-            f"{verdict} {c.name:<19} {c.margin:+.2e} {c.unit:<9} at {c.where} "
+            # + 0.0: a margin of -0.0 (an exact match) prints as +0.00e+00
+            f"{verdict} {c.name:<19} {c.margin + 0.0:+.2e} {c.unit:<9} at {c.where} "
             f"({c.samples} values, tolerance {c.tolerance:.0e})"
         )
     return lines

@@ -95,7 +95,7 @@ class Check:
     def __str__(self) -> str:
         verdict = "ok  " if self.passed else "FAIL"
         return (
-            f"{verdict} {self.name:<18} worst margin {self.margin:+.3e} {self.unit:<8} at "
+            f"{verdict} {self.name:<18} worst margin {self.margin + 0.0:+.3e} {self.unit:<8} at "
             f"{self.where} ({self.samples} checked, tolerance {self.tolerance:.0e})"
         )
 
