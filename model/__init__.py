@@ -15,6 +15,7 @@ from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.floating import FLOATING_FUNCTIONS, FloatingBase
 from model.impact import ImpactMap
 from model.linkage import Link, Linkage
+from model.mjcf import MjcfModel, to_mjcf
 from model.points import POINT_FUNCTIONS, LinkPoint, PointKinematics
 from model.rerooting import Rerooting, reroot, swap_legs
 
@@ -31,9 +32,11 @@ __all__ = [
     "Link",
     "LinkPoint",
     "Linkage",
+    "MjcfModel",
     "PointKinematics",
     "Rerooting",
     "presets",
     "reroot",
     "swap_legs",
+    "to_mjcf",
 ]
