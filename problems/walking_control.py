@@ -1,0 +1,153 @@
+"""Controllers of a planned walking step: the plan as a reference indexed by a phase measured
+on the body, open-loop replay, and joint PD feedback around the plan.
+
+A time-indexed reference falls out of step as soon as a heel strike comes early or late (the
+issue's MuJoCo measurement: a PD indexed by the time since touchdown walks at most 3 steps),
+so the reference here is indexed by the *phase* s, the hip's progress over the stance foot:
+
+    s(psi) = (x_hip(psi) - x_hip(0)) / (x_hip(T) - x_hip(0)),
+
+0 at the step's start and 1 at its planned heel strike, read off the plan's samples, which
+must make it strictly increasing (a hip that stops or goes back has no phase). A heel strike
+that comes early cuts the reference (the next step starts at s = 0); one that comes late
+holds its end (s > 1 reads the last sample).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from model.dynamics import Dynamics
+from model.errors import DefinitionError, check_real
+from planner.trajectory import Trajectory
+
+
+class GaitReference:
+    """A planned step as tables over time and over the phase.
+
+    Parameters
+    ----------
+    trajectory : Trajectory
+        The step's samples (``gait.to_trajectory(rate_hz)``: the consistent motion, whose
+        torques are its own inverse dynamics).
+    dynamics : Dynamics
+        The plan's model (for the hip's position).
+    hip : str
+        The link whose end is the hip (the stance thigh).
+    """
+
+    def __init__(self, trajectory: Trajectory, dynamics: Dynamics, hip: str) -> None:
+        self.time = np.asarray(trajectory.time, dtype=float) - float(trajectory.time[0])
+        self.states = np.hstack([trajectory.psi, trajectory.dpsi])
+        self.torques = np.asarray(trajectory.torques, dtype=float)
+        self.n = dynamics.n
+        self._hip = dynamics.point(hip)
+        hips = np.asarray(self._hip.position(trajectory.psi)).real
+        self._start, self._span = hips[0], hips[-1] - hips[0]
+        self.phases = (hips - self._start) / self._span if self._span != 0 else hips * 0
+        stalls = np.flatnonzero(np.diff(self.phases) <= 0.0)
+        if self._span <= 0 or stalls.size:
+            where = f"at t = {self.time[stalls[0]]:.3f} s" if stalls.size else "over the step"
+            raise DefinitionError(
+                f"`trajectory`: the hip does not move forward {where}; the phase (the hip's "
+                "progress over the stance foot) indexes only a step whose hip always advances"
+            )
+
+    @classmethod
+    def of(cls, gait, rate_hz: float = 1000.0) -> GaitReference:
+        """The reference of a solved :class:`problems.walking.WalkingGait` at ``rate_hz``."""
+        problem = gait.problem
+        return cls(gait.to_trajectory(rate_hz), problem.dynamics, problem.biped.stance_thigh)
+
+    @property
+    def duration(self) -> float:
+        return float(self.time[-1])
+
+    def phase(self, psi) -> float:
+        """s of the angles psi (n,): the hip's progress, 0 at the start, 1 at heel strike."""
+        return float((complex(self._hip.position(psi)).real - self._start) / self._span)
+
+    def at_time(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(x_ref (2n,), M_ff (n,)) at t s since the step's start (clamped to the step)."""
+        return self._blend(self.time, t)
+
+    def at_phase(self, s: float) -> tuple[np.ndarray, np.ndarray]:
+        """(x_ref (2n,), M_ff (n,)) at the phase s (clamped to [0, 1])."""
+        return self._blend(self.phases, s)
+
+    def tracking(self, x) -> float:
+        """The largest |psi - psi_ref| at the phase of x, rad."""
+        psi = np.asarray(x[: self.n])
+        reference, _ = self.at_phase(self.phase(psi))
+        return float(np.abs(psi - reference[: self.n]).max())
+
+    def _blend(self, grid: np.ndarray, value: float):
+        value = min(max(float(value), grid[0]), grid[-1])
+        k = int(np.clip(np.searchsorted(grid, value, side="right") - 1, 0, grid.size - 2))
+        w = (value - grid[k]) / (grid[k + 1] - grid[k])
+        states = (1.0 - w) * self.states[k] + w * self.states[k + 1]
+        torques = (1.0 - w) * self.torques[k] + w * self.torques[k + 1]
+        return states, torques
+
+
+class OpenLoop:
+    """The plan's torques by the time since the step's start: no feedback."""
+
+    def __init__(self, reference: GaitReference) -> None:
+        self.reference = reference
+
+    def start_step(self, index: int, x: np.ndarray) -> None:
+        pass
+
+    def torques(self, t: float, x: np.ndarray) -> np.ndarray:
+        return self.reference.at_time(t)[1]
+
+
+class PhasePD:
+    """Feedforward plus PD on the relative joint angles, all indexed by the phase:
+
+        M = M_ff(s) + Kp (q_ref(s) - q) + Kd (dq_ref(s) - dq),   s = s(psi),
+
+    with q the hinge's relative angle (psi_i - psi_parent(i); the stance ankle's is psi_1
+    from the ground), which each drive measures and on which its torque acts.
+
+    kp N m/rad, kd N m s/rad: scalars or (n,) per hinge; ``passive``: hinge indices with no
+    drive (their torque is 0).
+    """
+
+    def __init__(self, reference: GaitReference, parents, kp, kd, passive=()) -> None:
+        self.reference = reference
+        n = reference.n
+        self.kp = _gains("kp", kp, n)
+        self.kd = _gains("kd", kd, n)
+        self._parents = np.asarray(parents)
+        self._has_parent = self._parents >= 0
+        self._active = np.ones(n)
+        self._active[list(passive)] = 0.0
+
+    def start_step(self, index: int, x: np.ndarray) -> None:
+        pass
+
+    def relative(self, angles: np.ndarray) -> np.ndarray:
+        out = angles.copy()
+        out[self._has_parent] -= angles[self._parents[self._has_parent]]
+        return out
+
+    def torques(self, t: float, x: np.ndarray) -> np.ndarray:
+        n = self.reference.n
+        s = self.reference.phase(x[:n])
+        state, feedforward = self.reference.at_phase(s)
+        error = state - x
+        feedback = self.kp * self.relative(error[:n]) + self.kd * self.relative(error[n:])
+        return self._active * (feedforward + feedback)
+
+
+def _gains(name: str, value, n: int) -> np.ndarray:
+    array = np.broadcast_to(np.asarray(value, dtype=float), (n,)).copy()
+    for i, v in enumerate(array):
+        if check_real(f"{name}[{i}]", v) < 0:
+            raise DefinitionError(f"`{name}`: gains must be >= 0, got {v!r} at hinge {i}")
+    return array
+
+
+__all__ = ["GaitReference", "OpenLoop", "PhasePD"]

@@ -1,0 +1,478 @@
+"""Many steps of a walking biped, simulated as a hybrid system: the second problem of dynamics
+across heel strikes, under a controller, with disturbances.
+
+The plant is the product's pinned-foot model of a step (:mod:`problems.walking`): the stance
+foot H0 is a hinge on the ground; x = (psi, dpsi) (2n,) rad and rad/s. Between heel strikes
+x' = (dpsi, FD(psi, dpsi, M)) with the controller's torques M held over each control period
+(a digital controller: zero-order hold at ``control_rate_hz``) and integrated by
+``substeps`` classical Runge-Kutta (RK4) steps per period, in one generated CasADi function.
+A heel strike is the swing foot reaching the ground from above once it has passed the stance
+foot; its instant is located inside the period by the secant method on the foot's height
+along the same RK4 step (to 1e-12 m), then the impact map and the leg swap of the plant give
+the next step's start (:meth:`model.ImpactMap.step_function`).
+
+The model holds only while its contact assumptions hold, so each is checked and its failure is
+a fall, named: a body point (knee, hip, head) under the ground; the stance foot pulled up
+(Fy < 0) or slipping (|Fx| > mu Fy); at heel strike, an impulse outside the friction cone or
+a trailing foot that does not lift off; no heel strike within ``max_step_factor`` times the
+planned step time.
+
+Disturbances (:class:`Disturbances`): an initial state error, a horizontal push (an impulse,
+N s) on the torso's centre of mass, a change of the ground's height from a foothold on, a
+plant whose masses and inertias differ from the plan's, and torque saturation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+from typing import Protocol
+
+import casadi as ca
+import numpy as np
+
+from model.dynamics import Dynamics
+from model.errors import DefinitionError, check_integer, check_positive, check_real
+from model.linkage import Linkage
+from problems.biped import Biped
+
+#: the swing foot must be this far ahead of the stance foot, as a fraction of the planned step
+#: length, for a touch of the ground to count as a heel strike (it starts at the stance foot's
+#: side, on the ground: the first instants are its lift-off, not a landing)
+STRIKE_AHEAD = 0.25
+#: a heel strike's instant is located to this height, m
+STRIKE_TOLERANCE = 1e-12
+#: contact forces beyond the cone by less than this fraction of the body's weight are not a
+#: slip: the plan itself runs along the cone's edge (right after heel strike), and the held
+#: torques of a digital controller cross it by round-off
+CONE_SLACK = 1e-3
+
+
+class Controller(Protocol):
+    """What the simulation asks of a controller, once per control period."""
+
+    def start_step(self, index: int, x: np.ndarray) -> None:
+        """A step begins (after the leg swap) in state x (2n,)."""
+
+    def torques(self, t: float, x: np.ndarray) -> np.ndarray:
+        """Hinge torques M (n,) N m to hold over the period from t (s since the step's start)."""
+
+
+@dataclass(frozen=True)
+class Disturbances:
+    """What the world and the body do that the plan did not expect.
+
+    initial : (2n,) array or None
+        Added to the planned start state (psi rad, dpsi rad/s).
+    push : float
+        Horizontal impulse on the torso's centre of mass, N s (> 0 pushes forward, +x).
+    push_step, push_at : int, float
+        The step (0-based) and the instant in it, as a fraction of the planned step time.
+    ground_rise : float
+        The ground is this much higher (m; < 0 lower) from the foothold of step
+        ``ground_from`` on: the edge lies half a step before it.
+    ground_from : int
+        The first step that stands on the changed ground.
+    mass_scale : float
+        The plant's masses and moments of inertia are the plan's times this (the controller
+        keeps the plan's).
+    torque_limit : float or None
+        Every hinge's torque is saturated at this magnitude, N m.
+    """
+
+    initial: np.ndarray | None = None
+    push: float = 0.0
+    push_step: int = 1
+    push_at: float = 0.5
+    ground_rise: float = 0.0
+    ground_from: int = 1
+    mass_scale: float = 1.0
+    torque_limit: float | None = None
+
+    def __post_init__(self) -> None:
+        check_real("push", self.push)
+        check_integer("push_step", self.push_step, 0)
+        at = check_real("push_at", self.push_at)
+        if not 0.0 <= at < 1.0:
+            raise DefinitionError(f"`push_at`: a fraction of the step time in [0, 1), got {at!r}")
+        check_real("ground_rise", self.ground_rise)
+        check_integer("ground_from", self.ground_from, 1)
+        check_positive("mass_scale", self.mass_scale)
+        if self.torque_limit is not None:
+            check_positive("torque_limit", self.torque_limit, "N m")
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """One simulated step.
+
+    duration s; length m (the new foothold's distance from the old one, along the ground);
+    strike: the landing foot's velocity, complex m/s; impulse: on the landing foot, complex
+    N s; tracking: largest |psi - psi_ref| at the same phase, rad; peak_torque N m;
+    normal_force: the least Fy on the stance foot, N; friction_use: the largest |Fx| / (mu Fy);
+    before: the state (2n,) at heel strike, before the impact.
+    """
+
+    index: int
+    duration: float
+    length: float
+    strike: complex
+    impulse: complex
+    tracking: float
+    peak_torque: float
+    normal_force: float
+    friction_use: float
+    before: np.ndarray
+
+
+@dataclass(frozen=True)
+class WalkingRun:
+    """The outcome of :func:`simulate_walking`.
+
+    steps: the completed steps; fell: why the run ended early (None: it walked them all);
+    time (K,) s from the run's start; states (K, 2n) in each step's own labels (the stance
+    foot at H0); torques (K, n) N m held from each sample; step (K,) the step of each
+    sample; footholds (steps walked + 1,) complex world positions of the stance feet, m.
+    """
+
+    steps: tuple[StepRecord, ...]
+    fell: str | None
+    time: np.ndarray
+    states: np.ndarray
+    torques: np.ndarray
+    step: np.ndarray
+    footholds: np.ndarray
+
+    @property
+    def walked(self) -> int:
+        """Steps completed (heel strikes that the model accepted)."""
+        return len(self.steps)
+
+
+class Plant:
+    """The simulated body: a linkage's pinned-foot dynamics, its heel strike and leg swap, as
+    generated functions (the plan's linkage, or one with changed masses)."""
+
+    def __init__(self, linkage: Linkage, mu: float, substeps: int = 2) -> None:
+        self.biped = Biped.of(linkage)
+        self.dynamics = Dynamics(linkage)
+        self.mu = check_positive("mu", mu)
+        self.substeps = check_integer("substeps", substeps, 1)
+
+    @property
+    def n(self) -> int:
+        return self.dynamics.n
+
+    @cached_property
+    def foot(self):
+        return self.dynamics.point(self.biped.swing_shank)
+
+    @cached_property
+    def impact(self):
+        return self.dynamics.impact(self.foot)
+
+    @cached_property
+    def step_map(self) -> ca.Function:
+        return self.impact.step_function(self.biped.swap)
+
+    @cached_property
+    def advance(self) -> ca.Function:
+        """(x (2n,), M (n,), h s) -> x after h with M held, by ``substeps`` RK4 steps."""
+        n = self.n
+        x, torques, h = ca.SX.sym("x", 2 * n), ca.SX.sym("M", n), ca.SX.sym("h")
+        forward = self.dynamics.function("forward_dynamics")
+
+        def rate(state):
+            return ca.vertcat(state[n:], forward(state[:n], state[n:], torques))
+
+        step = h / self.substeps
+        state = x
+        for _ in range(self.substeps):
+            k1 = rate(state)
+            k2 = rate(state + 0.5 * step * k1)
+            k3 = rate(state + 0.5 * step * k2)
+            k4 = rate(state + step * k3)
+            state = state + step / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        return ca.Function("advance", [x, torques, h], [state], ["x", "M", "h"], ["x_next"])
+
+    @cached_property
+    def observe(self) -> ca.Function:
+        """(x, M) -> the stance foot's reaction (Fx, Fy) N and the heights of every hinge and
+        link end but the swing foot (m), at x under M."""
+        n = self.n
+        x, torques = ca.SX.sym("x", 2 * n), ca.SX.sym("M", n)
+        psi, dpsi = x[:n], x[n:]
+        ddpsi = self.dynamics.function("forward_dynamics")(psi, dpsi, torques)
+        fx, fy = self.dynamics.function("ground_reaction")(psi, dpsi, ddpsi)
+        heights = []
+        for name in self.dynamics.names:
+            if name != self.biped.swing_shank:
+                heights.append(self.dynamics.point(name).function("position")(psi)[1])
+        return ca.Function(
+            "observe",
+            [x, torques],
+            [ca.vertcat(fx, fy), ca.vertcat(*heights)],
+            ["x", "M"],
+            ["reaction", "heights"],
+        )
+
+    def push_velocity(self, x: np.ndarray, impulse: complex, link: str) -> np.ndarray:
+        """dpsi after an impulse (complex N s) on ``link``'s centre of mass: M^-1 J^T P."""
+        n = self.n
+        psi = x[:n]
+        i = self.dynamics.linkage.index(link)
+        # column k of the centre of mass's Jacobian: its velocity for dpsi = e_k
+        jacobian = self.dynamics.com_velocities(np.tile(psi, (n, 1)), np.eye(n))[:, i]
+        generalised = (np.conj(jacobian) * impulse).real
+        return x[n:] + np.linalg.solve(self.dynamics.mass_matrix(psi), generalised)
+
+
+def scaled_linkage(linkage: Linkage, scale: float) -> Linkage:
+    """The same tree with every mass and moment of inertia times ``scale``."""
+    links = [
+        replace(link, mass=link.mass * scale, inertia=link.inertia * scale)
+        for link in linkage.links
+    ]
+    return Linkage(links, gravity=linkage.gravity)
+
+
+@dataclass
+class _StepLog:
+    time: list = field(default_factory=list)
+    states: list = field(default_factory=list)
+    torques: list = field(default_factory=list)
+    tracking: float = 0.0
+    peak: float = 0.0
+    normal: float = np.inf
+    friction: float = 0.0
+
+
+def simulate_walking(
+    start: np.ndarray,
+    controller: Controller,
+    *,
+    linkage: Linkage,
+    step_time: float,
+    step_length: float,
+    mu: float,
+    steps: int = 20,
+    disturbances: Disturbances | None = None,
+    control_rate_hz: float = 1000.0,
+    substeps: int = 2,
+    max_step_factor: float = 2.0,
+    reference=None,
+    torso: str | None = None,
+) -> WalkingRun:
+    """Simulate ``steps`` steps from the planned start state ``start`` (2n,).
+
+    Parameters
+    ----------
+    start : (2n,) the state at the first step's start (after a heel strike and leg swap).
+    controller : :class:`Controller`
+    linkage, step_time, step_length, mu : the plan's biped, step time s, length m and
+        friction coefficient (the plant's contact checks use mu).
+    steps : heel strikes to simulate.
+    disturbances : :class:`Disturbances` or None.
+    control_rate_hz : the controller's rate; torques are held between its instants.
+    substeps : RK4 steps per control period.
+    max_step_factor : a step with no heel strike after this many planned step times falls.
+    reference : an object with ``tracking(x) -> rad`` (the largest angle error at the same
+        phase), or None.
+    torso : the link pushed (default: the upper body's first link).
+
+    Returns
+    -------
+    WalkingRun
+    """
+    disturbances = disturbances or Disturbances()
+    steps = check_integer("steps", steps, 1)
+    rate = check_positive("control_rate_hz", control_rate_hz, "Hz")
+    period = 1.0 / rate
+    step_time = check_positive("step_time", step_time, "s")
+    step_length = check_positive("step_length", step_length, "m")
+    factor = check_positive("max_step_factor", max_step_factor)
+    plant_linkage = (
+        linkage
+        if disturbances.mass_scale == 1.0
+        else scaled_linkage(linkage, disturbances.mass_scale)
+    )
+    plant = Plant(plant_linkage, mu, substeps)
+    n = plant.n
+    x = np.asarray(start, dtype=float).copy()
+    if x.shape != (2 * n,):
+        raise DefinitionError(f"`start`: the state (psi, dpsi) has {2 * n} entries, got {x.shape}")
+    if disturbances.initial is not None:
+        initial = np.asarray(disturbances.initial, dtype=float)
+        if initial.shape != (2 * n,):
+            raise DefinitionError(
+                f"`disturbances.initial`: (psi, dpsi) error with {2 * n} entries, got "
+                f"{initial.shape}"
+            )
+        x = x + initial
+    torso = torso or (
+        plant.biped.upper_body[0] if plant.biped.upper_body else plant.biped.stance_thigh
+    )
+    limit = disturbances.torque_limit
+    slack = CONE_SLACK * plant.biped.total_mass * plant_linkage.gravity
+    records: list[StepRecord] = []
+    logs: list[_StepLog] = []
+    foothold = 0j
+    footholds = [foothold]
+    fell = None
+    clock = 0.0
+    push_time = disturbances.push_at * step_time
+
+    def ground(world_x: float) -> float:
+        edge = (disturbances.ground_from - 0.5) * step_length
+        return disturbances.ground_rise if world_x >= edge else 0.0
+
+    for index in range(steps):
+        controller.start_step(index, x)
+        log = _StepLog()
+        logs.append(log)
+        t = 0.0
+        pushed = index != disturbances.push_step or disturbances.push == 0.0
+        strike = None
+        while strike is None:
+            if t > factor * step_time:
+                fell = f"step {index}: no heel strike within {factor:g} x the step time"
+                break
+            if not pushed and t >= push_time - 1e-12:
+                x = np.concatenate(
+                    [x[:n], plant.push_velocity(x, complex(disturbances.push), torso)]
+                )
+                pushed = True
+            torques = np.asarray(controller.torques(t, x), dtype=float)
+            if limit is not None:
+                torques = np.clip(torques, -limit, limit)
+            reaction, heights = (np.asarray(v).ravel() for v in plant.observe(x, torques))
+            log.time.append(clock + t)
+            log.states.append(x.copy())
+            log.torques.append(torques)
+            log.peak = max(log.peak, float(np.abs(torques).max()))
+            if reference is not None:
+                log.tracking = max(log.tracking, reference.tracking(x))
+            problem = _contact_problem(reaction, plant.mu, slack, heights, foothold, ground)
+            log.normal = min(log.normal, reaction[1])
+            if reaction[1] > 0:
+                log.friction = max(log.friction, abs(reaction[0]) / (plant.mu * reaction[1]))
+            if problem is not None:
+                fell = f"step {index}, t = {t:.3f} s: {problem}"
+                break
+            x_next = np.asarray(plant.advance(x, torques, period)).ravel()
+            if not np.all(np.isfinite(x_next)):
+                fell = f"step {index}, t = {t:.3f} s: the state is not finite"
+                break
+            height = _foot_height(plant, x_next, foothold, ground)
+            ahead = complex(plant.foot.position(x_next[:n])).real
+            if height <= 0.0 and ahead > STRIKE_AHEAD * step_length:
+                tau, x_minus = _locate_strike(plant, x, torques, period, foothold, ground)
+                strike = (t + tau, x_minus)
+                break
+            x = x_next
+            t += period
+        if strike is None:
+            break
+        t_strike, x_minus = strike
+        _, impulse, lift = (np.asarray(v).ravel() for v in plant.impact(x_minus[:n], x_minus[n:]))
+        landing = complex(plant.foot.position(x_minus[:n]))
+        velocity = complex(plant.foot.velocity(x_minus[:n], x_minus[n:]))
+        problem = _impact_problem(impulse, lift, plant.mu)
+        if problem is not None:
+            fell = f"heel strike of step {index}: {problem}"
+            break
+        records.append(
+            StepRecord(
+                index=index,
+                duration=t_strike,
+                length=landing.real,
+                strike=velocity,
+                impulse=complex(*impulse),
+                tracking=log.tracking,
+                peak_torque=log.peak,
+                normal_force=log.normal,
+                friction_use=log.friction,
+                before=x_minus,
+            )
+        )
+        clock += t_strike
+        foothold = foothold + landing
+        footholds.append(foothold)
+        x = np.asarray(plant.step_map(x_minus)).ravel()
+    time = np.concatenate([np.asarray(log.time) for log in logs if log.time])
+    states = np.vstack([np.asarray(log.states) for log in logs if log.states])
+    torques_all = np.vstack([np.asarray(log.torques) for log in logs if log.torques])
+    which = np.concatenate([np.full(len(log.time), k) for k, log in enumerate(logs) if log.time])
+    return WalkingRun(tuple(records), fell, time, states, torques_all, which, np.asarray(footholds))
+
+
+def _foot_height(plant: Plant, x, foothold: complex, ground) -> float:
+    """The swing foot's height over the ground under it, m."""
+    world = foothold + complex(plant.foot.position(x[: plant.n]))
+    return world.imag - ground(world.real)
+
+
+def _locate_strike(plant: Plant, x, torques, period: float, foothold: complex, ground):
+    """The instant tau in (0, period] when the swing foot reaches the ground, and the state
+    then, on the period's own RK4 step (secant iterations bracketed by bisection)."""
+
+    def height(tau):
+        state = np.asarray(plant.advance(x, torques, tau)).ravel()
+        return _foot_height(plant, state, foothold, ground), state
+
+    low, high = 0.0, period
+    h_low = _foot_height(plant, x, foothold, ground)
+    h_high, state = height(high)
+    for _ in range(60):
+        if abs(h_high) <= STRIKE_TOLERANCE or high - low < 1e-15:
+            break
+        # secant inside the bracket, bisection when it would leave it
+        tau = (
+            high - h_high * (high - low) / (h_high - h_low)
+            if h_high != h_low
+            else 0.5 * (low + high)
+        )
+        if not low < tau < high:
+            tau = 0.5 * (low + high)
+        h_tau, s_tau = height(tau)
+        if h_tau > 0.0:
+            low, h_low = tau, h_tau
+        else:
+            high, h_high, state = tau, h_tau, s_tau
+    return high, state
+
+
+def _contact_problem(reaction, mu, slack, heights, foothold: complex, ground) -> str | None:
+    fx, fy = reaction
+    if fy < -slack:
+        return f"the stance foot is pulled off the ground (Fy = {fy:.1f} N)"
+    if abs(fx) > mu * fy + slack:
+        return f"the stance foot slips (|Fx| = {abs(fx):.1f} N > mu Fy = {mu * fy:.1f} N)"
+    low = float(np.min(heights)) + foothold.imag - ground(foothold.real)
+    if low < -1e-9:
+        return f"a body point is {-low * 1000:.1f} mm under the ground"
+    return None
+
+
+def _impact_problem(impulse, lift, mu) -> str | None:
+    ix, iy = impulse
+    slack = CONE_SLACK * abs(iy)
+    if iy < 0.0:
+        return f"the ground would pull the landing foot (impulse Fy = {iy:.2f} N s)"
+    if abs(ix) > mu * iy + slack:
+        return f"the landing foot slips (|Ix| = {abs(ix):.2f} > mu Iy = {mu * iy:.2f} N s)"
+    if lift[1] < 0.0:
+        return f"the trailing foot does not lift off (it would move down at {lift[1]:.3f} m/s)"
+    return None
+
+
+__all__: Sequence[str] = (
+    "Controller",
+    "Disturbances",
+    "Plant",
+    "StepRecord",
+    "WalkingRun",
+    "scaled_linkage",
+    "simulate_walking",
+)
