@@ -75,6 +75,22 @@ class GaitReference:
         """(x_ref (2n,), M_ff (n,)) at the phase s (clamped to [0, 1])."""
         return self._blend(self.phases, s)
 
+    def phase_gradient(self, psi) -> np.ndarray:
+        """ds/dpsi (n,): the hip's forward Jacobian over the step's span."""
+        return self._hip.jacobian(psi, floating=False)[0] / self._span
+
+    def slopes_at_phase(self, s: float) -> tuple[np.ndarray, np.ndarray]:
+        """(dx_ref/ds (2n,), dM_ff/ds (n,)) of the linear blend at s (0 where s is clamped)."""
+        grid = self.phases
+        if not grid[0] < s < grid[-1]:
+            return np.zeros(2 * self.n), np.zeros(self.n)
+        k = int(np.clip(np.searchsorted(grid, s, side="right") - 1, 0, grid.size - 2))
+        width = grid[k + 1] - grid[k]
+        return (
+            (self.states[k + 1] - self.states[k]) / width,
+            (self.torques[k + 1] - self.torques[k]) / width,
+        )
+
     def tracking(self, x) -> float:
         """The largest |psi - psi_ref| at the phase of x, rad."""
         psi = np.asarray(x[: self.n])
@@ -102,6 +118,10 @@ class OpenLoop:
     def torques(self, t: float, x: np.ndarray) -> np.ndarray:
         return self.reference.at_time(t)[1]
 
+    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        """dM/dx (n, 2n): zero, the torques do not read the state."""
+        return np.zeros((self.reference.n, 2 * self.reference.n))
+
 
 class PhasePD:
     """Feedforward plus PD on the relative joint angles, all indexed by the phase:
@@ -124,6 +144,11 @@ class PhasePD:
         self._has_parent = self._parents >= 0
         self._active = np.ones(n)
         self._active[list(passive)] = 0.0
+        # R: the relative angles of the absolute ones, q = R psi
+        self._relative_matrix = np.eye(n)
+        for i, p in enumerate(self._parents):
+            if p >= 0:
+                self._relative_matrix[i, p] -= 1.0
 
     def start_step(self, index: int, x: np.ndarray) -> None:
         pass
@@ -140,6 +165,22 @@ class PhasePD:
         error = state - x
         feedback = self.kp * self.relative(error[:n]) + self.kd * self.relative(error[n:])
         return self._active * (feedforward + feedback)
+
+    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        """dM/dx (n, 2n) of :meth:`torques` (within a sample interval of the phase table)."""
+        reference = self.reference
+        n = reference.n
+        s = reference.phase(x[:n])
+        state_slope, torque_slope = reference.slopes_at_phase(s)
+        relative = self._relative_matrix
+        along = (
+            torque_slope
+            + self.kp * (relative @ state_slope[:n])
+            + self.kd * (relative @ state_slope[n:])
+        )
+        jacobian = np.hstack([-self.kp[:, None] * relative, -self.kd[:, None] * relative])
+        jacobian[:, :n] += np.outer(along, reference.phase_gradient(x[:n]))
+        return self._active[:, None] * jacobian
 
 
 def _gains(name: str, value, n: int) -> np.ndarray:

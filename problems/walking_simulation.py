@@ -133,7 +133,9 @@ class WalkingRun:
     steps: the completed steps; fell: why the run ended early (None: it walked them all);
     time (K,) s from the run's start; states (K, 2n) in each step's own labels (the stance
     foot at H0); torques (K, n) N m held from each sample; step (K,) the step of each
-    sample; footholds (steps walked + 1,) complex world positions of the stance feet, m.
+    sample; footholds (steps walked + 1,) complex world positions of the stance feet, m;
+    end: the state (2n,) the next step would start from (after the last heel strike and leg
+    swap), None when the run fell.
     """
 
     steps: tuple[StepRecord, ...]
@@ -143,6 +145,7 @@ class WalkingRun:
     torques: np.ndarray
     step: np.ndarray
     footholds: np.ndarray
+    end: np.ndarray | None = None
 
     @property
     def walked(self) -> int:
@@ -195,6 +198,25 @@ class Plant:
             k4 = rate(state + step * k3)
             state = state + step / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         return ca.Function("advance", [x, torques, h], [state], ["x", "M", "h"], ["x_next"])
+
+    @cached_property
+    def advance_jacobian(self) -> ca.Function:
+        """(x, M, h) -> (dx_next/dx (2n, 2n), dx_next/dM (2n, n), dx_next/dh (2n,))."""
+        x, torques, h = self.advance.sx_in()
+        x_next = self.advance(x, torques, h)
+        return ca.Function(
+            "advance_jacobian",
+            [x, torques, h],
+            [ca.jacobian(x_next, x), ca.jacobian(x_next, torques), ca.jacobian(x_next, h)],
+            ["x", "M", "h"],
+            ["dx", "dM", "dh"],
+        )
+
+    @cached_property
+    def step_map_jacobian(self) -> ca.Function:
+        """x- -> dDelta/dx- (2n, 2n): the impact and the leg swap, differentiated."""
+        x = self.step_map.sx_in(0)
+        return ca.Function("step_map_jacobian", [x], [ca.jacobian(self.step_map(x), x)])
 
     @cached_property
     def observe(self) -> ca.Function:
@@ -263,6 +285,7 @@ def simulate_walking(
     max_step_factor: float = 2.0,
     reference=None,
     torso: str | None = None,
+    check_contacts: bool = True,
 ) -> WalkingRun:
     """Simulate ``steps`` steps from the planned start state ``start`` (2n,).
 
@@ -280,6 +303,8 @@ def simulate_walking(
     reference : an object with ``tracking(x) -> rad`` (the largest angle error at the same
         phase), or None.
     torso : the link pushed (default: the upper body's first link).
+    check_contacts : False runs the ideal pinned-foot model on, whatever its contacts would
+        need (for the return map of an orbit that a real contact would leave).
 
     Returns
     -------
@@ -357,17 +382,17 @@ def simulate_walking(
             log.normal = min(log.normal, reaction[1])
             if reaction[1] > 0:
                 log.friction = max(log.friction, abs(reaction[0]) / (plant.mu * reaction[1]))
-            if problem is not None:
+            if problem is not None and check_contacts:
                 fell = f"step {index}, t = {t:.3f} s: {problem}"
                 break
             x_next = np.asarray(plant.advance(x, torques, period)).ravel()
             if not np.all(np.isfinite(x_next)):
                 fell = f"step {index}, t = {t:.3f} s: the state is not finite"
                 break
-            height = _foot_height(plant, x_next, foothold, ground)
+            height = foot_height(plant, x_next, foothold, ground)
             ahead = complex(plant.foot.position(x_next[:n])).real
             if height <= 0.0 and ahead > STRIKE_AHEAD * step_length:
-                tau, x_minus = _locate_strike(plant, x, torques, period, foothold, ground)
+                tau, x_minus = locate_strike(plant, x, torques, period, foothold, ground)
                 strike = (t + tau, x_minus)
                 break
             x = x_next
@@ -379,7 +404,7 @@ def simulate_walking(
         landing = complex(plant.foot.position(x_minus[:n]))
         velocity = complex(plant.foot.velocity(x_minus[:n], x_minus[n:]))
         problem = _impact_problem(impulse, lift, plant.mu)
-        if problem is not None:
+        if problem is not None and check_contacts:
             fell = f"heel strike of step {index}: {problem}"
             break
         records.append(
@@ -404,25 +429,34 @@ def simulate_walking(
     states = np.vstack([np.asarray(log.states) for log in logs if log.states])
     torques_all = np.vstack([np.asarray(log.torques) for log in logs if log.torques])
     which = np.concatenate([np.full(len(log.time), k) for k, log in enumerate(logs) if log.time])
-    return WalkingRun(tuple(records), fell, time, states, torques_all, which, np.asarray(footholds))
+    return WalkingRun(
+        tuple(records),
+        fell,
+        time,
+        states,
+        torques_all,
+        which,
+        np.asarray(footholds),
+        None if fell else x,
+    )
 
 
-def _foot_height(plant: Plant, x, foothold: complex, ground) -> float:
+def foot_height(plant: Plant, x, foothold: complex, ground) -> float:
     """The swing foot's height over the ground under it, m."""
     world = foothold + complex(plant.foot.position(x[: plant.n]))
     return world.imag - ground(world.real)
 
 
-def _locate_strike(plant: Plant, x, torques, period: float, foothold: complex, ground):
+def locate_strike(plant: Plant, x, torques, period: float, foothold: complex, ground):
     """The instant tau in (0, period] when the swing foot reaches the ground, and the state
     then, on the period's own RK4 step (secant iterations bracketed by bisection)."""
 
     def height(tau):
         state = np.asarray(plant.advance(x, torques, tau)).ravel()
-        return _foot_height(plant, state, foothold, ground), state
+        return foot_height(plant, state, foothold, ground), state
 
     low, high = 0.0, period
-    h_low = _foot_height(plant, x, foothold, ground)
+    h_low = foot_height(plant, x, foothold, ground)
     h_high, state = height(high)
     for _ in range(60):
         if abs(h_high) <= STRIKE_TOLERANCE or high - low < 1e-15:

@@ -1,0 +1,150 @@
+"""The step-to-step (Poincare) return map of a simulated walking gait, linearised exactly, and
+its Floquet multipliers.
+
+The map P takes the state x0 (2n,) at a step's start (after the leg swap) to the next step's
+start: the digital controller's periods x_{k+1} = F(x_k, M_k, h) with M_k = C(t_k, x_k) held
+(:class:`problems.walking_simulation.Plant`: generated RK4), until the swing foot reaches the
+ground inside a period at tau; then the impact and the leg swap Delta. Its Jacobian is the
+chain of the periods' Jacobians, all from the model's SX by CasADi's automatic
+differentiation (no finite differences):
+
+    S_{k+1} = (dF/dx + dF/dM dC/dx) S_k,           S_0 = I,
+    D(x-)   = S_tau + dF/dtau dtau/dx0,  dtau/dx0 = -(dg/dx S_tau) / (dg/dx dF/dtau),
+    DP      = dDelta/dx(x-) D(x-),
+
+where g is the swing foot's height and S_tau the chain through the last, partial period: the
+strike's instant moves with the state, and the second line is that correction (the discrete
+form of the saltation matrix; the Poincare section is the start of the step, so no transverse
+coordinates are needed: the map's domain is the full state and it keeps a zero multiplier,
+the direction along the guard that the section removes).
+
+The eigenvalues of DP at the gait's fixed point are its Floquet multipliers: inside the unit
+circle the gait is locally (orbitally) stable under that controller, outside it diverges by
+the multiplier's modulus per step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from model.errors import check_positive
+from problems.walking_simulation import STRIKE_AHEAD, Plant, foot_height, locate_strike
+
+
+@dataclass(frozen=True)
+class ReturnMap:
+    """P(x0) and its Jacobian.
+
+    start (2n,): x0; end (2n,): P(x0); jacobian (2n, 2n): dP/dx0; duration s: the step's
+    time to heel strike.
+    """
+
+    start: np.ndarray
+    end: np.ndarray
+    jacobian: np.ndarray
+    duration: float
+
+    @property
+    def multipliers(self) -> np.ndarray:
+        """The eigenvalues of dP/dx0, largest modulus first (complex)."""
+        values = np.linalg.eigvals(self.jacobian)
+        return values[np.argsort(-np.abs(values))]
+
+    @property
+    def spectral_radius(self) -> float:
+        """The largest |multiplier|: < 1 stable, > 1 unstable."""
+        return float(np.abs(self.multipliers[0]))
+
+
+def return_map(
+    plant: Plant,
+    controller,
+    start,
+    *,
+    step_time: float,
+    step_length: float,
+    control_rate_hz: float = 1000.0,
+    max_step_factor: float = 2.0,
+) -> ReturnMap:
+    """P(start) and dP/dstart for ``controller`` (``torques(t, x)`` and ``jacobian(t, x)``,
+    dM/dx (n, 2n)) on ``plant``, on flat ground, as :func:`simulate_walking` integrates it.
+
+    Raises RuntimeError when no heel strike comes within ``max_step_factor`` step times.
+    """
+    period = 1.0 / check_positive("control_rate_hz", control_rate_hz, "Hz")
+    n = plant.n
+    x = np.asarray(start, dtype=float).copy()
+    sensitivity = np.eye(2 * n)
+    controller.start_step(0, x)
+
+    def ground(_):
+        return 0.0
+
+    t = 0.0
+    while t <= max_step_factor * step_time:
+        torques = np.asarray(controller.torques(t, x), dtype=float)
+        feedback = np.asarray(controller.jacobian(t, x), dtype=float)
+        x_next = np.asarray(plant.advance(x, torques, period)).ravel()
+        ahead = complex(plant.foot.position(x_next[:n])).real
+        if foot_height(plant, x_next, 0j, ground) <= 0.0 and ahead > STRIKE_AHEAD * step_length:
+            tau, x_minus = locate_strike(plant, x, torques, period, 0j, ground)
+            dx, dm, dh = (np.asarray(v) for v in plant.advance_jacobian(x, torques, tau))
+            through = (dx + dm @ feedback) @ sensitivity
+            rate = dh.reshape(-1)
+            height_gradient = np.zeros(2 * n)
+            height_gradient[:n] = plant.foot.jacobian(x_minus[:n], floating=False)[1]
+            dtau = -(height_gradient @ through) / (height_gradient @ rate)
+            before = through + np.outer(rate, dtau)
+            jacobian = np.asarray(plant.step_map_jacobian(x_minus)) @ before
+            end = np.asarray(plant.step_map(x_minus)).ravel()
+            return ReturnMap(np.asarray(start, dtype=float), end, jacobian, t + tau)
+        dx, dm, _ = (np.asarray(v) for v in plant.advance_jacobian(x, torques, period))
+        sensitivity = (dx + dm @ feedback) @ sensitivity
+        x = x_next
+        t += period
+    raise RuntimeError(
+        f"return_map: no heel strike within {max_step_factor:g} x the step time "
+        f"({max_step_factor * step_time:g} s): the controller does not bring the foot down"
+    )
+
+
+def fixed_point(
+    plant: Plant,
+    controller,
+    guess,
+    *,
+    step_time: float,
+    step_length: float,
+    control_rate_hz: float = 1000.0,
+    tolerance: float = 1e-10,
+    iterations: int = 10,
+) -> ReturnMap:
+    """The periodic gait of the closed loop: x* = P(x*) by Newton's method on P(x) - x from
+    ``guess`` (the plan's start), with the exact Jacobian (quadratic convergence). Returns the
+    return map at x*; raises RuntimeError naming the residual when it does not converge.
+    """
+    x = np.asarray(guess, dtype=float).copy()
+    residual = np.inf
+    for _ in range(iterations):
+        step = return_map(
+            plant,
+            controller,
+            x,
+            step_time=step_time,
+            step_length=step_length,
+            control_rate_hz=control_rate_hz,
+        )
+        gap = step.end - x
+        residual = float(np.abs(gap).max())
+        if residual <= tolerance:
+            return step
+        x = x - np.linalg.solve(step.jacobian - np.eye(x.size), gap)
+    raise RuntimeError(
+        f"fixed_point: P(x) - x is still {residual:.2e} after {iterations} Newton steps "
+        f"(tolerance {tolerance:g}); the closed loop may have no periodic gait near the plan"
+    )
+
+
+__all__ = ["ReturnMap", "fixed_point", "return_map"]

@@ -1,0 +1,92 @@
+"""The return map's exact Jacobian (problems.walking_linearisation) against central
+differences of the product's own hybrid simulation, Newton's quadratic convergence to the
+closed loop's periodic gait, and the multipliers against the decay the simulation shows."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from problems import walking_step
+from problems.walking_control import GaitReference, PhasePD
+from problems.walking_linearisation import fixed_point, return_map
+from problems.walking_simulation import Plant, simulate_walking
+
+#: the reference's samples must not fall on the control instants: there the phase table's
+#: linear pieces meet, the map has a kink, and a central difference straddles it (the exact
+#: one-sided derivative is the map's own, but it is not what a difference measures)
+REFERENCE_RATE_HZ = 777.0
+
+
+@pytest.fixture(scope="module")
+def closed_loop():
+    step = walking_step()
+    gait = step.solve(progress=False)
+    reference = GaitReference.of(gait, rate_hz=REFERENCE_RATE_HZ)
+    controller = PhasePD(reference, step.linkage.parents, kp=1000.0, kd=60.0)
+    plant = Plant(step.linkage, mu=1.0)
+    return step, reference, controller, plant
+
+
+def _options(step):
+    return {"step_time": step.step_time, "step_length": step.step_length}
+
+
+def test_newton_converges_quadratically_to_the_closed_loops_gait(closed_loop):
+    step, reference, controller, plant = closed_loop
+    x = reference.states[0]
+    residuals = []
+    for _ in range(4):
+        result = return_map(plant, controller, x, **_options(step))
+        gap = result.end - x
+        residuals.append(np.abs(gap).max())
+        x = x - np.linalg.solve(result.jacobian - np.eye(x.size), gap)
+    # each residual about the square of the last (scaled): the Jacobian is exact
+    assert residuals[-1] < 1e-10
+    assert residuals[2] < 10 * residuals[1] ** 2 / residuals[0] + 1e-12
+    found = fixed_point(plant, controller, reference.states[0], **_options(step))
+    assert np.abs(found.end - found.start).max() <= 1e-10
+    assert found.duration == pytest.approx(step.step_time, rel=0.01)
+
+
+def test_the_jacobian_is_the_simulations_central_difference(closed_loop):
+    step, reference, controller, plant = closed_loop
+    found = fixed_point(plant, controller, reference.states[0], **_options(step))
+
+    def next_start(x):
+        run = simulate_walking(
+            x, controller, linkage=step.linkage, steps=1, mu=1.0, check_contacts=False,
+            **_options(step),
+        )  # fmt: skip
+        return run.end
+
+    eps = 1e-7
+    columns = []
+    for j in range(found.start.size):
+        e = np.zeros(found.start.size)
+        e[j] = eps
+        columns.append((next_start(found.start + e) - next_start(found.start - e)) / (2 * eps))
+    differences = np.column_stack(columns)
+    scale = np.abs(found.jacobian).max()
+    np.testing.assert_allclose(found.jacobian, differences, rtol=0, atol=1e-6 * scale)
+
+
+def test_the_multipliers_say_how_fast_the_simulation_returns_to_the_gait(closed_loop):
+    step, reference, controller, plant = closed_loop
+    found = fixed_point(plant, controller, reference.states[0], **_options(step))
+    radius = found.spectral_radius
+    assert 0.3 < radius < 0.7  # stable with margin under these gains
+    # one multiplier is zero: the section at the step's start removes the guard's direction
+    assert np.abs(found.multipliers[-1]) < 1e-8
+    # a small error decays by the largest multiplier per step (small: 1e-2 rad/s is already
+    # outside the linear range, its ratios wander between 0.51 and 0.65)
+    offset = np.zeros(found.start.size)
+    offset[len(offset) // 2 :] = 1e-5  # rad/s on every joint rate
+    run = simulate_walking(
+        found.start + offset, controller, linkage=step.linkage, steps=8, mu=1.0,
+        check_contacts=False, **_options(step),
+    )  # fmt: skip
+    starts = [run.states[np.flatnonzero(run.step == k)[0]] for k in range(1, 8)]
+    errors = np.array([np.abs(s - found.start).max() for s in starts])
+    ratios = errors[2:] / errors[1:-1]  # the other multipliers (< 0.03) gone after a step
+    assert np.all(ratios == pytest.approx(radius, rel=0.02)), (ratios, radius)
