@@ -1,0 +1,208 @@
+"""Feedback gains along a planned walking step: a periodic, time-varying LQR through the heel
+strike, applied by the phase.
+
+The digital controller's plant is linearised along the plan at its control instants
+t_k = k h (:class:`problems.walking_simulation.Plant`: the RK4 period's exact Jacobians),
+
+    dx_{k+1} = A_k dx_k + B_k dM_k,
+
+and the heel strike at T by the impact-and-swap map with the strike instant's shift (the
+saltation matrix of the plan's x(T-): S = dDelta/dx (I - f g' / (g' f)), f = dx/dt, g' the
+swing foot height's gradient). The cost per period is dx' Q dx + dM' R dM with Bryson's rule:
+
+    Q = diag(1 / angle^2 (n), 1 / rate^2 (n)),   R = diag(1 / torque^2 (drives)),
+
+(:class:`LqrWeights`: the angle, rate and torque errors that cost the same). The periodic
+Riccati difference equation is run backwards over the step, through P(T-) = S' P(0) S, until
+P(0) repeats (to 1e-10 relative); its gains K_k make the time-varying LQR of the periodic
+orbit. Passive hinges get no input (their column of B is left out).
+
+:class:`PhaseLQR` applies them by the phase s(x) (the hip's progress,
+:class:`problems.walking_control.GaitReference`), not by the time since the strike:
+
+    M = M_ff(s) + K(s) (x_ref(s) - x),
+
+K(s) interpolated linearly between the control instants' phases s_k = s(x_ref(t_k)).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from model.errors import DefinitionError, check_positive
+from problems.walking_control import GaitReference
+from problems.walking_simulation import Plant
+
+#: the Riccati recursion stops when P(0) changes by less than this, relative, over a step
+RICCATI_TOLERANCE = 1e-10
+RICCATI_CYCLES = 200
+
+
+@dataclass(frozen=True)
+class LqrWeights:
+    """Bryson's rule: the errors that cost as much as each other.
+
+    angle rad, rate rad/s: the state errors; torque N m: the feedback torque.
+    """
+
+    angle: float = 0.01
+    rate: float = 0.1
+    torque: float = 20.0
+
+    def __post_init__(self) -> None:
+        check_positive("angle", self.angle, "rad")
+        check_positive("rate", self.rate, "rad/s")
+        check_positive("torque", self.torque, "N m")
+
+
+@dataclass(frozen=True)
+class PeriodicGains:
+    """The LQR gains of a step.
+
+    phases (K,): s at the control instants; times (K,) s; gains (K, n, 2n) N m/rad and
+    N m s/rad (rows of passive hinges zero); cost (2n, 2n): P at the step's start;
+    cycles: the steps the Riccati recursion ran.
+    """
+
+    phases: np.ndarray
+    times: np.ndarray
+    gains: np.ndarray
+    cost: np.ndarray
+    cycles: int
+    weights: LqrWeights
+
+
+def saltation(plant: Plant, x_minus: np.ndarray, torques: np.ndarray) -> np.ndarray:
+    """dx+/dx- (2n, 2n) of the strike at x- under the held torques: dDelta/dx times the
+    projection along the flow that the strike instant's shift makes."""
+    n = plant.n
+    ddpsi = plant.dynamics.forward_dynamics(x_minus[:n], x_minus[n:], torques)
+    flow = np.r_[x_minus[n:], ddpsi]
+    gradient = np.zeros(2 * n)
+    gradient[:n] = plant.foot.jacobian(x_minus[:n], floating=False)[1]
+    projection = np.eye(2 * n) - np.outer(flow, gradient) / (gradient @ flow)
+    return np.asarray(plant.step_map_jacobian(x_minus)) @ projection
+
+
+def periodic_riccati(a_list, b_list, jump, q, r):
+    """The periodic discrete Riccati recursion of x_{k+1} = A_k x_k + B_k u_k (k < K), then
+    x -> jump x, with the cost sum x' Q x + u' R u per period, run backwards until P(0)
+    repeats. Returns (gains (K, m, nx): u_k = -K_k x_k, P(0) (nx, nx), steps run)."""
+    cost = np.asarray(q, dtype=float).copy()
+    count = len(a_list)
+    gains = np.zeros((count, b_list[0].shape[1], cost.shape[0]))
+    cycles = 0
+    while True:
+        cycles += 1
+        p = jump.T @ cost @ jump
+        for k in range(count - 1, -1, -1):
+            a, b = a_list[k], b_list[k]
+            gain = np.linalg.solve(r + b.T @ p @ b, b.T @ p @ a)
+            closed = a - b @ gain
+            # Joseph form: stays symmetric positive definite in floating point
+            p = q + gain.T @ r @ gain + closed.T @ p @ closed
+            p = 0.5 * (p + p.T)
+            gains[k] = gain
+        change = np.abs(p - cost).max() / np.abs(p).max()
+        cost = p
+        if change < RICCATI_TOLERANCE:
+            return gains, cost, cycles
+        if cycles == RICCATI_CYCLES:
+            raise RuntimeError(
+                f"periodic_lqr: P(0) still changes by {change:.1e} after {RICCATI_CYCLES} "
+                "steps; the plan's orbit may not be stabilisable with these drives"
+            )
+
+
+def periodic_lqr(
+    plant: Plant,
+    reference: GaitReference,
+    *,
+    weights: LqrWeights | None = None,
+    control_rate_hz: float = 1000.0,
+    passive=(),
+) -> PeriodicGains:
+    """The time-varying LQR gains of the plan's periodic orbit (module docstring)."""
+    weights = weights or LqrWeights()
+    period = 1.0 / check_positive("control_rate_hz", control_rate_hz, "Hz")
+    n = plant.n
+    active = [i for i in range(n) if i not in set(passive)]
+    if not active:
+        raise DefinitionError("`passive`: every hinge is passive; there is nothing to control")
+    duration = reference.duration
+    count = int(np.ceil(duration / period - 1e-9))
+    times = np.minimum(np.arange(count) * period, duration)
+    lengths = np.diff(np.r_[times, duration])
+    a_list, b_list = [], []
+    for t, h in zip(times, lengths, strict=True):
+        x, torques = reference.at_time(t)
+        dx, dm, _ = (np.asarray(v) for v in plant.advance_jacobian(x, torques, h))
+        a_list.append(dx)
+        b_list.append(dm[:, active])
+    x_end, torques_end = reference.at_time(duration)
+    jump = saltation(plant, x_end, torques_end)
+    q = np.diag(np.r_[np.full(n, weights.angle**-2.0), np.full(n, weights.rate**-2.0)])
+    r = np.eye(len(active)) * weights.torque**-2.0
+    gains, cost, cycles = periodic_riccati(a_list, b_list, jump, q, r)
+    full = np.zeros((count, n, 2 * n))
+    full[:, active, :] = gains
+    phases = np.array([reference.phase(reference.at_time(t)[0][:n]) for t in times])
+    return PeriodicGains(phases, times, full, cost, cycles, weights)
+
+
+class PhaseLQR:
+    """M = M_ff(s) + K(s) (x_ref(s) - x) with the gains of :func:`periodic_lqr`."""
+
+    def __init__(self, reference: GaitReference, gains: PeriodicGains) -> None:
+        self.reference = reference
+        self.gains = gains
+        if np.any(np.diff(gains.phases) <= 0):
+            raise DefinitionError("`gains`: their phases must increase along the step")
+
+    def start_step(self, index: int, x: np.ndarray) -> None:
+        pass
+
+    def _gain(self, s: float) -> tuple[np.ndarray, np.ndarray]:
+        """K(s) and dK/ds (0 where s is clamped)."""
+        grid = self.gains.phases
+        table = self.gains.gains
+        if s <= grid[0]:
+            return table[0], np.zeros_like(table[0])
+        if s >= grid[-1]:
+            return table[-1], np.zeros_like(table[-1])
+        k = int(np.searchsorted(grid, s, side="right") - 1)
+        width = grid[k + 1] - grid[k]
+        w = (s - grid[k]) / width
+        return (1 - w) * table[k] + w * table[k + 1], (table[k + 1] - table[k]) / width
+
+    def torques(self, t: float, x: np.ndarray) -> np.ndarray:
+        reference = self.reference
+        s = reference.phase(x[: reference.n])
+        state, feedforward = reference.at_phase(s)
+        gain, _ = self._gain(s)
+        return feedforward + gain @ (state - x)
+
+    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        """dM/dx (n, 2n) of :meth:`torques` (within a piece of the tables)."""
+        reference = self.reference
+        n = reference.n
+        s = reference.phase(x[:n])
+        state, _ = reference.at_phase(s)
+        state_slope, torque_slope = reference.slopes_at_phase(s)
+        gain, gain_slope = self._gain(s)
+        along = torque_slope + gain @ state_slope + gain_slope @ (state - x)
+        jacobian = -gain.copy()
+        jacobian[:, :n] += np.outer(along, reference.phase_gradient(x[:n]))
+        return jacobian
+
+
+__all__ = [
+    "LqrWeights",
+    "PeriodicGains",
+    "PhaseLQR",
+    "periodic_lqr",
+    "periodic_riccati",
+    "saltation",
+]
