@@ -643,6 +643,24 @@ def _walk_parser(commands, common, limits) -> None:
         help="output folder (default: a new folder walk_<date>_<time> here); a folder of an "
         "earlier walk has its files replaced as a set, any other non-empty folder is refused",
     )
+    walk.add_argument(
+        "--feedback",
+        action="store_true",
+        help="design the feedback of the step (a periodic LQR through the heel strike, "
+        "indexed by the hip's progress), write its gains into torques.csv (columns phase, "
+        "K_<hinge>__<state>; the law in torques.csv.meta.json) and check the closed loop in "
+        "the product's hybrid simulation: multipliers, open loop, 50 steps, mass +-10 %%, "
+        "ground +-5 mm, largest pushes (about a minute; draws closed_loop.png)",
+    )
+    walk.add_argument(
+        "--ground-friction",
+        type=positive("", 100.0),
+        default=1.0,
+        metavar="MU",
+        help="friction coefficient of the simulated ground of --feedback (default: 1.0; the "
+        "plan runs along its own cone, --mu, right after heel strike, so the feedback needs a "
+        "little more)",
+    )
     walk.add_argument("--no-plots", action="store_true", help="write no PNG or GIF")
     walk.add_argument("--no-gif", action="store_true", help="write the PNGs but no GIF")
     walk.add_argument(
@@ -1154,6 +1172,11 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
             "transcription": args.transcription or "hermite-simpson",
             "degree": args.degree,
         }
+    if args.feedback and args.double_support_s > 0:
+        raise UsageError(
+            "--feedback: the feedback is designed for a step without a double support; "
+            "drop --double-support-s or --feedback"
+        )
     if target is not None and args.double_support_s > 0:
         raise UsageError(
             "--accuracy: a refinement target needs a single support; with --double-support-s "
@@ -1347,9 +1370,17 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
         )
     # Everything goes to a staging folder first and replaces the output folder as a set once
     # the file the drives read has been read back and verified.
+    feedback = None
+    if args.feedback:
+        from problems.walking_feedback import design_feedback
+
+        with report.working("designing the feedback (periodic LQR through the heel strike)"):
+            feedback = design_feedback(gait, ground_mu=args.ground_friction)
     with output:
         with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
             profile = gait.to_trajectory(args.rate_hz)
+            if feedback is not None:
+                profile = feedback.channels(profile)
             written = _save(profile, output.staging, "torques", ("csv", "json"))
             _save(gait.to_trajectory(), output.staging, "solution", ("npz",))
         with report.working("verifying torques.csv (numpy, independent of the planner)"):
@@ -1377,6 +1408,9 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
             raise CommandFailed(
                 f"torques.csv failed its verification: {check.failures[0]}; nothing written"
             )
+        closed = None
+        if feedback is not None:
+            closed = _closed_loop(feedback, report, out)
         if not args.no_plots:
             from problems import walking_plots
 
@@ -1390,10 +1424,66 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
                 with report.working(f"writing walk.gif ({args.steps} steps)"):
                     fps = 15.0 if args.quick else 30.0
                     walking_plots.animate_walk(motion, output.path("walk.gif"), fps=fps)
+            if closed is not None:
+                with report.working("plotting closed_loop.png"):
+                    walking_plots.save_figure(walking_plots.closed_loop_figure(closed),
+                                              output.path("closed_loop.png"))  # fmt: skip
         paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
     for path in paths:
         print(f"wrote {path}", file=out)
     return 0
+
+
+def _closed_loop(feedback, report, out):
+    """Run and print the closed-loop check of ``walk --feedback``; returns it."""
+    from problems.walking_feedback import closed_loop_check
+
+    weights = feedback.gains.weights
+    print(
+        f"feedback: periodic LQR through the heel strike at {feedback.control_rate_hz:g} Hz "
+        f"(Bryson weights: {weights.angle:g} rad, {weights.rate:g} rad/s, {weights.torque:g} "
+        f"N m), designed in {feedback.design_seconds:.2f} s; torques.csv carries its gains "
+        f"({len(feedback.names) * 2 * len(feedback.names)} columns K_<hinge>__<state>, N m/rad "
+        "and N m s/rad) and the phase; the law is in torques.csv.meta.json",
+        file=out,
+    )
+    with report.working("checking the closed loop (the product's hybrid simulation)"):
+        check = closed_loop_check(feedback)
+    multipliers = ", ".join(f"{abs(m):.3f}" for m in check.loop.multipliers[:3])
+    print(
+        f"closed loop, simulated (pinned stance foot, rigid impacts, ground friction "
+        f"{feedback.plant.mu:g}): largest Floquet multipliers |lambda| {multipliers} "
+        f"(stable below 1); open loop (the plan's torques alone): "
+        f"{check.open_loop.fell or 'walked'}",
+        file=out,
+    )
+    print(
+        f"  {'case':<14} {'steps':>7} {'step time s':>15} {'step length m':>15} "
+        f"{'peak |M| N m':>12} {'tracking rad':>12}",
+        file=out,
+    )
+    for label, run in check.runs.items():
+        walked = f"{run.walked}/{check.steps}"
+        if run.steps:
+            times = [r.duration for r in run.steps]
+            lengths = [r.length for r in run.steps]
+            peak = max(r.peak_torque for r in run.steps)
+            tracking = max(r.tracking for r in run.steps)
+            print(
+                f"  {label:<14} {walked:>7} {min(times):7.4f}..{max(times):6.4f} "
+                f"{min(lengths):7.4f}..{max(lengths):6.4f} {peak:12.1f} {tracking:12.2e}"
+                + (f"  fell: {run.fell}" if run.fell else ""),
+                file=out,
+            )
+        else:
+            print(f"  {label:<14} {walked:>7}  fell: {run.fell}", file=out)
+    forward, back = check.pushes
+    print(
+        f"  largest push on the torso's centre of mass at mid-step that it walks 10 more steps "
+        f"after: forward {forward:.1f} N s, back {back:.1f} N s (bisection to 0.5 N s)",
+        file=out,
+    )
+    return check
 
 
 def _check_lines(report) -> list[str]:

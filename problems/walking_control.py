@@ -10,7 +10,9 @@ so the reference here is indexed by the *phase* s, the hip's progress over the s
 0 at the step's start and 1 at its planned heel strike, read off the plan's samples, which
 must make it strictly increasing (a hip that stops or goes back has no phase). A heel strike
 that comes early cuts the reference (the next step starts at s = 0); one that comes late
-holds its end (s > 1 reads the last sample).
+extends it: for s > 1 the reference state goes on along the plan's last slope dx/ds (the
+swing foot keeps coming down to a ground that is lower than planned) and the feedforward
+torques hold their last value.
 """
 
 from __future__ import annotations
@@ -72,17 +74,27 @@ class GaitReference:
         return self._blend(self.time, t)
 
     def at_phase(self, s: float) -> tuple[np.ndarray, np.ndarray]:
-        """(x_ref (2n,), M_ff (n,)) at the phase s (clamped to [0, 1])."""
+        """(x_ref (2n,), M_ff (n,)) at the phase s: the plan for s in [0, 1], its start before
+        0, its last slope after 1 (module docstring)."""
+        if s > self.phases[-1]:
+            states, torques = self._blend(self.phases, self.phases[-1])
+            return states + (s - self.phases[-1]) * self._end_slope, torques
         return self._blend(self.phases, s)
 
     def phase_gradient(self, psi) -> np.ndarray:
         """ds/dpsi (n,): the hip's forward Jacobian over the step's span."""
         return self._hip.jacobian(psi, floating=False)[0] / self._span
 
+    @property
+    def _end_slope(self) -> np.ndarray:
+        return (self.states[-1] - self.states[-2]) / (self.phases[-1] - self.phases[-2])
+
     def slopes_at_phase(self, s: float) -> tuple[np.ndarray, np.ndarray]:
-        """(dx_ref/ds (2n,), dM_ff/ds (n,)) of the linear blend at s (0 where s is clamped)."""
+        """(dx_ref/ds (2n,), dM_ff/ds (n,)) of :meth:`at_phase` at s."""
         grid = self.phases
-        if not grid[0] < s < grid[-1]:
+        if s >= grid[-1]:
+            return self._end_slope, np.zeros(self.n)
+        if s <= grid[0]:
             return np.zeros(2 * self.n), np.zeros(self.n)
         k = int(np.clip(np.searchsorted(grid, s, side="right") - 1, 0, grid.size - 2))
         width = grid[k + 1] - grid[k]

@@ -153,16 +153,34 @@ def periodic_lqr(
 
 
 class PhaseLQR:
-    """M = M_ff(s) + K(s) (x_ref(s) - x) with the gains of :func:`periodic_lqr`."""
+    """M = clip(M_ff(s) + K(s) (x_ref(s) - x), -limit, limit) with the gains of
+    :func:`periodic_lqr`.
 
-    def __init__(self, reference: GaitReference, gains: PeriodicGains) -> None:
+    limits : (n,) N m or None
+        The drives' torque limits: the law is clipped to them (a saturated drive gives what
+        it can; the clipped hinge's feedback is lost for that period, which the simulations
+        measure).
+    """
+
+    def __init__(self, reference: GaitReference, gains: PeriodicGains, limits=None) -> None:
         self.reference = reference
         self.gains = gains
+        self.limits = None if limits is None else np.asarray(limits, dtype=float)
+        if self.limits is not None and (
+            self.limits.shape != (reference.n,) or np.any(self.limits <= 0)
+        ):
+            raise DefinitionError(
+                f"`limits`: {reference.n} positive torque limits (N m), got {limits!r}"
+            )
         if np.any(np.diff(gains.phases) <= 0):
             raise DefinitionError("`gains`: their phases must increase along the step")
 
     def start_step(self, index: int, x: np.ndarray) -> None:
         pass
+
+    def gain_at(self, s: float) -> np.ndarray:
+        """K(s) (n, 2n): the gains interpolated at the phase s (held outside the step)."""
+        return self._gain(s)[0]
 
     def _gain(self, s: float) -> tuple[np.ndarray, np.ndarray]:
         """K(s) and dK/ds (0 where s is clamped)."""
@@ -182,7 +200,10 @@ class PhaseLQR:
         s = reference.phase(x[: reference.n])
         state, feedforward = reference.at_phase(s)
         gain, _ = self._gain(s)
-        return feedforward + gain @ (state - x)
+        torques = feedforward + gain @ (state - x)
+        if self.limits is not None:
+            torques = np.clip(torques, -self.limits, self.limits)
+        return torques
 
     def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
         """dM/dx (n, 2n) of :meth:`torques` (within a piece of the tables)."""
@@ -195,6 +216,9 @@ class PhaseLQR:
         along = torque_slope + gain @ state_slope + gain_slope @ (state - x)
         jacobian = -gain.copy()
         jacobian[:, :n] += np.outer(along, reference.phase_gradient(x[:n]))
+        if self.limits is not None:  # a saturated drive does not respond to the state
+            saturated = np.abs(self.torques(t, x)) >= self.limits
+            jacobian[saturated] = 0.0
         return jacobian
 
 

@@ -190,3 +190,53 @@ def save_figure(figure: Figure, path: str | os.PathLike, dpi: float = 100.0) -> 
 
 
 __all__ = ["animate_walk", "draw_world", "gait_figure", "save_figure", "world_strip"]
+
+
+def closed_loop_figure(check) -> Figure:
+    """The closed-loop check (:class:`problems.walking_feedback.ClosedLoopCheck`): the
+    largest angle error from the plan at the same phase, per step and case, and the open-loop
+    replay's error against time until it falls."""
+    figure = Figure(figsize=(11.0, 4.2))
+    FigureCanvasAgg(figure)
+    errors, open_axis = figure.subplots(1, 2)
+    for label, run in check.runs.items():
+        if run.steps:
+            tracking = [max(r.tracking, 1e-9) for r in run.steps]
+            errors.semilogy(range(1, len(tracking) + 1), tracking, marker=".", label=
+                            f"{label} ({run.walked}/{check.steps})")  # fmt: skip
+        else:
+            errors.plot([], [], label=f"{label} (fell in step 1)")
+    errors.set_xlabel("step")
+    errors.set_ylabel("largest |psi - psi_ref(s)| in the step, rad")
+    errors.set_title(
+        f"closed loop (periodic LQR): largest multiplier {check.loop.spectral_radius:.3f}"
+    )
+    errors.legend(fontsize="small")
+    errors.grid(True, which="both", alpha=0.3)
+    run = check.open_loop
+    reference = check.reference
+    n = reference.n
+    deviation = [
+        np.abs(x[:n] - reference.at_time(t)[0][:n]).max()
+        for t, x in zip(run.time, run.states, strict=True)
+    ]
+    open_axis.semilogy(run.time, np.maximum(deviation, 1e-12), color="C3")
+    open_axis.set_xlabel("t, s")
+    open_axis.set_ylabel("largest |psi - psi_plan(t)|, rad")
+    why = run.fell or "walked every step"
+    open_axis.set_title("open loop (the plan's torques alone)", fontsize="medium")
+    open_axis.text(0.02, 0.02, _wrap(why, 55), transform=open_axis.transAxes, fontsize="small")
+    open_axis.grid(True, which="both", alpha=0.3)
+    figure.tight_layout()
+    return figure
+
+
+def _wrap(text: str, width: int) -> str:
+    words, lines, line = text.split(), [], ""
+    for word in words:
+        if len(line) + len(word) + 1 > width and line:
+            lines.append(line)
+            line = word
+        else:
+            line = f"{line} {word}".strip()
+    return "\n".join([*lines, line])

@@ -441,6 +441,54 @@ def simulate_walking(
     )
 
 
+def largest_push(
+    start,
+    controller: Controller,
+    *,
+    direction: float = 1.0,
+    steps: int = 10,
+    tolerance: float = 0.5,
+    upper: float = 200.0,
+    push_step: int = 1,
+    push_at: float = 0.5,
+    **options,
+) -> tuple[float, WalkingRun]:
+    """The largest horizontal push on the torso (N s, along ``direction``: +1 forward, -1
+    back) after which the biped still walks ``steps`` steps, by bisection to ``tolerance``
+    N s between 0 and ``upper`` (:func:`simulate_walking` with ``options``).
+
+    Returns (the push, the run that survived it). Bisection assumes that a push that is
+    survived is survived by every smaller one; the returned run shows the push it had.
+    """
+    tolerance = check_positive("tolerance", tolerance, "N s")
+    upper = check_positive("upper", upper, "N s")
+    sign = 1.0 if check_real("direction", direction) >= 0 else -1.0
+
+    def run(push):
+        disturbances = Disturbances(push=sign * push, push_step=push_step, push_at=push_at)
+        return simulate_walking(
+            start, controller, steps=steps, disturbances=disturbances, **options
+        )
+
+    survived = run(0.0)
+    if survived.walked < steps:
+        raise RuntimeError(
+            f"largest_push: the undisturbed gait does not walk {steps} steps ({survived.fell})"
+        )
+    low, high = 0.0, upper
+    top = run(high)
+    if top.walked >= steps:
+        return high, top
+    while high - low > tolerance:
+        middle = 0.5 * (low + high)
+        attempt = run(middle)
+        if attempt.walked >= steps:
+            low, survived = middle, attempt
+        else:
+            high = middle
+    return low, survived
+
+
 def foot_height(plant: Plant, x, foothold: complex, ground) -> float:
     """The swing foot's height over the ground under it, m."""
     world = foothold + complex(plant.foot.position(x[: plant.n]))
@@ -507,6 +555,7 @@ __all__: Sequence[str] = (
     "Plant",
     "StepRecord",
     "WalkingRun",
+    "largest_push",
     "scaled_linkage",
     "simulate_walking",
 )

@@ -1,0 +1,201 @@
+"""The feedback that travels with a walking step's torques, and the closed-loop check of it.
+
+:func:`design_feedback` takes a solved single-support walking step and returns a
+:class:`Feedback`: the plan as a phase-indexed reference, the periodic LQR gains
+(:mod:`problems.walking_lqr`), the controller (clipped to the drives' limits) and the plant it
+was designed on. :meth:`Feedback.channels` writes it into the exported profile: per sample the
+phase ``phase`` and every gain ``K_<hinge>__<state>`` (N m/rad, N m s/rad), with the law, the
+phase's definition, the control rate and the weights in ``metadata["feedback"]``; a drive reads
+its row of K beside its torque. :func:`closed_loop_check` runs the checks the README prints:
+the multipliers, open loop against closed loop, 50 steps, a heavier and a lighter body, a
+ground a little higher or lower, and the largest pushes.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from model.errors import DefinitionError
+from planner.trajectory import Trajectory
+from problems.walking_control import GaitReference, OpenLoop
+from problems.walking_linearisation import ReturnMap, fixed_point
+from problems.walking_lqr import LqrWeights, PeriodicGains, PhaseLQR, periodic_lqr
+from problems.walking_simulation import (
+    Disturbances,
+    Plant,
+    WalkingRun,
+    largest_push,
+    simulate_walking,
+)
+
+LAW = "M = clip(M_ff(s) + K(s) (x_ref(s) - x), -limit, limit), x = (psi, dpsi)"
+PHASE = (
+    "s = (x_hip - x_hip(0)) / (x_hip(T) - x_hip(0)): the hip (end of {hip}) ahead of the "
+    "stance foot along x, 0 at the step's start, 1 at the planned heel strike; psi absolute "
+    "angles from +x, stance foot at H0"
+)
+EARLY = "a heel strike before s = 1 ends the step: swap the legs and start again at s = 0"
+LATE = "s > 1: x_ref goes on along its last slope dx/ds, M_ff and K hold their last values"
+
+
+@dataclass(frozen=True, eq=False)
+class Feedback:
+    """A walking step's feedback design (see the module docstring)."""
+
+    step: object
+    reference: GaitReference
+    gains: PeriodicGains
+    controller: PhaseLQR
+    plant: Plant
+    control_rate_hz: float
+    design_seconds: float
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self.step.linkage.names
+
+    def channels(self, trajectory: Trajectory) -> Trajectory:
+        """``trajectory`` (the step's exported samples) with the phase of each sample and the
+        gains there as extra columns, and the law in its metadata."""
+        n = len(self.names)
+        if trajectory.psi.shape[1] != n:
+            raise DefinitionError(
+                f"`trajectory`: {trajectory.psi.shape[1]} angles, the feedback has {n}"
+            )
+        phases = np.array([self.reference.phase(psi) for psi in trajectory.psi])
+        gains = np.array([self.controller.gain_at(s) for s in phases])  # (K, n, 2n)
+        states = [f"psi_{name}" for name in self.names] + [f"dpsi_{name}" for name in self.names]
+        out = trajectory.with_extra("phase", phases, "1")
+        for i, hinge in enumerate(self.names):
+            for j, state in enumerate(states):
+                unit = "N m/rad" if j < n else "N m s/rad"
+                out = out.with_extra(f"K_{hinge}__{state}", gains[:, i, j], unit)
+        weights = self.gains.weights
+        return out.with_metadata(
+            feedback={
+                "law": LAW,
+                "state": states,
+                "gains": "K_<hinge>__<state>: row <hinge> of K, column <state>",
+                "phase": PHASE.format(hip=self.step.biped.stance_thigh),
+                "early_strike": EARLY,
+                "late_strike": LATE,
+                "limit_N_m": [float(v) if np.isfinite(v) else None for v in self.controller.limits],
+                "control_rate_hz": self.control_rate_hz,
+                "design": "periodic discrete LQR through the heel strike (saltation), "
+                "Bryson weights",
+                "weights": {
+                    "angle_rad": weights.angle,
+                    "rate_rad_s": weights.rate,
+                    "torque_N_m": weights.torque,
+                },
+            }
+        )
+
+
+def design_feedback(
+    gait,
+    *,
+    weights: LqrWeights | None = None,
+    control_rate_hz: float = 1000.0,
+    ground_mu: float | None = None,
+) -> Feedback:
+    """The periodic LQR feedback of a solved walking step (single support only).
+
+    ground_mu: the friction of the ground the plant's checks use (default the plan's mu).
+    """
+    step = gait.problem
+    if getattr(step, "double_support", 0.0):
+        raise DefinitionError(
+            "`gait`: a step with a double support has no feedback design yet; plan it with "
+            "double_support=0"
+        )
+    start = time.perf_counter()
+    reference = GaitReference.of(gait, rate_hz=control_rate_hz)
+    plant = Plant(step.linkage, mu=ground_mu if ground_mu is not None else step.mu)
+    passive = tuple(step.linkage.index(name) for name in step.passive)
+    gains = periodic_lqr(
+        plant, reference, weights=weights, control_rate_hz=control_rate_hz, passive=passive
+    )
+    limits = [step.torque_limit.get(name, np.inf) for name in step.linkage.names]
+    controller = PhaseLQR(reference, gains, limits=limits)
+    return Feedback(
+        step,
+        reference,
+        gains,
+        controller,
+        plant,
+        control_rate_hz,
+        time.perf_counter() - start,
+    )
+
+
+@dataclass(frozen=True)
+class ClosedLoopCheck:
+    """What :func:`closed_loop_check` measured.
+
+    loop: the closed loop's return map at its periodic gait (multipliers); open_loop: the
+    plan's torques alone; runs: label -> WalkingRun; pushes: (forward, back) N s survived;
+    steps: the steps each run was asked to walk; reference: the plan's; seconds: label ->
+    wall time.
+    """
+
+    loop: ReturnMap
+    open_loop: WalkingRun
+    runs: dict[str, WalkingRun]
+    pushes: tuple[float, float]
+    steps: int
+    reference: GaitReference
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:
+    """The feedback's multipliers and simulated walks (module docstring)."""
+    step = feedback.step
+    options = {
+        "linkage": step.linkage,
+        "step_time": step.step_time,
+        "step_length": step.step_length,
+        "mu": feedback.plant.mu,
+        "control_rate_hz": feedback.control_rate_hz,
+        "reference": feedback.reference,
+    }
+    seconds = {}
+    clock = time.perf_counter()
+    loop = fixed_point(
+        feedback.plant,
+        feedback.controller,
+        feedback.reference.states[0],
+        step_time=step.step_time,
+        step_length=step.step_length,
+        control_rate_hz=feedback.control_rate_hz,
+    )
+    seconds["fixed point and multipliers"] = time.perf_counter() - clock
+    start = feedback.reference.states[0]
+    open_loop = simulate_walking(start, OpenLoop(feedback.reference), steps=steps, **options)
+    cases = {
+        "plan": Disturbances(),
+        "mass +10 %": Disturbances(mass_scale=1.1),
+        "mass -10 %": Disturbances(mass_scale=0.9),
+        "ground +5 mm": Disturbances(ground_rise=0.005),
+        "ground -5 mm": Disturbances(ground_rise=-0.005),
+    }
+    runs = {}
+    for label, disturbances in cases.items():
+        clock = time.perf_counter()
+        runs[label] = simulate_walking(
+            start, feedback.controller, steps=steps, disturbances=disturbances, **options
+        )
+        seconds[label] = time.perf_counter() - clock
+    clock = time.perf_counter()
+    forward, _ = largest_push(start, feedback.controller, direction=1.0, **options)
+    back, _ = largest_push(start, feedback.controller, direction=-1.0, **options)
+    seconds["push margins"] = time.perf_counter() - clock
+    return ClosedLoopCheck(
+        loop, open_loop, runs, (forward, back), steps, feedback.reference, seconds
+    )
+
+
+__all__ = ["ClosedLoopCheck", "Feedback", "closed_loop_check", "design_feedback"]

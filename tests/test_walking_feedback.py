@@ -1,0 +1,110 @@
+"""The feedback in the file (problems.walking_feedback): a drive that reads only torques.csv
+(its reference, phase and gain columns) walks as the design does; and `walk --feedback`."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from model import DefinitionError
+from planner.trajectory import Trajectory
+from problems import walking_step
+from problems.cli import main
+from problems.verification import verify_gait
+from problems.walking_control import GaitReference
+from problems.walking_feedback import LAW, design_feedback
+from problems.walking_lqr import LqrWeights, PeriodicGains, PhaseLQR
+from problems.walking_simulation import simulate_walking
+
+
+@pytest.fixture(scope="module")
+def designed():
+    step = walking_step()
+    gait = step.solve(progress=False)
+    return step, gait, design_feedback(gait, ground_mu=1.0)
+
+
+def test_the_file_carries_the_gains_at_each_samples_phase(designed, tmp_path):
+    step, gait, feedback = designed
+    names = step.linkage.names
+    profile = feedback.channels(gait.to_trajectory(500.0))
+    path = tmp_path / "torques.csv"
+    profile.save(path)
+    loaded = Trajectory.load(path)
+    assert verify_gait(loaded, step.linkage).ok
+    # the law is in the sidecar, where a drive's integrator reads the file's metadata
+    assert LAW in json.dumps(json.loads((tmp_path / "torques.csv.meta.json").read_text()))
+    assert loaded.metadata["feedback"]["law"] == LAW
+    states = loaded.metadata["feedback"]["state"]
+    assert states == [f"psi_{n}" for n in names] + [f"dpsi_{n}" for n in names]
+    phase = np.asarray(loaded.extras["phase"][0])
+    np.testing.assert_allclose(phase, [feedback.reference.phase(p) for p in loaded.psi], atol=1e-12)
+    assert phase[0] == pytest.approx(0.0, abs=1e-12) and phase[-1] == pytest.approx(1.0, abs=1e-12)
+    for k in (0, 137, len(phase) - 1):
+        gain = feedback.controller.gain_at(phase[k])
+        for i, hinge in enumerate(names):
+            for j, state in enumerate(states):
+                value = loaded.extras[f"K_{hinge}__{state}"][0][k]
+                assert value == pytest.approx(gain[i, j], rel=1e-12, abs=1e-9)
+    assert loaded.extras[f"K_torso__psi_{names[0]}"][1] == "N m/rad"
+    assert loaded.extras[f"K_torso__dpsi_{names[0]}"][1] == "N m s/rad"
+
+
+def test_a_drive_that_reads_only_the_file_walks(designed, tmp_path):
+    step, gait, _ = designed
+    names = step.linkage.names
+    n = len(names)
+    # the file at the controller's rate, as a drive would be given it
+    feedback = design_feedback(gait, ground_mu=1.0)
+    path = tmp_path / "torques.csv"
+    feedback.channels(gait.to_trajectory(1000.0)).save(path)
+    loaded = Trajectory.load(path)
+    states = loaded.metadata["feedback"]["state"]
+    table = np.stack(
+        [
+            np.column_stack([loaded.extras[f"K_{hinge}__{state}"][0] for state in states])
+            for hinge in names
+        ],
+        axis=1,
+    )  # (K, n, 2n)
+    phases = np.asarray(loaded.extras["phase"][0])
+    reference = GaitReference(loaded, step.dynamics, step.biped.stance_thigh)
+    gains = PeriodicGains(phases[:-1], loaded.time[:-1], table[:-1], np.eye(2 * n), 0, LqrWeights())
+    limits = loaded.metadata["feedback"]["limit_N_m"]
+    drive = PhaseLQR(reference, gains, limits=limits)
+    run = simulate_walking(
+        reference.states[0], drive, linkage=step.linkage, step_time=step.step_time,
+        step_length=step.step_length, mu=1.0, steps=10,
+    )  # fmt: skip
+    assert run.walked == 10, run.fell
+    np.testing.assert_allclose([r.length for r in run.steps], step.step_length, rtol=1e-3)
+
+
+def test_feedback_needs_a_single_support():
+    step = walking_step(double_support=0.05, N=12)
+    gait = step.solve(progress=False, hold_limits=False)
+    with pytest.raises(DefinitionError, match=r"`gait`: a step with a double support"):
+        design_feedback(gait)
+
+
+def test_walk_refuses_feedback_with_a_double_support(capsys):
+    code = main(["walk", "--feedback", "--double-support-s", "0.05"])
+    assert code == 2
+    assert "--feedback: the feedback is designed for a step without a double support" in (
+        capsys.readouterr().err
+    )
+
+
+@pytest.mark.slow
+def test_walk_feedback_prints_the_closed_loop_and_writes_the_gains(tmp_path, capsys):
+    folder = tmp_path / "out"
+    assert main(["walk", "--feedback", "--no-gif", "--output-dir", str(folder)]) == 0
+    text = capsys.readouterr().out
+    assert "largest Floquet multipliers" in text
+    assert "open loop (the plan's torques alone): step 0" in text
+    assert "  plan             50/50" in text
+    assert (folder / "closed_loop.png").is_file()
+    loaded = Trajectory.load(folder / "torques.csv")
+    assert "K_torso__dpsi_head" in loaded.extras
