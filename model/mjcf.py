@@ -27,6 +27,14 @@ inequality holds). Geoms carry no mass (``inertiafromgeom="false"``): the links 
 capsules that collide with nothing, contacts are small spheres on a plane whose surface is
 lowered by their radius, so that a sphere touches it when its centre, the model's contact
 point, is at y = 0.
+
+MuJoCo numbers its joints in the order of the bodies in the file (depth first), which need
+not be the linkage's order: :attr:`MjcfModel.hinge_index` says where each link's hinge is in
+qpos. A foot (``feet``) is a small body hinged at a link's end (an ankle with its own motor)
+whose sole is two contact spheres, a heel behind and a toe ahead of the ankle at the ankle's
+height: a foot flat on the ground puts its ankle where the model's point foot is, at y = 0,
+and carries the ankle torque a point foot cannot (its centre of pressure anywhere on the
+sole). Its mass is not the model's: keep it small (``foot_mass``).
 """
 
 from __future__ import annotations
@@ -62,6 +70,26 @@ class Contact:
     link: str
     along: float
     name: str
+
+
+@dataclass(frozen=True)
+class Foot:
+    """A foot of the MJCF: a body at ``link``'s ``end`` ("start" or "end"), hinged there (the
+    ankle, motor ``M_ankle_<link>``), its sole from ``heel`` m behind to ``toe`` m ahead of
+    the ankle (behind: -x when the foot is flat, its angle 0)."""
+
+    link: str
+    end: str
+    heel: float
+    toe: float
+
+    @property
+    def body(self) -> str:
+        return f"foot_{self.link}"
+
+    @property
+    def joint(self) -> str:
+        return f"ankle_{self.link}"
 
 
 def contacts_at(linkage: Linkage, points: Sequence[tuple[str, str]]) -> tuple[Contact, ...]:
@@ -101,7 +129,11 @@ class MjcfModel:
     actuated : tuple of str
         The link names whose start hinge carries a motor, in MuJoCo's actuator order (ctrl).
     contacts : tuple of Contact
-        The contact spheres, in geom order.
+        The contact spheres on links, in geom order.
+    hinge_index : tuple of int
+        qpos (and qvel) index of each link's hinge, in the linkage's order.
+    feet : tuple of Foot
+        The feet, and ``ankle_index`` the qpos index of each foot's ankle.
     """
 
     xml: str
@@ -109,11 +141,14 @@ class MjcfModel:
     floating: bool
     actuated: tuple[str, ...]
     contacts: tuple[Contact, ...]
+    hinge_index: tuple[int, ...]
+    feet: tuple[Foot, ...] = ()
+    ankle_index: tuple[int, ...] = ()
 
     @property
     def nq(self) -> int:
         """Length of MuJoCo's qpos (= qvel: no quaternions in a planar model)."""
-        return self.linkage.n + (2 if self.floating else 0)
+        return self.linkage.n + (2 if self.floating else 0) + len(self.feet)
 
     @property
     def ancestry(self) -> np.ndarray:
@@ -126,54 +161,78 @@ class MjcfModel:
 
     @property
     def coordinates(self) -> np.ndarray:
-        """T (nq, nq): the model's coordinates (x0, y0, psi) or psi = T times MuJoCo's qpos."""
-        if not self.floating:
-            return self.ancestry
+        """T (m, nq): the model's coordinates, (x0, y0, psi) (m = n + 2) or psi (m = n), are
+        T times MuJoCo's qpos (the feet's ankles do not enter)."""
         n = self.linkage.n
-        matrix = np.eye(n + 2)
-        matrix[2:, 2:] = self.ancestry
+        base = 2 if self.floating else 0
+        matrix = np.zeros((n + base, self.nq))
+        matrix[:base, :base] = np.eye(base)
+        matrix[base:, list(self.hinge_index)] = self.ancestry
         return matrix
 
-    def qpos(self, psi, base=(0.0, 0.0)) -> np.ndarray:
-        """MuJoCo's qpos (nq,) or (K, nq) from the model's angles psi (n,) or (K, n) rad and,
-        floating, the root hinge's displacement (x0, y0) m, (2,) or (K, 2)."""
-        relative = self._relative(psi, "psi")
-        if not self.floating:
-            return relative
-        return self._with_base(self._base(base, "base"), relative)
+    def qpos(self, psi, base=(0.0, 0.0), feet=None) -> np.ndarray:
+        """MuJoCo's qpos (nq,) or (K, nq) from the model's angles psi (n,) or (K, n) rad,
+        floating, the root hinge's displacement (x0, y0) m, (2,) or (K, 2), and the feet's
+        absolute angles (len(feet),) rad (default 0: flat)."""
+        return self._assemble(psi, base, feet, "psi", offsets=True)
 
-    def qvel(self, dpsi, dbase=(0.0, 0.0)) -> np.ndarray:
-        """MuJoCo's qvel from dpsi (n,) or (K, n) rad/s and, floating, the root hinge's
-        velocity (dx0, dy0) m/s."""
-        relative = self._relative(dpsi, "dpsi")
-        if not self.floating:
-            return relative
-        return self._with_base(self._base(dbase, "dbase"), relative)
+    def qvel(self, dpsi, dbase=(0.0, 0.0), dfeet=None) -> np.ndarray:
+        """MuJoCo's qvel from dpsi (n,) or (K, n) rad/s, floating, the root hinge's velocity
+        (dx0, dy0) m/s, and the feet's absolute angular velocities (default 0)."""
+        return self._assemble(dpsi, dbase, dfeet, "dpsi", offsets=False)
 
     def model_coordinates(self, qpos) -> np.ndarray:
         """The model's (x0, y0, psi) (floating) or psi from MuJoCo's qpos (or qvel, qacc)."""
-        qpos = np.asarray(qpos, dtype=float)
-        if qpos.shape[-1] != self.nq:
-            raise DefinitionError(
-                f"`qpos`: MuJoCo's coordinates of this model have {self.nq} entries, got "
-                f"shape {qpos.shape}"
-            )
+        qpos = self._check_q(qpos)
         return qpos @ self.coordinates.T
+
+    def feet_angles(self, qpos) -> np.ndarray:
+        """The feet's absolute angles (or rates, from qvel), rad: the ankle plus its link's."""
+        qpos = self._check_q(qpos)
+        psi = self.model_coordinates(qpos)[..., 2 if self.floating else 0 :]
+        links = [self.linkage.index(foot.link) for foot in self.feet]
+        return psi[..., links] + qpos[..., list(self.ankle_index)]
 
     def joint_forces(self, torques) -> np.ndarray:
         """MuJoCo's generalised forces (nq,) of the model's hinge torques M (n,) N m.
 
         The relative angles' forces are the hinge torques themselves (module docstring); the
-        slides of a floating base get none (a ground reaction is MuJoCo's contact's to give).
+        slides of a floating base and the ankles get none.
         """
         torques = np.asarray(torques, dtype=float)
         if torques.shape[-1] != self.linkage.n:
             raise DefinitionError(
                 f"`torques`: one per link ({self.linkage.n}), got shape {torques.shape}"
             )
-        if not self.floating:
-            return torques
-        return np.concatenate([np.zeros((*torques.shape[:-1], 2)), torques], axis=-1)
+        out = np.zeros((*torques.shape[:-1], self.nq))
+        out[..., list(self.hinge_index)] = torques
+        return out
+
+    def _check_q(self, qpos) -> np.ndarray:
+        qpos = np.asarray(qpos, dtype=float)
+        if qpos.shape[-1] != self.nq:
+            raise DefinitionError(
+                f"`qpos`: MuJoCo's coordinates of this model have {self.nq} entries, got "
+                f"shape {qpos.shape}"
+            )
+        return qpos
+
+    def _assemble(self, angles, base, feet, name: str, offsets: bool) -> np.ndarray:
+        angles = np.asarray(angles, dtype=float)
+        relative = self._relative(angles, name)
+        out = np.zeros((*relative.shape[:-1], self.nq))
+        out[..., list(self.hinge_index)] = relative
+        if self.floating:
+            out[..., :2] = self._base(base, "base" if offsets else "dbase")
+        if self.feet:
+            feet = np.zeros(len(self.feet)) if feet is None else np.asarray(feet, dtype=float)
+            if feet.shape[-1:] != (len(self.feet),):
+                raise DefinitionError(
+                    f"`feet`: one angle per foot ({len(self.feet)}), got shape {feet.shape}"
+                )
+            links = [self.linkage.index(foot.link) for foot in self.feet]
+            out[..., list(self.ankle_index)] = feet - angles[..., links]
+        return out
 
     def _relative(self, angles, name: str) -> np.ndarray:
         angles = np.asarray(angles, dtype=float)
@@ -186,11 +245,6 @@ class MjcfModel:
         has_parent = parents >= 0
         relative[..., has_parent] -= angles[..., parents[has_parent]]
         return relative
-
-    @staticmethod
-    def _with_base(base: np.ndarray, relative: np.ndarray) -> np.ndarray:
-        base = np.broadcast_to(base, (*relative.shape[:-1], 2))
-        return np.concatenate([base, relative], axis=-1)
 
     @staticmethod
     def _base(base, name: str) -> np.ndarray:
@@ -210,6 +264,8 @@ def to_mjcf(
     torque_limits: Mapping[str, float] | float | None = None,
     timestep: float = 0.0005,
     name: str = "linkage",
+    feet: Sequence[tuple[str, str, float, float]] = (),
+    foot_mass: float = 0.05,
 ) -> MjcfModel:
     """Write an MJCF model of a planar linkage (module docstring for the conventions).
 
@@ -233,6 +289,10 @@ def to_mjcf(
         MuJoCo's time step, s (> 0).
     name : str
         The model's name.
+    feet : sequence of (link name, "start" | "end", heel m, toe m)
+        Feet hinged at those link ends (module docstring), flat at ankle angle -psi_link.
+    foot_mass : float
+        kg (> 0) of each foot (not in the model: small).
 
     Returns
     -------
@@ -255,6 +315,17 @@ def to_mjcf(
     dt = check_positive("timestep", timestep, "s")
     actuated = linkage.names[1:] if floating else linkage.names
     limits = _limits(torque_limits, linkage, actuated)
+    foot_list = []
+    for i, entry in enumerate(feet):
+        if not isinstance(entry, tuple) or len(entry) != 4:
+            raise DefinitionTypeError(
+                f"`feet[{i}]`: must be (link name, 'start' or 'end', heel m, toe m), got {entry!r}"
+            )
+        (contact,) = contacts_at(linkage, [entry[:2]])
+        heel = check_positive(f"feet[{i}] heel", entry[2], "m")
+        toe = check_positive(f"feet[{i}] toe", entry[3], "m")
+        foot_list.append(Foot(contact.link, entry[1], heel, toe))
+    foot_weight = check_positive("foot_mass", foot_mass, "kg")
 
     lines = [
         f"<mujoco model={quoteattr(name)}>",
@@ -268,7 +339,7 @@ def to_mjcf(
         "  </default>",
         "  <worldbody>",
     ]
-    if contact_points:
+    if contact_points or foot_list:
         lines.append(
             f'    <geom name="ground" type="plane" size="0 0 1" pos="0 0 {-radius!r}" '
             f'contype="0" conaffinity="1" condim="3" friction="{mu!r} 0.005 0.0001" group="0"/>'
@@ -277,6 +348,8 @@ def to_mjcf(
     by_link: dict[str, list] = {}
     for contact in contact_points:
         by_link.setdefault(contact.link, []).append(contact)
+    feet_by_link = {foot.link: foot for foot in foot_list}
+    joints: list[str] = []  # MuJoCo's qpos order: the bodies' order in the file
 
     def body(i: int, depth: int) -> None:
         link = linkage.links[i]
@@ -286,9 +359,11 @@ def to_mjcf(
         if i == 0 and floating:
             lines.append(f'{pad}  <joint name="{BASE_JOINTS[0]}" type="slide" axis="1 0 0"/>')
             lines.append(f'{pad}  <joint name="{BASE_JOINTS[1]}" type="slide" axis="0 0 1"/>')
+            joints.extend(BASE_JOINTS)
         lines.append(
             f'{pad}  <joint name={quoteattr(link.name)} type="hinge" axis="{HINGE_AXIS}"/>'
         )
+        joints.append(link.name)
         com = link.com_offset
         # J about the plane's normal; the out-of-plane moments only need to be valid
         inertia = link.inertia
@@ -306,6 +381,30 @@ def to_mjcf(
                 f'pos={_xz(complex(contact.along))} size="{radius!r}" contype="1" '
                 f'conaffinity="0" condim="3" friction="{mu!r} 0.005 0.0001" group="0"/>'
             )
+        foot = feet_by_link.get(link.name)
+        if foot is not None:
+            at = 0.0 if foot.end == "start" else link.length
+            small = foot_weight * (foot.heel + foot.toe) ** 2 / 12.0
+            lines.extend(
+                [
+                    f"{pad}  <body name={quoteattr(foot.body)} pos={_xz(complex(at))}>",
+                    f"{pad}    <joint name={quoteattr(foot.joint)} "
+                    f'type="hinge" axis="{HINGE_AXIS}"/>',
+                    f"{pad}    <inertial pos={_xz(complex(0.5 * (foot.toe - foot.heel)))} "
+                    f'mass="{foot_weight!r}" diaginertia="{small / 2!r} {small!r} {small / 2!r}"/>',
+                    f'{pad}    <geom name={quoteattr(foot.body + "_sole")} type="capsule" '
+                    f'fromto="{-foot.heel!r} 0 0 {foot.toe!r} 0 0" size="{thickness / 2!r}" '
+                    'mass="0"/>',
+                ]
+            )
+            for part, x in (("heel", -foot.heel), ("toe", foot.toe)):
+                lines.append(
+                    f'{pad}    <geom name={quoteattr(f"{foot.link}_{part}")} type="sphere" '
+                    f'pos={_xz(complex(x))} size="{radius!r}" contype="1" conaffinity="0" '
+                    f'condim="3" friction="{mu!r} 0.005 0.0001" group="0"/>'
+                )
+            lines.append(f"{pad}  </body>")
+            joints.append(foot.joint)
         for c in linkage.children[i]:
             body(c, depth + 1)
         lines.append(f"{pad}</body>")
@@ -320,6 +419,11 @@ def to_mjcf(
             f"    <motor name={quoteattr('M_' + link_name)} joint={quoteattr(link_name)} "
             f'gear="1"{bound}/>'
         )
+    for foot in foot_list:
+        lines.append(
+            f"    <motor name={quoteattr('M_' + foot.joint)} joint={quoteattr(foot.joint)} "
+            'gear="1"/>'
+        )
     lines.append("  </actuator>")
     lines.append("</mujoco>")
     return MjcfModel(
@@ -328,6 +432,9 @@ def to_mjcf(
         floating=floating,
         actuated=tuple(actuated),
         contacts=contact_points,
+        hinge_index=tuple(joints.index(link_name) for link_name in linkage.names),
+        feet=tuple(foot_list),
+        ankle_index=tuple(joints.index(foot.joint) for foot in foot_list),
     )
 
 

@@ -13,7 +13,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from model import AnthropoidError, Dynamics, presets
+from model import AnthropoidError, Dynamics, Link, Linkage, presets
 from model.mjcf import BASE_JOINTS, to_mjcf
 from tests.reference import newton_euler as ne
 
@@ -26,6 +26,18 @@ def _random_general_tree():
     return ne.random_tree(np.random.default_rng(7), 7, span=(0.1, 10.0), general=True)
 
 
+def _breadth_first_tree():
+    # the linkage's order (a, b, c, d) is not the file's depth-first order (a, b, d, c)
+    return Linkage(
+        [
+            Link("a", None, 1.0, 2.0, 0.4, 0.2),
+            Link("b", "a", 0.8, 1.5, 0.5, 0.1),
+            Link("c", "a", 0.6, 1.0, 0.3, 0.05),
+            Link("d", "b", 0.5, 0.7, 0.6, 0.03),
+        ]
+    )
+
+
 LINKAGES = {
     "six-link": presets.six_link_anthropoid,
     "five-link": presets.five_link_biped,
@@ -33,6 +45,7 @@ LINKAGES = {
     "exoskeleton leg": presets.exoskeleton_leg,
     "head locked into the torso": lambda: presets.six_link_anthropoid().lock("head", 0.3),
     "random tree, off-axis and offset hinges": _random_general_tree,
+    "a tree listed breadth first": _breadth_first_tree,
 }
 
 
@@ -71,19 +84,23 @@ def test_inverse_dynamics_and_mass_matrix_are_mujocos_fixed_base(name):
         psi, dpsi, ddpsi = _random_state(rng, linkage.n, floating=False)
         data.qpos[:] = mjcf.qpos(psi)
         data.qvel[:] = mjcf.qvel(dpsi)
-        data.qacc[:] = np.linalg.solve(coordinates, ddpsi)
+        data.qacc[:] = mjcf.qvel(ddpsi)  # the same linear map as the velocities
         mujoco.mj_inverse(model, data)
         ours = dynamics.inverse_dynamics(psi, dpsi, ddpsi)
         scale = np.abs(ours).max()
-        np.testing.assert_allclose(data.qfrc_inverse, ours, rtol=0, atol=1e-12 * scale)
+        # MuJoCo's joint order is the file's (depth first): joint_forces puts ours there
+        np.testing.assert_allclose(
+            data.qfrc_inverse, mjcf.joint_forces(ours), rtol=0, atol=1e-12 * scale
+        )
         mass = coordinates.T @ dynamics.mass_matrix(psi) @ coordinates
         full = _full_mass_matrix(model, data)
         np.testing.assert_allclose(full, mass, rtol=0, atol=1e-12 * np.abs(mass).max())
         # the centres of mass where the model puts them (MuJoCo's x-z plane)
         com = dynamics.com_positions(psi)
-        np.testing.assert_allclose(data.xipos[1:, 0], com.real, atol=1e-12 * scale)
-        np.testing.assert_allclose(data.xipos[1:, 2], com.imag, atol=1e-12 * scale)
-        np.testing.assert_allclose(data.xipos[1:, 1], 0.0, atol=1e-14)
+        bodies = [model.body(name).id for name in linkage.names]
+        np.testing.assert_allclose(data.xipos[bodies, 0], com.real, atol=1e-12 * scale)
+        np.testing.assert_allclose(data.xipos[bodies, 2], com.imag, atol=1e-12 * scale)
+        np.testing.assert_allclose(data.xipos[bodies, 1], 0.0, atol=1e-14)
 
 
 def _floating_inverse_dynamics(dynamics):
@@ -99,7 +116,13 @@ def _floating_inverse_dynamics(dynamics):
 
 
 @pytest.mark.parametrize(
-    "name", ["six-link", "five-link", "random tree, off-axis and offset hinges"]
+    "name",
+    [
+        "six-link",
+        "five-link",
+        "random tree, off-axis and offset hinges",
+        "a tree listed breadth first",
+    ],
 )
 def test_inverse_dynamics_and_mass_matrix_are_mujocos_floating_base(name):
     linkage = LINKAGES[name]()
@@ -115,7 +138,7 @@ def test_inverse_dynamics_and_mass_matrix_are_mujocos_floating_base(name):
         q, dq, ddq = _random_state(rng, linkage.n, floating=True)
         data.qpos[:] = mjcf.qpos(q[2:], q[:2])
         data.qvel[:] = mjcf.qvel(dq[2:], dq[:2])
-        data.qacc[:] = np.linalg.solve(coordinates, ddq)
+        data.qacc[:] = mjcf.qvel(ddq[2:], ddq[:2])
         mujoco.mj_inverse(model, data)
         ours = coordinates.T @ np.asarray(inverse(q, dq, ddq)).ravel()
         np.testing.assert_allclose(data.qfrc_inverse, ours, rtol=0, atol=1e-12 * np.abs(ours).max())
@@ -222,3 +245,33 @@ def test_torque_limits_become_control_ranges():
     torso, head = model.actuator("M_torso"), model.actuator("M_head")
     assert list(torso.ctrlrange) == [-150.0, 150.0] and list(head.ctrlrange) == [-20.0, 20.0]
     assert not model.actuator("M_stance_thigh").ctrllimited
+
+
+def test_feet_are_soles_at_the_ankles_flat_when_asked():
+    linkage = presets.six_link_anthropoid()
+    dynamics = Dynamics(linkage)
+    feet = [("stance_shank", "start", 0.05, 0.15), ("swing_shank", "end", 0.05, 0.15)]
+    mjcf = to_mjcf(linkage, base="floating", feet=feet, foot_mass=0.05)
+    model = mujoco.MjModel.from_xml_string(mjcf.xml)
+    data = mujoco.MjData(model)
+    assert model.nq == mjcf.nq == linkage.n + 2 + 2
+    assert [model.actuator(a).name for a in range(model.nu)][-2:] == [
+        "M_ankle_stance_shank",
+        "M_ankle_swing_shank",
+    ]
+    psi = np.array([1.4, 1.7, -1.6, -1.9, 1.5, 1.6])
+    base = np.array([0.3, 0.0])
+    angles = np.array([0.0, 0.2])  # the stance foot flat, the swing foot toe up
+    data.qpos[:] = mjcf.qpos(psi, base, angles)
+    mujoco.mj_forward(model, data)
+    ankles = dynamics.hinge_positions(psi)[[0, 4]] + complex(*base)
+    for (link, _, heel, toe), ankle, angle in zip(feet, ankles, angles, strict=True):
+        for part, along in (("heel", -heel), ("toe", toe)):
+            point = ankle + along * np.exp(1j * angle)
+            got = data.geom_xpos[model.geom(f"{link}_{part}").id]
+            np.testing.assert_allclose(got, [point.real, 0.0, point.imag], atol=1e-14)
+    np.testing.assert_allclose(mjcf.feet_angles(data.qpos), angles, atol=1e-15)
+    np.testing.assert_allclose(mjcf.model_coordinates(data.qpos), np.r_[base, psi], atol=1e-15)
+    # the feet weigh what they were given; the links what the model says
+    assert model.body_mass[model.body("foot_stance_shank").id] == 0.05
+    assert sum(model.body_mass) == pytest.approx(sum(l.mass for l in linkage.links) + 0.1)
