@@ -1483,6 +1483,47 @@ def _closed_loop(feedback, report, out):
         f"after: forward {forward:.1f} N s, back {back:.1f} N s (bisection to 0.5 N s)",
         file=out,
     )
+    try:
+        import mujoco  # noqa: F401 - only whether the extra is there
+    except ImportError:
+        print('MuJoCo: not installed (pip install ".[mujoco]"): no run in MuJoCo', file=out)
+        return check
+    from problems.walking_mujoco import mujoco_check
+
+    with report.working("walking in MuJoCo (feet with soles, soft contacts)"):
+        engine = mujoco_check(feedback)
+    print(
+        f"MuJoCo (the same body and the file's law at {feedback.control_rate_hz:g} Hz; feet "
+        "with soles, soft contacts; planned stance Fy at most "
+        f"{engine.planned_normal:.0f} N):",
+        file=out,
+    )
+    print(
+        f"  {'case':<14} {'steps':>7} {'step time s':>15} {'step length m':>15} "
+        f"{'peak |M| N m':>12} {'slip mm':>8} {'peak Fy N':>9}",
+        file=out,
+    )
+    for label, run in engine.runs.items():
+        walked = f"{run.walked}/{engine.steps}"
+        if run.steps:
+            times = [r.duration for r in run.steps]
+            lengths = [r.length for r in run.steps]
+            print(
+                f"  {label:<14} {walked:>7} {min(times):7.4f}..{max(times):6.4f} "
+                f"{min(lengths):7.4f}..{max(lengths):6.4f} "
+                f"{max(r.peak_torque for r in run.steps):12.1f} "
+                f"{1000 * max(r.slip for r in run.steps):8.1f} "
+                f"{max(r.peak_normal for r in run.steps):9.0f}"
+                + (f"  fell: {run.fell}" if run.fell else ""),
+                file=out,
+            )
+        else:
+            print(f"  {label:<14} {walked:>7}  fell: {run.fell}", file=out)
+    forward, back = engine.pushes
+    print(
+        f"  largest push survived in MuJoCo: forward {forward:.1f} N s, back {back:.1f} N s",
+        file=out,
+    )
     return check
 
 

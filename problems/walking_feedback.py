@@ -31,6 +31,8 @@ from problems.walking_simulation import (
     simulate_walking,
 )
 
+#: a push is survived when the biped walks this many steps (the push comes in the second)
+PUSH_STEPS = 10
 LAW = "M = clip(M_ff(s) + K(s) (x_ref(s) - x), -limit, limit), x = (psi, dpsi)"
 PHASE = (
     "s = (x_hip - x_hip(0)) / (x_hip(T) - x_hip(0)): the hip (end of {hip}) ahead of the "
@@ -190,8 +192,14 @@ def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:
         )
         seconds[label] = time.perf_counter() - clock
     clock = time.perf_counter()
-    forward, _ = largest_push(start, feedback.controller, direction=1.0, **options)
-    back, _ = largest_push(start, feedback.controller, direction=-1.0, **options)
+
+    def walk(disturbances):
+        return simulate_walking(
+            start, feedback.controller, steps=PUSH_STEPS, disturbances=disturbances, **options
+        )
+
+    forward, _ = largest_push(walk, direction=1.0, steps=PUSH_STEPS)
+    back, _ = largest_push(walk, direction=-1.0, steps=PUSH_STEPS)
     seconds["push margins"] = time.perf_counter() - clock
     return ClosedLoopCheck(
         loop, open_loop, runs, (forward, back), steps, feedback.reference, seconds

@@ -442,8 +442,7 @@ def simulate_walking(
 
 
 def largest_push(
-    start,
-    controller: Controller,
+    walk,
     *,
     direction: float = 1.0,
     steps: int = 10,
@@ -451,24 +450,21 @@ def largest_push(
     upper: float = 200.0,
     push_step: int = 1,
     push_at: float = 0.5,
-    **options,
-) -> tuple[float, WalkingRun]:
+):
     """The largest horizontal push on the torso (N s, along ``direction``: +1 forward, -1
-    back) after which the biped still walks ``steps`` steps, by bisection to ``tolerance``
-    N s between 0 and ``upper`` (:func:`simulate_walking` with ``options``).
+    back) after which the biped still walks, by bisection to ``tolerance`` N s between 0 and
+    ``upper``. ``walk(disturbances)`` runs a walk of ``steps`` steps with those disturbances
+    and returns a run with ``walked`` and ``fell`` (:func:`simulate_walking`, or MuJoCo's).
 
     Returns (the push, the run that survived it). Bisection assumes that a push that is
-    survived is survived by every smaller one; the returned run shows the push it had.
+    survived is survived by every smaller one.
     """
     tolerance = check_positive("tolerance", tolerance, "N s")
     upper = check_positive("upper", upper, "N s")
     sign = 1.0 if check_real("direction", direction) >= 0 else -1.0
 
     def run(push):
-        disturbances = Disturbances(push=sign * push, push_step=push_step, push_at=push_at)
-        return simulate_walking(
-            start, controller, steps=steps, disturbances=disturbances, **options
-        )
+        return walk(Disturbances(push=sign * push, push_step=push_step, push_at=push_at))
 
     survived = run(0.0)
     if survived.walked < steps:

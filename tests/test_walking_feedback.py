@@ -105,6 +105,8 @@ def test_walk_feedback_prints_the_closed_loop_and_writes_the_gains(tmp_path, cap
     assert "largest Floquet multipliers" in text
     assert "open loop (the plan's torques alone): step 0" in text
     assert "  plan             50/50" in text
+    assert "  closed loop      20/20" in text  # MuJoCo (the test extra installs it)
+    assert "  open loop         0/20  fell: step 0" in text
     assert (folder / "closed_loop.png").is_file()
     loaded = Trajectory.load(folder / "torques.csv")
     assert "K_torso__dpsi_head" in loaded.extras

@@ -1,0 +1,371 @@
+"""The planned walking step, its torques and its gains, run in MuJoCo (``pip install
+".[mujoco]"``): the same body written by :func:`model.to_mjcf` with a floating base, feet
+with soles where the plan has an ankle torque (spheres of the plan's point feet otherwise),
+on a plane with friction, driven at the controller's rate by the law that travels in the
+torque file, M = clip(M_ff(s) + K(s) (x_ref(s) - x)).
+
+What differs from the product's own simulation, and how the controller copes:
+
+* MuJoCo's contacts are soft (a spring-damper of time constant ``contact_time_constant``):
+  the heel strike is a few milliseconds of large force, not an impulse, and the stance foot
+  may sink and slip a little. A step ends when the swing foot touches the ground with a
+  normal force above ``TOUCHDOWN_FORCE`` once past half the step (s > 0.5); the legs are then
+  relabelled and the phase starts again from the new stance foot, whatever the time: early
+  or late touchdowns re-index the reference instead of running out of step.
+* The robot's ankles: the plan's stance ankle torque M_1 (the ground's on the stance shank)
+  is the stance ankle motor's, -M_1 on the foot; the swing foot's ankle holds the foot flat
+  (a PD on its angle, gains ``foot_kp``, ``foot_kd``), so that it lands on its sole.
+* After the leg swap the plan's hinge torques are in the swapped labels: their generalised
+  forces on every body (the same in both descriptions, :meth:`model.Rerooting.map_torques`)
+  less the ground's torque on the stance shank are summed over MuJoCo's subtrees to give its
+  motors' torques.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from model.errors import DefinitionError, check_integer, check_positive
+from model.mjcf import MjcfModel, to_mjcf
+from problems.walking_simulation import Disturbances
+
+#: a swing foot touches down when its contact's normal force passes this, N
+TOUCHDOWN_FORCE = 5.0
+#: MuJoCo settings of the walker (see walking_mujoco_settings in the README)
+CONTACT_TIME_CONSTANT = 0.004
+TIMESTEP = 0.0005
+#: each foot's mass, kg: not in the plan (1.7 % of the six-link's 60 kg for two); 0.05 kg
+#: feet spin under the ankle torque whenever their sole leaves the ground and the walker
+#: falls in its first step, 0.5 kg feet walk (measured, README)
+FOOT_MASS = 0.5
+#: the swing foot's ankle PD that keeps it flat, N m/rad and N m s/rad
+FOOT_KP = 20.0
+FOOT_KD = 0.2
+#: the walker starts this far into the ground, m: a soft contact at zero depth carries nothing
+#: yet, and the first instants would drop the body
+PRELOAD = 3e-4
+
+
+def _mujoco():
+    try:
+        import mujoco
+    except ImportError as error:  # pragma: no cover - the extra is installed in CI
+        raise DefinitionError(
+            'MuJoCo is not installed: pip install ".[mujoco]" (or pip install mujoco)'
+        ) from error
+    return mujoco
+
+
+@dataclass(frozen=True)
+class MujocoStep:
+    """One step in MuJoCo: duration s, length m (between the stance ankles), slip m (how far
+    the stance foot's ankle moved along the ground), peak_normal N (the stance foot's largest
+    normal force), tracking rad (the largest angle error at the same phase)."""
+
+    index: int
+    duration: float
+    length: float
+    slip: float
+    peak_normal: float
+    tracking: float
+    peak_torque: float
+
+
+@dataclass(frozen=True)
+class MujocoRun:
+    """Steps walked in MuJoCo; fell: why it ended early (None: it walked them all)."""
+
+    steps: tuple[MujocoStep, ...]
+    fell: str | None
+    time: np.ndarray
+    qpos: np.ndarray
+    mjcf: MjcfModel
+
+    @property
+    def walked(self) -> int:
+        return len(self.steps)
+
+
+def walker_mjcf(step, *, ground_mu: float, foot_mass: float = FOOT_MASS) -> MjcfModel:
+    """The MJCF of a walking step's biped: floating, with feet where the plan has an ankle
+    torque (its sole bound, ``step.foot_sole``, or 0.05 / 0.15 m) and point feet otherwise."""
+    linkage = step.linkage
+    biped = step.biped
+    ends = [(biped.stance_shank, "start"), (biped.swing_shank, "end")]
+    passive = biped.stance_shank in step.passive
+    limits = {name: step.torque_limit[name] for name in linkage.names[1:]}
+    if passive:
+        return to_mjcf(linkage, base="floating", contacts=ends, friction=ground_mu,
+                       torque_limits=limits, timestep=TIMESTEP, name="walker")  # fmt: skip
+    heel, toe = step.foot_sole if step.foot_sole is not None else (0.05, 0.15)
+    return to_mjcf(
+        linkage,
+        base="floating",
+        feet=[(link, end, heel, toe) for link, end in ends],
+        foot_mass=foot_mass,
+        friction=ground_mu,
+        torque_limits=limits,
+        timestep=TIMESTEP,
+        name="walker",
+    )
+
+
+def run_in_mujoco(
+    feedback,
+    *,
+    steps: int = 20,
+    disturbances: Disturbances | None = None,
+    open_loop: bool = False,
+    foot_kp: float = FOOT_KP,
+    foot_kd: float = FOOT_KD,
+    contact_time_constant: float = CONTACT_TIME_CONSTANT,
+    foot_mass: float = FOOT_MASS,
+    preload: float = PRELOAD,
+) -> MujocoRun:
+    """Walk ``steps`` steps in MuJoCo under ``feedback`` (:class:`problems.walking_feedback.
+    Feedback`) from the plan's start; ``open_loop``: the plan's torques by the time since the
+    step began, no feedback. Disturbances: a push on the torso, a mass scale (MuJoCo's body
+    is changed, the controller keeps the plan's)."""
+    mujoco = _mujoco()
+    steps = check_integer("steps", steps, 1)
+    check_positive("contact_time_constant", contact_time_constant, "s")
+    disturbances = disturbances or Disturbances()
+    step = feedback.step
+    linkage = step.linkage
+    mjcf = walker_mjcf(step, ground_mu=feedback.plant.mu, foot_mass=foot_mass)
+    model = mujoco.MjModel.from_xml_string(mjcf.xml)
+    model.geom_solref[:, 0] = contact_time_constant
+    if disturbances.mass_scale != 1.0:
+        bodies = [model.body(name).id for name in linkage.names]
+        model.body_mass[bodies] *= disturbances.mass_scale
+        model.body_inertia[bodies] *= disturbances.mass_scale
+    data = mujoco.MjData(model)
+    # MuJoCo reports an unstable simulation on stdout and resets it; here it is a fall
+    unstable: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(unstable.append)
+    try:
+        return _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop,
+                     foot_kp, foot_kd, preload, unstable)  # fmt: skip
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, foot_kp,
+          foot_kd, preload, unstable) -> MujocoRun:  # fmt: skip
+    """The control loop of :func:`run_in_mujoco`."""
+    step = feedback.step
+    biped = step.biped
+    linkage = step.linkage
+    n = linkage.n
+    reference = feedback.reference
+    controller = feedback.controller
+    swap = biped.swap
+    children = np.zeros((n, n))
+    for child, parent in enumerate(linkage.parents):
+        if parent >= 0:
+            children[parent, child] = 1.0
+    subtree = np.zeros((n, n))
+    for k in range(n):
+        subtree[k, list(linkage.subtree(k))] = 1.0
+    swing_index = linkage.index(biped.swing_shank)
+    actuators = {model.actuator(a).name: a for a in range(model.nu)}
+    motor_ids = [actuators[f"M_{name}"] for name in linkage.names[1:]]
+    feet = mjcf.feet
+    foot_geoms = {}
+    for label, (link, end) in {
+        "A": (biped.stance_shank, "start"),
+        "B": (biped.swing_shank, "end"),
+    }.items():
+        names = [f"{link}_heel", f"{link}_toe"] if feet else [f"{link}_{end}"]
+        foot_geoms[label] = {model.geom(g).id for g in names}
+    ground = model.geom("ground").id
+    ankle_ids = {}
+    if feet:
+        ankle_ids = {
+            "A": actuators[f"M_ankle_{biped.stance_shank}"],
+            "B": actuators[f"M_ankle_{biped.swing_shank}"],
+        }
+    start = reference.states[0]
+    data.qpos[:] = mjcf.qpos(start[:n], (0.0, -preload), np.zeros(len(feet)) if feet else None)
+    data.qvel[:] = mjcf.qvel(start[n:], (0.0, 0.0), np.zeros(len(feet)) if feet else None)
+    mujoco.mj_forward(model, data)
+    period = 1.0 / feedback.control_rate_hz
+    substeps = max(1, round(period / model.opt.timestep))
+    torso = model.body(biped.upper_body[0] if biped.upper_body else biped.stance_thigh).id
+
+    def normal_force(geoms) -> float:
+        total = 0.0
+        force = np.zeros(6)
+        for c in range(data.ncon):
+            contact = data.contact[c]
+            if ground in contact.geom and (contact.geom[0] in geoms or contact.geom[1] in geoms):
+                mujoco.mj_contactForce(model, data, c, force)
+                total += force[0]
+        return total
+
+    def ankle_position(label) -> complex:
+        if feet:
+            body = model.body(f"foot_{biped.stance_shank if label == 'A' else biped.swing_shank}")
+            x = data.xpos[body.id]
+        else:
+            gid = next(iter(foot_geoms[label]))
+            x = data.geom_xpos[gid]
+        return complex(x[0], x[2])
+
+    records = []
+    times, states = [], []
+    stance = "A"
+    t_step, clock = 0.0, 0.0
+    fell = None
+    stance_start = ankle_position(stance)
+    peak_normal, tracking, peak_torque, slip = 0.0, 0.0, 0.0, 0.0
+    pushed = disturbances.push == 0.0
+    while len(records) < steps:
+        coordinates = mjcf.model_coordinates(data.qpos)
+        rates = mjcf.model_coordinates(data.qvel)
+        psi_a, dpsi_a = coordinates[2:], rates[2:]
+        if stance == "A":
+            psi, dpsi = psi_a, dpsi_a
+        else:
+            psi, dpsi = swap.map_state(psi_a, dpsi_a)
+        x = np.r_[psi, dpsi]
+        if open_loop:
+            torques = reference.at_time(t_step)[1]
+        else:
+            torques = controller.torques(t_step, x)
+        tracking = max(tracking, reference.tracking(x))
+        peak_torque = max(peak_torque, float(np.abs(torques).max()))
+        if stance == "A":
+            hinge = torques
+        else:
+            # the plan's torques, swapped back: generalised forces on the bodies, less the
+            # ground's torque on the stance shank (the ankle motor's), summed over subtrees
+            forces = torques - children @ torques
+            bodies = np.zeros(n)
+            bodies[list(swap.source)] = forces
+            bodies[swing_index] -= torques[0]
+            hinge = subtree @ bodies
+        data.ctrl[motor_ids] = hinge[1:]
+        if feet:
+            feet_angles = mjcf.feet_angles(data.qpos)
+            feet_rates = mjcf.feet_angles(data.qvel)
+            swing = "B" if stance == "A" else "A"
+            which = 1 if swing == "B" else 0
+            data.ctrl[ankle_ids[stance]] = -torques[0]
+            data.ctrl[ankle_ids[swing]] = (
+                -foot_kp * feet_angles[which] - foot_kd * feet_rates[which]
+            )
+        if (
+            not pushed
+            and len(records) == disturbances.push_step
+            and (t_step >= disturbances.push_at * step.step_time)
+        ):
+            data.qfrc_applied[:] = 0.0
+            force = np.array([disturbances.push / period, 0.0, 0.0])
+            mujoco.mj_applyFT(model, data, force, np.zeros(3), data.xipos[torso], torso,
+                              data.qfrc_applied)  # fmt: skip
+            pushed = True
+            push_active = True
+        else:
+            push_active = False
+        for _ in range(substeps):
+            mujoco.mj_step(model, data)
+        if unstable:
+            fell = f"step {len(records)}, t = {t_step:.3f} s: MuJoCo: {unstable[0].strip()}"
+            break
+        if push_active:
+            data.qfrc_applied[:] = 0.0
+        t_step += period
+        clock += period
+        times.append(clock)
+        states.append(data.qpos.copy())
+        stance_geoms = foot_geoms[stance]
+        peak_normal = max(peak_normal, normal_force(stance_geoms))
+        position = ankle_position(stance)
+        slip = max(slip, abs(position.real - stance_start.real))
+        hip = mjcf.model_coordinates(data.qpos)
+        hinges = feedback.plant.dynamics.hinge_positions(hip[2:]) + complex(hip[0], hip[1])
+        if np.min(hinges.imag[1:]) < -0.02 or not np.all(np.isfinite(data.qpos)):
+            fell = f"step {len(records)}, t = {t_step:.3f} s: a body point went under the ground"
+            break
+        if t_step > 2.0 * step.step_time:
+            fell = f"step {len(records)}: no touchdown within twice the step time"
+            break
+        swing = "B" if stance == "A" else "A"
+        s = reference.phase(psi)
+        if s > 0.5 and normal_force(foot_geoms[swing]) > TOUCHDOWN_FORCE:
+            landing = ankle_position(swing)
+            if landing.real - stance_start.real < 0.25 * step.step_length:
+                fell = (
+                    f"step {len(records)}, t = {t_step:.3f} s: the swing foot came down "
+                    f"{landing.real - stance_start.real:+.3f} m from the stance foot"
+                )
+                break
+            records.append(
+                MujocoStep(
+                    index=len(records),
+                    duration=t_step,
+                    length=landing.real - stance_start.real,
+                    slip=slip,
+                    peak_normal=peak_normal,
+                    tracking=tracking,
+                    peak_torque=peak_torque,
+                )
+            )
+            stance = swing
+            stance_start = landing
+            t_step = 0.0
+            peak_normal, tracking, peak_torque, slip = 0.0, 0.0, 0.0, 0.0
+    return MujocoRun(tuple(records), fell, np.asarray(times), np.asarray(states), mjcf)
+
+
+@dataclass(frozen=True)
+class MujocoCheck:
+    """What :func:`mujoco_check` measured: runs by label (open loop, closed loop, mass
+    +-10 %), the largest pushes survived (forward, back) N s, the steps asked for, and the
+    plan's largest stance ground reaction Fy, N."""
+
+    runs: dict
+    pushes: tuple[float, float]
+    steps: int
+    planned_normal: float
+
+
+def mujoco_check(feedback, steps: int = 20) -> MujocoCheck:
+    """The feedback in MuJoCo: open loop, closed loop, a heavier and a lighter body, the
+    largest pushes (10 steps after a push at mid-step of the second step)."""
+    from problems.walking_feedback import PUSH_STEPS
+    from problems.walking_simulation import largest_push
+
+    runs = {
+        "open loop": run_in_mujoco(feedback, steps=steps, open_loop=True),
+        "closed loop": run_in_mujoco(feedback, steps=steps),
+        "mass +10 %": run_in_mujoco(
+            feedback, steps=steps, disturbances=Disturbances(mass_scale=1.1)
+        ),
+        "mass -10 %": run_in_mujoco(
+            feedback, steps=steps, disturbances=Disturbances(mass_scale=0.9)
+        ),
+    }
+
+    def walk(disturbances):
+        return run_in_mujoco(feedback, steps=PUSH_STEPS, disturbances=disturbances)
+
+    forward, _ = largest_push(walk, direction=1.0, steps=PUSH_STEPS)
+    back, _ = largest_push(walk, direction=-1.0, steps=PUSH_STEPS)
+    reference = feedback.reference
+    n = reference.n
+    force = feedback.plant.dynamics.ground_reaction(
+        reference.states[:, :n],
+        reference.states[:, n:],
+        feedback.plant.dynamics.forward_dynamics(
+            reference.states[:, :n], reference.states[:, n:], reference.torques
+        ),
+    )
+    return MujocoCheck(runs, (forward, back), steps, float(np.max(force.imag)))
+
+
+__all__ = ["MujocoCheck", "MujocoRun", "MujocoStep", "mujoco_check", "run_in_mujoco", "walker_mjcf"]

@@ -1,0 +1,53 @@
+"""The planned steps, their torques and their gains, run in MuJoCo (problems.walking_mujoco):
+an engine written by someone else, with soft contacts and feet, walks them closed loop and
+lets them fall open loop."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from model import presets
+from problems import walking_step
+from problems.walking_feedback import design_feedback
+from problems.walking_mujoco import run_in_mujoco
+from problems.walking_simulation import Disturbances
+
+pytest.importorskip("mujoco")
+
+BIPEDS = {
+    "six-link": lambda: walking_step(),
+    "five-link": lambda: walking_step(presets.five_link_biped()),
+    "six-link, passive ankle (a point foot)": lambda: walking_step(passive=("stance_shank",)),
+}
+
+
+@pytest.fixture(scope="module", params=list(BIPEDS))
+def designed(request):
+    step = BIPEDS[request.param]()
+    gait = step.solve(progress=False)
+    return request.param, step, design_feedback(gait, ground_mu=1.0)
+
+
+def test_twenty_steps_closed_loop_none_open_loop(designed):
+    name, step, feedback = designed
+    closed = run_in_mujoco(feedback, steps=20)
+    assert closed.walked == 20, (name, closed.fell)
+    lengths = np.array([r.length for r in closed.steps])
+    durations = np.array([r.duration for r in closed.steps])
+    np.testing.assert_allclose(lengths, step.step_length, rtol=0.05)
+    np.testing.assert_allclose(durations, step.step_time, rtol=0.05)
+    assert max(r.peak_torque for r in closed.steps) <= max(step.torque_limit.values()) + 1e-9
+    assert max(r.slip for r in closed.steps) < 0.01  # m: the stance foot holds
+    opened = run_in_mujoco(feedback, steps=20, open_loop=True)
+    assert opened.walked == 0 and opened.fell.startswith("step 0")
+    # the point-foot MJCF has spheres, the others soles with ankles
+    assert bool(closed.mjcf.feet) == (step.biped.stance_shank not in step.passive)
+
+
+def test_a_push_too_hard_is_a_fall_with_its_reason():
+    step = walking_step()
+    feedback = design_feedback(step.solve(progress=False), ground_mu=1.0)
+    run = run_in_mujoco(feedback, steps=4, disturbances=Disturbances(push=150.0, push_step=1))
+    assert run.walked == 1
+    assert run.fell.startswith("step 1, t = ")
