@@ -1453,7 +1453,8 @@ def _closed_loop(feedback, report, out):
     print(
         f"closed loop, simulated (pinned stance foot, rigid impacts, ground friction "
         f"{feedback.plant.mu:g}): largest Floquet multipliers |lambda| {multipliers} "
-        f"(stable below 1); open loop (the plan's torques alone): "
+        f"(stable below 1); open loop (the plan's torques alone): largest |lambda| "
+        f"{abs(check.open_loop_multipliers[0]):.3g} linearised along the plan, and simulated: "
         f"{check.open_loop.fell or 'walked'}",
         file=out,
     )

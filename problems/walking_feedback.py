@@ -22,7 +22,13 @@ from model.errors import DefinitionError
 from planner.trajectory import Trajectory
 from problems.walking_control import GaitReference, OpenLoop
 from problems.walking_linearisation import ReturnMap, fixed_point
-from problems.walking_lqr import LqrWeights, PeriodicGains, PhaseLQR, periodic_lqr
+from problems.walking_lqr import (
+    LqrWeights,
+    PeriodicGains,
+    PhaseLQR,
+    linearise_along,
+    periodic_lqr,
+)
 from problems.walking_simulation import (
     Disturbances,
     Plant,
@@ -138,13 +144,15 @@ def design_feedback(
 class ClosedLoopCheck:
     """What :func:`closed_loop_check` measured.
 
-    loop: the closed loop's return map at its periodic gait (multipliers); open_loop: the
-    plan's torques alone; runs: label -> WalkingRun; pushes: (forward, back) N s survived;
-    steps: the steps each run was asked to walk; reference: the plan's; seconds: label ->
-    wall time.
+    loop: the closed loop's return map at its periodic gait (multipliers);
+    open_loop_multipliers: of the plan's torques alone, linearised along the plan;
+    open_loop: the plan's torques alone, simulated; runs: label -> WalkingRun; pushes:
+    (forward, back) N s survived; steps: the steps each run was asked to walk; reference:
+    the plan's; seconds: label -> wall time.
     """
 
     loop: ReturnMap
+    open_loop_multipliers: np.ndarray
     open_loop: WalkingRun
     runs: dict[str, WalkingRun]
     pushes: tuple[float, float]
@@ -201,8 +209,16 @@ def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:
     forward, _ = largest_push(walk, direction=1.0, steps=PUSH_STEPS)
     back, _ = largest_push(walk, direction=-1.0, steps=PUSH_STEPS)
     seconds["push margins"] = time.perf_counter() - clock
+    along = linearise_along(feedback.plant, feedback.reference, 1.0 / feedback.control_rate_hz)
     return ClosedLoopCheck(
-        loop, open_loop, runs, (forward, back), steps, feedback.reference, seconds
+        loop,
+        along.open_loop_multipliers,
+        open_loop,
+        runs,
+        (forward, back),
+        steps,
+        feedback.reference,
+        seconds,
     )
 
 

@@ -86,6 +86,48 @@ def saltation(plant: Plant, x_minus: np.ndarray, torques: np.ndarray) -> np.ndar
     return np.asarray(plant.step_map_jacobian(x_minus)) @ projection
 
 
+@dataclass(frozen=True)
+class Linearisation:
+    """The plan's digital step linearised along the plan: times (K,) s of the control
+    instants, states [A_k] (2n, 2n), inputs [B_k] (2n, n), jump S (2n, 2n) at the strike."""
+
+    times: np.ndarray
+    states: list
+    inputs: list
+    jump: np.ndarray
+
+    @property
+    def monodromy(self) -> np.ndarray:
+        """S A_{K-1} ... A_0: the open loop's step-to-step map, linearised along the plan."""
+        product = np.eye(self.jump.shape[0])
+        for a in self.states:
+            product = a @ product
+        return self.jump @ product
+
+    @property
+    def open_loop_multipliers(self) -> np.ndarray:
+        """The eigenvalues of :attr:`monodromy`, largest modulus first."""
+        values = np.linalg.eigvals(self.monodromy)
+        return values[np.argsort(-np.abs(values))]
+
+
+def linearise_along(plant: Plant, reference: GaitReference, period: float) -> Linearisation:
+    """The RK4 periods' Jacobians at the plan's samples (x_ref(t_k), M_ff(t_k)), the last
+    period cut at the step time, and the strike's saltation matrix at the plan's end."""
+    duration = reference.duration
+    count = int(np.ceil(duration / period - 1e-9))
+    times = np.minimum(np.arange(count) * period, duration)
+    lengths = np.diff(np.r_[times, duration])
+    a_list, b_list = [], []
+    for t, h in zip(times, lengths, strict=True):
+        x, torques = reference.at_time(t)
+        dx, dm, _ = (np.asarray(v) for v in plant.advance_jacobian(x, torques, h))
+        a_list.append(dx)
+        b_list.append(dm)
+    x_end, torques_end = reference.at_time(duration)
+    return Linearisation(times, a_list, b_list, saltation(plant, x_end, torques_end))
+
+
 def periodic_riccati(a_list, b_list, jump, q, r):
     """The periodic discrete Riccati recursion of x_{k+1} = A_k x_k + B_k u_k (k < K), then
     x -> jump x, with the cost sum x' Q x + u' R u per period, run backwards until P(0)
@@ -131,25 +173,15 @@ def periodic_lqr(
     active = [i for i in range(n) if i not in set(passive)]
     if not active:
         raise DefinitionError("`passive`: every hinge is passive; there is nothing to control")
-    duration = reference.duration
-    count = int(np.ceil(duration / period - 1e-9))
-    times = np.minimum(np.arange(count) * period, duration)
-    lengths = np.diff(np.r_[times, duration])
-    a_list, b_list = [], []
-    for t, h in zip(times, lengths, strict=True):
-        x, torques = reference.at_time(t)
-        dx, dm, _ = (np.asarray(v) for v in plant.advance_jacobian(x, torques, h))
-        a_list.append(dx)
-        b_list.append(dm[:, active])
-    x_end, torques_end = reference.at_time(duration)
-    jump = saltation(plant, x_end, torques_end)
+    along = linearise_along(plant, reference, period)
+    b_list = [b[:, active] for b in along.inputs]
     q = np.diag(np.r_[np.full(n, weights.angle**-2.0), np.full(n, weights.rate**-2.0)])
     r = np.eye(len(active)) * weights.torque**-2.0
-    gains, cost, cycles = periodic_riccati(a_list, b_list, jump, q, r)
-    full = np.zeros((count, n, 2 * n))
+    gains, cost, cycles = periodic_riccati(along.states, b_list, along.jump, q, r)
+    full = np.zeros((len(along.times), n, 2 * n))
     full[:, active, :] = gains
-    phases = np.array([reference.phase(reference.at_time(t)[0][:n]) for t in times])
-    return PeriodicGains(phases, times, full, cost, cycles, weights)
+    phases = np.array([reference.phase(reference.at_time(t)[0][:n]) for t in along.times])
+    return PeriodicGains(phases, along.times, full, cost, cycles, weights)
 
 
 class PhaseLQR:
@@ -223,9 +255,11 @@ class PhaseLQR:
 
 
 __all__ = [
+    "Linearisation",
     "LqrWeights",
     "PeriodicGains",
     "PhaseLQR",
+    "linearise_along",
     "periodic_lqr",
     "periodic_riccati",
     "saltation",

@@ -15,7 +15,13 @@ from scipy.linalg import solve_discrete_are
 from problems import walking_step
 from problems.walking_control import GaitReference
 from problems.walking_linearisation import fixed_point
-from problems.walking_lqr import LqrWeights, PhaseLQR, periodic_lqr, periodic_riccati, saltation
+from problems.walking_lqr import (
+    LqrWeights,
+    PhaseLQR,
+    periodic_lqr,
+    periodic_riccati,
+    saltation,
+)
 from problems.walking_simulation import Disturbances, Plant, locate_strike, simulate_walking
 
 GROUND_MU = 1.0
