@@ -118,12 +118,15 @@ def linearise_along(plant: Plant, reference: GaitReference, period: float) -> Li
     count = int(np.ceil(duration / period - 1e-9))
     times = np.minimum(np.arange(count) * period, duration)
     lengths = np.diff(np.r_[times, duration])
-    a_list, b_list = [], []
-    for t, h in zip(times, lengths, strict=True):
-        x, torques = reference.at_time(t)
-        dx, dm, _ = (np.asarray(v) for v in plant.advance_jacobian(x, torques, h))
-        a_list.append(dx)
-        b_list.append(dm)
+    samples = [reference.at_time(t) for t in times]
+    states = np.column_stack([x for x, _ in samples])
+    torques = np.column_stack([m for _, m in samples])
+    # every period's Jacobians in one mapped call (the periods are independent here)
+    dx, dm, _ = plant.advance_jacobian.map(count)(states, torques, lengths[None, :])
+    size = 2 * plant.n
+    dx, dm = np.asarray(dx), np.asarray(dm)
+    a_list = [dx[:, k * size : (k + 1) * size] for k in range(count)]
+    b_list = [dm[:, k * plant.n : (k + 1) * plant.n] for k in range(count)]
     x_end, torques_end = reference.at_time(duration)
     return Linearisation(times, a_list, b_list, saltation(plant, x_end, torques_end))
 

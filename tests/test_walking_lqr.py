@@ -13,11 +13,12 @@ import pytest
 from scipy.linalg import solve_discrete_are
 
 from problems import walking_step
-from problems.walking_control import GaitReference
+from problems.walking_control import GaitReference, OpenLoop
 from problems.walking_linearisation import fixed_point
 from problems.walking_lqr import (
     LqrWeights,
     PhaseLQR,
+    linearise_along,
     periodic_lqr,
     periodic_riccati,
     saltation,
@@ -145,3 +146,27 @@ def test_weights_are_checked_and_change_the_gains(plan):
     assert np.abs(softer.gains).max() > np.abs(gains.gains).max()  # cheaper torque, more gain
     ankle_free = periodic_lqr(plant, reference, passive=(0,))
     assert np.all(ankle_free.gains[:, 0, :] == 0.0)
+
+
+def test_the_open_loop_is_violently_unstable_along_the_plan(plan):
+    step, reference, plant, _ = plan
+    along = linearise_along(plant, reference, 1e-3)
+    assert np.abs(along.open_loop_multipliers[0]) > 1e3
+    # the flow's Jacobian over the first 50 ms is the divergence of two simulated open-loop
+    # runs (which leave the plan by the hold's bias, 1e-3 rad by then: a few % apart)
+    start = reference.states[0]
+    offset = np.random.default_rng(0).normal(size=start.size) * 1e-7
+    options = {"linkage": step.linkage, "step_time": step.step_time, "steps": 1, "mu": 1.0,
+               "step_length": step.step_length, "check_contacts": False}  # fmt: skip
+    base = simulate_walking(start, OpenLoop(reference), **options)
+    moved = simulate_walking(start + offset, OpenLoop(reference), **options)
+    flow = np.eye(start.size)
+    for a in along.states[:50]:
+        flow = a @ flow
+    difference = moved.states[50] - base.states[50]
+    assert np.abs(difference - flow @ offset).max() < 0.03 * np.abs(difference).max()
+    # and the monodromy is that flow through the step, then the strike
+    full = np.eye(start.size)
+    for a in along.states:
+        full = a @ full
+    np.testing.assert_allclose(along.monodromy, along.jump @ full, rtol=1e-12)
