@@ -1458,26 +1458,10 @@ def _closed_loop(feedback, report, out):
         f"{check.open_loop.fell or 'walked'}",
         file=out,
     )
-    print(
-        f"  {'case':<14} {'steps':>7} {'step time s':>15} {'step length m':>15} "
-        f"{'peak |M| N m':>12} {'tracking rad':>12}",
-        file=out,
-    )
-    for label, run in check.runs.items():
-        walked = f"{run.walked}/{check.steps}"
-        if run.steps:
-            times = [r.duration for r in run.steps]
-            lengths = [r.length for r in run.steps]
-            peak = max(r.peak_torque for r in run.steps)
-            tracking = max(r.tracking for r in run.steps)
-            print(
-                f"  {label:<14} {walked:>7} {min(times):7.4f}..{max(times):6.4f} "
-                f"{min(lengths):7.4f}..{max(lengths):6.4f} {peak:12.1f} {tracking:12.2e}"
-                + (f"  fell: {run.fell}" if run.fell else ""),
-                file=out,
-            )
-        else:
-            print(f"  {label:<14} {walked:>7}  fell: {run.fell}", file=out)
+    _print_runs(out, check.runs, check.steps, [
+        ("peak |M| N m", 12, lambda steps: f"{max(r.peak_torque for r in steps):.1f}"),
+        ("tracking rad", 12, lambda steps: f"{max(r.tracking for r in steps):.2e}"),
+    ])  # fmt: skip
     forward, back = check.pushes
     print(
         f"  largest push on the torso's centre of mass at mid-step that it walks 10 more steps "
@@ -1499,33 +1483,42 @@ def _closed_loop(feedback, report, out):
         f"{engine.planned_normal:.0f} N):",
         file=out,
     )
-    print(
-        f"  {'case':<14} {'steps':>7} {'step time s':>15} {'step length m':>15} "
-        f"{'peak |M| N m':>12} {'slip mm':>8} {'peak Fy N':>9}",
-        file=out,
-    )
-    for label, run in engine.runs.items():
-        walked = f"{run.walked}/{engine.steps}"
-        if run.steps:
-            times = [r.duration for r in run.steps]
-            lengths = [r.length for r in run.steps]
-            print(
-                f"  {label:<14} {walked:>7} {min(times):7.4f}..{max(times):6.4f} "
-                f"{min(lengths):7.4f}..{max(lengths):6.4f} "
-                f"{max(r.peak_torque for r in run.steps):12.1f} "
-                f"{1000 * max(r.slip for r in run.steps):8.1f} "
-                f"{max(r.peak_normal for r in run.steps):9.0f}"
-                + (f"  fell: {run.fell}" if run.fell else ""),
-                file=out,
-            )
-        else:
-            print(f"  {label:<14} {walked:>7}  fell: {run.fell}", file=out)
+    _print_runs(out, engine.runs, engine.steps, [
+        ("peak |M| N m", 12, lambda steps: f"{max(r.peak_torque for r in steps):.1f}"),
+        ("slip mm", 8, lambda steps: f"{1000 * max(r.slip for r in steps):.1f}"),
+        ("peak Fy N", 9, lambda steps: f"{max(r.peak_normal for r in steps):.0f}"),
+        ("tracking rad", 12, lambda steps: f"{max(r.tracking for r in steps):.2e}"),
+    ])  # fmt: skip
     forward, back = engine.pushes
     print(
         f"  largest push survived in MuJoCo: forward {forward:.1f} N s, back {back:.1f} N s",
         file=out,
     )
     return check
+
+
+def _print_runs(out, runs: dict, steps: int, columns) -> None:
+    """A table of simulated walks: case, steps walked, the ranges of step time and length,
+    then ``columns`` ((header, width, steps -> text)); a fall's reason after the row."""
+    print(
+        f"  {'case':<14} {'steps':>7} {'step time s':>15} {'step length m':>15} "
+        + " ".join(f"{header:>{width}}" for header, width, _ in columns),
+        file=out,
+    )
+    for label, run in runs.items():
+        walked = f"{run.walked}/{steps}"
+        if not run.steps:
+            print(f"  {label:<14} {walked:>7}  fell: {run.fell}", file=out)
+            continue
+        times = [r.duration for r in run.steps]
+        lengths = [r.length for r in run.steps]
+        cells = " ".join(f"{cell(run.steps):>{width}}" for _, width, cell in columns)
+        print(
+            f"  {label:<14} {walked:>7} {min(times):7.4f}..{max(times):6.4f} "
+            f"{min(lengths):7.4f}..{max(lengths):6.4f} {cells}"
+            + (f"  fell: {run.fell}" if run.fell else ""),
+            file=out,
+        )
 
 
 def _check_lines(report) -> list[str]:

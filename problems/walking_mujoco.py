@@ -36,9 +36,9 @@ TOUCHDOWN_FORCE = 5.0
 #: MuJoCo settings of the walker (see walking_mujoco_settings in the README)
 CONTACT_TIME_CONSTANT = 0.004
 TIMESTEP = 0.0005
-#: each foot's mass, kg: not in the plan (1.7 % of the six-link's 60 kg for two); 0.05 kg
-#: feet spin under the ankle torque whenever their sole leaves the ground and the walker
-#: falls in its first step, 0.5 kg feet walk (measured, README)
+#: each foot's mass, kg: not in the plan (1.7 % of the six-link's 60 kg for two); with
+#: 0.05 kg feet MuJoCo's simulation goes unstable in the first step, 0.5 kg feet walk
+#: (measured, README)
 FOOT_MASS = 0.5
 #: the swing foot's ankle PD that keeps it flat, N m/rad and N m s/rad
 FOOT_KP = 20.0
