@@ -161,6 +161,24 @@ class ClosedLoopCheck:
     seconds: dict[str, float] = field(default_factory=dict)
 
 
+def disturbance_cases(feedback: Feedback) -> dict[str, Disturbances]:
+    """The disturbances both checks run (the product's and MuJoCo's), by label: the plan, a
+    body 10 % heavier and lighter, the ground 5 mm higher and lower from the first new
+    foothold on, a start 0.02 rad off on every angle, drives limited to 2/3 of the plan's
+    limit."""
+    n = len(feedback.names)
+    limit = min(feedback.step.torque_limit.values())
+    return {
+        "plan": Disturbances(),
+        "mass +10 %": Disturbances(mass_scale=1.1),
+        "mass -10 %": Disturbances(mass_scale=0.9),
+        "ground +5 mm": Disturbances(ground_rise=0.005),
+        "ground -5 mm": Disturbances(ground_rise=-0.005),
+        "start 0.02 rad": Disturbances(initial=np.r_[np.full(n, 0.02), np.zeros(n)]),
+        f"|M| <= {2 * limit / 3:g}": Disturbances(torque_limit=2.0 * limit / 3.0),
+    }
+
+
 def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:
     """The feedback's multipliers and simulated walks (module docstring)."""
     step = feedback.step
@@ -185,15 +203,8 @@ def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:
     seconds["fixed point and multipliers"] = time.perf_counter() - clock
     start = feedback.reference.states[0]
     open_loop = simulate_walking(start, OpenLoop(feedback.reference), steps=steps, **options)
-    cases = {
-        "plan": Disturbances(),
-        "mass +10 %": Disturbances(mass_scale=1.1),
-        "mass -10 %": Disturbances(mass_scale=0.9),
-        "ground +5 mm": Disturbances(ground_rise=0.005),
-        "ground -5 mm": Disturbances(ground_rise=-0.005),
-    }
     runs = {}
-    for label, disturbances in cases.items():
+    for label, disturbances in disturbance_cases(feedback).items():
         clock = time.perf_counter()
         runs[label] = simulate_walking(
             start, feedback.controller, steps=steps, disturbances=disturbances, **options
@@ -222,4 +233,10 @@ def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:
     )
 
 
-__all__ = ["ClosedLoopCheck", "Feedback", "closed_loop_check", "design_feedback"]
+__all__ = [
+    "ClosedLoopCheck",
+    "Feedback",
+    "closed_loop_check",
+    "design_feedback",
+    "disturbance_cases",
+]

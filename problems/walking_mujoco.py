@@ -29,7 +29,8 @@ import numpy as np
 
 from model.errors import DefinitionError, check_integer, check_positive
 from model.mjcf import MjcfModel, to_mjcf
-from problems.walking_simulation import Disturbances
+from problems.walking_feedback import PUSH_STEPS, disturbance_cases
+from problems.walking_simulation import Disturbances, largest_push
 
 #: a swing foot touches down when its contact's normal force passes this, N
 TOUCHDOWN_FORCE = 5.0
@@ -62,7 +63,8 @@ def _mujoco():
 class MujocoStep:
     """One step in MuJoCo: duration s, length m (between the stance ankles), slip m (how far
     the stance foot's ankle moved along the ground), peak_normal N (the stance foot's largest
-    normal force), tracking rad (the largest angle error at the same phase)."""
+    normal force), tracking rad (the largest angle error at the same phase), peak_torque N m
+    (the largest motor command, ankles included)."""
 
     index: int
     duration: float
@@ -86,6 +88,22 @@ class MujocoRun:
     @property
     def walked(self) -> int:
         return len(self.steps)
+
+
+def _terrain(xml: str, edge: float, rise: float) -> str:
+    """The walker's MJCF with its ground plane replaced by two boxes: the ground as planned up
+    to x = edge, ``rise`` m higher (or lower) after it."""
+    line = next(row for row in xml.splitlines() if 'name="ground" type="plane"' in row)
+    depth = float(line.split('pos="0 0 ')[1].split('"')[0])  # -contact radius
+    friction = line.split('friction="')[1].split('"')[0]
+    common = f'contype="0" conaffinity="1" condim="3" friction="{friction}" group="0"'
+    boxes = (
+        f'    <geom name="ground" type="box" size="50 1 0.5" '
+        f'pos="{edge - 50.0!r} 0 {depth - 0.5!r}" {common}/>\n'
+        f'    <geom name="ground_changed" type="box" size="50 1 0.5" '
+        f'pos="{edge + 50.0!r} 0 {depth + rise - 0.5!r}" {common}/>'
+    )
+    return xml.replace(line, boxes)
 
 
 def walker_mjcf(step, *, ground_mu: float, foot_mass: float = FOOT_MASS) -> MjcfModel:
@@ -135,7 +153,11 @@ def run_in_mujoco(
     step = feedback.step
     linkage = step.linkage
     mjcf = walker_mjcf(step, ground_mu=feedback.plant.mu, foot_mass=foot_mass)
-    model = mujoco.MjModel.from_xml_string(mjcf.xml)
+    xml = mjcf.xml
+    if disturbances.ground_rise != 0.0:
+        edge = (disturbances.ground_from - 0.5) * step.step_length
+        xml = _terrain(xml, edge, disturbances.ground_rise)
+    model = mujoco.MjModel.from_xml_string(xml)
     model.geom_solref[:, 0] = contact_time_constant
     if disturbances.mass_scale != 1.0:
         bodies = [model.body(name).id for name in linkage.names]
@@ -181,7 +203,7 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
     }.items():
         names = [f"{link}_heel", f"{link}_toe"] if feet else [f"{link}_{end}"]
         foot_geoms[label] = {model.geom(g).id for g in names}
-    ground = model.geom("ground").id
+    grounds = {g for g in range(model.ngeom) if model.geom(g).name.startswith("ground")}
     ankle_ids = {}
     if feet:
         ankle_ids = {
@@ -189,6 +211,8 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
             "B": actuators[f"M_ankle_{biped.swing_shank}"],
         }
     start = reference.states[0]
+    if disturbances.initial is not None:
+        start = start + np.asarray(disturbances.initial, dtype=float)
     data.qpos[:] = mjcf.qpos(start[:n], (0.0, -preload), np.zeros(len(feet)) if feet else None)
     data.qvel[:] = mjcf.qvel(start[n:], (0.0, 0.0), np.zeros(len(feet)) if feet else None)
     mujoco.mj_forward(model, data)
@@ -201,7 +225,8 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
         force = np.zeros(6)
         for c in range(data.ncon):
             contact = data.contact[c]
-            if ground in contact.geom and (contact.geom[0] in geoms or contact.geom[1] in geoms):
+            touching = contact.geom[0] in grounds or contact.geom[1] in grounds
+            if touching and (contact.geom[0] in geoms or contact.geom[1] in geoms):
                 mujoco.mj_contactForce(model, data, c, force)
                 total += force[0]
         return total
@@ -223,6 +248,16 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
     stance_start = ankle_position(stance)
     peak_normal, tracking, peak_torque, slip = 0.0, 0.0, 0.0, 0.0
     pushed = disturbances.push == 0.0
+    lowest = min(0.0, disturbances.ground_rise) - 0.02
+    limit = disturbances.torque_limit
+    # every motor's limit: the plan's for its hinge, the stance ankle's for both ankles
+    drive_limits = np.full(model.nu, np.inf)
+    for name in linkage.names[1:]:
+        drive_limits[actuators[f"M_{name}"]] = step.torque_limit.get(name, np.inf)
+    for ankle in ankle_ids.values():
+        drive_limits[ankle] = step.torque_limit.get(biped.stance_shank, np.inf)
+    if limit is not None:
+        drive_limits = np.minimum(drive_limits, limit)
     while len(records) < steps:
         coordinates = mjcf.model_coordinates(data.qpos)
         rates = mjcf.model_coordinates(data.qvel)
@@ -236,8 +271,9 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
             torques = reference.at_time(t_step)[1]
         else:
             torques = controller.torques(t_step, x)
+        if limit is not None:
+            torques = np.clip(torques, -limit, limit)
         tracking = max(tracking, reference.tracking(x))
-        peak_torque = max(peak_torque, float(np.abs(torques).max()))
         if stance == "A":
             hinge = torques
         else:
@@ -248,6 +284,8 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
             bodies[list(swap.source)] = forces
             bodies[swing_index] -= torques[0]
             hinge = subtree @ bodies
+        if limit is not None:  # the drives saturate: every motor, ankles included
+            hinge = np.clip(hinge, -limit, limit)
         data.ctrl[motor_ids] = hinge[1:]
         if feet:
             feet_angles = mjcf.feet_angles(data.qpos)
@@ -258,6 +296,10 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
             data.ctrl[ankle_ids[swing]] = (
                 -foot_kp * feet_angles[which] - foot_kd * feet_rates[which]
             )
+        # the drives give at most their limits: after the leg swap the plan's torques map onto
+        # other hinges (sums over subtrees), which can ask for more than the law's own clip
+        np.clip(data.ctrl, -drive_limits, drive_limits, out=data.ctrl)
+        peak_torque = max(peak_torque, float(np.abs(data.ctrl).max()))
         if (
             not pushed
             and len(records) == disturbances.push_step
@@ -288,7 +330,8 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
         slip = max(slip, abs(position.real - stance_start.real))
         hip = mjcf.model_coordinates(data.qpos)
         hinges = feedback.plant.dynamics.hinge_positions(hip[2:]) + complex(hip[0], hip[1])
-        if np.min(hinges.imag[1:]) < -0.02 or not np.all(np.isfinite(data.qpos)):
+        # 2 cm under the lowest ground there is: a knee, hip or head that low has fallen
+        if np.min(hinges.imag[1:]) < lowest or not np.all(np.isfinite(data.qpos)):
             fell = f"step {len(records)}, t = {t_step:.3f} s: a body point went under the ground"
             break
         if t_step > 2.0 * step.step_time:
@@ -324,9 +367,10 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
 
 @dataclass(frozen=True)
 class MujocoCheck:
-    """What :func:`mujoco_check` measured: runs by label (open loop, closed loop, mass
-    +-10 %), the largest pushes survived (forward, back) N s, the steps asked for, and the
-    plan's largest stance ground reaction Fy, N."""
+    """What :func:`mujoco_check` measured: runs by label (open loop, closed loop, and the
+    disturbances of :func:`problems.walking_feedback.disturbance_cases`), the largest pushes
+    survived (forward, back) N s, the steps asked for, and the plan's largest stance ground
+    reaction Fy, N."""
 
     runs: dict
     pushes: tuple[float, float]
@@ -335,21 +379,12 @@ class MujocoCheck:
 
 
 def mujoco_check(feedback, steps: int = 20) -> MujocoCheck:
-    """The feedback in MuJoCo: open loop, closed loop, a heavier and a lighter body, the
+    """The feedback in MuJoCo: open loop, closed loop, the product check's disturbances, the
     largest pushes (10 steps after a push at mid-step of the second step)."""
-    from problems.walking_feedback import PUSH_STEPS
-    from problems.walking_simulation import largest_push
-
-    runs = {
-        "open loop": run_in_mujoco(feedback, steps=steps, open_loop=True),
-        "closed loop": run_in_mujoco(feedback, steps=steps),
-        "mass +10 %": run_in_mujoco(
-            feedback, steps=steps, disturbances=Disturbances(mass_scale=1.1)
-        ),
-        "mass -10 %": run_in_mujoco(
-            feedback, steps=steps, disturbances=Disturbances(mass_scale=0.9)
-        ),
-    }
+    runs = {"open loop": run_in_mujoco(feedback, steps=steps, open_loop=True)}
+    for label, disturbances in disturbance_cases(feedback).items():
+        name = "closed loop" if label == "plan" else label
+        runs[name] = run_in_mujoco(feedback, steps=steps, disturbances=disturbances)
 
     def walk(disturbances):
         return run_in_mujoco(feedback, steps=PUSH_STEPS, disturbances=disturbances)

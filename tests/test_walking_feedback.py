@@ -103,7 +103,7 @@ def test_walk_feedback_prints_the_closed_loop_and_writes_the_gains(tmp_path, cap
     assert main(["walk", "--feedback", "--no-gif", "--output-dir", str(folder)]) == 0
     text = capsys.readouterr().out
     assert "largest Floquet multipliers" in text
-    assert "open loop (the plan's torques alone): step 0" in text
+    assert "linearised along the plan, and simulated: step 0" in text
     assert "  plan             50/50" in text
     assert "  closed loop      20/20" in text  # MuJoCo (the test extra installs it)
     assert "  open loop         0/20  fell: step 0" in text

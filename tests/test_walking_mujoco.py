@@ -9,7 +9,7 @@ import pytest
 
 from model import presets
 from problems import walking_step
-from problems.walking_feedback import design_feedback
+from problems.walking_feedback import design_feedback, disturbance_cases
 from problems.walking_mujoco import run_in_mujoco
 from problems.walking_simulation import Disturbances
 
@@ -51,3 +51,20 @@ def test_a_push_too_hard_is_a_fall_with_its_reason():
     run = run_in_mujoco(feedback, steps=4, disturbances=Disturbances(push=150.0, push_step=1))
     assert run.walked == 1
     assert run.fell.startswith("step 1, t = ")
+
+
+def test_the_checks_disturbances_run_in_mujoco_too():
+    step = walking_step()
+    feedback = design_feedback(step.solve(progress=False), ground_mu=1.0)
+    outcomes = {}
+    for label, disturbances in disturbance_cases(feedback).items():
+        run = run_in_mujoco(feedback, steps=6, disturbances=disturbances)
+        outcomes[label] = run.walked
+        if disturbances.torque_limit is not None:
+            assert max(r.peak_torque for r in run.steps) <= disturbances.torque_limit + 1e-9
+    # measured: MuJoCo's soft contacts and soled feet also take the lower ground and the
+    # start 0.02 rad off, which the product's rigid pinned-foot model does not
+    assert outcomes == dict.fromkeys(outcomes, 6), outcomes
+    # the changed ground is there: 5 cm higher, the swing foot stubs on it in step 0
+    stub = run_in_mujoco(feedback, steps=2, disturbances=Disturbances(ground_rise=0.05))
+    assert stub.walked == 0 and stub.fell.startswith("step 0")
