@@ -1428,6 +1428,7 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
                 with report.working("plotting closed_loop.png"):
                     walking_plots.save_figure(walking_plots.closed_loop_figure(closed),
                                               output.path("closed_loop.png"))  # fmt: skip
+                _draw_pushed_walk(closed, gait.problem.linkage, output, args.no_gif, report)
         paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
     for path in paths:
         print(f"wrote {path}", file=out)
@@ -1495,6 +1496,31 @@ def _closed_loop(feedback, report, out):
         file=out,
     )
     return check
+
+
+def _draw_pushed_walk(closed, linkage, output, no_gif: bool, report) -> None:
+    """closed_loop_walk.png (and .gif): the simulated closed-loop walk that survived the
+    largest forward push, in world coordinates."""
+    from problems import walking_plots
+    from problems.walking_feedback import PUSH_STEPS
+
+    run = closed.push_runs[0]
+    motion = run.world(linkage, rate_hz=60.0)
+    what = (
+        f"closed loop, simulated: a forward push of {closed.pushes[0]:.1f} N s on the torso "
+        f"in step 2 (the largest survived), {run.walked}/{PUSH_STEPS} steps"
+    )
+    with report.working("plotting closed_loop_walk.png"):
+        figure = walking_plots.world_strip(motion, frames_per_step=3, title=what)
+        walking_plots.save_figure(figure, output.path("closed_loop_walk.png"))
+    if not no_gif:
+        with report.working(f"writing closed_loop_walk.gif ({run.walked} steps)"):
+            walking_plots.animate_walk(
+                motion,
+                output.path("closed_loop_walk.gif"),
+                fps=20.0,
+                caption=f"push {closed.pushes[0]:.1f} N s in step 2; ",
+            )
 
 
 def _print_runs(out, runs: dict, steps: int, columns) -> None:

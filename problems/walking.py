@@ -761,6 +761,33 @@ class WorldMotion:
     footholds: np.ndarray
 
 
+def world_motion(biped: Biped, dynamics: Dynamics, time, states, step, footholds) -> WorldMotion:
+    """Steps given in their own labels, placed in the world.
+
+    time (K,) s; states (K, >= n) each in its step's labels (the stance foot at H0);
+    step (K,) int from 0, the step of each sample; footholds (steps + 1,) complex m, where
+    each step's stance foot stands. The legs swap at every heel strike: after an odd number
+    of swaps link i is the body that was link ``swap.source[i]``, described from its other
+    end if it is a leg, so each body keeps its first step's name.
+    """
+    linkage = dynamics.linkage
+    n = linkage.n
+    step = np.asarray(step, dtype=int)
+    footholds = np.asarray(footholds, dtype=complex)
+    hinges = dynamics.hinge_positions(np.asarray(states)[:, :n]) + footholds[step][:, None]
+    starts = np.asarray(linkage.parents) + 1
+    swap = biped.swap
+    odd = step % 2 == 1
+    segments = {name: np.empty((len(step), 2), dtype=complex) for name in linkage.names}
+    for i in range(n):
+        ends = np.stack([hinges[:, starts[i]], hinges[:, i + 1]], axis=1)
+        segments[linkage.names[i]][~odd] = ends[~odd]
+        if swap.angle_offsets[i] != 0.0:
+            ends = ends[:, ::-1]
+        segments[linkage.names[swap.source[i]]][odd] = ends[odd]
+    return WorldMotion(np.asarray(time, dtype=float), segments, step, footholds)
+
+
 @dataclass(frozen=True, eq=False)
 class WalkingGait(Gait):
     """A solved walking step (:class:`problems.gait_problem.Gait`: cost, ``law_cost``,
@@ -803,43 +830,21 @@ class WalkingGait(Gait):
         end of a step and the start of the next are one instant; it is kept once)."""
         steps = check_integer("steps", steps, 1)
         problem = self.problem
-        linkage = problem.linkage
-        n = linkage.n
-        pieces = []
+        pieces, states = [], []
         for k, (solution, t0) in enumerate(self.segments()):
             local = solution.sample_times(rate_hz)
-            pieces.append((local + t0)[1:] if k else local + t0)
-            pieces.append(None)  # placeholder for the states below
-            states, _ = solution(local[1:] if k else local)
-            pieces[-1] = states
-        times = np.concatenate(pieces[0::2])
-        states = np.vstack(pieces[1::2])
-        hinges_step = problem.dynamics.hinge_positions(states[:, :n])
-        starts = np.asarray(linkage.parents) + 1
-        swap = problem.biped.swap
-        source = list(swap.source)
-        segments: dict[str, list] = {name: [] for name in linkage.names}
-        all_times, which = [], []
-        for k in range(steps):
-            keep = slice(0 if k == 0 else 1, None)
-            hinges = hinges_step[keep] + k * problem.step_length
-            for i in range(n):
-                ends = [hinges[:, starts[i]], hinges[:, i + 1]]
-                if k % 2:
-                    # After an odd number of swaps link i is the body that was link
-                    # source[i], described from its other end if it is a leg.
-                    body = linkage.names[source[i]]
-                    if swap.angle_offsets[i] != 0.0:
-                        ends.reverse()
-                else:
-                    body = linkage.names[i]
-                segments[body].append(np.stack(ends, axis=1))
-            all_times.append(times[keep] + k * self.duration)
-            which.append(np.full(len(times[keep]), k))
-        return WorldMotion(
-            np.concatenate(all_times),
-            {name: np.concatenate(parts) for name, parts in segments.items()},
-            np.concatenate(which),
+            local = local[1:] if k else local
+            pieces.append(local + t0)
+            states.append(solution(local)[0])
+        times, states = np.concatenate(pieces), np.vstack(states)
+        # step k repeats the step on the foothold k s, its first sample the last one of k - 1
+        keep = [slice(None)] + [slice(1, None)] * (steps - 1)
+        return world_motion(
+            problem.biped,
+            problem.dynamics,
+            np.concatenate([times[part] + k * self.duration for k, part in enumerate(keep)]),
+            np.vstack([states[part] for part in keep]),
+            np.concatenate([np.full(len(times[part]), k) for k, part in enumerate(keep)]),
             problem.step_length * np.arange(steps + 1) + 0j,
         )
 
@@ -856,4 +861,4 @@ class WalkingGait(Gait):
         }
 
 
-__all__ = ["WalkingGait", "WalkingStep", "WorldMotion", "walking_step"]
+__all__ = ["WalkingGait", "WalkingStep", "WorldMotion", "walking_step", "world_motion"]

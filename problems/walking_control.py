@@ -24,7 +24,41 @@ from model.errors import DefinitionError, check_real
 from planner.trajectory import Trajectory
 
 
-class GaitReference:
+class TimedReference:
+    """A plan as tables over time: time (K,) s from 0, states (K, 2n) (psi, dpsi), torques
+    (K, n) N m, blended linearly between samples.
+
+    Parameters
+    ----------
+    trajectory : Trajectory
+        The plan's samples (``gait.to_trajectory(rate_hz)``: the consistent motion, whose
+        torques are its own inverse dynamics).
+    """
+
+    def __init__(self, trajectory: Trajectory) -> None:
+        self.time = np.asarray(trajectory.time, dtype=float) - float(trajectory.time[0])
+        self.states = np.hstack([trajectory.psi, trajectory.dpsi])
+        self.torques = np.asarray(trajectory.torques, dtype=float)
+        self.n = self.torques.shape[1]
+
+    @property
+    def duration(self) -> float:
+        return float(self.time[-1])
+
+    def at_time(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """(x_ref (2n,), M_ff (n,)) at t s since the start (clamped to the plan)."""
+        return self._blend(self.time, t)
+
+    def _blend(self, grid: np.ndarray, value: float):
+        value = min(max(float(value), grid[0]), grid[-1])
+        k = int(np.clip(np.searchsorted(grid, value, side="right") - 1, 0, grid.size - 2))
+        w = (value - grid[k]) / (grid[k + 1] - grid[k])
+        states = (1.0 - w) * self.states[k] + w * self.states[k + 1]
+        torques = (1.0 - w) * self.torques[k] + w * self.torques[k + 1]
+        return states, torques
+
+
+class GaitReference(TimedReference):
     """A planned step as tables over time and over the phase.
 
     Parameters
@@ -39,10 +73,7 @@ class GaitReference:
     """
 
     def __init__(self, trajectory: Trajectory, dynamics: Dynamics, hip: str) -> None:
-        self.time = np.asarray(trajectory.time, dtype=float) - float(trajectory.time[0])
-        self.states = np.hstack([trajectory.psi, trajectory.dpsi])
-        self.torques = np.asarray(trajectory.torques, dtype=float)
-        self.n = dynamics.n
+        super().__init__(trajectory)
         self._hip = dynamics.point(hip)
         hips = np.asarray(self._hip.position(trajectory.psi)).real
         self._start, self._span = hips[0], hips[-1] - hips[0]
@@ -61,17 +92,9 @@ class GaitReference:
         problem = gait.problem
         return cls(gait.to_trajectory(rate_hz), problem.dynamics, problem.biped.stance_thigh)
 
-    @property
-    def duration(self) -> float:
-        return float(self.time[-1])
-
     def phase(self, psi) -> float:
         """s of the angles psi (n,): the hip's progress, 0 at the start, 1 at heel strike."""
         return float((complex(self._hip.position(psi)).real - self._start) / self._span)
-
-    def at_time(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """(x_ref (2n,), M_ff (n,)) at t s since the step's start (clamped to the step)."""
-        return self._blend(self.time, t)
 
     def at_phase(self, s: float) -> tuple[np.ndarray, np.ndarray]:
         """(x_ref (2n,), M_ff (n,)) at the phase s: the plan for s in [0, 1], its start before
@@ -108,14 +131,6 @@ class GaitReference:
         psi = np.asarray(x[: self.n])
         reference, _ = self.at_phase(self.phase(psi))
         return float(np.abs(psi - reference[: self.n]).max())
-
-    def _blend(self, grid: np.ndarray, value: float):
-        value = min(max(float(value), grid[0]), grid[-1])
-        k = int(np.clip(np.searchsorted(grid, value, side="right") - 1, 0, grid.size - 2))
-        w = (value - grid[k]) / (grid[k + 1] - grid[k])
-        states = (1.0 - w) * self.states[k] + w * self.states[k + 1]
-        torques = (1.0 - w) * self.torques[k] + w * self.torques[k + 1]
-        return states, torques
 
 
 class OpenLoop:
@@ -203,4 +218,4 @@ def _gains(name: str, value, n: int) -> np.ndarray:
     return array
 
 
-__all__ = ["GaitReference", "OpenLoop", "PhasePD"]
+__all__ = ["GaitReference", "OpenLoop", "PhasePD", "TimedReference"]

@@ -68,25 +68,21 @@ class Feedback:
     def channels(self, trajectory: Trajectory) -> Trajectory:
         """``trajectory`` (the step's exported samples) with the phase of each sample and the
         gains there as extra columns, and the law in its metadata."""
-        n = len(self.names)
-        if trajectory.psi.shape[1] != n:
+        if trajectory.psi.shape[1] != len(self.names):
             raise DefinitionError(
-                f"`trajectory`: {trajectory.psi.shape[1]} angles, the feedback has {n}"
+                f"`trajectory`: {trajectory.psi.shape[1]} angles, the feedback has "
+                f"{len(self.names)}"
             )
         phases = np.array([self.reference.phase(psi) for psi in trajectory.psi])
         gains = np.array([self.controller.gain_at(s) for s in phases])  # (K, n, 2n)
-        states = [f"psi_{name}" for name in self.names] + [f"dpsi_{name}" for name in self.names]
-        out = trajectory.with_extra("phase", phases, "1")
-        for i, hinge in enumerate(self.names):
-            for j, state in enumerate(states):
-                unit = "N m/rad" if j < n else "N m s/rad"
-                out = out.with_extra(f"K_{hinge}__{state}", gains[:, i, j], unit)
         weights = self.gains.weights
-        return out.with_metadata(
-            feedback={
+        return with_gains(
+            trajectory,
+            self.names,
+            phases,
+            gains,
+            {
                 "law": LAW,
-                "state": states,
-                "gains": "K_<hinge>__<state>: row <hinge> of K, column <state>",
                 "phase": PHASE.format(hip=self.step.biped.stance_thigh),
                 "early_strike": EARLY,
                 "late_strike": LATE,
@@ -94,13 +90,36 @@ class Feedback:
                 "control_rate_hz": self.control_rate_hz,
                 "design": "periodic discrete LQR through the heel strike (saltation), "
                 "Bryson weights",
-                "weights": {
-                    "angle_rad": weights.angle,
-                    "rate_rad_s": weights.rate,
-                    "torque_N_m": weights.torque,
-                },
-            }
+                "weights": weights.as_metadata(),
+            },
         )
+
+
+def with_gains(trajectory: Trajectory, names, phases, gains, law: dict) -> Trajectory:
+    """``trajectory`` with the phase of each sample (``phase``, (K,)) and the gains (K, n, 2n)
+    as columns ``K_<hinge>__<state>`` (N m/rad for the angles, N m s/rad for the rates),
+    and ``law`` (with the state's and the columns' names added) in
+    ``metadata["feedback"]``."""
+    n = len(names)
+    gains = np.asarray(gains, dtype=float)
+    if trajectory.psi.shape[1] != n or gains.shape != (trajectory.n_samples, n, 2 * n):
+        raise DefinitionError(
+            f"`gains`: (samples, n, 2n) = ({trajectory.n_samples}, {n}, {2 * n}) for this "
+            f"trajectory, got {gains.shape}"
+        )
+    states = [f"psi_{name}" for name in names] + [f"dpsi_{name}" for name in names]
+    out = trajectory.with_extra("phase", np.asarray(phases, dtype=float), "1")
+    for i, hinge in enumerate(names):
+        for j, state in enumerate(states):
+            unit = "N m/rad" if j < n else "N m s/rad"
+            out = out.with_extra(f"K_{hinge}__{state}", gains[:, i, j], unit)
+    return out.with_metadata(
+        feedback={
+            **law,
+            "state": states,
+            "gains": "K_<hinge>__<state>: row <hinge> of K, column <state>",
+        }
+    )
 
 
 def design_feedback(
@@ -147,8 +166,9 @@ class ClosedLoopCheck:
     loop: the closed loop's return map at its periodic gait (multipliers);
     open_loop_multipliers: of the plan's torques alone, linearised along the plan;
     open_loop: the plan's torques alone, simulated; runs: label -> WalkingRun; pushes:
-    (forward, back) N s survived; steps: the steps each run was asked to walk; reference:
-    the plan's; seconds: label -> wall time.
+    (forward, back) N s survived; push_runs: (forward, back) the runs that survived them
+    (:data:`PUSH_STEPS` steps, the push in the second); steps: the steps each run was asked
+    to walk; reference: the plan's; seconds: label -> wall time.
     """
 
     loop: ReturnMap
@@ -156,6 +176,7 @@ class ClosedLoopCheck:
     open_loop: WalkingRun
     runs: dict[str, WalkingRun]
     pushes: tuple[float, float]
+    push_runs: tuple[WalkingRun, WalkingRun]
     steps: int
     reference: GaitReference
     seconds: dict[str, float] = field(default_factory=dict)
@@ -163,8 +184,8 @@ class ClosedLoopCheck:
 
 def disturbance_cases(feedback: Feedback) -> dict[str, Disturbances]:
     """The disturbances both checks run (the product's and MuJoCo's), by label: the plan, a
-    body 10 % heavier and lighter, the ground 5 mm higher and lower from the first new
-    foothold on, a start 0.02 rad off on every angle, drives limited to 2/3 of the plan's
+    body 10 % heavier and lighter, the ground 5 mm and 1 cm higher and lower from the first
+    new foothold on, a start 0.02 rad off on every angle, drives limited to 2/3 of the plan's
     limit."""
     n = len(feedback.names)
     limit = min(feedback.step.torque_limit.values())
@@ -174,6 +195,8 @@ def disturbance_cases(feedback: Feedback) -> dict[str, Disturbances]:
         "mass -10 %": Disturbances(mass_scale=0.9),
         "ground +5 mm": Disturbances(ground_rise=0.005),
         "ground -5 mm": Disturbances(ground_rise=-0.005),
+        "ground +1 cm": Disturbances(ground_rise=0.01),
+        "ground -1 cm": Disturbances(ground_rise=-0.01),
         "start 0.02 rad": Disturbances(initial=np.r_[np.full(n, 0.02), np.zeros(n)]),
         f"|M| <= {2 * limit / 3:g}": Disturbances(torque_limit=2.0 * limit / 3.0),
     }
@@ -217,8 +240,8 @@ def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:
             start, feedback.controller, steps=PUSH_STEPS, disturbances=disturbances, **options
         )
 
-    forward, _ = largest_push(walk, direction=1.0, steps=PUSH_STEPS)
-    back, _ = largest_push(walk, direction=-1.0, steps=PUSH_STEPS)
+    forward, forward_run = largest_push(walk, direction=1.0, steps=PUSH_STEPS)
+    back, back_run = largest_push(walk, direction=-1.0, steps=PUSH_STEPS)
     seconds["push margins"] = time.perf_counter() - clock
     along = linearise_along(feedback.plant, feedback.reference, 1.0 / feedback.control_rate_hz)
     return ClosedLoopCheck(
@@ -227,6 +250,7 @@ def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:
         open_loop,
         runs,
         (forward, back),
+        (forward_run, back_run),
         steps,
         feedback.reference,
         seconds,
@@ -239,4 +263,5 @@ __all__ = [
     "closed_loop_check",
     "design_feedback",
     "disturbance_cases",
+    "with_gains",
 ]

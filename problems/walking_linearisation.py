@@ -125,10 +125,9 @@ def fixed_point(
     ``guess`` (the plan's start), with the exact Jacobian (quadratic convergence). Returns the
     return map at x*; raises RuntimeError naming the residual when it does not converge.
     """
-    x = np.asarray(guess, dtype=float).copy()
-    residual = np.inf
-    for _ in range(iterations):
-        step = return_map(
+
+    def mapping(x):
+        return return_map(
             plant,
             controller,
             x,
@@ -136,6 +135,18 @@ def fixed_point(
             step_length=step_length,
             control_rate_hz=control_rate_hz,
         )
+
+    return newton_fixed_point(mapping, guess, tolerance, iterations)
+
+
+def newton_fixed_point(mapping, guess, tolerance: float = 1e-10, iterations: int = 10):
+    """x* = P(x*) by Newton's method on P(x) - x from ``guess``, ``mapping(x)`` returning a
+    :class:`ReturnMap` (P(x) and its exact Jacobian). Returns the map at x*; raises
+    RuntimeError naming the residual when it does not converge."""
+    x = np.asarray(guess, dtype=float).copy()
+    residual = np.inf
+    for _ in range(iterations):
+        step = mapping(x)
         gap = step.end - x
         residual = float(np.abs(gap).max())
         if residual <= tolerance:
@@ -143,8 +154,8 @@ def fixed_point(
         x = x - np.linalg.solve(step.jacobian - np.eye(x.size), gap)
     raise RuntimeError(
         f"fixed_point: P(x) - x is still {residual:.2e} after {iterations} Newton steps "
-        f"(tolerance {tolerance:g}); the closed loop may have no periodic gait near the plan"
+        f"(tolerance {tolerance:g}); the closed loop may have no periodic orbit near the plan"
     )
 
 
-__all__ = ["ReturnMap", "fixed_point", "return_map"]
+__all__ = ["ReturnMap", "fixed_point", "newton_fixed_point", "return_map"]

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from model.errors import DefinitionError, check_positive
-from problems.walking_control import GaitReference
+from problems.walking_control import GaitReference, TimedReference
 from problems.walking_simulation import Plant
 
 #: the Riccati recursion stops when P(0) changes by less than this, relative, over a step
@@ -50,6 +50,10 @@ class LqrWeights:
     angle: float = 0.01
     rate: float = 0.1
     torque: float = 20.0
+
+    def as_metadata(self) -> dict[str, float]:
+        """The weights as a file's metadata names them (units in the keys)."""
+        return {"angle_rad": self.angle, "rate_rad_s": self.rate, "torque_N_m": self.torque}
 
     def __post_init__(self) -> None:
         check_positive("angle", self.angle, "rad")
@@ -111,9 +115,13 @@ class Linearisation:
         return values[np.argsort(-np.abs(values))]
 
 
-def linearise_along(plant: Plant, reference: GaitReference, period: float) -> Linearisation:
+def linearise_along(
+    plant: Plant, reference: TimedReference, period: float, strike: bool = True
+) -> Linearisation:
     """The RK4 periods' Jacobians at the plan's samples (x_ref(t_k), M_ff(t_k)), the last
-    period cut at the step time, and the strike's saltation matrix at the plan's end."""
+    period cut at the plan's end, and the strike's saltation matrix at the plan's end (the
+    identity when ``strike`` is False: a plan that ends with no impact, e.g. the fixed-base
+    gait's period)."""
     duration = reference.duration
     count = int(np.ceil(duration / period - 1e-9))
     times = np.minimum(np.arange(count) * period, duration)
@@ -127,6 +135,8 @@ def linearise_along(plant: Plant, reference: GaitReference, period: float) -> Li
     dx, dm = np.asarray(dx), np.asarray(dm)
     a_list = [dx[:, k * size : (k + 1) * size] for k in range(count)]
     b_list = [dm[:, k * plant.n : (k + 1) * plant.n] for k in range(count)]
+    if not strike:
+        return Linearisation(times, a_list, b_list, np.eye(size))
     x_end, torques_end = reference.at_time(duration)
     return Linearisation(times, a_list, b_list, saltation(plant, x_end, torques_end))
 
@@ -172,19 +182,28 @@ def periodic_lqr(
     """The time-varying LQR gains of the plan's periodic orbit (module docstring)."""
     weights = weights or LqrWeights()
     period = 1.0 / check_positive("control_rate_hz", control_rate_hz, "Hz")
+    along = linearise_along(plant, reference, period)
+    gains, cost, cycles = lqr_along(along, weights, passive)
     n = plant.n
+    phases = np.array([reference.phase(reference.at_time(t)[0][:n]) for t in along.times])
+    return PeriodicGains(phases, along.times, gains, cost, cycles, weights)
+
+
+def lqr_along(along: Linearisation, weights: LqrWeights, passive=()):
+    """The periodic LQR of a linearised periodic plan with Bryson's weights (module
+    docstring); passive hinges (indices) get no input. Returns (gains (K, n, 2n) with zero
+    rows for passive hinges, P(0) (2n, 2n), Riccati steps run)."""
+    n = along.inputs[0].shape[1]
     active = [i for i in range(n) if i not in set(passive)]
     if not active:
         raise DefinitionError("`passive`: every hinge is passive; there is nothing to control")
-    along = linearise_along(plant, reference, period)
     b_list = [b[:, active] for b in along.inputs]
     q = np.diag(np.r_[np.full(n, weights.angle**-2.0), np.full(n, weights.rate**-2.0)])
     r = np.eye(len(active)) * weights.torque**-2.0
     gains, cost, cycles = periodic_riccati(along.states, b_list, along.jump, q, r)
     full = np.zeros((len(along.times), n, 2 * n))
     full[:, active, :] = gains
-    phases = np.array([reference.phase(reference.at_time(t)[0][:n]) for t in along.times])
-    return PeriodicGains(phases, along.times, full, cost, cycles, weights)
+    return full, cost, cycles
 
 
 class PhaseLQR:
@@ -263,6 +282,7 @@ __all__ = [
     "PeriodicGains",
     "PhaseLQR",
     "linearise_along",
+    "lqr_along",
     "periodic_lqr",
     "periodic_riccati",
     "saltation",

@@ -108,15 +108,16 @@ def _limits(motion: WorldMotion) -> tuple[float, float, float, float]:
     return x0 - pad, x1 + pad, -pad, y1 + pad
 
 
-def world_strip(motion: WorldMotion, frames_per_step: int = 6) -> Figure:
-    """Poses of several steps drawn where they happen (world x), the footholds marked."""
+def world_strip(motion: WorldMotion, frames_per_step: int = 6, title: str | None = None) -> Figure:
+    """Poses of several steps drawn where they happen (world x), the footholds marked;
+    ``title`` replaces the default one."""
     x0, x1, _, _ = _limits(motion)
     figure = Figure(figsize=(min(4.0 + 3.0 * (x1 - x0), 16.0), 4.0), layout="constrained")
-    draw_world(figure.add_subplot(), motion, frames_per_step)
+    draw_world(figure.add_subplot(), motion, frames_per_step, title)
     return figure
 
 
-def draw_world(ax, motion: WorldMotion, frames_per_step: int = 6) -> None:
+def draw_world(ax, motion: WorldMotion, frames_per_step: int = 6, title: str | None = None) -> None:
     """:func:`world_strip`'s drawing on a given matplotlib Axes ``ax`` (to combine it with
     other panels in one figure)."""
     steps = int(motion.step.max()) + 1
@@ -131,7 +132,7 @@ def draw_world(ax, motion: WorldMotion, frames_per_step: int = 6) -> None:
     ax.plot([x0, x1], [0.0, 0.0], color="0.5", linewidth=0.8, zorder=0)
     ax.plot(motion.footholds.real, motion.footholds.imag, "kv", label="footholds")
     ax.set(xlim=(x0, x1), ylim=(y0, y1), xlabel="x [m]", ylabel="y [m]", aspect="equal")
-    ax.set_title(f"{steps} steps in world coordinates (later poses darker)")
+    ax.set_title(title or f"{steps} steps in world coordinates (later poses darker)")
     ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize="small", frameon=False,
               title="bodies, named\nas in step 1", title_fontsize="small")  # fmt: skip
 
@@ -141,9 +142,10 @@ def animate_walk(
     path: str | os.PathLike,
     fps: float = 30.0,
     dpi: float = 80.0,
+    caption: str = "",
 ) -> Path:
     """A GIF of the steps of ``motion`` in world coordinates, one frame per 1/fps s of gait
-    time (real time), written atomically."""
+    time (real time), written atomically; ``caption`` heads every frame's clock."""
     path = Path(os.fspath(path))
     if path.suffix.lower() != ".gif":
         raise DefinitionError(f"`path`: an animation is a .gif file, got {str(path)!r}")
@@ -175,7 +177,9 @@ def animate_walk(
             for index in picks:
                 for line, segment in zip(lines, segments, strict=True):
                     line.set_data(segment[index].real, segment[index].imag)
-                clock.set_text(f"t = {motion.time[index]:.3f} s, step {motion.step[index] + 1}")
+                clock.set_text(
+                    f"{caption}t = {motion.time[index]:.3f} s, step {motion.step[index] + 1}"
+                )
                 writer.grab_frame()
     return path
 

@@ -36,6 +36,7 @@ from model.dynamics import Dynamics
 from model.errors import DefinitionError, check_integer, check_positive, check_real
 from model.linkage import Linkage
 from problems.biped import Biped
+from problems.walking import WorldMotion, world_motion
 
 #: the swing foot must be this far ahead of the stance foot, as a fraction of the planned step
 #: length, for a touch of the ground to count as a heel strike (it starts at the stance foot's
@@ -152,20 +153,44 @@ class WalkingRun:
         """Steps completed (heel strikes that the model accepted)."""
         return len(self.steps)
 
+    def world(self, linkage: Linkage, rate_hz: float = 100.0) -> WorldMotion:
+        """The run's bodies in world coordinates (``linkage`` the simulated biped's), sampled
+        at about ``rate_hz`` (every control instant nearest a multiple of 1 / rate_hz) and at
+        its last instant, for :func:`problems.walking_plots.world_strip` and
+        :func:`problems.walking_plots.animate_walk`."""
+        rate = check_positive("rate_hz", rate_hz, "Hz")
+        marks = np.arange(self.time[0], self.time[-1], 1.0 / rate)
+        picks = np.unique(np.r_[np.searchsorted(self.time, marks), self.time.size - 1])
+        return world_motion(
+            Biped.of(linkage),
+            Dynamics(linkage),
+            self.time[picks],
+            self.states[picks],
+            self.step[picks],
+            self.footholds,
+        )
+
 
 class Plant:
     """The simulated body: a linkage's pinned-foot dynamics, its heel strike and leg swap, as
-    generated functions (the plan's linkage, or one with changed masses)."""
+    generated functions (the plan's linkage, or one with changed masses).
 
-    def __init__(self, linkage: Linkage, mu: float, substeps: int = 2) -> None:
-        self.biped = Biped.of(linkage)
+    mu: the ground's friction coefficient for the contact checks (None for a body that only
+    swings on its pinned root, e.g. the fixed-base gait: then only :attr:`advance` and
+    :attr:`advance_jacobian` are used, and the linkage need not be a biped)."""
+
+    def __init__(self, linkage: Linkage, mu: float | None, substeps: int = 2) -> None:
         self.dynamics = Dynamics(linkage)
-        self.mu = check_positive("mu", mu)
+        self.mu = None if mu is None else check_positive("mu", mu)
         self.substeps = check_integer("substeps", substeps, 1)
 
     @property
     def n(self) -> int:
         return self.dynamics.n
+
+    @cached_property
+    def biped(self) -> Biped:
+        return Biped.of(self.dynamics.linkage)
 
     @cached_property
     def foot(self):

@@ -108,5 +108,7 @@ def test_walk_feedback_prints_the_closed_loop_and_writes_the_gains(tmp_path, cap
     assert "  closed loop      20/20" in text  # MuJoCo (the test extra installs it)
     assert "  open loop         0/20  fell: step 0" in text
     assert (folder / "closed_loop.png").is_file()
+    assert (folder / "closed_loop_walk.png").is_file()  # the run that took the largest push
+    assert not (folder / "closed_loop_walk.gif").exists()  # --no-gif
     loaded = Trajectory.load(folder / "torques.csv")
     assert "K_torso__dpsi_head" in loaded.extras

@@ -153,6 +153,37 @@ def test_phase_indexed_pd_walks_twenty_steps_on_the_plan(plan):
     assert run.time[-1] == pytest.approx(sum(durations), abs=2e-3)
 
 
+def test_a_runs_world_motion_stands_each_step_on_its_foothold(plan, tmp_path):
+    step, _, _ = plan
+    run = _run(plan, _pd(plan), steps=3)
+    assert run.walked == 3, run.fell
+    motion = run.world(step.linkage, rate_hz=50.0)
+    stance, swing = step.biped.stance_shank, step.biped.swing_shank
+    even = motion.step % 2 == 0
+    # a body keeps its first step's name and ends (the stance shank from its foot, the swing
+    # shank to its foot); each foot stands on the step's foothold while its leg is the stance
+    # leg (the legs swap at every heel strike)
+    np.testing.assert_allclose(
+        motion.segments[stance][even, 0], motion.footholds[motion.step[even]], atol=1e-12
+    )
+    np.testing.assert_allclose(
+        motion.segments[swing][~even, 1], motion.footholds[motion.step[~even]], atol=1e-12
+    )
+    # the footholds are where the simulation's swing feet landed
+    np.testing.assert_allclose(
+        np.diff(motion.footholds.real), [r.length for r in run.steps], rtol=1e-12
+    )
+    # the bodies are whole: every link keeps its length in the world
+    for name in step.linkage.names:
+        length = np.abs(motion.segments[name][:, 1] - motion.segments[name][:, 0])
+        assert np.ptp(length) < 1e-12
+    assert motion.time[-1] == run.time[-1] and np.all(np.diff(motion.time) > 0)
+    from problems.walking_plots import animate_walk
+
+    path = animate_walk(motion, tmp_path / "run.gif", fps=10.0, caption="3 steps; ")
+    assert path.read_bytes()[:6] == b"GIF89a"
+
+
 def test_disturbances_are_applied(plan):
     nominal = _run(plan, _pd(plan), steps=2)
     # the ground 5 mm higher from the first new foothold on: that heel strike comes early
