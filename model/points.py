@@ -51,6 +51,13 @@ POINT_FUNCTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], str]] = {
         "hinge torques a force (Fx, Fy) N at the point stands for: its moment about each "
         "hinge on the path to the point, 0 elsewhere, (n,) N m",
     ),
+    "held_dynamics": (
+        ("psi", "dpsi", "M"),
+        ("ddpsi", "force"),
+        "the motion under the hinge torques M with the point held at rest (a second contact, "
+        "a closed chain): angular accelerations (n,) rad/s^2 and the force (Fx, Fy) N that "
+        "holds the point",
+    ),
 }
 
 
@@ -183,6 +190,8 @@ class PointKinematics:
             return [self._jacobian()]
         if kind == "hinge_moments":
             return [self._hinge_moments()]
+        if kind == "held_dynamics":
+            return self._held_dynamics()
         order = ("position", "velocity", "acceleration").index(kind)
         start, phasor = dyn.link_kinematics(order)
         here = Cx(start.re[i], start.im[i]) + Cx(phasor.re[i], phasor.im[i]) * self.offset
@@ -218,6 +227,32 @@ class PointKinematics:
             moments[k] = lever.re * force[1] - lever.im * force[0]
         return moments
 
+    def _held_dynamics(self) -> list[ca.SX]:
+        """ddpsi = a_free + C F with a_free the motion under M alone (the root pinned) and
+        C = M(psi)^-1 Q(J^T) the accelerations a unit force on the point makes (its hinge
+        moments as generalised forces); F holds the point: its acceleration, affine in ddpsi,
+
+            a_P = a_P(ddpsi = a_free) + J C F = 0  ->  F = -(J C)^-1 a_P(a_free),
+
+        a 2 x 2 solve (J C = J M^-1 J^T, positive definite while the point is not at a
+        singular pose of its chain). No inverse of M is formed: one sparse L D L^T solve with
+        two more right-hand sides."""
+        dyn = self._dynamics
+        symbols = dyn.symbols
+        free = dyn._forward_expression()
+        force = dyn.symbols_of("force")
+        moments = self._hinge_moments()
+        unit = ca.horzcat(
+            ca.substitute(moments, force, ca.DM([1.0, 0.0])),
+            ca.substitute(moments, force, ca.DM([0.0, 1.0])),
+        )
+        response = dyn._solve_mass_matrix(dyn._generalized_from_torques(unit))  # (n, 2)
+        acceleration = ca.vertcat(*self._build("acceleration"))
+        at_free = ca.substitute(acceleration, symbols["ddpsi"], free)
+        jacobian = ca.jacobian(acceleration, symbols["ddpsi"])  # (2, n): a_P is affine
+        held = -ca.solve(ca.mtimes(jacobian, response), at_free)
+        return [free + ca.mtimes(response, held), held]
+
     # ---- numeric ------------------------------------------------------------------------
     def _complex(self, kind: str, *arrays) -> np.ndarray | complex:
         self.function(kind)
@@ -241,6 +276,15 @@ class PointKinematics:
         the point stands for (see ``POINT_FUNCTIONS``)."""
         self.function("hinge_moments")
         return self._dynamics.evaluate(self.function_name("hinge_moments"), psi, force)[0]
+
+    def held_dynamics(self, psi, dpsi, torques) -> tuple[np.ndarray, np.ndarray]:
+        """(ddpsi (n,), force (2,)) of the motion with the point held at rest (see
+        ``POINT_FUNCTIONS``); a leading K axis for a batch."""
+        self.function("held_dynamics")
+        ddpsi, force = self._dynamics.evaluate(
+            self.function_name("held_dynamics"), psi, dpsi, torques
+        )
+        return ddpsi, force
 
     def jacobian(self, psi, floating: bool = True) -> np.ndarray:
         """d(x, y)/dq: (2, n + 2) for q = (x0, y0, psi) (``floating``), else d(x, y)/dpsi

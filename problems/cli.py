@@ -1172,11 +1172,6 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
             "transcription": args.transcription or "hermite-simpson",
             "degree": args.degree,
         }
-    if args.feedback and args.double_support_s > 0:
-        raise UsageError(
-            "--feedback: the feedback is designed for a step without a double support; "
-            "drop --double-support-s or --feedback"
-        )
     if target is not None and args.double_support_s > 0:
         raise UsageError(
             "--accuracy: a refinement target needs a single support; with --double-support-s "
@@ -1374,7 +1369,7 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
     if args.feedback:
         from problems.walking_feedback import design_feedback
 
-        with report.working("designing the feedback (periodic LQR through the heel strike)"):
+        with report.working("designing the feedback (a periodic LQR through the step's events)"):
             feedback = design_feedback(gait, ground_mu=args.ground_friction)
     with output:
         with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
@@ -1440,8 +1435,14 @@ def _closed_loop(feedback, report, out):
     from problems.walking_feedback import closed_loop_check
 
     weights = feedback.gains.weights
+    events = (
+        "the heel strike"
+        if feedback.double is None
+        else "the held heel strike and the lift-off (a law for each support; torques.csv's "
+        "double_support column says which)"
+    )
     print(
-        f"feedback: periodic LQR through the heel strike at {feedback.control_rate_hz:g} Hz "
+        f"feedback: periodic LQR through {events} at {feedback.control_rate_hz:g} Hz "
         f"(Bryson weights: {weights.angle:g} rad, {weights.rate:g} rad/s, {weights.torque:g} "
         f"N m), designed in {feedback.design_seconds:.2f} s; torques.csv carries its gains "
         f"({len(feedback.names) * 2 * len(feedback.names)} columns K_<hinge>__<state>, N m/rad "
@@ -1469,6 +1470,14 @@ def _closed_loop(feedback, report, out):
         f"after: forward {forward:.1f} N s, back {back:.1f} N s (bisection to 0.5 N s)",
         file=out,
     )
+    if feedback.double is not None:
+        print(
+            "MuJoCo: not run for a step with a double support (its front foot rebounds off "
+            "MuJoCo's soft ground at touchdown, and the closed chain's law pulls on a foot that "
+            "is not held: open work)",
+            file=out,
+        )
+        return check
     try:
         import mujoco  # noqa: F401 - only whether the extra is there
     except ImportError:
@@ -1520,6 +1529,7 @@ def _draw_pushed_walk(closed, linkage, output, no_gif: bool, report) -> None:
                 output.path("closed_loop_walk.gif"),
                 fps=20.0,
                 caption=f"push {closed.pushes[0]:.1f} N s in step 2; ",
+                window=2.5,
             )
 
 

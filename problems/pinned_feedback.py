@@ -11,7 +11,7 @@ saltation enters (a state change does not move the section, an instant) and no m
 pinned at 0 or 1: the time-forced system has no phase to drift along.
 
 * open loop, M_k = M_ff(t_k): the monodromy A_{K-1} ... A_0 along the plan
-  (:func:`problems.walking_lqr.linearise_along` with ``strike=False``); its eigenvalues are
+  (:func:`problems.walking_lqr.linearise_along` with ``end=None``); its eigenvalues are
   the open-loop multipliers;
 * closed loop, M_k = clip(M_ff(t_k) + K_k (x_ref(t_k) - x_k), -limit, limit) with the periodic
   LQR (:func:`problems.walking_lqr.lqr_along`, jump = I, Bryson's weights): its multipliers
@@ -159,7 +159,7 @@ def design_pinned_feedback(
     instants = np.linspace(0.0, period, count + 1)
     reference = TimedReference(gait.to_trajectory(count / period).resample(times=instants))
     plant = Plant(problem.linkage, mu=None)
-    along = linearise_along(plant, reference, period / count, strike=False)
+    along = linearise_along(plant, reference, period / count, end=None)
     passive = tuple(problem.linkage.index(name) for name in getattr(problem, "passive", ()))
     gains, cost, cycles = lqr_along(along, weights, passive)
     limits = [problem.torque_limit.get(name, np.inf) for name in problem.linkage.names]

@@ -70,13 +70,23 @@ class GaitReference(TimedReference):
         The plan's model (for the hip's position).
     hip : str
         The link whose end is the hip (the stance thigh).
+    hip_range : (float, float) or None
+        The hip's x, m, where s = 0 and s = 1 (default: its first and last sample): a part of
+        a step (one side of a double support's heel strike) indexed by the whole step's s.
     """
 
-    def __init__(self, trajectory: Trajectory, dynamics: Dynamics, hip: str) -> None:
+    def __init__(
+        self,
+        trajectory: Trajectory,
+        dynamics: Dynamics,
+        hip: str,
+        hip_range: tuple[float, float] | None = None,
+    ) -> None:
         super().__init__(trajectory)
         self._hip = dynamics.point(hip)
         hips = np.asarray(self._hip.position(trajectory.psi)).real
-        self._start, self._span = hips[0], hips[-1] - hips[0]
+        start, end = (hips[0], hips[-1]) if hip_range is None else hip_range
+        self._start, self._span = float(start), float(end - start)
         self.phases = (hips - self._start) / self._span if self._span != 0 else hips * 0
         stalls = np.flatnonzero(np.diff(self.phases) <= 0.0)
         if self._span <= 0 or stalls.size:
@@ -92,8 +102,26 @@ class GaitReference(TimedReference):
         problem = gait.problem
         return cls(gait.to_trajectory(rate_hz), problem.dynamics, problem.biped.stance_thigh)
 
+    @classmethod
+    def branches(cls, gait, rate_hz: float = 1000.0) -> tuple[GaitReference, GaitReference]:
+        """The two references of a step with a double support: the single support up to the
+        heel strike (its last sample the state before the impact) and the double support
+        after it, each from its own phase's consistent motion sampled at ``rate_hz`` from its
+        start, both indexed by the whole step's phase (s = 1 where the rear foot lifts)."""
+        problem = gait.problem
+        (single, _), (double, _) = gait.segments()
+        parts = [single.to_trajectory(rate_hz), double.to_trajectory(rate_hz)]
+        hip = problem.dynamics.point(problem.biped.stance_thigh)
+        ends = (complex(hip.position(parts[0].psi[0])).real,
+                complex(hip.position(parts[1].psi[-1])).real)  # fmt: skip
+        return tuple(
+            cls(part, problem.dynamics, problem.biped.stance_thigh, hip_range=ends)
+            for part in parts
+        )
+
     def phase(self, psi) -> float:
-        """s of the angles psi (n,): the hip's progress, 0 at the start, 1 at heel strike."""
+        """s of the angles psi (n,): the hip's progress, 0 at the start, 1 at heel strike
+        (or where the rear foot lifts, after a double support)."""
         return float((complex(self._hip.position(psi)).real - self._start) / self._span)
 
     def at_phase(self, s: float) -> tuple[np.ndarray, np.ndarray]:

@@ -26,7 +26,10 @@ from problems.walking_lqr import (
     LqrWeights,
     PeriodicGains,
     PhaseLQR,
+    SwitchedLQR,
+    double_support_lqr,
     linearise_along,
+    linearise_double_support,
     periodic_lqr,
 )
 from problems.walking_simulation import (
@@ -47,23 +50,72 @@ PHASE = (
 )
 EARLY = "a heel strike before s = 1 ends the step: swap the legs and start again at s = 0"
 LATE = "s > 1: x_ref goes on along its last slope dx/ds, M_ff and K hold their last values"
+BRANCHES = (
+    "with a double support the rows carry double_support = 0 (single support, from the "
+    "lift-off of the rear foot to the heel strike) or 1 (from the heel strike to the lift-off "
+    "at s = 1); the law reads the rows of the branch in force, by s; the legs swap at s = 1"
+)
+EARLY_HELD = (
+    "a heel strike before the double support's first row holds that row until s reaches it; "
+    "one after the single support's last row extends that branch along its last slope"
+)
 
 
 @dataclass(frozen=True, eq=False)
 class Feedback:
-    """A walking step's feedback design (see the module docstring)."""
+    """A walking step's feedback design (see the module docstring).
+
+    reference, gains: the step's (with a double support: its single support's branch);
+    double: None, or the double support's branch (reference, gains); controller: a
+    :class:`PhaseLQR` (a :class:`SwitchedLQR` of the two branches with a double support);
+    plan: the whole step's reference (by time: the open loop's torques).
+    """
 
     step: object
     reference: GaitReference
     gains: PeriodicGains
-    controller: PhaseLQR
+    controller: PhaseLQR | SwitchedLQR
     plant: Plant
     control_rate_hz: float
     design_seconds: float
+    double: tuple[GaitReference, PeriodicGains] | None = None
+    plan: GaitReference | None = None
 
     @property
     def names(self) -> tuple[str, ...]:
         return self.step.linkage.names
+
+    @property
+    def whole(self) -> GaitReference:
+        """The whole step's reference, by time and phase."""
+        return self.plan if self.plan is not None else self.reference
+
+    @property
+    def tracker(self):
+        """What measures the tracking error (``tracking(x)`` rad): the branch in force."""
+        return self.controller if self.double is not None else self.reference
+
+    @property
+    def lift_off(self):
+        """The guard that ends the double support (the simulation's ``lift_off``), or None."""
+        if self.double is None:
+            return None
+        double, n = self.double[0], len(self.names)
+        return lambda x: double.phase(x[:n]) - 1.0
+
+    @property
+    def simulation_options(self) -> dict:
+        """What :func:`simulate_walking` needs to run this step under this feedback."""
+        step = self.step
+        return {
+            "linkage": step.linkage,
+            "step_time": step.step_time,
+            "step_length": step.step_length,
+            "mu": self.plant.mu,
+            "control_rate_hz": self.control_rate_hz,
+            "reference": self.tracker,
+            "lift_off": self.lift_off,
+        }
 
     def channels(self, trajectory: Trajectory) -> Trajectory:
         """``trajectory`` (the step's exported samples) with the phase of each sample and the
@@ -74,8 +126,20 @@ class Feedback:
                 f"{len(self.names)}"
             )
         phases = np.array([self.reference.phase(psi) for psi in trajectory.psi])
-        gains = np.array([self.controller.gain_at(s) for s in phases])  # (K, n, 2n)
         weights = self.gains.weights
+        law = {"early_strike": EARLY, "late_strike": LATE}
+        if self.double is None:
+            gains = np.array([self.controller.gain_at(s) for s in phases])  # (K, n, 2n)
+        else:
+            # the samples from the heel strike on (the joined file keeps the state after the
+            # impact at the strike's instant) take the double support's rows
+            times = np.asarray(trajectory.time, dtype=float) - float(trajectory.time[0])
+            double = times >= self.reference.duration - 1e-9
+            single_law, double_law = self.controller.branches
+            laws = [double_law if held else single_law for held in double]
+            gains = np.array([law.gain_at(s) for law, s in zip(laws, phases, strict=True)])
+            trajectory = trajectory.with_extra("double_support", double.astype(float), "1")
+            law = {"branches": BRANCHES, "early_strike": EARLY_HELD, "late_strike": LATE}
         return with_gains(
             trajectory,
             self.names,
@@ -84,8 +148,7 @@ class Feedback:
             {
                 "law": LAW,
                 "phase": PHASE.format(hip=self.step.biped.stance_thigh),
-                "early_strike": EARLY,
-                "late_strike": LATE,
+                **law,
                 "limit_N_m": [float(v) if np.isfinite(v) else None for v in self.controller.limits],
                 "control_rate_hz": self.control_rate_hz,
                 "design": "periodic discrete LQR through the heel strike (saltation), "
@@ -129,34 +192,35 @@ def design_feedback(
     control_rate_hz: float = 1000.0,
     ground_mu: float | None = None,
 ) -> Feedback:
-    """The periodic LQR feedback of a solved walking step (single support only).
+    """The periodic LQR feedback of a solved walking step: through the heel strike, or with a
+    double support through the held strike and the lift-off (one Riccati recursion over the
+    whole step, a law per branch: :class:`SwitchedLQR`).
 
     ground_mu: the friction of the ground the plant's checks use (default the plan's mu).
     """
     step = gait.problem
-    if getattr(step, "double_support", 0.0):
-        raise DefinitionError(
-            "`gait`: a step with a double support has no feedback design yet; plan it with "
-            "double_support=0"
-        )
     start = time.perf_counter()
-    reference = GaitReference.of(gait, rate_hz=control_rate_hz)
     plant = Plant(step.linkage, mu=ground_mu if ground_mu is not None else step.mu)
     passive = tuple(step.linkage.index(name) for name in step.passive)
-    gains = periodic_lqr(
-        plant, reference, weights=weights, control_rate_hz=control_rate_hz, passive=passive
-    )
     limits = [step.torque_limit.get(name, np.inf) for name in step.linkage.names]
-    controller = PhaseLQR(reference, gains, limits=limits)
-    return Feedback(
-        step,
-        reference,
-        gains,
-        controller,
-        plant,
-        control_rate_hz,
-        time.perf_counter() - start,
+    options = {"weights": weights, "control_rate_hz": control_rate_hz, "passive": passive}
+    if not getattr(step, "double_support", 0.0):
+        reference = GaitReference.of(gait, rate_hz=control_rate_hz)
+        gains = periodic_lqr(plant, reference, **options)
+        controller = PhaseLQR(reference, gains, limits=limits)
+        seconds = time.perf_counter() - start
+        return Feedback(step, reference, gains, controller, plant, control_rate_hz, seconds)
+    single, double = GaitReference.branches(gait, rate_hz=control_rate_hz)
+    single_gains, double_gains = double_support_lqr(plant, single, double, **options)
+    controller = SwitchedLQR(
+        PhaseLQR(single, single_gains, limits=limits),
+        PhaseLQR(double, double_gains, limits=limits),
     )
+    return Feedback(
+        step, single, single_gains, controller, plant, control_rate_hz,
+        time.perf_counter() - start, (double, double_gains),
+        GaitReference.of(gait, rate_hz=control_rate_hz),
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -205,14 +269,7 @@ def disturbance_cases(feedback: Feedback) -> dict[str, Disturbances]:
 def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:
     """The feedback's multipliers and simulated walks (module docstring)."""
     step = feedback.step
-    options = {
-        "linkage": step.linkage,
-        "step_time": step.step_time,
-        "step_length": step.step_length,
-        "mu": feedback.plant.mu,
-        "control_rate_hz": feedback.control_rate_hz,
-        "reference": feedback.reference,
-    }
+    options = feedback.simulation_options
     seconds = {}
     clock = time.perf_counter()
     loop = fixed_point(
@@ -222,10 +279,11 @@ def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:
         step_time=step.step_time,
         step_length=step.step_length,
         control_rate_hz=feedback.control_rate_hz,
+        double_support=None if feedback.double is None else feedback.double[0],
     )
     seconds["fixed point and multipliers"] = time.perf_counter() - clock
     start = feedback.reference.states[0]
-    open_loop = simulate_walking(start, OpenLoop(feedback.reference), steps=steps, **options)
+    open_loop = simulate_walking(start, OpenLoop(feedback.whole), steps=steps, **options)
     runs = {}
     for label, disturbances in disturbance_cases(feedback).items():
         clock = time.perf_counter()
@@ -243,7 +301,13 @@ def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:
     forward, forward_run = largest_push(walk, direction=1.0, steps=PUSH_STEPS)
     back, back_run = largest_push(walk, direction=-1.0, steps=PUSH_STEPS)
     seconds["push margins"] = time.perf_counter() - clock
-    along = linearise_along(feedback.plant, feedback.reference, 1.0 / feedback.control_rate_hz)
+    period = 1.0 / feedback.control_rate_hz
+    if feedback.double is None:
+        along = linearise_along(feedback.plant, feedback.reference, period)
+    else:
+        along = linearise_double_support(
+            feedback.plant, feedback.reference, feedback.double[0], period
+        )
     return ClosedLoopCheck(
         loop,
         along.open_loop_multipliers,

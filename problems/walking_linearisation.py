@@ -18,6 +18,11 @@ form of the saltation matrix; the Poincare section is the start of the step, so 
 coordinates are needed: the map's domain is the full state and it keeps a zero multiplier,
 the direction along the guard that the section removes).
 
+A step with a double support chains two events: the heel strike with both feet held
+(dx+/dx- of ``Plant.strike_held``, the strike's instant moved as above), the closed chain's
+periods (``Plant.advance_double``), and the lift-off where the double support's phase reaches
+1 (its instant moved by the state the same way, g = 1 - s(psi)), then the leg swap.
+
 The eigenvalues of DP at the gait's fixed point are its Floquet multipliers: inside the unit
 circle the gait is locally (orbitally) stable under that controller, outside it diverges by
 the multiplier's modulus per step.
@@ -30,7 +35,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from model.errors import check_positive
-from problems.walking_simulation import STRIKE_AHEAD, Plant, foot_height, locate_strike
+from problems.walking_simulation import (
+    STRIKE_AHEAD,
+    Plant,
+    foot_height,
+    locate_event,
+    locate_strike,
+)
 
 
 @dataclass(frozen=True)
@@ -67,11 +78,19 @@ def return_map(
     step_length: float,
     control_rate_hz: float = 1000.0,
     max_step_factor: float = 2.0,
+    double_support=None,
 ) -> ReturnMap:
     """P(start) and dP/dstart for ``controller`` (``torques(t, x)`` and ``jacobian(t, x)``,
     dM/dx (n, 2n)) on ``plant``, on flat ground, as :func:`simulate_walking` integrates it.
 
-    Raises RuntimeError when no heel strike comes within ``max_step_factor`` step times.
+    double_support : None, or the double support's reference (a
+        :class:`problems.walking_control.GaitReference`): the heel strike holds both feet
+        (``Plant.strike_held``; the controller's ``touchdown`` is called), the chain moves
+        closed until that reference's phase reaches 1 (the guard's instant moved by the
+        state, as the strike's), then the legs swap.
+
+    Raises RuntimeError when no heel strike (or lift-off) comes within ``max_step_factor``
+    step times.
     """
     period = 1.0 / check_positive("control_rate_hz", control_rate_hz, "Hz")
     n = plant.n
@@ -82,31 +101,59 @@ def return_map(
     def ground(_):
         return 0.0
 
-    t = 0.0
+    def through_event(jacobian, x, torques, tau, gradient):
+        """The chain through the partial period to an event at tau whose guard has the
+        gradient ``gradient`` (2n,): the event's instant moves with the state."""
+        dx, dm, dh = (np.asarray(v) for v in jacobian(x, torques, tau))
+        through = (dx + dm @ feedback) @ sensitivity
+        rate = dh.reshape(-1)
+        return through + np.outer(rate, -(gradient @ through) / (gradient @ rate))
+
+    t, double = 0.0, False
     while t <= max_step_factor * step_time:
         torques = np.asarray(controller.torques(t, x), dtype=float)
         feedback = np.asarray(controller.jacobian(t, x), dtype=float)
+        if double:
+            x_next = np.asarray(plant.advance_double(x, torques, period)).ravel()
+            if double_support.phase(x_next[:n]) >= 1.0:
+                tau, x_end = locate_event(plant.advance_double, x, torques, period,
+                                          lambda y: 1.0 - double_support.phase(y[:n]))  # fmt: skip
+                gradient = np.r_[double_support.phase_gradient(x_end[:n]), np.zeros(n)]
+                before = through_event(plant.advance_double_jacobian, x, torques, tau, gradient)
+                end = np.asarray(plant.swap_map(x_end)).ravel()
+                return ReturnMap(
+                    np.asarray(start, dtype=float), end, plant.swap_jacobian @ before, t + tau
+                )
+            dx, dm, _ = (np.asarray(v) for v in plant.advance_double_jacobian(x, torques, period))
+            sensitivity = (dx + dm @ feedback) @ sensitivity
+            x = x_next
+            t += period
+            continue
         x_next = np.asarray(plant.advance(x, torques, period)).ravel()
         ahead = complex(plant.foot.position(x_next[:n])).real
         if foot_height(plant, x_next, 0j, ground) <= 0.0 and ahead > STRIKE_AHEAD * step_length:
             tau, x_minus = locate_strike(plant, x, torques, period, 0j, ground)
-            dx, dm, dh = (np.asarray(v) for v in plant.advance_jacobian(x, torques, tau))
-            through = (dx + dm @ feedback) @ sensitivity
-            rate = dh.reshape(-1)
-            height_gradient = np.zeros(2 * n)
-            height_gradient[:n] = plant.foot.jacobian(x_minus[:n], floating=False)[1]
-            dtau = -(height_gradient @ through) / (height_gradient @ rate)
-            before = through + np.outer(rate, dtau)
-            jacobian = np.asarray(plant.step_map_jacobian(x_minus)) @ before
-            end = np.asarray(plant.step_map(x_minus)).ravel()
-            return ReturnMap(np.asarray(start, dtype=float), end, jacobian, t + tau)
+            gradient = np.zeros(2 * n)
+            gradient[:n] = plant.foot.jacobian(x_minus[:n], floating=False)[1]
+            before = through_event(plant.advance_jacobian, x, torques, tau, gradient)
+            if double_support is None:
+                jacobian = np.asarray(plant.step_map_jacobian(x_minus)) @ before
+                end = np.asarray(plant.step_map(x_minus)).ravel()
+                return ReturnMap(np.asarray(start, dtype=float), end, jacobian, t + tau)
+            sensitivity = np.asarray(plant.strike_held_jacobian(x_minus)) @ before
+            x = np.asarray(plant.strike_held(x_minus)).ravel()
+            t += tau
+            double = True
+            controller.touchdown(t, x)
+            continue
         dx, dm, _ = (np.asarray(v) for v in plant.advance_jacobian(x, torques, period))
         sensitivity = (dx + dm @ feedback) @ sensitivity
         x = x_next
         t += period
     raise RuntimeError(
-        f"return_map: no heel strike within {max_step_factor:g} x the step time "
-        f"({max_step_factor * step_time:g} s): the controller does not bring the foot down"
+        f"return_map: no {'lift-off' if double else 'heel strike'} within {max_step_factor:g} "
+        f"x the step time ({max_step_factor * step_time:g} s): the controller does not "
+        f"{'end the double support' if double else 'bring the foot down'}"
     )
 
 
@@ -120,6 +167,7 @@ def fixed_point(
     control_rate_hz: float = 1000.0,
     tolerance: float = 1e-10,
     iterations: int = 10,
+    double_support=None,
 ) -> ReturnMap:
     """The periodic gait of the closed loop: x* = P(x*) by Newton's method on P(x) - x from
     ``guess`` (the plan's start), with the exact Jacobian (quadratic convergence). Returns the
@@ -134,6 +182,7 @@ def fixed_point(
             step_time=step_time,
             step_length=step_length,
             control_rate_hz=control_rate_hz,
+            double_support=double_support,
         )
 
     return newton_fixed_point(mapping, guess, tolerance, iterations)

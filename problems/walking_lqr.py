@@ -78,22 +78,38 @@ class PeriodicGains:
     weights: LqrWeights
 
 
-def saltation(plant: Plant, x_minus: np.ndarray, torques: np.ndarray) -> np.ndarray:
+def saltation(plant: Plant, x_minus: np.ndarray, torques: np.ndarray, held: bool = False):
     """dx+/dx- (2n, 2n) of the strike at x- under the held torques: dDelta/dx times the
-    projection along the flow that the strike instant's shift makes."""
+    projection along the flow that the strike instant's shift makes. ``held``: the strike
+    that begins a double support (both feet held through the impact, no swap)."""
     n = plant.n
     ddpsi = plant.dynamics.forward_dynamics(x_minus[:n], x_minus[n:], torques)
-    flow = np.r_[x_minus[n:], ddpsi]
     gradient = np.zeros(2 * n)
     gradient[:n] = plant.foot.jacobian(x_minus[:n], floating=False)[1]
-    projection = np.eye(2 * n) - np.outer(flow, gradient) / (gradient @ flow)
-    return np.asarray(plant.step_map_jacobian(x_minus)) @ projection
+    mapping = plant.strike_held_jacobian if held else plant.step_map_jacobian
+    return np.asarray(mapping(x_minus)) @ _projection(np.r_[x_minus[n:], ddpsi], gradient)
+
+
+def lift_off_saltation(plant: Plant, reference: GaitReference, x: np.ndarray, torques):
+    """dx+/dx- (2n, 2n) where a double support ends: the rear foot lifts when the phase
+    reaches 1 (the guard s(psi) - 1, its instant moved by the state), then the legs swap."""
+    n = plant.n
+    ddpsi, _ = plant.foot.held_dynamics(x[:n], x[n:], torques)
+    gradient = np.r_[reference.phase_gradient(x[:n]), np.zeros(n)]
+    return plant.swap_jacobian @ _projection(np.r_[x[n:], ddpsi], gradient)
+
+
+def _projection(flow: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+    """I - f g' / (g' f): a state change moves the guard's crossing along the flow f."""
+    return np.eye(flow.size) - np.outer(flow, gradient) / (gradient @ flow)
 
 
 @dataclass(frozen=True)
 class Linearisation:
     """The plan's digital step linearised along the plan: times (K,) s of the control
-    instants, states [A_k] (2n, 2n), inputs [B_k] (2n, n), jump S (2n, 2n) at the strike."""
+    instants, states [A_k] (2n, 2n), inputs [B_k] (2n, n), jump S (2n, 2n) at the step's end.
+    An event inside the step (the heel strike that begins a double support) is a stage of
+    its own: its jump as A_k, None as B_k (no input, no cost)."""
 
     times: np.ndarray
     states: list
@@ -115,13 +131,26 @@ class Linearisation:
         return values[np.argsort(-np.abs(values))]
 
 
+#: what ends a linearised stretch of a plan (:func:`linearise_along`)
+ENDS = ("strike", "held strike", "lift-off", None)
+
+
 def linearise_along(
-    plant: Plant, reference: TimedReference, period: float, strike: bool = True
+    plant: Plant, reference: TimedReference, period: float, end: str | None = "strike"
 ) -> Linearisation:
     """The RK4 periods' Jacobians at the plan's samples (x_ref(t_k), M_ff(t_k)), the last
-    period cut at the plan's end, and the strike's saltation matrix at the plan's end (the
-    identity when ``strike`` is False: a plan that ends with no impact, e.g. the fixed-base
-    gait's period)."""
+    period cut at the plan's end, and the saltation matrix of the event that ends it:
+
+    * ``"strike"``: the heel strike, its impact and the leg swap (a step with no double
+      support);
+    * ``"held strike"``: the heel strike that begins a double support (``reference`` the
+      single support's branch);
+    * ``"lift-off"``: the end of a double support (``reference`` its branch, a
+      :class:`GaitReference`: its phase is the guard); the periods on the closed chain;
+    * None: no event (the identity: the fixed-base gait's period).
+    """
+    if end not in ENDS:
+        raise DefinitionError(f"`end`: one of {ENDS}, got {end!r}")
     duration = reference.duration
     count = int(np.ceil(duration / period - 1e-9))
     times = np.minimum(np.arange(count) * period, duration)
@@ -129,31 +158,58 @@ def linearise_along(
     samples = [reference.at_time(t) for t in times]
     states = np.column_stack([x for x, _ in samples])
     torques = np.column_stack([m for _, m in samples])
+    jacobian = plant.advance_double_jacobian if end == "lift-off" else plant.advance_jacobian
     # every period's Jacobians in one mapped call (the periods are independent here)
-    dx, dm, _ = plant.advance_jacobian.map(count)(states, torques, lengths[None, :])
+    dx, dm, _ = jacobian.map(count)(states, torques, lengths[None, :])
     size = 2 * plant.n
     dx, dm = np.asarray(dx), np.asarray(dm)
     a_list = [dx[:, k * size : (k + 1) * size] for k in range(count)]
     b_list = [dm[:, k * plant.n : (k + 1) * plant.n] for k in range(count)]
-    if not strike:
+    if end is None:
         return Linearisation(times, a_list, b_list, np.eye(size))
     x_end, torques_end = reference.at_time(duration)
-    return Linearisation(times, a_list, b_list, saltation(plant, x_end, torques_end))
+    if end == "lift-off":
+        jump = lift_off_saltation(plant, reference, x_end, torques_end)
+    else:
+        jump = saltation(plant, x_end, torques_end, held=end == "held strike")
+    return Linearisation(times, a_list, b_list, jump)
+
+
+def linearise_double_support(
+    plant: Plant, single: GaitReference, double: GaitReference, period: float
+) -> Linearisation:
+    """A step with a double support linearised along its plan: the single support's periods,
+    the held strike as a stage of its own, the double support's periods (its control
+    instants from the strike on), then the lift-off and the leg swap."""
+    first = linearise_along(plant, single, period, "held strike")
+    second = linearise_along(plant, double, period, "lift-off")
+    return Linearisation(
+        np.r_[first.times, single.duration, single.duration + second.times],
+        [*first.states, first.jump, *second.states],
+        [*first.inputs, None, *second.inputs],
+        second.jump,
+    )
 
 
 def periodic_riccati(a_list, b_list, jump, q, r):
     """The periodic discrete Riccati recursion of x_{k+1} = A_k x_k + B_k u_k (k < K), then
     x -> jump x, with the cost sum x' Q x + u' R u per period, run backwards until P(0)
-    repeats. Returns (gains (K, m, nx): u_k = -K_k x_k, P(0) (nx, nx), steps run)."""
+    repeats; a stage whose B_k is None is an event (x -> A_k x, no cost, zero gain).
+    Returns (gains (K, m, nx): u_k = -K_k x_k, P(0) (nx, nx), steps run)."""
     cost = np.asarray(q, dtype=float).copy()
     count = len(a_list)
-    gains = np.zeros((count, b_list[0].shape[1], cost.shape[0]))
+    inputs = next(b.shape[1] for b in b_list if b is not None)
+    gains = np.zeros((count, inputs, cost.shape[0]))
     cycles = 0
     while True:
         cycles += 1
         p = jump.T @ cost @ jump
         for k in range(count - 1, -1, -1):
             a, b = a_list[k], b_list[k]
+            if b is None:  # an event inside the step: x -> A x, no input, no cost
+                p = a.T @ p @ a
+                p = 0.5 * (p + p.T)
+                continue
             gain = np.linalg.solve(r + b.T @ p @ b, b.T @ p @ a)
             closed = a - b @ gain
             # Joseph form: stays symmetric positive definite in floating point
@@ -189,15 +245,43 @@ def periodic_lqr(
     return PeriodicGains(phases, along.times, gains, cost, cycles, weights)
 
 
+def double_support_lqr(
+    plant: Plant,
+    single: GaitReference,
+    double: GaitReference,
+    *,
+    weights: LqrWeights | None = None,
+    control_rate_hz: float = 1000.0,
+    passive=(),
+) -> tuple[PeriodicGains, PeriodicGains]:
+    """The periodic LQR of a step with a double support (:func:`linearise_double_support`:
+    one Riccati recursion through the held strike and the lift-off), as the gains of each
+    branch by its phase: (single support's, double support's)."""
+    weights = weights or LqrWeights()
+    period = 1.0 / check_positive("control_rate_hz", control_rate_hz, "Hz")
+    along = linearise_double_support(plant, single, double, period)
+    gains, cost, cycles = lqr_along(along, weights, passive)
+    n = plant.n
+    first = int(np.ceil(single.duration / period - 1e-9))  # the single support's periods
+    out = []
+    for reference, rows, times in (
+        (single, slice(0, first), along.times[:first]),
+        (double, slice(first + 1, None), along.times[first + 1 :] - single.duration),
+    ):
+        phases = np.array([reference.phase(reference.at_time(t)[0][:n]) for t in times])
+        out.append(PeriodicGains(phases, times, gains[rows], cost, cycles, weights))
+    return out[0], out[1]
+
+
 def lqr_along(along: Linearisation, weights: LqrWeights, passive=()):
     """The periodic LQR of a linearised periodic plan with Bryson's weights (module
     docstring); passive hinges (indices) get no input. Returns (gains (K, n, 2n) with zero
     rows for passive hinges, P(0) (2n, 2n), Riccati steps run)."""
-    n = along.inputs[0].shape[1]
+    n = along.states[0].shape[0] // 2
     active = [i for i in range(n) if i not in set(passive)]
     if not active:
         raise DefinitionError("`passive`: every hinge is passive; there is nothing to control")
-    b_list = [b[:, active] for b in along.inputs]
+    b_list = [None if b is None else b[:, active] for b in along.inputs]
     q = np.diag(np.r_[np.full(n, weights.angle**-2.0), np.full(n, weights.rate**-2.0)])
     r = np.eye(len(active)) * weights.torque**-2.0
     gains, cost, cycles = periodic_riccati(along.states, b_list, along.jump, q, r)
@@ -276,12 +360,49 @@ class PhaseLQR:
         return jacobian
 
 
+class SwitchedLQR:
+    """The law of a step with a double support: one :class:`PhaseLQR` (or any phase-indexed
+    controller, e.g. ``PhasePD``) per branch, the
+    single support's from the step's start, the double support's from the heel strike (the
+    simulation calls :meth:`touchdown`) to the lift-off. Each branch holds its own reference
+    outside its phases: a strike that comes early starts the double support's law at its
+    first row, one that comes late runs the single support's along its last slope."""
+
+    def __init__(self, single, double) -> None:
+        self.branches = (single, double)
+        self.reference = single.reference
+        self.limits = getattr(single, "limits", None)
+        self.branch = 0
+
+    def start_step(self, index: int, x: np.ndarray) -> None:
+        self.branch = 0
+
+    def touchdown(self, t: float, x: np.ndarray) -> None:
+        """The swing foot has landed: the double support's law from now on."""
+        self.branch = 1
+
+    def torques(self, t: float, x: np.ndarray) -> np.ndarray:
+        return self.branches[self.branch].torques(t, x)
+
+    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        return self.branches[self.branch].jacobian(t, x)
+
+    def tracking(self, x) -> float:
+        """The largest |psi - psi_ref| at the phase of x on the branch in force, rad."""
+        return self.branches[self.branch].reference.tracking(x)
+
+
 __all__ = [
+    "ENDS",
     "Linearisation",
     "LqrWeights",
     "PeriodicGains",
     "PhaseLQR",
+    "SwitchedLQR",
+    "double_support_lqr",
+    "lift_off_saltation",
     "linearise_along",
+    "linearise_double_support",
     "lqr_along",
     "periodic_lqr",
     "periodic_riccati",

@@ -111,8 +111,10 @@ def _limits(motion: WorldMotion) -> tuple[float, float, float, float]:
 def world_strip(motion: WorldMotion, frames_per_step: int = 6, title: str | None = None) -> Figure:
     """Poses of several steps drawn where they happen (world x), the footholds marked;
     ``title`` replaces the default one."""
-    x0, x1, _, _ = _limits(motion)
-    figure = Figure(figsize=(min(4.0 + 3.0 * (x1 - x0), 16.0), 4.0), layout="constrained")
+    x0, x1, y0, y1 = _limits(motion)
+    # equal axes 3 inches high, the legend beside them
+    figure = Figure(figsize=(min(2.8 + 3.0 * (x1 - x0) / (y1 - y0), 16.0), 4.0),
+                    layout="constrained")  # fmt: skip
     draw_world(figure.add_subplot(), motion, frames_per_step, title)
     return figure
 
@@ -143,9 +145,12 @@ def animate_walk(
     fps: float = 30.0,
     dpi: float = 80.0,
     caption: str = "",
+    window: float | None = None,
 ) -> Path:
     """A GIF of the steps of ``motion`` in world coordinates, one frame per 1/fps s of gait
-    time (real time), written atomically; ``caption`` heads every frame's clock."""
+    time (real time), written atomically; ``caption`` heads every frame's clock. ``window``
+    m: the view follows the body over that width of the ground (default: all of the walk
+    in view; a long walk would draw the body too small)."""
     path = Path(os.fspath(path))
     if path.suffix.lower() != ".gif":
         raise DefinitionError(f"`path`: an animation is a .gif file, got {str(path)!r}")
@@ -154,8 +159,13 @@ def animate_walk(
     frames = np.linspace(motion.time[0], motion.time[-1], max(2, round(duration * fps) + 1))
     picks = np.searchsorted(motion.time, frames).clip(0, motion.time.size - 1)
     x0, x1, y0, y1 = _limits(motion)
+    segments = list(motion.segments.values())
+    centres = np.mean([segment.real.mean(axis=1) for segment in segments], axis=0)
+    if window is not None:
+        window = check_positive("window", window, "m")
+    view = x1 - x0 if window is None or window >= x1 - x0 else window
     width = 6.0
-    figure = Figure(figsize=(width, width * (y1 - y0) / (x1 - x0) + 0.6), dpi=dpi,
+    figure = Figure(figsize=(width, width * (y1 - y0) / view + 0.6), dpi=dpi,
                     layout="constrained")  # fmt: skip
     FigureCanvasAgg(figure)
     ax = figure.add_subplot()
@@ -170,13 +180,15 @@ def animate_walk(
     ax.legend(loc="upper right", fontsize="x-small", frameon=False, title="named as in step 1",
               title_fontsize="x-small")  # fmt: skip
     clock = ax.set_title("")
-    segments = list(motion.segments.values())
     with atomic_path(path, suffix=".gif") as temporary:
         writer = PillowWriter(fps=fps)
         with writer.saving(figure, temporary, dpi):
             for index in picks:
                 for line, segment in zip(lines, segments, strict=True):
                     line.set_data(segment[index].real, segment[index].imag)
+                if view < x1 - x0:  # follow the body, kept inside the walk's extent
+                    left = min(max(centres[index] - view / 2, x0), x1 - view)
+                    ax.set_xlim(left, left + view)
                 clock.set_text(
                     f"{caption}t = {motion.time[index]:.3f} s, step {motion.step[index] + 1}"
                 )

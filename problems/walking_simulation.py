@@ -36,7 +36,7 @@ from model.dynamics import Dynamics
 from model.errors import DefinitionError, check_integer, check_positive, check_real
 from model.linkage import Linkage
 from problems.biped import Biped
-from problems.walking import WorldMotion, world_motion
+from problems.walking import UNLOADED, WorldMotion, world_motion
 
 #: the swing foot must be this far ahead of the stance foot, as a fraction of the planned step
 #: length, for a touch of the ground to count as a heel strike (it starts at the stance foot's
@@ -57,7 +57,10 @@ class Controller(Protocol):
         """A step begins (after the leg swap) in state x (2n,)."""
 
     def torques(self, t: float, x: np.ndarray) -> np.ndarray:
-        """Hinge torques M (n,) N m to hold over the period from t (s since the step's start)."""
+        """Hinge torques M (n,) N m to hold over the period from t (s since the step's start).
+
+        A controller of a step with a double support may also have ``touchdown(t, x)``: the
+        simulation calls it when the swing foot lands and the double support begins."""
 
 
 @dataclass(frozen=True)
@@ -112,7 +115,8 @@ class StepRecord:
     strike: the landing foot's velocity, complex m/s; impulse: on the landing foot, complex
     N s; tracking: largest |psi - psi_ref| at the same phase, rad; peak_torque N m;
     normal_force: the least Fy on the stance foot, N; friction_use: the largest |Fx| / (mu Fy);
-    before: the state (2n,) at heel strike, before the impact.
+    before: the state (2n,) at heel strike, before the impact; double_support s: from the
+    heel strike to the rear foot's lift-off (0 without a double support).
     """
 
     index: int
@@ -125,6 +129,7 @@ class StepRecord:
     normal_force: float
     friction_use: float
     before: np.ndarray
+    double_support: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -207,12 +212,49 @@ class Plant:
     @cached_property
     def advance(self) -> ca.Function:
         """(x (2n,), M (n,), h s) -> x after h with M held, by ``substeps`` RK4 steps."""
+        return self._rk4("advance", self.dynamics.function("forward_dynamics"))
+
+    @cached_property
+    def advance_jacobian(self) -> ca.Function:
+        """(x, M, h) -> (dx_next/dx (2n, 2n), dx_next/dM (2n, n), dx_next/dh (2n,))."""
+        return _jacobians(self.advance)
+
+    @cached_property
+    def advance_double(self) -> ca.Function:
+        """:attr:`advance` in a double support: the swing foot held where it landed (the
+        closed chain's motion, ``PointKinematics.held_dynamics``)."""
+        held = self.foot.function("held_dynamics")
+        return self._rk4("advance_double", lambda psi, dpsi, m: held(psi, dpsi, m)[0])
+
+    @cached_property
+    def advance_double_jacobian(self) -> ca.Function:
+        """:attr:`advance_jacobian` of :attr:`advance_double`."""
+        return _jacobians(self.advance_double)
+
+    @cached_property
+    def strike_held(self) -> ca.Function:
+        """x- -> x+ of a heel strike that begins a double support: the inelastic impact with
+        both feet held (no leg swap: the legs swap when the rear foot lifts)."""
+        n = self.n
+        x = ca.SX.sym("x", 2 * n)
+        impact = self.dynamics.impact(self.foot, root_pinned=True).function()
+        dpsi_plus, _, _ = impact.call([x[:n], x[n:]])
+        return ca.Function("strike_held", [x], [ca.vertcat(x[:n], dpsi_plus)])
+
+    @cached_property
+    def swap_map(self) -> ca.Function:
+        """x -> x with the legs swapped (the rear foot lifts at the end of a double support;
+        no impact)."""
+        return self.biped.swap.state_function()
+
+    def _rk4(self, name: str, acceleration) -> ca.Function:
+        """(x, M, h) -> x after h under ``acceleration(psi, dpsi, M)``, ``substeps`` RK4 steps
+        with M held."""
         n = self.n
         x, torques, h = ca.SX.sym("x", 2 * n), ca.SX.sym("M", n), ca.SX.sym("h")
-        forward = self.dynamics.function("forward_dynamics")
 
         def rate(state):
-            return ca.vertcat(state[n:], forward(state[:n], state[n:], torques))
+            return ca.vertcat(state[n:], acceleration(state[:n], state[n:], torques))
 
         step = h / self.substeps
         state = x
@@ -222,26 +264,41 @@ class Plant:
             k3 = rate(state + 0.5 * step * k2)
             k4 = rate(state + step * k3)
             state = state + step / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        return ca.Function("advance", [x, torques, h], [state], ["x", "M", "h"], ["x_next"])
-
-    @cached_property
-    def advance_jacobian(self) -> ca.Function:
-        """(x, M, h) -> (dx_next/dx (2n, 2n), dx_next/dM (2n, n), dx_next/dh (2n,))."""
-        x, torques, h = self.advance.sx_in()
-        x_next = self.advance(x, torques, h)
-        return ca.Function(
-            "advance_jacobian",
-            [x, torques, h],
-            [ca.jacobian(x_next, x), ca.jacobian(x_next, torques), ca.jacobian(x_next, h)],
-            ["x", "M", "h"],
-            ["dx", "dM", "dh"],
-        )
+        return ca.Function(name, [x, torques, h], [state], ["x", "M", "h"], ["x_next"])
 
     @cached_property
     def step_map_jacobian(self) -> ca.Function:
         """x- -> dDelta/dx- (2n, 2n): the impact and the leg swap, differentiated."""
-        x = self.step_map.sx_in(0)
-        return ca.Function("step_map_jacobian", [x], [ca.jacobian(self.step_map(x), x)])
+        return _map_jacobian(self.step_map)
+
+    @cached_property
+    def strike_held_jacobian(self) -> ca.Function:
+        """x- -> dx+/dx- (2n, 2n) of :attr:`strike_held`."""
+        return _map_jacobian(self.strike_held)
+
+    @cached_property
+    def swap_jacobian(self) -> np.ndarray:
+        """d swap / dx (2n, 2n): the relabelling is linear (signs, offsets and a permutation)."""
+        return np.asarray(_map_jacobian(self.swap_map)(np.zeros(2 * self.n)))
+
+    @cached_property
+    def observe_double(self) -> ca.Function:
+        """(x, M) -> in a double support, the rear (stance) foot's reaction (Fx, Fy) N, the
+        front foot's (Fx, Fy) N, and the heights of every hinge and link end but the swing
+        foot (m)."""
+        n = self.n
+        x, torques = ca.SX.sym("x", 2 * n), ca.SX.sym("M", n)
+        psi, dpsi = x[:n], x[n:]
+        ddpsi, front = self.foot.function("held_dynamics")(psi, dpsi, torques)
+        fx, fy = self.dynamics.function("ground_reaction")(psi, dpsi, ddpsi)  # both feet's
+        _, heights = self.observe(x, torques)
+        return ca.Function(
+            "observe_double",
+            [x, torques],
+            [ca.vertcat(fx, fy) - front, front, heights],
+            ["x", "M"],
+            ["rear", "front", "heights"],
+        )
 
     @cached_property
     def observe(self) -> ca.Function:
@@ -273,6 +330,24 @@ class Plant:
         jacobian = self.dynamics.com_velocities(np.tile(psi, (n, 1)), np.eye(n))[:, i]
         generalised = (np.conj(jacobian) * impulse).real
         return x[n:] + np.linalg.solve(self.dynamics.mass_matrix(psi), generalised)
+
+
+def _jacobians(advance: ca.Function) -> ca.Function:
+    """(x, M, h) -> (dx_next/dx, dx_next/dM, dx_next/dh) of an ``advance`` Function."""
+    x, torques, h = advance.sx_in()
+    x_next = advance(x, torques, h)
+    return ca.Function(
+        f"{advance.name()}_jacobian",
+        [x, torques, h],
+        [ca.jacobian(x_next, x), ca.jacobian(x_next, torques), ca.jacobian(x_next, h)],
+        ["x", "M", "h"],
+        ["dx", "dM", "dh"],
+    )
+
+
+def _map_jacobian(mapping: ca.Function) -> ca.Function:
+    x = mapping.sx_in(0)
+    return ca.Function(f"{mapping.name()}_jacobian", [x], [ca.jacobian(mapping(x), x)])
 
 
 def scaled_linkage(linkage: Linkage, scale: float) -> Linkage:
@@ -311,6 +386,7 @@ def simulate_walking(
     reference=None,
     torso: str | None = None,
     check_contacts: bool = True,
+    lift_off=None,
 ) -> WalkingRun:
     """Simulate ``steps`` steps from the planned start state ``start`` (2n,).
 
@@ -330,6 +406,13 @@ def simulate_walking(
     torso : the link pushed (default: the upper body's first link).
     check_contacts : False runs the ideal pinned-foot model on, whatever its contacts would
         need (for the return map of an orbit that a real contact would leave).
+    lift_off : None (the legs swap at heel strike), or a function of the state whose rise
+        through 0 ends a double support: the heel strike then holds both feet (the impact
+        with the rear foot pinned), the chain moves closed until the guard crosses, and the
+        rear foot lifts (the legs swap, no impact). E.g. ``reference.phase(psi) - 1``: the
+        rear foot lifts where the plan's double support ends. A rear foot that carries less
+        than the plan's ``UNLOADED`` part of the weight and leaves its friction cone lifts
+        there too (it rolls off); loaded, it slips and the run falls.
 
     Returns
     -------
@@ -365,6 +448,7 @@ def simulate_walking(
     )
     limit = disturbances.torque_limit
     slack = CONE_SLACK * plant.biped.total_mass * plant_linkage.gravity
+    unloaded = UNLOADED * plant.biped.total_mass * plant_linkage.gravity
     records: list[StepRecord] = []
     logs: list[_StepLog] = []
     foothold = 0j
@@ -383,10 +467,15 @@ def simulate_walking(
         logs.append(log)
         t = 0.0
         pushed = index != disturbances.push_step or disturbances.push == 0.0
-        strike = None
-        while strike is None:
+        strike = None  # (t, x-, impulse, landing, velocity) once the swing foot has landed
+        while True:
             if t > factor * step_time:
-                fell = f"step {index}: no heel strike within {factor:g} x the step time"
+                fell = (
+                    f"step {index}: no heel strike within {factor:g} x the step time"
+                    if strike is None
+                    else f"step {index}: the double support does not end within {factor:g} x "
+                    "the step time"
+                )
                 break
             if not pushed and t >= push_time - 1e-12:
                 x = np.concatenate(
@@ -396,46 +485,87 @@ def simulate_walking(
             torques = np.asarray(controller.torques(t, x), dtype=float)
             if limit is not None:
                 torques = np.clip(torques, -limit, limit)
-            reaction, heights = (np.asarray(v).ravel() for v in plant.observe(x, torques))
+            if strike is None:
+                reaction, heights = (np.asarray(v).ravel() for v in plant.observe(x, torques))
+                problem = _contact_problem(reaction, plant.mu, slack, heights, foothold, ground)
+            else:
+                reaction, front, heights = (
+                    np.asarray(v).ravel() for v in plant.observe_double(x, torques)
+                )
+                rear = _contact_problem(reaction, plant.mu, slack, heights, foothold, ground)
+                if rear is not None and reaction[1] < unloaded and "stance foot" in rear:
+                    # The rear foot, unloaded as the plan's lift-off defines it, leaves the
+                    # cone: it rolls off, as a foot does. The legs swap now, a little early.
+                    break
+                problem = rear or _front_problem(front, plant.mu, slack)
             log.time.append(clock + t)
             log.states.append(x.copy())
             log.torques.append(torques)
             log.peak = max(log.peak, float(np.abs(torques).max()))
             if reference is not None:
                 log.tracking = max(log.tracking, reference.tracking(x))
-            problem = _contact_problem(reaction, plant.mu, slack, heights, foothold, ground)
             log.normal = min(log.normal, reaction[1])
             if reaction[1] > 0:
                 log.friction = max(log.friction, abs(reaction[0]) / (plant.mu * reaction[1]))
             if problem is not None and check_contacts:
                 fell = f"step {index}, t = {t:.3f} s: {problem}"
                 break
-            x_next = np.asarray(plant.advance(x, torques, period)).ravel()
+            advance = plant.advance if strike is None else plant.advance_double
+            x_next = np.asarray(advance(x, torques, period)).ravel()
             if not np.all(np.isfinite(x_next)):
                 fell = f"step {index}, t = {t:.3f} s: the state is not finite"
                 break
+            if strike is not None:  # the double support ends when the lift-off guard crosses
+                if lift_off(x_next) >= 0.0:
+                    tau, x = locate_event(
+                        plant.advance_double, x, torques, period, lambda y: -lift_off(y)
+                    )
+                    t += tau
+                    break
+                x = x_next
+                t += period
+                continue
             height = foot_height(plant, x_next, foothold, ground)
             ahead = complex(plant.foot.position(x_next[:n])).real
             if height <= 0.0 and ahead > STRIKE_AHEAD * step_length:
                 tau, x_minus = locate_strike(plant, x, torques, period, foothold, ground)
-                strike = (t + tau, x_minus)
-                break
+                _, impulse, lift = (
+                    np.asarray(v).ravel()
+                    for v in plant.dynamics.impact(plant.foot, root_pinned=lift_off is not None)(
+                        x_minus[:n], x_minus[n:]
+                    )
+                )
+                if lift_off is not None:
+                    lift = np.array([0.0, 0.0])  # the rear foot stays: nothing to lift
+                problem = _impact_problem(impulse, lift, plant.mu)
+                if problem is not None and check_contacts:
+                    fell = f"heel strike of step {index}: {problem}"
+                    break
+                strike = (
+                    t + tau,
+                    x_minus,
+                    impulse,
+                    complex(plant.foot.position(x_minus[:n])),
+                    complex(plant.foot.velocity(x_minus[:n], x_minus[n:])),
+                )
+                t += tau
+                if lift_off is None:
+                    break
+                # a double support begins: both feet held through the impact, the controller
+                # goes on from the strike's instant
+                x = np.asarray(plant.strike_held(x_minus)).ravel()
+                if hasattr(controller, "touchdown"):
+                    controller.touchdown(t, x)
+                continue
             x = x_next
             t += period
-        if strike is None:
+        if fell is not None:
             break
-        t_strike, x_minus = strike
-        _, impulse, lift = (np.asarray(v).ravel() for v in plant.impact(x_minus[:n], x_minus[n:]))
-        landing = complex(plant.foot.position(x_minus[:n]))
-        velocity = complex(plant.foot.velocity(x_minus[:n], x_minus[n:]))
-        problem = _impact_problem(impulse, lift, plant.mu)
-        if problem is not None and check_contacts:
-            fell = f"heel strike of step {index}: {problem}"
-            break
+        t_strike, x_minus, impulse, landing, velocity = strike
         records.append(
             StepRecord(
                 index=index,
-                duration=t_strike,
+                duration=t,
                 length=landing.real,
                 strike=velocity,
                 impulse=complex(*impulse),
@@ -444,12 +574,13 @@ def simulate_walking(
                 normal_force=log.normal,
                 friction_use=log.friction,
                 before=x_minus,
+                double_support=t - t_strike,
             )
         )
-        clock += t_strike
+        clock += t
         foothold = foothold + landing
         footholds.append(foothold)
-        x = np.asarray(plant.step_map(x_minus)).ravel()
+        x = np.asarray(plant.step_map(x_minus) if lift_off is None else plant.swap_map(x)).ravel()
     time = np.concatenate([np.asarray(log.time) for log in logs if log.time])
     states = np.vstack([np.asarray(log.states) for log in logs if log.states])
     torques_all = np.vstack([np.asarray(log.torques) for log in logs if log.torques])
@@ -518,31 +649,40 @@ def foot_height(plant: Plant, x, foothold: complex, ground) -> float:
 
 def locate_strike(plant: Plant, x, torques, period: float, foothold: complex, ground):
     """The instant tau in (0, period] when the swing foot reaches the ground, and the state
-    then, on the period's own RK4 step (secant iterations bracketed by bisection)."""
+    then, on the period's own RK4 step (:func:`locate_event` on the foot's height)."""
+    return locate_event(
+        plant.advance, x, torques, period, lambda y: foot_height(plant, y, foothold, ground)
+    )
 
-    def height(tau):
-        state = np.asarray(plant.advance(x, torques, tau)).ravel()
-        return foot_height(plant, state, foothold, ground), state
+
+def locate_event(advance, x, torques, period: float, value):
+    """The instant tau in (0, period] when ``value(state)`` (> 0 at x) reaches 0 on the RK4
+    step ``advance(x, torques, tau)``, and the state then (secant iterations bracketed by
+    bisection, to :data:`STRIKE_TOLERANCE`)."""
+
+    def at(tau):
+        state = np.asarray(advance(x, torques, tau)).ravel()
+        return value(state), state
 
     low, high = 0.0, period
-    h_low = foot_height(plant, x, foothold, ground)
-    h_high, state = height(high)
+    v_low = value(x)
+    v_high, state = at(high)
     for _ in range(60):
-        if abs(h_high) <= STRIKE_TOLERANCE or high - low < 1e-15:
+        if abs(v_high) <= STRIKE_TOLERANCE or high - low < 1e-15:
             break
         # secant inside the bracket, bisection when it would leave it
         tau = (
-            high - h_high * (high - low) / (h_high - h_low)
-            if h_high != h_low
+            high - v_high * (high - low) / (v_high - v_low)
+            if v_high != v_low
             else 0.5 * (low + high)
         )
         if not low < tau < high:
             tau = 0.5 * (low + high)
-        h_tau, s_tau = height(tau)
-        if h_tau > 0.0:
-            low, h_low = tau, h_tau
+        v_tau, s_tau = at(tau)
+        if v_tau > 0.0:
+            low, v_low = tau, v_tau
         else:
-            high, h_high, state = tau, h_tau, s_tau
+            high, v_high, state = tau, v_tau, s_tau
     return high, state
 
 
@@ -555,6 +695,15 @@ def _contact_problem(reaction, mu, slack, heights, foothold: complex, ground) ->
     low = float(np.min(heights)) + foothold.imag - ground(foothold.real)
     if low < -1e-9:
         return f"a body point is {-low * 1000:.1f} mm under the ground"
+    return None
+
+
+def _front_problem(front, mu, slack) -> str | None:
+    fx, fy = front
+    if fy < -slack:
+        return f"the front foot is pulled off the ground (Fy = {fy:.1f} N)"
+    if abs(fx) > mu * fy + slack:
+        return f"the front foot slips (|Fx| = {abs(fx):.1f} N > mu Fy = {mu * fy:.1f} N)"
     return None
 
 
@@ -577,6 +726,8 @@ __all__: Sequence[str] = (
     "StepRecord",
     "WalkingRun",
     "largest_push",
+    "locate_event",
+    "locate_strike",
     "scaled_linkage",
     "simulate_walking",
 )

@@ -239,3 +239,65 @@ def test_hinge_moments_do_the_work_of_the_force(label, linkage, check):
     # Off the path to the point, no moment.
     off = [k for k in range(linkage.n) if k not in (*linkage.ancestors(i), i)]
     np.testing.assert_array_equal(moments[:, off], 0.0)
+
+
+@pytest.mark.parametrize(("label", "linkage"), list(scenes()), ids=[s[0] for s in scenes()])
+def test_held_dynamics_hold_the_point_and_obey_the_oracles_equations(label, linkage, check):
+    # A closed chain (the point held at rest, e.g. a second foot on the ground): the oracle's
+    # kinematics give the point no acceleration, and the oracle's inverse dynamics need the
+    # applied torques plus those that stand for the holding force (validated above).
+    dyn = linkage.dynamics()
+    psi, dpsi, _ = states(linkage, 16, 9)
+    torques = np.random.default_rng(10).normal(0.0, 20.0, (16, linkage.n))
+    i = linkage.n - 1
+    point = dyn.point(linkage.names[i], 0.7, 0.2)
+    ddpsi, force = point.held_dynamics(psi, dpsi, torques)
+    _, _, acceleration = ne.point_kinematics(
+        linkage, i, linkage.links[i].length * complex(0.7, 0.2), psi, dpsi, ddpsi
+    )
+    # against the acceleration the same state would have with no angular acceleration
+    scale = np.abs(ne.point_kinematics(linkage, i, linkage.links[i].length * complex(0.7, 0.2),
+                                       psi, dpsi, np.zeros_like(ddpsi))[2]).max()  # fmt: skip
+    assert np.abs(acceleration).max() < 1e-10 * scale, f"{label}: the point accelerates"
+    check.close(
+        ne.inverse_dynamics(linkage, psi, dpsi, ddpsi),
+        torques + point.hinge_moments(psi, force),
+        f"{label} equations",
+    )
+
+
+def test_a_held_chain_keeps_its_energy_and_its_point():
+    # No torques, the end of the six-link's last link held: the holding force does no work
+    # (its point does not move), so the energy stays; RK4's error is fourth order.
+    dyn = SIX.dynamics()
+    point = dyn.point(SIX.names[-1])
+    n = SIX.n
+    psi = np.array([1.4, 1.9, 1.5, 1.6, 1.2, 0.9])
+    # a velocity that leaves the point at rest: the Jacobian's null space
+    jacobian = point.jacobian(psi, floating=False)
+    null = np.linalg.svd(jacobian)[2][2:].T
+    dpsi = null @ np.linspace(0.5, -0.5, n - 2)
+    function = point.function("held_dynamics")
+
+    def rate(x):
+        return np.r_[x[n:], np.asarray(function(x[:n], x[n:], np.zeros(n))[0]).ravel()]
+
+    def run(h, duration=0.2):
+        x = np.r_[psi, dpsi]
+        for _ in range(round(duration / h)):
+            k1 = rate(x)
+            k2 = rate(x + 0.5 * h * k1)
+            k3 = rate(x + 0.5 * h * k2)
+            k4 = rate(x + h * k3)
+            x = x + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        return x
+
+    def energy(x):
+        return sum(ne.energy(SIX, x[:n], x[n:]))
+
+    start = energy(np.r_[psi, dpsi])
+    drift = [abs(energy(run(h)) - start) for h in (4e-3, 2e-3)]
+    assert drift[1] < 1e-6 * abs(start) + 1e-9
+    assert drift[0] / drift[1] > 10.0  # fourth order: 16 at this resolution
+    end = run(2e-3)
+    assert abs(point.position(end[:n]) - point.position(psi)) < 1e-8

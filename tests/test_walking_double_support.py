@@ -1,0 +1,216 @@
+"""A walking step with a double support, closed loop: the closed chain's simulation, its
+events (the heel strike with both feet held, the lift-off where the phase reaches 1), their
+saltation matrices, the return map's Jacobian, the periodic LQR through both events, the
+gains in the file.
+
+Oracles: central differences of the product's own hybrid simulation (the return map, the
+lift-off's saltation), the summed cost of a periodic closed loop with an event inside the
+period (the Riccati recursion), the plan itself (the closed chain's motion under the plan's
+torques), the held foot's position (it must not move).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planner.trajectory import Trajectory
+from problems import walking_step
+from problems.walking_control import GaitReference, PhasePD
+from problems.walking_feedback import design_feedback
+from problems.walking_linearisation import fixed_point, return_map
+from problems.walking_lqr import (
+    SwitchedLQR,
+    lift_off_saltation,
+    linearise_double_support,
+    periodic_riccati,
+)
+from problems.walking_simulation import (
+    Disturbances,
+    Plant,
+    locate_event,
+    simulate_walking,
+)
+
+#: the plan's rear foot lifts carrying 5 % of the weight along its cone's edge: the closed
+#: loop needs a ground with this much friction (measured: 1.0 slips under most disturbances)
+GROUND_MU = 1.5
+#: reference samples off the control instants (see test_walking_linearisation)
+REFERENCE_RATE_HZ = 777.0
+
+
+@pytest.fixture(scope="module")
+def plan():
+    step = walking_step(double_support=0.05)
+    gait = step.solve(progress=False)
+    return step, gait, Plant(step.linkage, mu=GROUND_MU)
+
+
+def _options(step, double):
+    n = step.linkage.n
+    return {
+        "linkage": step.linkage,
+        "step_time": step.step_time,
+        "step_length": step.step_length,
+        "mu": GROUND_MU,
+        "lift_off": lambda x: double.phase(x[:n]) - 1.0,
+    }
+
+
+def test_the_closed_chain_moves_as_planned_and_holds_the_front_foot(plan):
+    _, gait, plant = plan
+    single, double = GaitReference.branches(gait, rate_hz=1000.0)
+    # the branches share the step's phase: the single support ends where the double begins
+    assert single.phases[0] == pytest.approx(0.0, abs=1e-12)
+    assert single.phases[-1] == pytest.approx(double.phases[0], abs=1e-12)
+    assert double.phases[-1] == pytest.approx(1.0, abs=1e-12)
+    # the plan's torques move the closed chain as the plan does: over 20 ms, the torques at
+    # each quarter millisecond's midpoint (a held torque's bias would hide the check), to
+    # 1.3e-6 rad (the single support's own check: 2e-7)
+    n = plant.n
+    fine = GaitReference.branches(gait, rate_hz=10000.0)[1]
+    x = fine.at_time(0.0)[0]
+    foot = complex(plant.foot.position(x[:n]))
+    for k in range(80):
+        x = np.asarray(plant.advance_double(x, fine.at_time((k + 0.5) * 2.5e-4)[1], 2.5e-4))
+        x = x.ravel()
+    assert np.abs(x[:n] - fine.at_time(0.02)[0][:n]).max() < 1e-5
+    assert abs(complex(plant.foot.position(x[:n])) - foot) < 1e-9  # the held foot stays
+    # the strike that begins it keeps the feet (no swap) and stops the front one
+    x_minus = single.states[-1]
+    x_plus = np.asarray(plant.strike_held(x_minus)).ravel()
+    np.testing.assert_array_equal(x_plus[:n], x_minus[:n])
+    assert abs(complex(plant.foot.velocity(x_plus[:n], x_plus[n:]))) < 1e-12
+    np.testing.assert_allclose(x_plus, double.states[0], atol=1e-6)  # the plan's impact
+
+
+def test_the_lift_off_saltation_is_the_events_central_difference(plan):
+    _, gait, plant = plan
+    _, double = GaitReference.branches(gait, rate_hz=1000.0)
+    n = plant.n
+    x_before, torques = double.at_time(double.duration - 0.002)
+
+    def lift(x):
+        tau, x_end = locate_event(
+            plant.advance_double, x, torques, 0.004, lambda y: 1.0 - double.phase(y[:n])
+        )
+        return np.asarray(plant.swap_map(x_end)).ravel(), tau, x_end
+
+    _, tau, x_end = lift(x_before)
+    assert 0.0 < tau < 0.004
+    eps = 1e-7
+    columns = []
+    for j in range(2 * n):
+        e = np.zeros(2 * n)
+        e[j] = eps
+        columns.append((lift(x_before + e)[0] - lift(x_before - e)[0]) / (2 * eps))
+    differences = np.column_stack(columns)
+    flow = np.asarray(plant.advance_double_jacobian(x_before, torques, tau)[0])
+    exact = lift_off_saltation(plant, double, x_end, torques) @ flow
+    np.testing.assert_allclose(exact, differences, rtol=0, atol=1e-6 * np.abs(exact).max())
+    plain = plant.swap_jacobian @ flow  # without the event's shift: wrong
+    assert np.abs(plain - differences).max() > 1e-2 * np.abs(exact).max()
+
+
+def test_the_return_map_through_both_events_is_the_simulations_central_difference(plan):
+    step, gait, plant = plan
+    single, double = GaitReference.branches(gait, rate_hz=REFERENCE_RATE_HZ)
+    parents = step.linkage.parents
+    controller = SwitchedLQR(PhasePD(single, parents, 1000.0, 60.0),
+                             PhasePD(double, parents, 1000.0, 60.0))  # fmt: skip
+    found = fixed_point(plant, controller, single.states[0], step_time=step.step_time,
+                        step_length=step.step_length, double_support=double)  # fmt: skip
+    assert np.abs(found.end - found.start).max() <= 1e-10
+    options = {**_options(step, double), "check_contacts": False}
+
+    def next_start(x):
+        return simulate_walking(x, controller, steps=1, **options).end
+
+    np.testing.assert_allclose(next_start(found.start), found.end, atol=1e-12)
+    eps = 1e-7
+    columns = []
+    for j in range(found.start.size):
+        e = np.zeros(found.start.size)
+        e[j] = eps
+        columns.append((next_start(found.start + e) - next_start(found.start - e)) / (2 * eps))
+    differences = np.column_stack(columns)
+    scale = np.abs(found.jacobian).max()
+    np.testing.assert_allclose(found.jacobian, differences, rtol=0, atol=1e-6 * scale)
+    # the return map of one step is what the step's simulation does
+    again = return_map(plant, controller, found.start, step_time=step.step_time,
+                       step_length=step.step_length, double_support=double)  # fmt: skip
+    np.testing.assert_array_equal(again.jacobian, found.jacobian)
+
+
+def test_an_event_inside_the_period_costs_nothing_and_carries_the_cost_to_go():
+    rng = np.random.default_rng(5)
+    systems = [(rng.normal(size=(4, 4)) * 0.6, rng.normal(size=(4, 2))) for _ in range(6)]
+    middle, end = rng.normal(size=(4, 4)), rng.normal(size=(4, 4))
+    a_list = [s[0] for s in systems[:3]] + [middle] + [s[0] for s in systems[3:]]
+    b_list = [s[1] for s in systems[:3]] + [None] + [s[1] for s in systems[3:]]
+    q, r = np.eye(4), 0.5 * np.eye(2)
+    gains, cost, _ = periodic_riccati(a_list, b_list, end, q, r)
+    np.testing.assert_array_equal(gains[3], 0.0)
+    x0 = rng.normal(size=4)
+    x, total = x0.copy(), 0.0
+    for _ in range(300):
+        for a, b, gain in zip(a_list, b_list, gains, strict=True):
+            if b is None:
+                x = a @ x
+                continue
+            u = -gain @ x
+            total += x @ q @ x + u @ r @ u
+            x = a @ x + b @ u
+        x = end @ x
+    assert total == pytest.approx(x0 @ cost @ x0, rel=1e-9)
+
+
+def test_the_periodic_lqr_walks_the_double_support_step_and_the_file_carries_both_laws(
+    plan, tmp_path
+):
+    step, gait, plant = plan
+    feedback = design_feedback(gait, ground_mu=GROUND_MU)
+    double, _ = feedback.double
+    along = linearise_double_support(plant, feedback.reference, double, 1e-3)
+    assert np.abs(along.open_loop_multipliers[0]) > 1e3  # open loop: violently unstable
+    found = fixed_point(plant, feedback.controller, feedback.reference.states[0],
+                        step_time=step.step_time, step_length=step.step_length,
+                        double_support=double)  # fmt: skip
+    assert found.spectral_radius < 0.2
+    options = feedback.simulation_options
+    run = simulate_walking(feedback.reference.states[0], feedback.controller, steps=20, **options)
+    assert run.walked == 20, run.fell
+    np.testing.assert_allclose([r.duration for r in run.steps], step.step_time, rtol=2e-3)
+    np.testing.assert_allclose([r.length for r in run.steps], step.step_length, rtol=2e-3)
+    np.testing.assert_allclose([r.double_support for r in run.steps], 0.05, atol=2e-3)
+    heavier = simulate_walking(feedback.reference.states[0], feedback.controller, steps=10,
+                               disturbances=Disturbances(mass_scale=1.1), **options)  # fmt: skip
+    assert heavier.walked == 10, heavier.fell
+    # the file: a double_support column and the rows of the branch in force
+    path = tmp_path / "torques.csv"
+    feedback.channels(gait.to_trajectory(1000.0)).save(path)
+    loaded = Trajectory.load(path)
+    flag = np.asarray(loaded.extras["double_support"][0])
+    assert flag[0] == 0.0 and flag[-1] == 1.0
+    first = int(np.argmax(flag))
+    assert loaded.time[first] == pytest.approx(step.single_support_time, abs=1e-9)
+    names, states = step.linkage.names, loaded.metadata["feedback"]["state"]
+    single_law, double_law = feedback.controller.branches
+    for k in (first - 1, first, len(flag) - 1):
+        law = double_law if flag[k] else single_law
+        gain = law.gain_at(loaded.extras["phase"][0][k])
+        row = [loaded.extras[f"K_{names[1]}__{state}"][0][k] for state in states]
+        np.testing.assert_allclose(row, gain[1], rtol=1e-9, atol=1e-6)
+    assert "double_support = 0" in loaded.metadata["feedback"]["branches"]
+
+
+def test_mujoco_refuses_the_double_support_step_by_name(plan):
+    pytest.importorskip("mujoco")
+    from model import DefinitionError
+    from problems.walking_mujoco import run_in_mujoco
+
+    _, gait, _ = plan
+    feedback = design_feedback(gait, ground_mu=GROUND_MU)
+    # measured: MuJoCo's soft ground throws the front foot 2 to 13 cm back up at touchdown
+    with pytest.raises(DefinitionError, match="double support does not run in MuJoCo yet"):
+        run_in_mujoco(feedback, steps=1)
