@@ -646,11 +646,13 @@ def _walk_parser(commands, common, limits) -> None:
     walk.add_argument(
         "--feedback",
         action="store_true",
-        help="design the feedback of the step (a periodic LQR through the heel strike, "
-        "indexed by the hip's progress), write its gains into torques.csv (columns phase, "
-        "K_<hinge>__<state>; the law in torques.csv.meta.json) and check the closed loop in "
-        "the product's hybrid simulation: multipliers, open loop, 50 steps, mass +-10 %%, "
-        "ground +-5 mm, largest pushes (about a minute; draws closed_loop.png)",
+        help="design the feedback of the step (a periodic LQR through the heel strike, and "
+        "the lift-off with --double-support-s, indexed by the hip's progress), write its gains "
+        "into torques.csv (columns phase, K_<hinge>__<state>; the law in "
+        "torques.csv.meta.json) and check the closed loop in the product's hybrid simulation "
+        "and in MuJoCo: multipliers, open loop, 50 steps, mass +-10 %%, ground +-5 mm and "
+        "+-1 cm, a start error, weaker drives, largest pushes (about two minutes; draws "
+        "closed_loop.png and the pushed walk, closed_loop_walk.png and .gif)",
     )
     walk.add_argument(
         "--ground-friction",

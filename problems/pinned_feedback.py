@@ -208,6 +208,13 @@ class PinnedRun:
     deviation: np.ndarray
     peak_torque: float
 
+    @classmethod
+    def of(cls, feedback: PinnedFeedback, starts, peak_torque: float) -> PinnedRun:
+        starts = np.array(starts)
+        n = len(feedback.names)
+        psi0 = feedback.reference.states[0][:n]
+        return cls(starts, np.abs(starts[:, :n] - psi0).max(axis=1), peak_torque)
+
 
 def simulate_periods(
     feedback: PinnedFeedback,
@@ -228,7 +235,6 @@ def simulate_periods(
     x = feedback.reference.states[0].copy()
     if initial is not None:
         x = x + np.asarray(initial, dtype=float)
-    n = plant.n
     starts, peak = [x], 0.0
     for _ in range(periods):
         for k in range(controller.count):
@@ -238,9 +244,7 @@ def simulate_periods(
         if not np.all(np.isfinite(x)):
             break
         starts.append(x)
-    starts = np.array(starts)
-    psi0 = feedback.reference.states[0][:n]
-    return PinnedRun(starts, np.abs(starts[:, :n] - psi0).max(axis=1), peak)
+    return PinnedRun.of(feedback, starts, peak)
 
 
 def run_pinned_in_mujoco(
@@ -286,9 +290,7 @@ def run_pinned_in_mujoco(
         if not np.all(np.isfinite(state)):
             break
         starts.append(state)
-    starts = np.array(starts)
-    psi0 = feedback.reference.states[0][:n]
-    return PinnedRun(starts, np.abs(starts[:, :n] - psi0).max(axis=1), peak)
+    return PinnedRun.of(feedback, starts, peak)
 
 
 __all__ = [

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from reference.checks import central_jacobian
 
 from planner.trajectory import Trajectory
 from problems import walking_step
@@ -98,13 +99,7 @@ def test_the_lift_off_saltation_is_the_events_central_difference(plan):
 
     _, tau, x_end = lift(x_before)
     assert 0.0 < tau < 0.004
-    eps = 1e-7
-    columns = []
-    for j in range(2 * n):
-        e = np.zeros(2 * n)
-        e[j] = eps
-        columns.append((lift(x_before + e)[0] - lift(x_before - e)[0]) / (2 * eps))
-    differences = np.column_stack(columns)
+    differences = central_jacobian(lambda x: lift(x)[0], x_before, 1e-7)
     flow = np.asarray(plant.advance_double_jacobian(x_before, torques, tau)[0])
     exact = lift_off_saltation(plant, double, x_end, torques) @ flow
     np.testing.assert_allclose(exact, differences, rtol=0, atol=1e-6 * np.abs(exact).max())
@@ -127,13 +122,7 @@ def test_the_return_map_through_both_events_is_the_simulations_central_differenc
         return simulate_walking(x, controller, steps=1, **options).end
 
     np.testing.assert_allclose(next_start(found.start), found.end, atol=1e-12)
-    eps = 1e-7
-    columns = []
-    for j in range(found.start.size):
-        e = np.zeros(found.start.size)
-        e[j] = eps
-        columns.append((next_start(found.start + e) - next_start(found.start - e)) / (2 * eps))
-    differences = np.column_stack(columns)
+    differences = central_jacobian(next_start, found.start, 1e-7)
     scale = np.abs(found.jacobian).max()
     np.testing.assert_allclose(found.jacobian, differences, rtol=0, atol=1e-6 * scale)
     # the return map of one step is what the step's simulation does

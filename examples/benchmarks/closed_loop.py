@@ -8,7 +8,11 @@ the solve (``WalkingStep.solve``, its hold rounds included); the design (the pla
 along its 1 kHz control instants, the strike's saltation matrix, the periodic Riccati
 recursion); the closed loop's periodic gait and Floquet multipliers (Newton on the exact
 return map); one return map; 50 simulated steps in the product's hybrid simulation; 20 steps
-in MuJoCo (when installed). Ratios are to the solve's median in the same run.
+in MuJoCo (when installed). The same for the six-link step with a 0.05 s double support
+(ground friction 1.5; no MuJoCo run: refused, see run_in_mujoco) and for the paper's
+fixed-base periodic gait (``problems.pinned_feedback``: the period's LQR, the closed loop's
+orbit, 20 periods in the product and in MuJoCo). Ratios are to the solve's median of the
+same problem in the same run.
 """
 
 from __future__ import annotations
@@ -58,6 +62,56 @@ def _rows(linkage, repeat: int, run_in_mujoco) -> list[tuple[str, float, str]]:
     return rows
 
 
+def _double_support_rows(repeat: int) -> list[tuple[str, float, str]]:
+    step = walking_step(double_support=0.05)
+    solve, gait = _median(lambda: step.solve(progress=False), repeat)
+    rows = [("solve (HS N = 30 + 12, holds incl.)", solve, f"cost {gait.cost:.2f}")]
+    design, feedback = _median(lambda: design_feedback(gait, ground_mu=1.5), repeat)
+    rows.append(("design: linearise + periodic LQR", design,
+                 f"{feedback.gains.cycles} Riccati sweeps"))  # fmt: skip
+    options = {"step_time": step.step_time, "step_length": step.step_length,
+               "double_support": feedback.double[0]}  # fmt: skip
+    start = feedback.reference.states[0]
+    loop_time, loop = _median(
+        lambda: fixed_point(feedback.plant, feedback.controller, start, **options), repeat
+    )
+    rows.append(("periodic gait + multipliers (Newton)", loop_time,
+                 f"largest |lambda| {loop.spectral_radius:.3f}"))  # fmt: skip
+    walk_time, run = _median(
+        lambda: simulate_walking(start, feedback.controller, steps=50,
+                                 **feedback.simulation_options), repeat)  # fmt: skip
+    rows.append(("50 steps, product's simulation", walk_time, f"walked {run.walked}"))
+    return rows
+
+
+def _pinned_rows(repeat: int, mujoco_installed: bool) -> list[tuple[str, float, str]]:
+    from problems.periodic_gait import periodic_gait
+    from problems.pinned_feedback import (
+        closed_loop_orbit,
+        design_pinned_feedback,
+        run_pinned_in_mujoco,
+        simulate_periods,
+    )
+
+    problem = periodic_gait()
+    solve, gait = _median(lambda: problem.solve(progress=False), repeat)
+    rows = [("solve (HS N = 50, holds included)", solve, f"cost {gait.cost:.2f}")]
+    design, feedback = _median(lambda: design_pinned_feedback(gait), repeat)
+    rows.append(("design: linearise + periodic LQR", design,
+                 f"open loop |lambda| {abs(feedback.open_loop_multipliers[0]):.2g}"))  # fmt: skip
+    orbit_time, orbit = _median(lambda: closed_loop_orbit(feedback), repeat)
+    rows.append(("periodic orbit + multipliers (Newton)", orbit_time,
+                 f"largest |lambda| {orbit.spectral_radius:.4f}"))  # fmt: skip
+    sim_time, run = _median(lambda: simulate_periods(feedback, periods=20), repeat)
+    rows.append(("20 periods, product's simulation", sim_time,
+                 f"largest |psi - psi_ref| {run.deviation.max():.1e} rad"))  # fmt: skip
+    if mujoco_installed:
+        engine_time, engine = _median(lambda: run_pinned_in_mujoco(feedback, periods=20), repeat)
+        rows.append(("20 periods in MuJoCo", engine_time,
+                     f"largest |psi - psi_ref| {engine.deviation.max():.1e} rad"))  # fmt: skip
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="runs per timing (median)")
@@ -74,8 +128,11 @@ def main() -> None:
     print(f"(medians of {args.repeat}; the machine is shared: compare ratios in one run)")
     print(head)
     print("-" * (len(head) + 30))
-    for name, linkage in bipeds.items():
-        rows = _rows(linkage(), args.repeat, run_in_mujoco)
+    tables = {name: _rows(linkage(), args.repeat, run_in_mujoco)
+              for name, linkage in bipeds.items()}  # fmt: skip
+    tables["six, DS"] = _double_support_rows(args.repeat)
+    tables["fixed base"] = _pinned_rows(args.repeat, run_in_mujoco is not None)
+    for name, rows in tables.items():
         solve = rows[0][1]
         for what, seconds, result in rows:
             print(f"{name:<10} {what:<37} {seconds:9.3f} {seconds / solve:8.2f}  {result}")

@@ -20,6 +20,20 @@ def relative_error(actual, reference) -> np.ndarray:
     return diff / (np.linalg.norm(reference.reshape(k, -1), axis=1) + FLOOR)
 
 
+def central_jacobian(function, x, eps: float) -> np.ndarray:
+    """d function / dx (m, n) by central differences of step ``eps`` along each of x's n
+    entries: the oracle of an exact Jacobian, to O(eps^2)."""
+    x = np.asarray(x, dtype=float)
+    columns = []
+    for j in range(x.size):
+        step = np.zeros(x.size)
+        step[j] = eps
+        ahead = np.asarray(function(x + step), dtype=float)
+        behind = np.asarray(function(x - step), dtype=float)
+        columns.append((ahead - behind) / (2 * eps))
+    return np.column_stack(columns)
+
+
 def mass_norm(mass: np.ndarray, v: np.ndarray) -> np.ndarray:
     """sqrt(v^T M v) per state: the kinetic-energy norm of an angular velocity/acceleration."""
     return np.sqrt(np.einsum("ki,kij,kj->k", v, mass, v))
