@@ -17,7 +17,6 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from model.dynamics import Dynamics
@@ -28,7 +27,6 @@ from model.errors import (
     check_positive,
     check_real,
 )
-from planner.files import atomic_path
 from planner.linkage_system import CONVENTION
 from planner.trajectory import (
     Trajectory,
@@ -200,7 +198,8 @@ def animate(
     dpi: float = 80,
     figsize: tuple[float, float] = (4.0, 4.0),
 ) -> Path:
-    """Write a GIF of the linkage moving along the trajectory (matplotlib's PillowWriter).
+    """Write a GIF of the linkage moving along the trajectory (:class:`planner.gif.GifFrames`:
+    the figure drawn once, the links redrawn over it).
 
     Frames at ``n_frames`` evenly spaced times from t0 to tf; by default one per 1/fps of
     trajectory time (plus the end), so the GIF plays in real time. The write is atomic: the
@@ -221,7 +220,7 @@ def animate(
     -------
     The path written.
     """
-    from matplotlib.animation import PillowWriter
+    from planner.gif import GifFrames
 
     _check_linkage(dynamics, trajectory)
     path = Path(os.fspath(path))
@@ -244,7 +243,6 @@ def animate(
     names = dynamics.linkage.names
 
     figure = Figure(figsize=figsize, dpi=dpi, layout="constrained")
-    FigureCanvasAgg(figure)  # the writer renders through an Agg canvas, whatever the backend
     ax = figure.add_subplot()
     x0, x1, y0, y1 = _limits(hinges)
     ax.set_xlim(x0, x1)
@@ -258,18 +256,17 @@ def animate(
                 markersize=3.5, solid_capstyle="round", label=name)[0]
         for i, name in enumerate(names)
     ]  # fmt: skip
-    clock = ax.set_title("")
+    clock = ax.set_title(f"t = {times[-1]:.3f} s")  # the layout makes room for it once
     ax.legend(loc="upper right", fontsize="x-small", frameon=False)
 
-    with atomic_path(path, suffix=".gif") as temporary:
-        writer = PillowWriter(fps=fps)
-        with writer.saving(figure, temporary, dpi):
-            for k, t in enumerate(times):
-                for i, line in enumerate(lines):
-                    start, end = hinges[k, starts[i]], hinges[k, i + 1]
-                    line.set_data([start.real, end.real], [start.imag, end.imag])
-                clock.set_text(f"t = {t:.3f} s")
-                writer.grab_frame()
+    with GifFrames(figure, [*lines, clock], fps=fps, dpi=dpi) as gif:
+        for k, t in enumerate(times):
+            for i, line in enumerate(lines):
+                start, end = hinges[k, starts[i]], hinges[k, i + 1]
+                line.set_data([start.real, end.real], [start.imag, end.imag])
+            clock.set_text(f"t = {t:.3f} s")
+            gif.grab()
+        gif.save(path)
     return path
 
 

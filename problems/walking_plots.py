@@ -12,12 +12,13 @@ import os
 from pathlib import Path
 
 import numpy as np
-from matplotlib.animation import PillowWriter
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from PIL import Image
 
 from model.errors import DefinitionError, check_positive
 from planner.files import atomic_path
+from planner.gif import GifFrames
 from problems.walking import WalkingGait, WorldMotion
 
 #: matplotlib's tab10, one colour per body.
@@ -167,7 +168,6 @@ def animate_walk(
     width = 6.0
     figure = Figure(figsize=(width, width * (y1 - y0) / view + 0.6), dpi=dpi,
                     layout="constrained")  # fmt: skip
-    FigureCanvasAgg(figure)
     ax = figure.add_subplot()
     ax.set(xlim=(x0, x1), ylim=(y0, y1), aspect="equal", xlabel="x [m]", ylabel="y [m]")
     ax.plot([x0, x1], [0.0, 0.0], color="0.5", linewidth=0.8, zorder=0)
@@ -179,29 +179,33 @@ def animate_walk(
     ]  # fmt: skip
     ax.legend(loc="upper right", fontsize="x-small", frameon=False, title="named as in step 1",
               title_fontsize="x-small")  # fmt: skip
-    clock = ax.set_title("")
-    with atomic_path(path, suffix=".gif") as temporary:
-        writer = PillowWriter(fps=fps)
-        with writer.saving(figure, temporary, dpi):
-            for index in picks:
-                for line, segment in zip(lines, segments, strict=True):
-                    line.set_data(segment[index].real, segment[index].imag)
-                if view < x1 - x0:  # follow the body, kept inside the walk's extent
-                    left = min(max(centres[index] - view / 2, x0), x1 - view)
-                    ax.set_xlim(left, left + view)
-                clock.set_text(
-                    f"{caption}t = {motion.time[index]:.3f} s, step {motion.step[index] + 1}"
-                )
-                writer.grab_frame()
+    clock = ax.set_title(f"{caption}t = {motion.time[-1]:.3f} s, step 99")  # laid out once
+    follow = view < x1 - x0
+    with GifFrames(figure, [*lines, clock], fps=fps, dpi=dpi, full=follow) as gif:
+        for index in picks:
+            for line, segment in zip(lines, segments, strict=True):
+                line.set_data(segment[index].real, segment[index].imag)
+            if follow:  # the body in view, the view inside the walk's extent
+                left = min(max(centres[index] - view / 2, x0), x1 - view)
+                ax.set_xlim(left, left + view)
+            clock.set_text(
+                f"{caption}t = {motion.time[index]:.3f} s, step {motion.step[index] + 1}"
+            )
+            gif.grab()
+        gif.save(path)
     return path
 
 
 def save_figure(figure: Figure, path: str | os.PathLike, dpi: float = 100.0) -> Path:
-    """Write ``figure`` as PNG atomically."""
+    """Write ``figure`` as PNG atomically, drawn once (``savefig`` draws a figure with a
+    layout engine twice: once to lay it out, once to print it)."""
     path = Path(os.fspath(path))
-    FigureCanvasAgg(figure)
+    figure.set_dpi(check_positive("dpi", dpi, "dots per inch"))
+    canvas = FigureCanvasAgg(figure)
+    canvas.draw()
+    image = Image.fromarray(np.asarray(canvas.buffer_rgba()))
     with atomic_path(path, suffix=path.suffix) as temporary:
-        figure.savefig(temporary, dpi=dpi, format="png")
+        image.save(temporary, format="PNG", dpi=(dpi, dpi))
     return path
 
 
