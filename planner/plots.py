@@ -27,6 +27,7 @@ from model.errors import (
     check_positive,
     check_real,
 )
+from planner.gif import GifFrames
 from planner.linkage_system import CONVENTION
 from planner.trajectory import (
     Trajectory,
@@ -220,8 +221,6 @@ def animate(
     -------
     The path written.
     """
-    from planner.gif import GifFrames
-
     _check_linkage(dynamics, trajectory)
     path = Path(os.fspath(path))
     if path.suffix.lower() != ".gif":
