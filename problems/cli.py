@@ -1425,7 +1425,7 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
                 with report.working("plotting closed_loop.png"):
                     walking_plots.save_figure(walking_plots.closed_loop_figure(closed),
                                               output.path("closed_loop.png"))  # fmt: skip
-                _draw_pushed_walk(closed, gait.problem.linkage, output, args.no_gif, report)
+                _draw_pushed_walk(closed, gait.problem.dynamics, output, args.no_gif, report)
         paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
     for path in paths:
         print(f"wrote {path}", file=out)
@@ -1509,14 +1509,14 @@ def _closed_loop(feedback, report, out):
     return check
 
 
-def _draw_pushed_walk(closed, linkage, output, no_gif: bool, report) -> None:
+def _draw_pushed_walk(closed, dynamics, output, no_gif: bool, report) -> None:
     """closed_loop_walk.png (and .gif): the simulated closed-loop walk that survived the
     largest forward push, in world coordinates."""
     from problems import walking_plots
     from problems.walking_feedback import PUSH_STEPS
 
     run = closed.push_runs[0]
-    motion = run.world(linkage, rate_hz=60.0)
+    motion = run.world(dynamics, rate_hz=60.0)
     what = (
         f"closed loop, simulated: a forward push of {closed.pushes[0]:.1f} N s on the torso "
         f"in step 2 (the largest survived), {run.walked}/{PUSH_STEPS} steps"

@@ -33,7 +33,7 @@ import numpy as np
 from model.errors import DefinitionError, check_integer, check_positive
 from planner.trajectory import Trajectory
 from problems.walking_control import TimedReference
-from problems.walking_feedback import with_gains
+from problems.walking_feedback import limit_metadata, with_gains
 from problems.walking_linearisation import ReturnMap, newton_fixed_point
 from problems.walking_lqr import Linearisation, LqrWeights, linearise_along, lqr_along
 from problems.walking_simulation import Plant, scaled_linkage
@@ -138,7 +138,7 @@ class PinnedFeedback:
             {
                 "law": LAW,
                 "phase": f"t / T mod 1, T = {self.period:g} s (the fixed-base gait's period)",
-                "limit_N_m": [float(v) if np.isfinite(v) else None for v in self.controller.limits],
+                "limit_N_m": limit_metadata(self.controller.limits),
                 "control_rate_hz": self.control_rate_hz,
                 "design": "periodic discrete LQR over the period (no impact), Bryson weights",
                 "weights": weights.as_metadata(),
@@ -174,20 +174,26 @@ def design_pinned_feedback(
 def period_map(plant: Plant, controller: PinnedLQR, start, jacobian: bool = True) -> ReturnMap:
     """x(T) from x(0) = ``start`` (2n,) under ``controller`` on ``plant``, and (``jacobian``)
     dx(T)/dx(0) by the chain of the periods' exact Jacobians (dF/dx + dF/dM dM/dx)."""
-    x = np.asarray(start, dtype=float).copy()
-    size = x.size
-    chain = np.eye(size)
+    start = np.asarray(start, dtype=float)
+    end, chain, _ = _one_period(plant, controller, start, jacobian)
+    if chain is None:
+        chain = np.full((start.size, start.size), np.nan)
+    return ReturnMap(start, end, chain, controller.period)
+
+
+def _one_period(plant: Plant, controller: PinnedLQR, x, jacobian: bool):
+    """(x(T), dx(T)/dx(0) or None, the largest |M| commanded, N m) from x(0) = x."""
+    chain = np.eye(x.size) if jacobian else None
+    peak = 0.0
     for k in range(controller.count):
         t = k * controller.h
         torques = controller.torques(t, x)
+        peak = max(peak, float(np.abs(torques).max()))
         if jacobian:
             dx, dm, _ = (np.asarray(v) for v in plant.advance_jacobian(x, torques, controller.h))
             chain = (dx + dm @ controller.jacobian(t, x)) @ chain
         x = np.asarray(plant.advance(x, torques, controller.h)).ravel()
-    return ReturnMap(
-        np.asarray(start, dtype=float), x, chain if jacobian else np.full((size, size), np.nan),
-        controller.period,
-    )  # fmt: skip
+    return x, chain, peak
 
 
 def closed_loop_orbit(feedback: PinnedFeedback, tolerance: float = 1e-10) -> ReturnMap:
@@ -232,19 +238,29 @@ def simulate_periods(
     linkage = feedback.gait.problem.linkage
     plant = feedback.plant if scale == 1.0 else Plant(scaled_linkage(linkage, scale), mu=None)
     controller = feedback.controller if closed else feedback.open_loop
-    x = feedback.reference.states[0].copy()
-    if initial is not None:
-        x = x + np.asarray(initial, dtype=float)
+    x = _start(feedback, initial)
     starts, peak = [x], 0.0
     for _ in range(periods):
-        for k in range(controller.count):
-            torques = controller.torques(k * controller.h, x)
-            peak = max(peak, float(np.abs(torques).max()))
-            x = np.asarray(plant.advance(x, torques, controller.h)).ravel()
+        x, _, period_peak = _one_period(plant, controller, x, jacobian=False)
+        peak = max(peak, period_peak)
         if not np.all(np.isfinite(x)):
             break
         starts.append(x)
     return PinnedRun.of(feedback, starts, peak)
+
+
+def _start(feedback: PinnedFeedback, initial) -> np.ndarray:
+    """The plan's start plus ``initial`` (2n,) or None."""
+    x = feedback.reference.states[0].copy()
+    if initial is None:
+        return x
+    initial = np.asarray(initial, dtype=float)
+    if initial.shape != x.shape:
+        raise DefinitionError(
+            f"`initial`: the error of the start state (psi, dpsi) has {x.size} entries, got "
+            f"shape {initial.shape}"
+        )
+    return x + initial
 
 
 def run_pinned_in_mujoco(
@@ -272,9 +288,7 @@ def run_pinned_in_mujoco(
     model.opt.timestep = controller.h / substeps  # every control instant on a MuJoCo step
     data = mujoco.MjData(model)
     n = len(feedback.names)
-    x = feedback.reference.states[0].copy()
-    if initial is not None:
-        x = x + np.asarray(initial, dtype=float)
+    x = _start(feedback, initial)
     data.qpos[:] = mjcf.qpos(x[:n])
     data.qvel[:] = mjcf.qvel(x[n:])
     mujoco.mj_forward(model, data)

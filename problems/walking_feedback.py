@@ -149,13 +149,18 @@ class Feedback:
                 "law": LAW,
                 "phase": PHASE.format(hip=self.step.biped.stance_thigh),
                 **law,
-                "limit_N_m": [float(v) if np.isfinite(v) else None for v in self.controller.limits],
+                "limit_N_m": limit_metadata(self.controller.limits),
                 "control_rate_hz": self.control_rate_hz,
                 "design": "periodic discrete LQR through the heel strike (saltation), "
                 "Bryson weights",
                 "weights": weights.as_metadata(),
             },
         )
+
+
+def limit_metadata(limits) -> list[float | None]:
+    """The drives' limits (n,) N m as a file's metadata holds them (None: unlimited)."""
+    return [float(v) if np.isfinite(v) else None for v in limits]
 
 
 def with_gains(trajectory: Trajectory, names, phases, gains, law: dict) -> Trajectory:
@@ -327,5 +332,6 @@ __all__ = [
     "closed_loop_check",
     "design_feedback",
     "disturbance_cases",
+    "limit_metadata",
     "with_gains",
 ]

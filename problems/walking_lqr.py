@@ -240,9 +240,14 @@ def periodic_lqr(
     period = 1.0 / check_positive("control_rate_hz", control_rate_hz, "Hz")
     along = linearise_along(plant, reference, period)
     gains, cost, cycles = lqr_along(along, weights, passive)
-    n = plant.n
-    phases = np.array([reference.phase(reference.at_time(t)[0][:n]) for t in along.times])
+    phases = _phases_at(reference, along.times)
     return PeriodicGains(phases, along.times, gains, cost, cycles, weights)
+
+
+def _phases_at(reference: GaitReference, times) -> np.ndarray:
+    """s of the plan's state at each of ``times`` (s since the reference's start)."""
+    n = reference.n
+    return np.array([reference.phase(reference.at_time(t)[0][:n]) for t in times])
 
 
 def double_support_lqr(
@@ -261,14 +266,13 @@ def double_support_lqr(
     period = 1.0 / check_positive("control_rate_hz", control_rate_hz, "Hz")
     along = linearise_double_support(plant, single, double, period)
     gains, cost, cycles = lqr_along(along, weights, passive)
-    n = plant.n
     first = int(np.ceil(single.duration / period - 1e-9))  # the single support's periods
     out = []
     for reference, rows, times in (
         (single, slice(0, first), along.times[:first]),
         (double, slice(first + 1, None), along.times[first + 1 :] - single.duration),
     ):
-        phases = np.array([reference.phase(reference.at_time(t)[0][:n]) for t in times])
+        phases = _phases_at(reference, times)
         out.append(PeriodicGains(phases, times, gains[rows], cost, cycles, weights))
     return out[0], out[1]
 

@@ -158,17 +158,18 @@ class WalkingRun:
         """Steps completed (heel strikes that the model accepted)."""
         return len(self.steps)
 
-    def world(self, linkage: Linkage, rate_hz: float = 100.0) -> WorldMotion:
-        """The run's bodies in world coordinates (``linkage`` the simulated biped's), sampled
-        at about ``rate_hz`` (every control instant nearest a multiple of 1 / rate_hz) and at
-        its last instant, for :func:`problems.walking_plots.world_strip` and
+    def world(self, dynamics: Dynamics, rate_hz: float = 100.0) -> WorldMotion:
+        """The run's bodies in world coordinates (``dynamics`` the simulated biped's model,
+        e.g. the plan's ``step.dynamics``), sampled at about ``rate_hz`` (every control
+        instant nearest a multiple of 1 / rate_hz) and at its last instant, for
+        :func:`problems.walking_plots.world_strip` and
         :func:`problems.walking_plots.animate_walk`."""
         rate = check_positive("rate_hz", rate_hz, "Hz")
         marks = np.arange(self.time[0], self.time[-1], 1.0 / rate)
         picks = np.unique(np.r_[np.searchsorted(self.time, marks), self.time.size - 1])
         return world_motion(
-            Biped.of(linkage),
-            Dynamics(linkage),
+            Biped.of(dynamics.linkage),
+            dynamics,
             self.time[picks],
             self.states[picks],
             self.step[picks],
@@ -291,11 +292,10 @@ class Plant:
         psi, dpsi = x[:n], x[n:]
         ddpsi, front = self.foot.function("held_dynamics")(psi, dpsi, torques)
         fx, fy = self.dynamics.function("ground_reaction")(psi, dpsi, ddpsi)  # both feet's
-        _, heights = self.observe(x, torques)
         return ca.Function(
             "observe_double",
             [x, torques],
-            [ca.vertcat(fx, fy) - front, front, heights],
+            [ca.vertcat(fx, fy) - front, front, self._heights(psi)],
             ["x", "M"],
             ["rear", "front", "heights"],
         )
@@ -309,17 +309,22 @@ class Plant:
         psi, dpsi = x[:n], x[n:]
         ddpsi = self.dynamics.function("forward_dynamics")(psi, dpsi, torques)
         fx, fy = self.dynamics.function("ground_reaction")(psi, dpsi, ddpsi)
-        heights = []
-        for name in self.dynamics.names:
-            if name != self.biped.swing_shank:
-                heights.append(self.dynamics.point(name).function("position")(psi)[1])
         return ca.Function(
             "observe",
             [x, torques],
-            [ca.vertcat(fx, fy), ca.vertcat(*heights)],
+            [ca.vertcat(fx, fy), self._heights(psi)],
             ["x", "M"],
             ["reaction", "heights"],
         )
+
+    def _heights(self, psi) -> ca.SX:
+        """The heights of every hinge and link end but the swing foot, m: what must stay
+        above the ground."""
+        return ca.vertcat(*[
+            self.dynamics.point(name).function("position")(psi)[1]
+            for name in self.dynamics.names
+            if name != self.biped.swing_shank
+        ])  # fmt: skip
 
     def push_velocity(self, x: np.ndarray, impulse: complex, link: str) -> np.ndarray:
         """dpsi after an impulse (complex N s) on ``link``'s centre of mass: M^-1 J^T P."""
@@ -487,17 +492,21 @@ def simulate_walking(
                 torques = np.clip(torques, -limit, limit)
             if strike is None:
                 reaction, heights = (np.asarray(v).ravel() for v in plant.observe(x, torques))
-                problem = _contact_problem(reaction, plant.mu, slack, heights, foothold, ground)
+                front = None
             else:
                 reaction, front, heights = (
                     np.asarray(v).ravel() for v in plant.observe_double(x, torques)
                 )
-                rear = _contact_problem(reaction, plant.mu, slack, heights, foothold, ground)
-                if rear is not None and reaction[1] < unloaded and "stance foot" in rear:
-                    # The rear foot, unloaded as the plan's lift-off defines it, leaves the
-                    # cone: it rolls off, as a foot does. The legs swap now, a little early.
-                    break
-                problem = rear or _front_problem(front, plant.mu, slack)
+            stance = _cone_problem("stance", reaction, plant.mu, slack)
+            if stance is not None and front is not None and reaction[1] < unloaded:
+                # The rear foot, unloaded as the plan's lift-off defines it, leaves the
+                # cone: it rolls off, as a foot does. The legs swap now, a little early.
+                break
+            problem = (
+                stance
+                or _ground_problem(heights, foothold, ground)
+                or (None if front is None else _cone_problem("front", front, plant.mu, slack))
+            )
             log.time.append(clock + t)
             log.states.append(x.copy())
             log.torques.append(torques)
@@ -686,24 +695,20 @@ def locate_event(advance, x, torques, period: float, value):
     return high, state
 
 
-def _contact_problem(reaction, mu, slack, heights, foothold: complex, ground) -> str | None:
-    fx, fy = reaction
+def _cone_problem(foot: str, force, mu, slack) -> str | None:
+    """Why the ``foot`` ("stance", "front") cannot carry ``force`` (Fx, Fy) N, or None."""
+    fx, fy = force
     if fy < -slack:
-        return f"the stance foot is pulled off the ground (Fy = {fy:.1f} N)"
+        return f"the {foot} foot is pulled off the ground (Fy = {fy:.1f} N)"
     if abs(fx) > mu * fy + slack:
-        return f"the stance foot slips (|Fx| = {abs(fx):.1f} N > mu Fy = {mu * fy:.1f} N)"
-    low = float(np.min(heights)) + foothold.imag - ground(foothold.real)
-    if low < -1e-9:
-        return f"a body point is {-low * 1000:.1f} mm under the ground"
+        return f"the {foot} foot slips (|Fx| = {abs(fx):.1f} N > mu Fy = {mu * fy:.1f} N)"
     return None
 
 
-def _front_problem(front, mu, slack) -> str | None:
-    fx, fy = front
-    if fy < -slack:
-        return f"the front foot is pulled off the ground (Fy = {fy:.1f} N)"
-    if abs(fx) > mu * fy + slack:
-        return f"the front foot slips (|Fx| = {abs(fx):.1f} N > mu Fy = {mu * fy:.1f} N)"
+def _ground_problem(heights, foothold: complex, ground) -> str | None:
+    low = float(np.min(heights)) + foothold.imag - ground(foothold.real)
+    if low < -1e-9:
+        return f"a body point is {-low * 1000:.1f} mm under the ground"
     return None
 
 

@@ -142,3 +142,21 @@ def test_mujoco_holds_the_gait_under_the_gains_and_drops_it_without(designed):
     assert np.abs(closed.starts[-1] - closed.starts[-2]).max() < 1e-6
     opened = run_pinned_in_mujoco(feedback, periods=2, initial=error, closed=False)
     assert opened.deviation[-1] > 1.0
+
+
+def test_bad_inputs_are_named(designed):
+    from model import DefinitionError
+    from problems.walking_feedback import with_gains
+
+    gait, feedback = designed
+    with pytest.raises(DefinitionError, match=r"`initial`: the error of the start state .* 12 "):
+        simulate_periods(feedback, periods=1, initial=[0.02, 0.0])
+    with pytest.raises(DefinitionError, match=r"`gains`: one per control period \(250\), got 3"):
+        PinnedLQR(feedback.reference, feedback.controller.gains[:3])
+    trajectory = gait.to_trajectory(RATE_HZ)
+    with pytest.raises(DefinitionError, match=r"`gains`: \(samples, n, 2n\) = \(251, 6, 12\)"):
+        with_gains(
+            trajectory, gait.problem.linkage.names, trajectory.time, np.zeros((3, 6, 12)), {}
+        )
+    with pytest.raises(DefinitionError, match=r"`periods`: must be >= 1"):
+        simulate_periods(feedback, periods=0)

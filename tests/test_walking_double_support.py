@@ -203,3 +203,13 @@ def test_mujoco_refuses_the_double_support_step_by_name(plan):
     # measured: MuJoCo's soft ground throws the front foot 2 to 13 cm back up at touchdown
     with pytest.raises(DefinitionError, match="double support does not run in MuJoCo yet"):
         run_in_mujoco(feedback, steps=1)
+
+
+def test_an_unknown_end_of_a_linearised_stretch_is_named(plan):
+    from model import DefinitionError
+    from problems.walking_lqr import linearise_along
+
+    _, gait, plant = plan
+    single, _ = GaitReference.branches(gait, rate_hz=1000.0)
+    with pytest.raises(DefinitionError, match=r"`end`: one of \('strike', 'held strike'"):
+        linearise_along(plant, single, 1e-3, end="touchdown")

@@ -157,7 +157,7 @@ def test_a_runs_world_motion_stands_each_step_on_its_foothold(plan, tmp_path):
     step, _, _ = plan
     run = _run(plan, _pd(plan), steps=3)
     assert run.walked == 3, run.fell
-    motion = run.world(step.linkage, rate_hz=50.0)
+    motion = run.world(step.dynamics, rate_hz=50.0)
     stance, swing = step.biped.stance_shank, step.biped.swing_shank
     even = motion.step % 2 == 0
     # a body keeps its first step's name and ends (the stance shank from its foot, the swing
@@ -180,8 +180,12 @@ def test_a_runs_world_motion_stands_each_step_on_its_foothold(plan, tmp_path):
     assert motion.time[-1] == run.time[-1] and np.all(np.diff(motion.time) > 0)
     from problems.walking_plots import animate_walk
 
-    path = animate_walk(motion, tmp_path / "run.gif", fps=10.0, caption="3 steps; ")
+    path = animate_walk(motion, tmp_path / "run.gif", fps=10.0, caption="3 steps; ", window=1.0)
     assert path.read_bytes()[:6] == b"GIF89a"
+    with pytest.raises(DefinitionError, match=r"`window`: must be > 0"):
+        animate_walk(motion, tmp_path / "bad.gif", window=0.0)
+    with pytest.raises(DefinitionError, match=r"`rate_hz`: must be > 0"):
+        run.world(step.dynamics, rate_hz=0.0)
 
 
 def test_disturbances_are_applied(plan):
