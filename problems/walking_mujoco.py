@@ -148,8 +148,8 @@ def run_in_mujoco(
     is changed, the controller keeps the plan's).
 
     Not for a step with a double support: its front foot rebounds off MuJoCo's soft ground
-    at touchdown (measured: 0.2 kN for 2 ms, then 2 to 13 cm up), while the closed chain's
-    law pulls as if it were held; that needs a touchdown the law can wait for (open work).
+    at touchdown, while the closed chain's law pulls as if it were held; that needs a
+    touchdown the law can wait for (open work).
     """
     if feedback.double is not None:
         raise DefinitionError(

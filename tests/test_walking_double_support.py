@@ -200,7 +200,7 @@ def test_mujoco_refuses_the_double_support_step_by_name(plan):
 
     _, gait, _ = plan
     feedback = design_feedback(gait, ground_mu=GROUND_MU)
-    # measured: MuJoCo's soft ground throws the front foot 2 to 13 cm back up at touchdown
+    # MuJoCo's soft ground throws the front foot back up at touchdown: refused, by name
     with pytest.raises(DefinitionError, match="double support does not run in MuJoCo yet"):
         run_in_mujoco(feedback, steps=1)
 

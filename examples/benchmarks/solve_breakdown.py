@@ -19,6 +19,10 @@ alone: what a study, a refinement or a continuation repeats), split by IPOPT's o
 * outside: the wall time of the solver call less IPOPT's ``OverallAlgorithm``: CasADi's own
   work around IPOPT (argument checks, copies) and anything else the product adds per call.
 
+A last row solves the six-link walking step again with its NLP expanded to SX (CasADi's
+``expand``; ``planner.solve(ocp, expand=True)``): what the expansion saves per iteration on a
+structure solved more than once.
+
 The columns are ms per iteration; ``/ floor`` is the solve's wall time over the linear
 solver's: how far the solve is from what the linear algebra alone would take. Medians of
 ``--repeat`` solves per problem, all in one run (the machine is shared: compare the ratios).
@@ -75,17 +79,19 @@ def _ipopt_timers(path: Path) -> dict[str, float]:
     return out
 
 
-def breakdown(ocp, repeat: int) -> dict:
-    """Medians of ``repeat`` solves of ``ocp`` (one solver, built before the first)."""
-    transcription = Transcription(ocp)
+def breakdown(ocp, repeat: int, expand: bool = False) -> dict:
+    """Medians of ``repeat`` solves of ``ocp`` (one solver, built before the first);
+    ``expand``: the NLP expanded to SX (``planner.solve(ocp, expand=True)``)."""
+    problem, extra = (ocp, {"expand": True}) if expand else (Transcription(ocp), {})
     rows = []
     with tempfile.TemporaryDirectory() as folder:
         log = Path(folder) / "ipopt.txt"
         options = {"print_timing_statistics": "yes", "output_file": str(log),
                    "file_print_level": 3}  # fmt: skip
-        solve(transcription, progress=False, options=options)  # builds and caches the solver
+        solve(problem, progress=False, options=options, **extra)  # builds and caches the solver
         for _ in range(repeat):
-            solution = solve(transcription, progress=False, options=options, warm_start=False)
+            solution = solve(problem, progress=False, options=options, warm_start=False,
+                             **extra)  # fmt: skip
             stats = solution.stats
             ipopt = stats["ipopt"]
             timers = _ipopt_timers(log)
@@ -118,8 +124,10 @@ def main() -> None:
     head = f"{'problem':<44} {'iter':>4} " + " ".join(f"{h:>7}" for h in heads)
     print(head + f" {'/ floor':>8} {'functions':>9}")
     print("-" * (len(head) + 19))
-    for label, ocp in problems().items():
-        row = breakdown(ocp, args.repeat)
+    cases = [(label, ocp, False) for label, ocp in problems().items()]
+    cases.append(("  the same six-link step, NLP expanded to SX", walking_step().ocp, True))
+    for label, ocp, expand in cases:
+        row = breakdown(ocp, args.repeat, expand)
         functions = sum(row[name] for name in FUNCTIONS)
         cells = " ".join(f"{row[c]:7.3f}" for c in columns)
         print(f"{label:<44} {row['iterations']:4.0f} {cells} {row['wall'] / row['linear']:8.2f} "
