@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from model import presets
+from model import Dynamics, presets
 from problems import LAW_PRESETS, GaitLaw, torques_along
 from problems.cli import MAX_RATE_HZ, positive
 
@@ -43,7 +43,7 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="skip the stick-figure strip")
     args = parser.parse_args(argv)
 
-    dynamics = presets.six_link_anthropoid().dynamics()
+    dynamics = Dynamics(presets.six_link_anthropoid())
     law = GaitLaw.preset(args.law)
     samples = max(2, round(law.period * args.rate_hz) + 1)
     profile = torques_along(dynamics, law, np.linspace(0.0, law.period, samples))
@@ -56,11 +56,12 @@ def main(argv=None) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")
     import matplotlib.pyplot as plt
 
+    from model import drawing
     from planner import plots
 
     plots.plot_trajectory(profile).savefig(folder / "first_problem.png", dpi=100)
     if not args.quick:
-        strip = plots.stick_figure_strip(dynamics, profile)
+        strip = drawing.stick_figure_strip(dynamics, profile)
         strip.savefig(folder / "first_problem_sticks.png", dpi=100)
     plt.close("all")
 

@@ -25,8 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from model import presets
-from planner.trajectory import Trajectory
+from model import Dynamics, LinkageTrajectory, presets
 from problems import LAW_PRESETS, GaitLaw, fit_growth_rate, simulate, torques_along
 from problems.cli import positive
 
@@ -44,7 +43,7 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="0.8 s horizon")
     args = parser.parse_args(argv)
 
-    dynamics = presets.six_link_anthropoid().dynamics()
+    dynamics = Dynamics(presets.six_link_anthropoid())
     folder = Path(args.output_dir)
     folder.mkdir(parents=True, exist_ok=True)
     source = folder / "first_problem.csv"
@@ -53,7 +52,7 @@ def main(argv=None) -> int:
         profile = torques_along(dynamics, law, np.linspace(0.0, law.period, 1001))
         profile.save(source)
         print(f"wrote {source} (it was missing)")
-    profile = Trajectory.load(source)
+    profile = LinkageTrajectory.load(source)
     if "law" in profile.metadata:  # written by torques_along: the law it was made from
         law = GaitLaw.from_dict(profile.metadata["law"])
         if args.law is not None and law != GaitLaw.preset(args.law):

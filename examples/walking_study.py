@@ -33,7 +33,7 @@ def peak_ankle_power(gait) -> float:
     """A user-defined output: the largest |M dpsi| at the stance ankle H0 over the nodes, W."""
     solution = gait.solution
     n = gait.problem.linkage.n
-    return float(np.max(np.abs(solution.torques[:, 0] * solution.states[:, n])))
+    return float(np.max(np.abs(solution.drives[:, 0] * solution.states[:, n])))
 
 
 def main(argv=None) -> int:

@@ -1,7 +1,7 @@
 """Complex-variable Lagrange models of planar link trees, generated as CasADi SX.
 
 >>> from model import presets
->>> dyn = presets.six_link_anthropoid().dynamics()
+>>> dyn = Dynamics(presets.six_link_anthropoid())
 >>> dyn.inverse_dynamics(psi, dpsi, ddpsi)        # hinge torques, N m
 >>> foot = dyn.point("swing_shank")               # the end hinge of the swing shank
 >>> dyn.floating.mass_matrix(psi)                 # q = (x0, y0, psi): (n + 2, n + 2)
@@ -11,13 +11,15 @@
 
 from model import presets
 from model.dynamics import FUNCTIONS, Dynamics
-from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from model.floating import FLOATING_FUNCTIONS, FloatingBase
 from model.impact import ImpactMap
 from model.linkage import Link, Linkage
+from model.linkage_system import linkage_system
+from model.linkage_trajectory import LinkageTrajectory
 from model.mjcf import MjcfModel, to_mjcf
 from model.points import POINT_FUNCTIONS, LinkPoint, PointKinematics
 from model.rerooting import Rerooting, reroot, swap_legs
+from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 
 __all__ = [
     "FLOATING_FUNCTIONS",
@@ -32,9 +34,11 @@ __all__ = [
     "Link",
     "LinkPoint",
     "Linkage",
+    "LinkageTrajectory",
     "MjcfModel",
     "PointKinematics",
     "Rerooting",
+    "linkage_system",
     "presets",
     "reroot",
     "swap_legs",

@@ -33,12 +33,14 @@ import casadi as ca
 import numpy as np
 
 from model.complex_sx import Constants, Cx, apply, expj, imag_of_conj_product, times_constants
-from model.errors import DefinitionError, DefinitionTypeError, check_states
 from model.floating import FloatingBase
 from model.impact import ImpactMap
 from model.linkage import Linkage
+from model.linkage_system import linkage_system
 from model.numpy_tape import NumpyTape
 from model.points import LinkPoint, PointKinematics
+from planner.errors import DefinitionError, DefinitionTypeError, check_states
+from planner.system import System
 
 logger = logging.getLogger(__name__)
 
@@ -132,6 +134,18 @@ class Dynamics:
         self._mass_dm = ca.DM(self._mass)
         self._weight_dm = ca.DM(self._mass) * linkage.gravity
         self._inertia_dm = ca.DM(self._inertia)
+
+    #: The formulation of the planner's System when an OCP names none (``planner.OCP``).
+    default_formulation = "implicit"
+
+    def as_system(self, formulation: str = "implicit", contacts: Sequence = ()) -> System:
+        """This model as a ``planner.System`` (x = [psi; dpsi], u = M and the ground forces of
+        ``contacts``, z = ddpsi when implicit): what ``planner.OCP(dynamics)`` calls, through
+        the linkage adapter :func:`model.linkage_system.linkage_system`.
+
+        ``contacts``: points held by the ground (link names for their end hinges, or
+        ``LinkPoint``), whose ground forces F_<point>_x, _y (N) become controls."""
+        return linkage_system(self, formulation, contacts)
 
     def subtree_moments(self) -> tuple[list[float], list[complex]]:
         """(mass of each link's subtree, kg; first moment K_m of each subtree about the link's

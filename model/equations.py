@@ -36,10 +36,10 @@ import casadi as ca
 import numpy as np
 
 from model.complex_sx import Cx, expj
-from model.dynamics import FUNCTIONS
-from model.errors import DefinitionError, DefinitionTypeError, check_states
+from model.dynamics import FUNCTIONS, Dynamics
 from model.linkage import Linkage
 from model.presets import PRESETS, SIX_LINK_TABLE
+from planner.errors import DefinitionError, DefinitionTypeError, check_states
 
 __all__ = [
     "AD_FUNCTIONS",
@@ -840,7 +840,7 @@ def derivation_comparison(
             raise DefinitionError(
                 f"`derivations`: unknown {label!r}; choose from {list(DERIVATIONS)}"
             )
-    dynamics = linkage.dynamics()
+    dynamics = Dynamics(linkage)
     rows = []
     for name in functions:
         for label in derivations:

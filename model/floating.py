@@ -23,16 +23,17 @@ L D L^T that eliminates leaves first has no fill-in (``model.impact`` uses it).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from model.complex_sx import Constants, times_constants
-from model.errors import DefinitionError
+from planner.errors import DefinitionError
 
-if TYPE_CHECKING:  # the Dynamics builds its floating twin; this module only calls back
-    from model.dynamics import Dynamics
+#: The owner a part calls back into: the ``model.Dynamics`` that built it. Named, not
+#: imported: dynamics.py imports this module, and an import back would close a circle.
+Dynamics = Any
 
 #: name -> (input names, output names, description)
 FLOATING_FUNCTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], str]] = {

@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
+from planner.errors import DefinitionError, DefinitionTypeError
 
 if TYPE_CHECKING:  # built by Dynamics.impact
     from model.points import PointKinematics

@@ -22,7 +22,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
-from model.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
+from planner.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 
 
 @dataclass(frozen=True)
@@ -442,12 +442,6 @@ class Linkage:
     def __repr__(self) -> str:
         rows = ", ".join(f"{link.name}<-{link.parent or 'ground'}" for link in self._links)
         return f"Linkage({self.n} links: {rows}; g={self._gravity})"
-
-    def dynamics(self):
-        """The complex-variable Lagrange model of this tree (functions built on demand)."""
-        from model.dynamics import Dynamics
-
-        return Dynamics(self)
 
 
 def total_mass(linkage: Linkage) -> float:

@@ -45,8 +45,8 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError, check_positive
 from model.linkage import Linkage
+from planner.errors import DefinitionError, DefinitionTypeError, check_positive
 
 #: MuJoCo's hinge axis for the model's counter-clockwise angle (a rotation about -y)
 HINGE_AXIS = "0 -1 0"

@@ -23,17 +23,18 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any
 
 import casadi as ca
 import numpy as np
 
 from model.complex_sx import Cx
-from model.errors import DefinitionError, DefinitionTypeError, check_real
 from model.linkage import Linkage
+from planner.errors import DefinitionError, DefinitionTypeError, check_real
 
-if TYPE_CHECKING:  # the Dynamics builds points; points only call back into it
-    from model.dynamics import Dynamics
+#: The owner a part calls back into: the ``model.Dynamics`` that built it. Named, not
+#: imported: dynamics.py imports this module, and an import back would close a circle.
+Dynamics = Any
 
 #: kind -> (input names, output names, description)
 POINT_FUNCTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], str]] = {

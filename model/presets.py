@@ -7,8 +7,8 @@ thigh, 4 swing shank, 5 torso, 6 head, with J about each centre of mass.
 
 from __future__ import annotations
 
-from model.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 from model.linkage import Link, Linkage
+from planner.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 
 #: The scene.md table: name, parent, l (m), m (kg), n, J (kg m^2).
 SIX_LINK_TABLE: tuple[tuple[str, str | None, float, float, float, float], ...] = (

@@ -33,9 +33,9 @@ from dataclasses import dataclass, field, replace
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError, check_states
 from model.linkage import Link, Linkage
 from model.points import LinkPoint
+from planner.errors import DefinitionError, DefinitionTypeError, check_states
 
 
 @dataclass(frozen=True, eq=False)

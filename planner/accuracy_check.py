@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from model.errors import AnthropoidError, check_positive
+from planner.errors import AnthropoidError, check_positive
 from planner.phases_solution import PhasesSolution
 from planner.simulation import SimulationError
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError
+from planner.errors import DefinitionError
 
 #: Orthogonal collocation families and the name ``casadi.collocation_points`` uses for each.
 FAMILIES = {"radau": "radau", "legendre": "legendre"}

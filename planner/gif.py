@@ -26,7 +26,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from PIL import Image
 
-from model.errors import DefinitionError, check_positive
+from planner.errors import DefinitionError, check_positive
 from planner.files import atomic_path
 
 

@@ -1,8 +1,9 @@
 """Initial guesses of an OCP: layers of values, and what each gives at given times.
 
 A :class:`GuessLayer` is one source of guesses (``OCP.guess``): constants, arrays on a time
-grid, a callable of time (a gait law), or an earlier :class:`planner.Solution` or
-:class:`planner.Trajectory` re-gridded in normalised time. Later layers override earlier
+grid, a callable of time (a gait law), or an earlier result (a :class:`planner.Solution` or
+:class:`planner.Trajectory`: anything that is a :class:`SampledGuess`) re-gridded in
+normalised time. Later layers override earlier
 ones variable by variable; :func:`evaluate_guess_layer` gives a layer's values at the times
 of a mesh (the transcription's initial guess) or at a few probe times (``OCP.guess`` checks a
 callable when it is given).
@@ -10,18 +11,29 @@ callable when it is given).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError, as_float_array
-from planner.solution import Solution
-from planner.trajectory import Trajectory
+from planner.errors import DefinitionError, DefinitionTypeError, as_float_array
+from planner.system import System
 
-if TYPE_CHECKING:
-    from planner.ocp import OCPDefinition
+
+@runtime_checkable
+class SampledGuess(Protocol):
+    """An earlier result that guesses another problem (a Solution, a Trajectory): its duration,
+    s, and its values by name, (K,) each, at normalised times s = (t - t0) / duration."""
+
+    @property
+    def duration(self) -> float:
+        """The time the result spans, s."""
+        ...
+
+    def interpolate_guess(self, s: np.ndarray) -> dict[str, np.ndarray]:
+        """name -> (K,) values at the normalised times ``s`` (K,) in [0, 1]."""
+        ...
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,7 +42,7 @@ class GuessLayer:
 
     kind: "constant" (values: name -> float or array over a group), "grid" (times (K,) s and
     values: name -> (K,) or (K, group size)), "callable" (source: t (K,) -> dict or tuple),
-    "solution" (source: a Solution or Trajectory re-gridded in normalised time).
+    "solution" (source: a :class:`SampledGuess`, re-gridded in normalised time).
     """
 
     kind: str
@@ -44,18 +56,16 @@ class GuessLayer:
         return f"{self.kind}({type(self.source).__name__})"
 
 
-def source_duration(source: Solution | Trajectory) -> float:
-    """Duration, s, of a Solution (``T``) or a Trajectory (its time span)."""
-    if isinstance(source, Solution):
-        return float(source.T)
-    return float(source.time[-1] - source.time[0])
-
-
 def evaluate_guess_layer(
-    ocp: OCPDefinition, layer: GuessLayer, times: np.ndarray
+    system: System,
+    duration_guess: float,
+    resolve: Callable[[str, str], tuple[str, ...]],
+    layer: GuessLayer,
+    times: np.ndarray,
 ) -> dict[str, np.ndarray]:
-    """Values (name -> (K,)) that one guess layer gives at ``times`` (s)."""
-    system = ocp.system
+    """Values (name -> (K,)) that one guess layer gives at ``times`` (s), for an OCP of
+    ``system`` whose duration is guessed ``duration_guess`` (s); ``resolve(key, field)``: the
+    variable names a key of a guess function's dict stands for (``OCP.resolve``)."""
     K = times.size
     if layer.kind == "constant":
         return {name: np.full(K, float(v)) for name, v in layer.values.items()}
@@ -68,18 +78,11 @@ def evaluate_guess_layer(
                 out[name] = np.interp(times, layer.times, values)
         return out
     if layer.kind == "solution":
-        source = layer.source
-        s = times / ocp.duration_guess
-        if isinstance(source, Solution):
-            return source.interpolate_guess(s)
-        t0, t1 = float(source.time[0]), float(source.time[-1])
-        states, controls = source.at(t0 + s * (t1 - t0))
-        out = {n: states[:, i] for i, n in enumerate(source.state_names)}
-        out.update({n: controls[:, i] for i, n in enumerate(source.control_names)})
-        for name, (values, _unit) in source.extras.items():
-            if name in system.aux_names:
-                out[name] = np.interp(t0 + s * (t1 - t0), np.asarray(source.time), values)
-        return {n: v for n, v in out.items() if n in system.variable_names}
+        values = layer.source.interpolate_guess(times / duration_guess)
+        # Only what names a variable (or a derived field, which completes other guesses) of
+        # this system: the source may be of another system.
+        derived = {name for field in system.derived for name in field.names}
+        return {n: v for n, v in values.items() if n in system.variable_names or n in derived}
     # callable of t
     try:
         result = layer.source(times)
@@ -111,7 +114,7 @@ def evaluate_guess_layer(
         elif key == "z" and system.group(key) is None:
             continue  # an explicit system has no auxiliary variables: nothing to guess
         else:
-            names = ocp.resolve(key, "guess")
+            names = resolve(key, "guess")
         array = as_float_array(f"guess[{key}]", value, "numeric")
         m = len(names)
         if array.ndim == 1 and m == 1 and array.size == K:
@@ -136,4 +139,4 @@ def evaluate_guess_layer(
     return out
 
 
-__all__ = ["GuessLayer", "evaluate_guess_layer", "source_duration"]
+__all__ = ["GuessLayer", "SampledGuess", "evaluate_guess_layer"]

@@ -5,7 +5,7 @@ An :class:`OCP` is a frozen dataclass. Builder methods (``bound``, ``constrain``
 ``guess``) return a new OCP and never change the old one, so a definition can be printed,
 copied (``dataclasses.replace``, ``copy.copy``), refined (``ocp.refine(N=80)``) and solved any
 number of times. Every argument is validated when it is given: a mistake raises
-:class:`model.errors.DefinitionError` (or ``DefinitionTypeError``) naming the field, the value
+:class:`planner.errors.DefinitionError` (or ``DefinitionTypeError``) naming the field, the value
 and the fix, never a CasADi stack trace at solve time.
 
 >>> ocp = (OCP(dynamics, T=1.0, N=50)                   # model.Dynamics: psi, dpsi; M
@@ -25,8 +25,9 @@ formulations and control rates (``du``; a linkage's ``dM``, ``dM_<link>``).
 Variables. The OCP knows its model only through a :class:`planner.system.System`, which names
 them: states x (nx,), controls u (nu,) and, in the implicit formulation, auxiliary variables
 z (nz,) that stand for the state derivatives the residual needs, with their groups and units.
-A ``model.Dynamics`` becomes one through the linkage adapter
-(:func:`planner.linkage_system.linkage_system`, the linkage naming convention): x = [psi;
+A model that knows how to be one offers ``as_system`` (:class:`planner.system.SystemSource`):
+a ``model.Dynamics`` through the linkage adapter (:mod:`model.linkage_system`, the linkage
+naming convention, which the planner never spells): x = [psi;
 dpsi] (states ``psi_<link>`` rad, ``dpsi_<link>`` rad/s), u = M (``M_<link>``, N m) and,
 implicit only, z = ddpsi (``ddpsi_<link>``, rad/s^2); groups ``psi``, ``dpsi``, ``ddpsi``,
 ``M``. A CasADi ODE Function f(x, u[, t]) -> xdot becomes one with groups ``x`` and ``u``;
@@ -45,21 +46,17 @@ from typing import TYPE_CHECKING, Any
 import casadi as ca
 import numpy as np
 
-from model.dynamics import Dynamics
-from model.errors import (
+from planner import schemes
+from planner.errors import (
     DefinitionError,
     DefinitionTypeError,
     as_float_array,
     check_finite,
     check_integer,
 )
-from planner import schemes
-from planner.guesses import GuessLayer, evaluate_guess_layer, source_duration
-from planner.linkage_system import linkage_system
+from planner.guesses import GuessLayer, SampledGuess, evaluate_guess_layer
 from planner.schemes import TRANSCRIPTIONS
-from planner.solution import Solution
-from planner.system import System
-from planner.trajectory import Trajectory
+from planner.system import System, SystemSource
 
 if TYPE_CHECKING:
     from typing import Self
@@ -553,7 +550,8 @@ class OCPDefinition:
 
     Parameters
     ----------
-    dynamics : model.Dynamics, or a casadi.Function f(x, u[, t]) -> xdot (``formulation``
+    dynamics : a model that is a :class:`planner.system.SystemSource` (``model.Dynamics``), a
+        ``planner.System``, or a casadi.Function f(x, u[, t]) -> xdot (``formulation``
         "explicit", the default for Functions) or r(x, xdot, u[, t]) -> (nx,) ("implicit").
     T : duration, s: a number (fixed) or a pair (lower, upper) (free; guess with ``guess(T=)``).
     N : number of mesh intervals, >= 1 (uniform, h = T / N, unless ``mesh`` is given).
@@ -568,7 +566,7 @@ class OCPDefinition:
         to 1: the fractions of T), for a non-uniform mesh; None (default): uniform.
     contacts : points of a linkage held by the ground (link names for their end hinges, or
         ``model.LinkPoint``): their ground forces become controls ``F_<point>_x/_y`` (group
-        ``F``, N) acting on the tree (:meth:`System.from_dynamics`); a model.Dynamics only.
+        ``F``, N) acting on the tree (the model's ``as_system`` places them); a model only.
     dynamics_params : names of static parameters the dynamics Function reads: its last
         inputs, one scalar each, in this order (f(x, u[, t], p_1, ..., p_m)); declare each
         with :meth:`param` (bounds, guess, scale) so that it is designed with the motion
@@ -602,14 +600,23 @@ class OCPDefinition:
 
     def __post_init__(self) -> None:
         dynamics = self.dynamics
-        if not isinstance(dynamics, Dynamics | ca.Function | System):
+        # A model that knows how to be a System (model.Dynamics: the linkage adapter) offers
+        # ``as_system``; the planner reads nothing else of it.
+        source = isinstance(dynamics, SystemSource)
+        if not isinstance(dynamics, ca.Function | System) and not source:
             raise DefinitionTypeError(
-                "`dynamics`: must be a model.Dynamics or a casadi.Function f(x, u[, t]) -> xdot "
-                f"(or a planner System from an adapter), got {type(dynamics).__name__}"
+                "`dynamics`: must be a model (e.g. model.Dynamics: anything with "
+                "as_system(formulation, contacts) -> planner.System), a planner.System or a "
+                f"casadi.Function f(x, u[, t]) -> xdot, got {type(dynamics).__name__}"
             )
-        linkage = isinstance(dynamics, Dynamics)
         given = isinstance(dynamics, System)
-        default = dynamics.formulation if given else "implicit" if linkage else "explicit"
+        default = (
+            dynamics.formulation
+            if given
+            else dynamics.default_formulation
+            if source
+            else "explicit"
+        )
         formulation = self.formulation or default
         if formulation not in FORMULATIONS:
             raise DefinitionError(
@@ -620,10 +627,10 @@ class OCPDefinition:
                 f"`formulation`: the System given is {dynamics.formulation}, got "
                 f"{formulation!r}; build the System in the formulation wanted"
             )
-        if self.contacts and not linkage:
+        if self.contacts and not source:
             raise DefinitionError(
-                "`contacts`: contact forces need a model.Dynamics (points of a linkage); a "
-                "casadi.Function takes its forces as controls of its own"
+                "`contacts`: contact forces need a model that places them (a model.Dynamics: "
+                "points of a linkage); a casadi.Function takes its forces as controls of its own"
             )
         if not isinstance(self.contacts, tuple):
             object.__setattr__(self, "contacts", tuple(self.contacts))
@@ -632,25 +639,28 @@ class OCPDefinition:
                 f"`dynamics_params`: give a sequence of names, got {self.dynamics_params!r}"
             )
         object.__setattr__(self, "dynamics_params", tuple(self.dynamics_params))
-        if self.dynamics_params and (linkage or given):
+        if self.dynamics_params and (source or given):
             raise DefinitionError(
-                "`dynamics_params`: a model.Dynamics holds numeric link parameters, and a "
-                "System declares its own (System.params); give parameters to a "
-                "casadi.Function's last inputs"
+                "`dynamics_params`: a model holds its own parameters, and a System declares "
+                "its own (System.params); give parameters to a casadi.Function's last inputs"
             )
-        if linkage or given:
-            owner = "a model.Dynamics" if linkage else "a System"
+        if source or given:
+            owner = f"a {type(dynamics).__name__}" if source else "a System"
             for name in ("state_names", "control_names", "state_units", "control_units"):
                 if getattr(self, name) is not None:
                     raise DefinitionError(
-                        f"`{name}`: {owner} names its own variables "
-                        "(planner.linkage_system for a linkage); give names only with a "
+                        f"`{name}`: {owner} names its own variables; give names only with a "
                         "casadi.Function"
                     )
         if given:
             system = dynamics
-        elif linkage:
-            system = linkage_system(dynamics, formulation, self.contacts)
+        elif source:
+            system = dynamics.as_system(formulation, self.contacts)
+            if not isinstance(system, System):
+                raise DefinitionTypeError(
+                    f"`dynamics`: {type(dynamics).__name__}.as_system must return a "
+                    f"planner.System, got {type(system).__name__}"
+                )
         else:
             system = System.from_function(
                 dynamics,
@@ -1175,7 +1185,7 @@ class OCPDefinition:
             layer = self._guess_source(source)
             layers.append(layer)
             if layer.kind == "solution" and self.free_time and T is None:
-                T_guess = float(np.clip(source_duration(layer.source), *self.T))
+                T_guess = float(np.clip(layer.source.duration, *self.T))
         if values:
             layers.append(self._guess_values(values, t))
         elif t is not None:
@@ -1185,13 +1195,13 @@ class OCPDefinition:
         return dataclasses.replace(self, guesses=tuple(layers), T_guess=T_guess)
 
     def _guess_source(self, source) -> GuessLayer:
-        if isinstance(source, Solution | Trajectory):
+        if isinstance(source, SampledGuess):  # a Solution, a Trajectory
             return GuessLayer("solution", source=source)
         if callable(source):
             layer = GuessLayer("callable", source=source)
             # Evaluate once now so that a wrong shape or NaN fails at definition time.
             probe = np.linspace(0.0, self.duration_guess, 5)
-            evaluate_guess_layer(self, layer, probe)
+            evaluate_guess_layer(self.system, self.duration_guess, self.resolve, layer, probe)
             return layer
         if isinstance(source, Mapping):
             return self._guess_values(dict(source), None)

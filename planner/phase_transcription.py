@@ -36,7 +36,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
+from planner.errors import DefinitionError, DefinitionTypeError
 from planner.guesses import evaluate_guess_layer
 from planner.ocp import OCPDefinition, Point, evaluate_expression
 from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
@@ -1036,9 +1036,10 @@ class PhaseTranscription:
         t_dyn = mesh.s_dyn * T
         at_state: dict[str, np.ndarray] = {}
         at_dyn: dict[str, np.ndarray] = {}
+        context = (ocp.system, ocp.duration_guess, ocp.resolve)
         for layer in ocp.guesses:
-            at_state.update(evaluate_guess_layer(ocp, layer, t_state))
-            at_dyn.update(evaluate_guess_layer(ocp, layer, t_dyn))
+            at_state.update(evaluate_guess_layer(*context, layer, t_state))
+            at_dyn.update(evaluate_guess_layer(*context, layer, t_dyn))
 
         def default(name: str, count: int) -> np.ndarray:
             lo, hi = ocp.variable_bounds(name)

@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
+from planner.errors import DefinitionError, DefinitionTypeError
 from planner.ocp import (
     OCPDefinition,
     Param,

@@ -7,7 +7,7 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError
+from planner.errors import DefinitionError
 from planner.solution import IntegrationError, Replay, Solution
 from planner.trajectory import Trajectory
 
@@ -187,7 +187,7 @@ class PhasesSolution:
             "cost": self.cost,
             "status": self.status,
         }
-        return Trajectory(
+        return type(first)(
             np.concatenate(times),
             np.vstack(states),
             np.vstack(controls),

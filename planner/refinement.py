@@ -53,7 +53,7 @@ from typing import Any
 
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError, check_integer
+from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError, check_integer
 from planner.ocp import OCPDefinition
 from planner.schemes import make_scheme
 from planner.solution import Solution

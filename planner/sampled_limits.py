@@ -37,7 +37,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError, check_positive
+from planner.errors import AnthropoidError, DefinitionError, check_positive
 from planner.ocp import OCPDefinition, Point, evaluate_expression
 from planner.phases import PhasesDefinition
 from planner.phases_solution import PhasesSolution

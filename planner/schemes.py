@@ -34,13 +34,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
 from planner.collocation import (
     MAX_DEGREE,
     collocation_roots,
     integration_weights,
     lagrange_matrix,
 )
+from planner.errors import DefinitionError, DefinitionTypeError
 
 #: The weights (Wx (K, ms + 1), Wf (K, ndc)) of a closed-form state interpolant at tau (K,)
 #: for the r-th derivative: d^r x/dtau^r = X_k Wx^T + h F_k Wf^T.

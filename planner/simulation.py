@@ -46,7 +46,7 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
-from model.errors import (
+from planner.errors import (
     AnthropoidError,
     DefinitionError,
     DefinitionTypeError,

@@ -1,7 +1,7 @@
-"""The result of a solve: grids, interpolants, torques, accuracy estimates, export.
+"""The result of a solve: grids, interpolants, drives, accuracy estimates, export.
 
 A :class:`Solution` keeps the NLP's values where they live (states at the state points,
-controls, ddpsi and rates at the dynamics points) and interpolates with exactly the
+controls, auxiliary variables and rates at the dynamics points) and interpolates with exactly the
 polynomials of its transcription (:class:`planner.schemes.Scheme`): trapezoid, linear
 controls and quadratic states; Hermite-Simpson, quadratic controls and cubic states;
 collocation, the Lagrange polynomials of each interval. Between intervals the interpolant is
@@ -33,15 +33,14 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError, check_positive
 from planner.collocation import gauss_legendre
+from planner.errors import AnthropoidError, DefinitionError, check_positive
 from planner.simulation import (
     SimulationError,
     Simulator,
     check_tolerance,
     monomial_coefficients,
 )
-from planner.trajectory import Trajectory
 
 #: Gauss-Legendre points per interval for residual_error. The integrand |f - dx/dt| has kinks
 #: where f - dx/dt changes sign, so the rule is not exact (its degree 2 * 12 - 1 exactness
@@ -113,7 +112,7 @@ class Solution:
     status : IPOPT's return status; success : whether it counts as converged.
     stats : timings and counts (see :func:`planner.solver.solve`).
     T : duration, s. N : intervals. transcription_name, degree, formulation.
-    time, states, controls, ddpsi : values at the N+1 mesh nodes (see properties).
+    time, states, controls, drives, accelerations : values at the N+1 mesh nodes (see properties).
     state_time, state_values : every state point (nX,), (nX, nx).
     point_time, control_values, aux_values, rate_values : every dynamics point (nC,), ...
     w : the scaled decision vector (n_w,) of the NLP (:attr:`transcription`, the whole
@@ -184,6 +183,11 @@ class Solution:
         return self.ocp.N
 
     @property
+    def duration(self) -> float:
+        """The horizon T, s (what a guess from this solution spans)."""
+        return float(self.T)
+
+    @property
     def h(self) -> float:
         """The interval length of a uniform mesh, T / N, s (see :attr:`interval_lengths`)."""
         if not self.mesh.uniform:
@@ -246,16 +250,16 @@ class Solution:
         return self.control(self.time)
 
     @property
-    def torques(self) -> np.ndarray:
-        """(N+1, n) drive torques at the nodes (the system's ``drives`` group: a linkage's
-        hinge torques, N m, without the contact forces that may follow them)."""
-        self._require_role("drives", "torques")
+    def drives(self) -> np.ndarray:
+        """(N+1, n) the drives at the nodes (the system's ``drives`` group of controls: a
+        linkage's hinge torques, N m, without the contact forces that may follow them)."""
+        self._require_role("drives", "drives")
         columns = [self.system.control_names.index(n) for n in self.system.role_names("drives")]
         return self.controls[:, columns]
 
     @property
-    def ddpsi(self) -> np.ndarray | None:
-        """(N+1, n) second derivatives of the states at the nodes (the system's
+    def accelerations(self) -> np.ndarray | None:
+        """(N+1, n) second derivatives of the positions at the nodes (the system's
         ``accelerations``: a linkage's angular accelerations, rad/s^2), or None."""
         if self.system.accelerations is None:
             return None
@@ -264,8 +268,8 @@ class Solution:
     def _require_role(self, role: str, what: str) -> None:
         if getattr(self.system, role) is None:
             raise DefinitionError(
-                f"`{what}`: defined for a model.Dynamics problem only (a system with "
-                f"{role}); this system has none"
+                f"`{what}`: defined for a system with the role {role!r} only (a linkage's "
+                "hinge torques); this system has none"
             )
 
     def _rates(self) -> np.ndarray:
@@ -745,7 +749,7 @@ class Solution:
             velocities = [s.state_names.index(name) for name in s.group(s.velocities)]
             for name, column in zip(s.role_names("accelerations"), velocities, strict=True):
                 values[name] = rates[:, column]
-        return Trajectory(
+        return s.trajectory_type(
             times,
             states,
             controls[:, columns],

@@ -40,8 +40,8 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.accuracy_check import ACCURACY_WARNING, check_accuracy_of
+from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.native_output import captured
 from planner.ocp import OCPDefinition
 from planner.phases import PhasesDefinition

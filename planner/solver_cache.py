@@ -26,7 +26,7 @@ from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
 from typing import Any
 
-from model.errors import check_integer
+from planner.errors import check_integer
 
 #: Solvers kept by default. A six-link Hermite-Simpson solver at N = 160 holds a few MB.
 DEFAULT_SIZE = 16

@@ -10,8 +10,9 @@ the second derivatives of the states). A model becomes a System through an adapt
 
 * :meth:`System.from_function`: a CasADi Function, an ODE f(x, u[, t]) or an implicit
   residual r(x, xdot, u[, t]) (names and units given by the user, or x_0.., u_0..);
-* :func:`planner.linkage_system.linkage_system`: a ``model.Dynamics`` (the linkage naming
-  convention lives there, and only there);
+* a model's own ``as_system`` (:class:`SystemSource`): ``model.Dynamics`` through the linkage
+  adapter :mod:`model.linkage_system` (the linkage naming convention lives there, on the
+  model's side: the planner imports nothing of the model);
 
 and a new kind of model (a floating base, contact forces as algebraic variables) is a new
 adapter returning a System, which ``OCP`` also takes directly.
@@ -21,12 +22,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
+from planner.errors import DefinitionError, DefinitionTypeError
+from planner.trajectory import Trajectory
 
 #: A guess completion: values the guesses give at some points, name -> (K,), to values of
 #: more variables (e.g. the torques of inverse dynamics), name -> (K,).
@@ -74,9 +76,9 @@ class System:
     values of controls no guess gives (a linkage's torques by inverse dynamics), or is None.
 
     Roles the Solution offers views of: ``drives``, the control group of drive torques
-    (``Solution.torques``; a trajectory exports these as its controls and the other controls
+    (``Solution.drives``; a trajectory exports these as its controls and the other controls
     as derived channels), and ``accelerations``, the group (variables or derived) of the
-    second time derivatives of the states (``Solution.acceleration``, ``Solution.ddpsi``);
+    second time derivatives of the states (``Solution.acceleration``, ``Solution.accelerations``);
     None when the system has none. ``model``: a JSON-serialisable description of the model
     for exported metadata, or None.
 
@@ -94,6 +96,10 @@ class System:
     dynamics less the hinge moments of its contact forces). With them a sampled motion is
     consistent by construction: positions, velocities, accelerations and drives obey the
     kinematics and the dynamics at every instant, not only at the collocation points.
+
+    ``trajectory_type``: the :class:`planner.trajectory.Trajectory` subclass a Solution's
+    samples come in (a linkage's ``model.LinkageTrajectory``, whose views read the channels
+    as angles and torques); the generic Trajectory by default.
     """
 
     rate: ca.Function
@@ -122,6 +128,7 @@ class System:
     velocities: str | None = None
     drives_for_motion: ca.Function | None = None
     nominal: Mapping[str, float] | None = None
+    trajectory_type: type[Trajectory] = Trajectory
 
     def __post_init__(self) -> None:
         if self.residual is not None and len(self.residual_names) != self.residual.size1_out(0):
@@ -403,6 +410,24 @@ class System:
         )
 
 
+@runtime_checkable
+class SystemSource(Protocol):
+    """A model that turns itself into a :class:`System` (``model.Dynamics`` is one): what
+    ``OCP(dynamics=...)`` accepts besides a System and a CasADi Function, so that the planner
+    needs to import no model.
+
+    ``default_formulation``: "implicit" or "explicit", used when the OCP names none;
+    ``as_system(formulation, contacts)``: the System, with ``contacts`` (the model's own
+    descriptions of points held by the ground, () for none) placed as the model places them.
+    """
+
+    default_formulation: str
+
+    def as_system(self, formulation: str, contacts: Sequence = ()) -> System:
+        """The model as a System in ``formulation``, with ``contacts`` held."""
+        ...
+
+
 def _names(field_name: str, names, size: int, prefix: str | None) -> tuple[str, ...]:
     if names is None:
         return tuple(f"{prefix}_{i}" for i in range(size))
@@ -418,4 +443,9 @@ def _names(field_name: str, names, size: int, prefix: str | None) -> tuple[str, 
     return names
 
 
-__all__ = ["DerivedField", "GuessCompletion", "System"]
+__all__ = [
+    "DerivedField",
+    "GuessCompletion",
+    "System",
+    "SystemSource",
+]

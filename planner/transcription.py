@@ -40,7 +40,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
+from planner.errors import DefinitionError, DefinitionTypeError
 from planner.ocp import OCPDefinition, Point, evaluate_expression
 from planner.phase_transcription import PhaseTranscription, SharedStart
 from planner.phases import EventPoint, PhasesDefinition, event_value

@@ -138,7 +138,7 @@ def to_si(trajectory: Trajectory) -> Trajectory:
         if si_unit(unit) is not None and si_unit(unit) != (unit, 1.0)
     }
     K = trajectory.n_samples
-    return Trajectory(
+    return type(trajectory)(
         time=trajectory.time,
         states=_stack(states, K),
         controls=_stack(controls, K),

@@ -28,9 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError, check_positive
 from model.linkage import Linkage
 from model.rerooting import Rerooting, swap_legs
+from planner.errors import DefinitionError, DefinitionTypeError, check_positive
 from problems.gait_law import GaitLaw
 
 HALF_PI = 0.5 * math.pi

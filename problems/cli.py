@@ -40,17 +40,17 @@ from typing import TextIO
 
 import numpy as np
 
-from model import equations
-from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from model import Dynamics, LinkageTrajectory, equations
 from model.presets import PRESETS, six_link_anthropoid
 from planner.accuracy_check import AccuracyWarning
+from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.files import atomic_path
 from planner.refinement import check_accuracy
 from planner.sampled_limits import SampleLimitError
 from planner.schemes import TRANSCRIPTIONS, WITH_DEGREE
 from planner.simulation import tolerance_problem
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
-from planner.trajectory import Trajectory, TrajectoryFileError
+from planner.trajectory import TrajectoryFileError
 from planner.units import si_unit
 from problems import study_cli
 from problems.accuracy import ACCURACY_PRESETS
@@ -752,6 +752,7 @@ def _write_plots(dynamics, trajectory, folder: Path, stem: str, strip: bool, gif
     os.environ.setdefault("MPLBACKEND", "Agg")  # files only: no window, no display needed
     import matplotlib.pyplot as plt
 
+    from model import drawing
     from planner import plots
 
     written = []
@@ -762,16 +763,16 @@ def _write_plots(dynamics, trajectory, folder: Path, stem: str, strip: bool, gif
     written.append(folder / f"{stem}.png")
     if strip:
         with report.working("plotting stick_figure.png"):
-            figure = plots.stick_figure_strip(dynamics, trajectory)
+            figure = drawing.stick_figure_strip(dynamics, trajectory)
             figure.savefig(folder / "stick_figure.png", dpi=100)
             plt.close(figure)
         written.append(folder / "stick_figure.png")
     if gif:
-        fps = 30  # plots.animate's default: real-time playback
+        fps = 30  # drawing.animate's default: real-time playback
         frames = max(2, round(trajectory.duration * fps) + 1)
         path = folder / "animation.gif"
         with report.working(f"writing animation.gif ({frames} frames)"):
-            plots.animate(dynamics, trajectory, path, fps=fps)
+            drawing.animate(dynamics, trajectory, path, fps=fps)
         written.append(path)
     return written
 
@@ -841,7 +842,7 @@ def _cmd_equations(args, out: TextIO, report: Reporter) -> int:
 def _cmd_torques(args, out: TextIO, report: Reporter) -> int:
     linkage = _linkage(args.preset)
     law = _law(args, linkage)
-    dynamics = linkage.dynamics()
+    dynamics = Dynamics(linkage)
     duration = law.period if args.duration_s is None else args.duration_s
     count = max(2, math.ceil(duration * args.rate_hz - 1e-9) + 1)
     _check_samples(
@@ -886,7 +887,7 @@ def _load_profile(path_text: str):
             f"{_one_of(TRAJECTORY_FORMATS)}"
         )
     try:
-        profile = Trajectory.load(path)
+        profile = LinkageTrajectory.load(path)
     except TrajectoryFileError as exc:  # the loader's one error for a malformed file
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         detail = detail.removeprefix(f"{path}: ")  # the message names the file already
@@ -1030,7 +1031,7 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
     if warning is not None:
         report.warn(warning)
     output = _output_set(args.output_dir, "simulate")
-    dynamics = linkage.dynamics()
+    dynamics = Dynamics(linkage)
     x0 = np.concatenate([np.asarray(profile.psi)[0], np.asarray(profile.dpsi)[0]])
     try:
         # Progress comes after each block of intervals; a heartbeat fills the silence when a
@@ -1095,7 +1096,7 @@ def _cmd_simulate(args, out: TextIO, report: Reporter) -> int:
 
 def _cmd_demo(args, out: TextIO, report: Reporter) -> int:
     linkage = six_link_anthropoid()
-    dynamics = linkage.dynamics()
+    dynamics = Dynamics(linkage)
     if not args.no_equations:
         text = _equations(linkage, latex=False)  # before printing: a failure prints nothing
         print("Equations of motion of the six-link anthropoid (corrected (16)-(21)):", file=out)
@@ -1381,7 +1382,7 @@ def _cmd_walk(args, out: TextIO, report: Reporter) -> int:
             written = _save(profile, output.staging, "torques", ("csv", "json"))
             _save(gait.to_trajectory(), output.staging, "solution", ("npz",))
         with report.working("verifying torques.csv (numpy, independent of the planner)"):
-            check = verify_gait(Trajectory.load(written[0]), linkage)
+            check = verify_gait(LinkageTrajectory.load(written[0]), linkage)
         dynamics = check.facts.get("dynamics residual", math.nan)
         print(
             f"torques.csv: {profile.n_samples} samples at {args.rate_hz:g} Hz of the consistent "

@@ -29,8 +29,10 @@ from importlib import metadata as _metadata
 import casadi as ca
 import numpy as np
 
+from model import LinkageTrajectory
 from model.dynamics import Dynamics
-from model.errors import (
+from model.linkage import Linkage
+from planner.errors import (
     DefinitionError,
     DefinitionTypeError,
     as_float_array,
@@ -39,7 +41,6 @@ from model.errors import (
     check_positive,
     check_real,
 )
-from model.linkage import Linkage
 from planner.simulation import (
     METHODS,
     MIN_TOLERANCE,
@@ -100,7 +101,7 @@ def versions() -> dict[str, str]:
 
 def _as_dynamics(dynamics: Dynamics | Linkage) -> Dynamics:
     if isinstance(dynamics, Linkage):
-        return dynamics.dynamics()
+        return Dynamics(dynamics)
     if not isinstance(dynamics, Dynamics):
         raise DefinitionTypeError(
             f"`dynamics`: must be a model.Dynamics (or a model.Linkage), "
@@ -183,7 +184,7 @@ def torques_along(
         "versions": versions(),
     }
     info.update(metadata or {})
-    return Trajectory.from_linkage(
+    return LinkageTrajectory.from_linkage(
         times,
         psi,
         dpsi,
@@ -330,7 +331,7 @@ def linkage_profile(
     accelerations = [f"ddpsi_{link}" for link in names]
     if all(a in converted.extras and converted.extras[a][1] == "rad/s^2" for a in accelerations):
         ddpsi = np.column_stack([converted.extras[a][0] for a in accelerations])
-    return Trajectory.from_linkage(
+    return LinkageTrajectory.from_linkage(
         converted.time,
         np.column_stack([columns[f"psi_{link}"] for link in names]),
         np.column_stack([columns[f"dpsi_{link}"] for link in names]),
@@ -689,7 +690,7 @@ def simulate(
         "versions": versions(),
         "wall_seconds": _time.perf_counter() - start,
     }
-    trajectory = Trajectory.from_linkage(
+    trajectory = LinkageTrajectory.from_linkage(
         output,
         psi,
         dpsi,

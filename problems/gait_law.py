@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from model.errors import (
+from planner.errors import (
     DefinitionError,
     DefinitionTypeError,
     as_float_array,

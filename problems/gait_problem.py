@@ -27,9 +27,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.errors import DefinitionError, check_positive, check_real
+from model import LinkageTrajectory
 from model.linkage import Linkage
 from planner.accuracy_check import ACCURACY_WARNING, check_accuracy_of
+from planner.errors import DefinitionError, check_positive, check_real
 from planner.phases_solution import PhasesSolution
 from planner.problem import OCP
 from planner.sampled_limits import hold_at_samples
@@ -378,7 +379,7 @@ class Gait:
                 "before_events": before,
             },
         }
-        trajectory = Trajectory.from_linkage(
+        trajectory = LinkageTrajectory.from_linkage(
             joined.time,
             joined.psi,
             joined.dpsi,

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from model.errors import DefinitionError
+from planner.errors import DefinitionError
 
 #: The manifest a run leaves in its folder.
 MANIFEST = "manifest.json"

@@ -35,9 +35,9 @@ import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
-from model.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
+from planner.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 from planner.problem import OCP
 from planner.transcription import Transcription
 from problems.accuracy import resolve_mesh, solve_plan
@@ -238,7 +238,7 @@ def periodic_gait(
     upright = check_links("upright", upright, linkage)
     check_objective(objective)
     mesh = resolve_mesh(accuracy, law.period, N, transcription, degree, default_N=50)
-    dynamics = linkage.dynamics()
+    dynamics = Dynamics(linkage)
     point = dynamics.point(foot)
     period = law.period
     targets = np.atleast_1d(point.position(law.psi(np.array(fractions) * period)))

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.errors import DefinitionError, check_integer, check_positive
+from planner.errors import DefinitionError, check_integer, check_positive
 from planner.trajectory import Trajectory
 from problems.walking_control import TimedReference
 from problems.walking_feedback import limit_metadata, with_gains

@@ -41,8 +41,8 @@ from typing import Any
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
 from model.linkage import Linkage
+from planner.errors import DefinitionError, DefinitionTypeError
 from problems import study_runner
 from problems.study_point import (
     DEFAULT_OUTPUTS,

@@ -41,7 +41,7 @@ import time
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from problems.study_point import PointSpec, install, solve_installed, solve_point
 
 logger = logging.getLogger(__name__)

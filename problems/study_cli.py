@@ -30,8 +30,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from model.errors import DefinitionError
 from model.presets import PRESETS
+from planner.errors import DefinitionError
 from planner.schemes import REGISTRY, TRANSCRIPTIONS, WITH_DEGREE, check_degree
 from problems.study import Study
 from problems.study_backends import available_cores

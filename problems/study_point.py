@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from model import LinkageTrajectory
 from planner import (
     OCP,
     Phases,
@@ -43,6 +43,7 @@ from planner import (
     Transcription,
 )
 from planner.accuracy_check import ACCURACY_WARNING, AccuracyWarning, check_accuracy_of
+from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from problems.gait_problem import total_iterations
 from problems.walking import WalkingGait, WalkingStep, walking_step
 
@@ -276,7 +277,7 @@ def trajectory_from_bytes(data: bytes) -> Trajectory:
     with tempfile.TemporaryDirectory(prefix="study-") as folder:
         path = Path(folder) / "solution.npz"
         path.write_bytes(data)
-        return Trajectory.load(path)
+        return LinkageTrajectory.load(path)
 
 
 # ---- one point ----------------------------------------------------------------------------------

@@ -20,8 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from model.errors import DefinitionError
+from model import LinkageTrajectory
 from planner import Trajectory
+from planner.errors import DefinitionError
 from problems.study_store import SOLUTIONS, read_definition, read_rows
 
 
@@ -193,7 +194,7 @@ class StudyResult:
                 f"`point_id`: no solution {point_id!r} in {str(self.folder)!r} (a failed or "
                 "missing point, or no such point)"
             )
-        return Trajectory.load(path)
+        return LinkageTrajectory.load(path)
 
 
 __all__ = ["GridPoint", "StudyProgress", "StudyResult", "grid_points"]

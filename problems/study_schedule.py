@@ -34,7 +34,7 @@ import heapq
 import itertools
 from collections.abc import Iterable, Sequence
 
-from model.errors import DefinitionError, DefinitionTypeError
+from planner.errors import DefinitionError, DefinitionTypeError
 
 ORDERINGS = ("auto", "lines", "coarse", "cold")
 #: Solved neighbours a point may start from before the law (the issue: "retried from

@@ -6,7 +6,7 @@ Layout::
     results.csv         one row per settled point, in grid order (rewritten as points arrive)
     points/<id>.npz     a point's record: its table row (JSON) and, for a solved point, its
                         NLP iterate and multipliers in physical units (exact warm starts)
-    solutions/<id>.npz  a solved point's gait at its nodes (``planner.Trajectory.load``: to
+    solutions/<id>.npz  a solved point's gait at its nodes (``planner.LinkageTrajectory.load``: to
                         plot, export, simulate, or guess another OCP from)
     *.png               the plots (``problems.study_plots``)
 
@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError
+from planner.errors import AnthropoidError, DefinitionError
 from planner.files import atomic_path
 
 logger = logging.getLogger("problems.study")

@@ -64,9 +64,10 @@ from typing import Any
 
 import numpy as np
 
-from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from model import LinkageTrajectory
 from model.linkage import Linkage
 from model.rerooting import swap_legs
+from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.trajectory import Trajectory
 
 HALF_PI = 0.5 * math.pi
@@ -260,7 +261,7 @@ def verify_gait(
     Parameters
     ----------
     trajectory : a linkage Trajectory with ddpsi (``WalkingGait.to_trajectory(rate_hz)``,
-        ``Trajectory.load(...)`` of a file it wrote, or any at the nodes of a solution).
+        ``LinkageTrajectory.load(...)`` of a file it wrote, or any at the nodes of a solution).
     linkage : the linkage it was made for.
     settings : the gait's parameters (the keys of ``metadata["gait"]``: problem, step_length,
         mu, clearance, torque_limit, knee_range, posture, upright, foot, passive, ...); default
@@ -282,6 +283,7 @@ def verify_gait(
         raise DefinitionTypeError(
             f"`trajectory`: must be a planner.Trajectory, got {type(trajectory).__name__}"
         )
+    trajectory = LinkageTrajectory.of(trajectory)
     if not isinstance(linkage, Linkage):
         raise DefinitionTypeError(
             f"`linkage`: must be a model.Linkage, got {type(linkage).__name__}"

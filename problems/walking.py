@@ -56,15 +56,15 @@ import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
-from model.errors import (
+from model.linkage import Linkage
+from model.presets import six_link_anthropoid
+from planner.errors import (
     DefinitionError,
     DefinitionTypeError,
     check_integer,
     check_positive,
     check_real,
 )
-from model.linkage import Linkage
-from model.presets import six_link_anthropoid
 from planner.problem import OCP, Phases
 from planner.transcription import Transcription
 from problems.accuracy import resolve_mesh, solve_plan
@@ -504,7 +504,7 @@ def walking_step(
     # the law lands in (periodicity: the law starts from that pose with the legs swapped).
     lift = GUESS_LIFT * biped.leg_length
     law = biped.step_law(step_length, single_time, clearance=max(height, lift) + lift)
-    dynamics = linkage.dynamics()
+    dynamics = Dynamics(linkage)
     step = WalkingStep(
         biped=biped,
         dynamics=dynamics,

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from model.dynamics import Dynamics
-from model.errors import DefinitionError, check_real
+from planner.errors import DefinitionError, check_real
 from planner.trajectory import Trajectory
 
 

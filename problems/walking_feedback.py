@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from model.errors import DefinitionError
+from planner.errors import DefinitionError
 from planner.trajectory import Trajectory
 from problems.walking_control import GaitReference, OpenLoop
 from problems.walking_linearisation import ReturnMap, fixed_point

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.errors import check_positive
+from planner.errors import check_positive
 from problems.walking_simulation import (
     STRIKE_AHEAD,
     Plant,

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.errors import DefinitionError, check_positive
+from planner.errors import DefinitionError, check_positive
 from problems.walking_control import GaitReference, TimedReference
 from problems.walking_simulation import Plant
 

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from model.errors import DefinitionError, check_integer, check_positive
 from model.mjcf import MjcfModel, to_mjcf
+from planner.errors import DefinitionError, check_integer, check_positive
 from problems.walking_feedback import PUSH_STEPS, disturbance_cases
 from problems.walking_simulation import Disturbances, largest_push
 

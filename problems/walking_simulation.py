@@ -33,8 +33,8 @@ import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
-from model.errors import DefinitionError, check_integer, check_positive, check_real
 from model.linkage import Linkage
+from planner.errors import DefinitionError, check_integer, check_positive, check_real
 from problems.biped import Biped
 from problems.walking import UNLOADED, WorldMotion, world_motion
 

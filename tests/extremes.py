@@ -33,7 +33,7 @@ if __package__ in (None, ""):  # run as a script: the oracle package sits beside
 
 from reference import newton_euler as ne
 
-from model import DefinitionError, Link, Linkage, presets
+from model import DefinitionError, Dynamics, Link, Linkage, LinkageTrajectory, presets
 from planner import SampleLimitError, SolverError
 
 
@@ -554,7 +554,7 @@ class InputCase:
 
 
 def _six_dynamics():
-    return presets.six_link_anthropoid().dynamics()
+    return Dynamics(presets.six_link_anthropoid())
 
 
 def _law(n: int):
@@ -573,10 +573,9 @@ def _nan_guess(kind: str):
     psi[3, 2] = np.nan
     if kind == "function":
         return ocp.guess(lambda times: (np.full((np.size(times), 6), np.nan),))
-    from planner import Trajectory
 
     names = presets.six_link_anthropoid().names
-    return ocp.guess(Trajectory.from_linkage(t, psi, law.dpsi(t), np.zeros((11, 6)), names))
+    return ocp.guess(LinkageTrajectory.from_linkage(t, psi, law.dpsi(t), np.zeros((11, 6)), names))
 
 
 def _nan_guess_vector():
@@ -589,13 +588,12 @@ def _nan_guess_vector():
 
 
 def _missing_column(tmp_path):
-    from planner import Trajectory
     from problems import simulate
 
     names = presets.six_link_anthropoid().names
     t = np.linspace(0.0, 0.3, 7)
     law = _law(6)
-    full = Trajectory.from_linkage(t, law.psi(t), law.dpsi(t), np.zeros((7, 6)), names)
+    full = LinkageTrajectory.from_linkage(t, law.psi(t), law.dpsi(t), np.zeros((7, 6)), names)
     path = full.save(tmp_path / "full.csv")
     lines = path.read_text().splitlines()
     header = lines[0].split(",")
@@ -603,7 +601,7 @@ def _missing_column(tmp_path):
     rows = [line for line in lines if not line.startswith("#")]
     cut = tmp_path / "cut.csv"
     cut.write_text("\n".join(",".join(row.split(",")[i] for i in keep) for row in rows) + "\n")
-    profile = Trajectory.load(cut)
+    profile = LinkageTrajectory.load(cut)
     return simulate(_six_dynamics(), profile, np.zeros(12), (0.0, 0.3))
 
 
@@ -624,12 +622,11 @@ def _cli_walk_failed(tmp_path):
 
 
 def _cli_simulate_failed(tmp_path):
-    from planner import Trajectory
 
     law = _law(6)
     t = np.linspace(0.0, 0.3, 31)
     names = presets.six_link_anthropoid().names
-    huge = Trajectory.from_linkage(t, law.psi(t), law.dpsi(t), np.full((31, 6), 1e9), names)
+    huge = LinkageTrajectory.from_linkage(t, law.psi(t), law.dpsi(t), np.full((31, 6), 1e9), names)
     path = huge.save(tmp_path / "huge.csv")
     return ["simulate", str(path), "-q", "--no-plots", "--output-dir"], tmp_path / "out"
 

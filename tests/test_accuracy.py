@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from model import presets
-from model.errors import DefinitionError, DefinitionTypeError
+from planner.errors import DefinitionError, DefinitionTypeError
 from problems import ACCURACY_PRESETS, periodic_gait, walking_step
 from problems.accuracy import MIN_INTERVALS
 

@@ -15,7 +15,7 @@ import pytest
 from reference import newton_euler as ne
 from scipy.integrate import solve_ivp
 
-from model import DefinitionError, presets
+from model import DefinitionError, Dynamics, presets
 from planner import ACCURACY_WARNING, OCP, AccuracyWarning, check_accuracy_of
 
 CHAIN = presets.n_link_chain(2)
@@ -26,7 +26,7 @@ def swing_up(N: int) -> OCP:
     """The two-link chain from hanging to upright in 3 s, |M| <= 5 N m, min sum M^2."""
     up = [DOWN + np.pi, DOWN + np.pi]
     return (
-        OCP(CHAIN.dynamics(), T=3.0, N=N)
+        OCP(Dynamics(CHAIN), T=3.0, N=N)
         .initial(psi=[DOWN, DOWN], dpsi=0.0)
         .final(psi=up, dpsi=0.0)
         .bound("M", -5.0, 5.0)

@@ -1,10 +1,31 @@
-"""The architecture of planner/, measured on its source: imports run one way.
+"""The architecture of the product, measured on its source: imports run one way.
 
-* No function-local import of a planner module (an import inside a function hides a cycle
-  and defers its failure to the first call). Deferring matplotlib, an optional heavy import,
-  is allowed: planner/plots.py (matplotlib.animation) and planner/trajectory/plot.py do.
-* The graph of module-level imports among planner's modules (imports under
-  ``if TYPE_CHECKING:`` are for type checkers only and do not run) has no cycle.
+The layers, lowest first (each may import only those before it):
+
+    planner   generic optimal control on CasADi systems; knows no linkage
+    model     the linkage: its complex-variable Lagrange model, its System for the planner
+              (``model.linkage_system``), its trajectories and drawings
+    problems  the ready problems and the command line
+
+Why the model sits above the planner and not beside it: the product has one error class a
+user catches (``planner.errors.AnthropoidError``), which both packages raise, so one of them
+imports the other's errors at least; the planner, generic, cannot know linkages; and the
+adapter that makes a linkage a System (names, roles, inverse-dynamics guesses, the linkage's
+trajectory type) needs the linkage's internals, so it lives with the linkage, and
+``OCP(dynamics)`` keeps working through ``Dynamics.as_system`` (``planner.SystemSource``)
+without the planner importing anything of the model.
+
+Read from every ``import`` statement of model/, planner/ and problems/ (module level,
+inside functions and under ``if TYPE_CHECKING:`` alike: an import inside a function only
+defers a circle to the first call, and a type-only import still ties two modules together):
+
+* planner imports nothing from model or problems, model nothing from problems;
+* the graph of imports among all modules has no circle;
+* no function in planner or model imports a module of the product (problems defers its
+  optional heavy imports, matplotlib and MuJoCo, by importing inside the commands that
+  draw or simulate);
+* the planner spells no name of the linkage convention (``psi_``, ``M_``, ...): those live
+  in ``model.linkage_naming``.
 """
 
 from __future__ import annotations
@@ -12,22 +33,36 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-PLANNER = Path(__file__).resolve().parent.parent / "planner"
+ROOT = Path(__file__).resolve().parent.parent
+#: The packages, lowest layer first: a package may import only the ones before it.
+LAYERS = ("planner", "model", "problems")
 
 
 def module_name(path: Path) -> str:
-    parts = path.relative_to(PLANNER.parent).with_suffix("").parts
+    parts = path.relative_to(ROOT).with_suffix("").parts
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
-MODULES = {module_name(path): path for path in sorted(PLANNER.rglob("*.py"))}
+MODULES = {
+    module_name(path): path for package in LAYERS for path in sorted((ROOT / package).rglob("*.py"))
+}
+PACKAGES = {name for name, path in MODULES.items() if path.name == "__init__.py"}
+
+
+def owning_module(name: str) -> str | None:
+    """The product module an imported dotted name loads (``planner.ocp.OCP`` -> planner.ocp),
+    or None for a name outside the product."""
+    while name and name not in MODULES:
+        name = name.rpartition(".")[0]
+    return name or None
 
 
 def imported(node: ast.Import | ast.ImportFrom, here: str) -> list[str]:
-    """The planner modules an import statement loads: ``from planner.x import y`` loads
-    planner.x.y when that is a module (a submodule), else planner.x."""
+    """The product modules an import statement in module ``here`` loads: ``from planner.x
+    import y`` loads planner.x.y when that is a module (a submodule), else planner.x."""
     if isinstance(node, ast.Import):
-        return [alias.name for alias in node.names if alias.name.split(".")[0] == "planner"]
+        found = [owning_module(alias.name) for alias in node.names]
+        return [name for name in found if name]
     if node.level:  # relative: resolve against the importing module's package
         package = here if here in PACKAGES else here.rsplit(".", 1)[0]
         for _ in range(node.level - 1):
@@ -35,85 +70,47 @@ def imported(node: ast.Import | ast.ImportFrom, here: str) -> list[str]:
         base = package + (f".{node.module}" if node.module else "")
     else:
         base = node.module or ""
-    if base.split(".")[0] != "planner":
-        return []
-    out = []
+    found = []
     for alias in node.names:
         submodule = f"{base}.{alias.name}"
-        out.append(submodule if submodule in MODULES else base)
-    return out
+        found.append(submodule if submodule in MODULES else owning_module(base))
+    return [name for name in found if name]
 
 
-PACKAGES = {name for name, path in MODULES.items() if path.name == "__init__.py"}
+def import_nodes(path: Path) -> list[tuple[ast.Import | ast.ImportFrom, bool]]:
+    """Every import statement of a file, with whether it sits inside a function."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    inside = set()
+    for function in ast.walk(tree):
+        if isinstance(function, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
+            inside.update(id(node) for node in ast.walk(function))
+    return [
+        (node, id(node) in inside)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Import | ast.ImportFrom)
+    ]
 
 
-def is_type_checking(node: ast.If) -> bool:
-    test = node.test
-    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
-        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
-    )
-
-
-def test_the_scan_sees_the_modules_and_their_imports():
-    # the guard: the scan finds planner's modules and reads their imports
-    assert {"planner.ocp", "planner.transcription", "planner.solver", "planner.problem"} <= set(
-        MODULES
-    )
-    assert "planner.trajectory.value" in MODULES and "planner.trajectory" in PACKAGES
-    edges = module_graph()
-    assert "planner.ocp" in edges["planner.transcription"]
-    assert "planner.solver" in edges["planner.problem"]
-
-
-def test_no_function_local_import_of_a_planner_module():
-    found = []
-    for name, path in MODULES.items():
-        tree = ast.parse(path.read_text(encoding="utf-8"))
-        for function in ast.walk(tree):
-            if not isinstance(function, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
-                continue
-            for node in ast.walk(function):
-                if isinstance(node, ast.Import | ast.ImportFrom) and imported(node, name):
-                    found.append(f"{path.relative_to(PLANNER.parent)}:{node.lineno}")
-    assert not found, f"function-local imports of planner modules: {found}"
-
-
-def module_graph() -> dict[str, set[str]]:
-    """Module -> the planner modules its module-level code imports (not its own packages)."""
+def module_graph(modules: dict[str, Path] = MODULES) -> dict[str, set[str]]:
+    """Module -> the product modules any of its imports loads (not its own packages: a
+    submodule loads its parents first, which is Python's doing, not a dependency)."""
     graph = {}
-    for name, path in MODULES.items():
-        tree = ast.parse(path.read_text(encoding="utf-8"))
-        targets: set[str] = set()
-        statements = list(tree.body)
-        while statements:
-            node = statements.pop()
-            if isinstance(node, ast.If) and is_type_checking(node):
-                statements.extend(node.orelse)
-                continue
-            if isinstance(node, ast.If | ast.Try | ast.With):
-                for block in ("body", "orelse", "finalbody", "handlers"):
-                    statements.extend(getattr(node, block, []) or [])
-                continue
-            if isinstance(node, ast.ExceptHandler):
-                statements.extend(node.body)
-                continue
-            if isinstance(node, ast.Import | ast.ImportFrom):
-                targets.update(imported(node, name))
-        # a submodule loads its parent packages first: that is Python's, not a dependency
+    for name, path in modules.items():
+        targets = {t for node, _ in import_nodes(path) for t in imported(node, name)}
         ancestors = {".".join(name.split(".")[:i]) for i in range(1, name.count(".") + 1)}
-        graph[name] = {t for t in targets if t in MODULES and t not in ancestors and t != name}
+        graph[name] = {t for t in targets if t not in ancestors and t != name}
     return graph
 
 
-def test_imports_inside_planner_run_one_way():
-    graph = module_graph()
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import circle of ``graph`` as a path a -> b -> ... -> a, or None."""
     state: dict[str, int] = {}  # 1: on the current path, 2: done
     path: list[str] = []
 
     def visit(node: str) -> list[str] | None:
         state[node] = 1
         path.append(node)
-        for target in sorted(graph[node]):
+        for target in sorted(graph.get(node, ())):
             if state.get(target) == 1:
                 return [*path[path.index(target) :], target]
             if target not in state:
@@ -127,17 +124,82 @@ def test_imports_inside_planner_run_one_way():
     for module in sorted(graph):
         if module not in state:
             cycle = visit(module)
-            assert cycle is None, f"import cycle: {' -> '.join(cycle)}"
+            if cycle:
+                return cycle
+    return None
 
 
-#: The linkage naming convention's prefixes, which only the linkage adapter may spell.
+def layer_violations(graph: dict[str, set[str]]) -> list[str]:
+    """Imports of a higher layer by a lower one: "a -> b"."""
+    rank = {package: i for i, package in enumerate(LAYERS)}
+    return [
+        f"{source} -> {target}"
+        for source, targets in sorted(graph.items())
+        for target in sorted(targets)
+        if rank[target.split(".")[0]] > rank[source.split(".")[0]]
+    ]
+
+
+def test_the_scan_sees_every_package_and_every_kind_of_import(tmp_path):
+    # the guard: the scan finds the modules and reads module-level, function-local and
+    # type-only imports alike
+    assert {"planner.ocp", "planner.trajectory.value", "model.dynamics", "problems.cli"} <= set(
+        MODULES
+    )
+    edges = module_graph()
+    assert "planner.ocp" in edges["planner.transcription"]
+    assert "model.linkage_system" in edges["model.dynamics"]
+    assert "problems.walking_plots" in edges["problems.cli"]  # imported inside a command
+    sample = tmp_path / "sample.py"
+    sample.write_text(
+        "from typing import TYPE_CHECKING\n"
+        "if TYPE_CHECKING:\n    from model.dynamics import Dynamics\n"
+        "def f():\n    from problems import cli\n",
+        encoding="utf-8",
+    )
+    nodes = [(node, local) for node, local in import_nodes(sample) if node.module != "typing"]
+    assert [imported(node, "planner.sample") for node, _ in nodes] == [
+        ["model.dynamics"],
+        ["problems.cli"],
+    ]
+    assert [local for _, local in nodes] == [False, True]
+
+
+def test_layers_import_only_the_layers_below():
+    violations = layer_violations(module_graph())
+    assert not violations, f"imports against the layers {LAYERS}: {violations}"
+    # the guard: a planner import of the model is caught
+    assert layer_violations({"planner.ocp": {"model.dynamics"}, "model.dynamics": set()}) == [
+        "planner.ocp -> model.dynamics"
+    ]
+
+
+def test_no_import_circle():
+    cycle = find_cycle(module_graph())
+    assert cycle is None, f"import circle: {' -> '.join(cycle)}"
+    # the guard: a circle through a function-local or type-only import is one
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b"}, "b": set()}) is None
+
+
+def test_no_function_local_import_in_planner_or_model():
+    found = [
+        f"{path.relative_to(ROOT)}:{node.lineno}"
+        for name, path in MODULES.items()
+        if name.split(".")[0] in ("planner", "model")
+        for node, local in import_nodes(path)
+        if local and imported(node, name)
+    ]
+    assert not found, f"function-local imports of product modules: {found}"
+
+
+#: The linkage naming convention's prefixes, which the planner never spells.
 LINKAGE_PREFIXES = ("psi_", "dpsi_", "ddpsi_", "M_")
-ADAPTER = "planner.linkage_system"
 
 
 def spelled_prefixes(source: str, where: str) -> list[str]:
-    """Where a string literal of ``source`` (docstrings aside: they document the convention)
-    holds a linkage prefix: "where:line 'literal'"."""
+    """Where a string literal of ``source`` (docstrings aside: they may give examples) holds
+    a linkage prefix: "where:line 'literal'"."""
     tree = ast.parse(source)
     docstrings = set()
     for node in ast.walk(tree):
@@ -157,14 +219,14 @@ def spelled_prefixes(source: str, where: str) -> list[str]:
     return found
 
 
-def test_no_linkage_name_is_spelled_outside_the_linkage_adapter():
+def test_the_planner_spells_no_linkage_name():
     found = [
         place
         for name, path in MODULES.items()
-        if name != ADAPTER
+        if name.split(".")[0] == "planner"
         for place in spelled_prefixes(path.read_text(encoding="utf-8"), name)
     ]
-    assert not found, f"linkage names spelled outside {ADAPTER}: {found}"
+    assert not found, f"linkage names spelled in the planner: {found}"
     # the guard: the scan finds a prefix in a literal and an f-string, not in a docstring
     sample = '''"""psi_<link> documented."""
 names = ["M_" + link for link in links]

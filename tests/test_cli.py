@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import problems.accuracy as problems_accuracy
-from model import equations, presets
+from model import Dynamics, LinkageTrajectory, equations, presets
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory
 from problems import ACCURACY_PRESETS, GaitLaw, torques_along, verify_gait
@@ -92,7 +92,7 @@ def test_the_command_line_offers_the_trajectory_formats(capsys, tmp_path):
     expected = [f"torques{suffix}" for suffix in TRAJECTORY_FORMATS]
     assert names == sorted([*expected, "torques.csv.meta.json", "manifest.json"])
     for suffix in TRAJECTORY_FORMATS:
-        assert Trajectory.load(tmp_path / f"torques{suffix}").n_samples == 6
+        assert LinkageTrajectory.load(tmp_path / f"torques{suffix}").n_samples == 6
     for command in ("torques", "simulate"):
         code, out, _ = run(capsys, command, "--help")
         assert code == 0
@@ -187,7 +187,7 @@ def test_demo_prints_equations_and_the_torque_table(capsys):
     rows = [line.split() for line in out.splitlines() if re.match(r"^\s+\d\.\d{3}\s", line)]
     assert len(rows) == 11
     law = GaitLaw.preset("paper22")
-    dynamics = presets.six_link_anthropoid().dynamics()
+    dynamics = Dynamics(presets.six_link_anthropoid())
     expected = torques_along(dynamics, law, np.linspace(0.0, 1.0, 11)).torques
     np.testing.assert_allclose(np.array(rows, dtype=float)[:, 1:], expected, atol=0.006)
     peak = next(line for line in out.splitlines() if line.strip().startswith("max|M|"))
@@ -205,11 +205,11 @@ def test_demo_table_only(capsys):
 # ---- torques and simulate --------------------------------------------------------------------
 def test_torques_writes_profiles_that_read_back(profile_files):
     law = GaitLaw.preset("paper22")
-    dynamics = presets.six_link_anthropoid().dynamics()
+    dynamics = Dynamics(presets.six_link_anthropoid())
     t = np.linspace(0.0, 0.3, 301)
     expected = torques_along(dynamics, law, t)
     for suffix in ("csv", "json", "npz"):
-        profile = Trajectory.load(profile_files / f"torques.{suffix}")
+        profile = LinkageTrajectory.load(profile_files / f"torques.{suffix}")
         np.testing.assert_allclose(profile.time, t, rtol=0, atol=1e-15)
         np.testing.assert_array_equal(profile.torques, expected.torques)  # full precision
         np.testing.assert_array_equal(profile.psi, expected.psi)
@@ -237,7 +237,7 @@ def test_torques_with_plots_and_modified_law(capsys, tmp_path):
         assert (tmp_path / name).stat().st_size > 0, name
     assert "max |M_i| (N m)" in out and "T = 1.2 s" in out
     assert "plotting" in err  # progress on stderr
-    profile = Trajectory.load(tmp_path / "torques.csv")
+    profile = LinkageTrajectory.load(tmp_path / "torques.csv")
     assert profile.time.size == 31
     law = GaitLaw(
         1.2,
@@ -270,7 +270,7 @@ def test_round_trip_torques_then_simulate_reproduces_the_law(capsys, tmp_path, p
     )
     assert code == 0, err
     assert "simulating with cvodes" in err
-    motion = Trajectory.load(tmp_path / "simulated.csv")
+    motion = LinkageTrajectory.load(tmp_path / "simulated.csv")
     law = GaitLaw.preset("paper22")
     assert motion.time[-1] == pytest.approx(0.2)
     deviation = np.max(np.abs(motion.psi - law.psi(motion.time)))
@@ -292,7 +292,7 @@ def test_round_trip_torques_then_simulate_reproduces_the_law(capsys, tmp_path, p
         "--no-plots",
     )
     assert code == 0 and err == ""
-    again = Trajectory.load(tmp_path / "json" / "simulated.csv")
+    again = LinkageTrajectory.load(tmp_path / "json" / "simulated.csv")
     assert np.max(np.abs(again.psi - law.psi(again.time))) < 1e-6
 
 
@@ -562,7 +562,7 @@ def test_torques_gif_and_npz(capsys, tmp_path):
     )
     assert code == 0, err
     assert (tmp_path / "animation.gif").read_bytes()[:6] in (b"GIF89a", b"GIF87a")
-    assert Trajectory.load(tmp_path / "torques.npz").time.size == 6
+    assert LinkageTrajectory.load(tmp_path / "torques.npz").time.size == 6
     assert "writing animation.gif (4 frames)" in err  # 0.1 s at 30 frames per second
 
 
@@ -574,7 +574,7 @@ def test_simulate_integration_failure_is_one_line(capfd, tmp_path):
     law = GaitLaw.preset("paper22")
     t = np.linspace(0.0, 0.3, 31)
     names = presets.six_link_anthropoid().names
-    huge = Trajectory.from_linkage(t, law.psi(t), law.dpsi(t), np.full((31, 6), 1e9), names)
+    huge = LinkageTrajectory.from_linkage(t, law.psi(t), law.dpsi(t), np.full((31, 6), 1e9), names)
     path = huge.save(tmp_path / "huge.csv")
     code = main(["simulate", str(path), "--no-plots", "--output-dir", str(tmp_path / "out")])
     captured = capfd.readouterr()
@@ -601,7 +601,7 @@ def test_simulate_fixed_step_failure_is_one_line(capfd, tmp_path, method):
     law = GaitLaw.preset("paper22")
     t = np.linspace(0.0, 0.3, 31)
     names = presets.six_link_anthropoid().names
-    huge = Trajectory.from_linkage(t, law.psi(t), law.dpsi(t), np.full((31, 6), 1e9), names)
+    huge = LinkageTrajectory.from_linkage(t, law.psi(t), law.dpsi(t), np.full((31, 6), 1e9), names)
     path = huge.save(tmp_path / "huge.csv")
     out = ["--no-plots", "--output-dir", str(tmp_path / "out"), "-q"]
     code = main(["simulate", str(path), "--method", method, *out])
@@ -624,7 +624,7 @@ def planner_files(tmp_path_factory):
     folder = tmp_path_factory.mktemp("planner")
     down = -np.pi / 2
     solution = (
-        OCP(presets.exoskeleton_leg().dynamics(), T=0.5, N=10)
+        OCP(Dynamics(presets.exoskeleton_leg()), T=0.5, N=10)
         .bound("M", -200, 200)
         .initial(psi=[down] * 3, dpsi=[0.0] * 3)
         .final(psi=[down + 0.4, down + 0.2, down + 0.6], dpsi=[0.0] * 3)
@@ -634,7 +634,7 @@ def planner_files(tmp_path_factory):
     solution.save(folder / "nodes.csv")
     solution.save(folder / "fine.csv", rate_hz=1000)
     # the nodes resampled through a spline: as coarse as the nodes, however many samples
-    Trajectory.load(folder / "nodes.csv").save(folder / "resampled.csv", rate_hz=1000)
+    LinkageTrajectory.load(folder / "nodes.csv").save(folder / "resampled.csv", rate_hz=1000)
     return folder
 
 
@@ -774,8 +774,8 @@ def test_simulate_converts_a_file_in_degrees_and_kilonewton_metres(capsys, tmp_p
     assert "converted the columns of" in err and "kN m -> N m" in err and "deg -> rad" in err
     deviation = [line for line in out_kilo.splitlines() if line.startswith("max |psi")]
     assert deviation == [line for line in out_si.splitlines() if line.startswith("max |psi")]
-    a = Trajectory.load(tmp_path / "si" / "simulated.csv")
-    b = Trajectory.load(tmp_path / "k" / "simulated.csv")
+    a = LinkageTrajectory.load(tmp_path / "si" / "simulated.csv")
+    b = LinkageTrajectory.load(tmp_path / "k" / "simulated.csv")
     np.testing.assert_allclose(b.psi, a.psi, atol=1e-10)
 
 
@@ -942,11 +942,11 @@ def test_walk_quick_writes_the_torques_the_solution_and_the_pictures(walk_run):
     assert "solving with IPOPT" in err and "writing walk.gif" in err
     # The torque file is a 1 kHz profile of one step with the gait's settings, readable by
     # numpy alone.
-    profile = Trajectory.load(folder / "torques.csv")
+    profile = LinkageTrajectory.load(folder / "torques.csv")
     assert profile.metadata["gait"]["problem"] == "walking_step"
     np.testing.assert_allclose(np.diff(profile.time), 1e-3, atol=1e-12)
     assert profile.time[-1] == pytest.approx(0.5)
-    solution = Trajectory.load(folder / "solution.npz")
+    solution = LinkageTrajectory.load(folder / "solution.npz")
     assert solution.n_samples == 13  # the 12 intervals' nodes
     # The GIF shows two steps: frames for 2 x 0.5 s at 15 frames per second, three footholds
     # 0.5 m apart, and the body advanced by two step lengths from the first frame to the last.
@@ -1031,7 +1031,7 @@ def test_walk_accuracy_refines_to_a_target_and_prints_its_passes(capsys, tmp_pat
     scale = 3.0 if line.group(2) == "rad/s" else 1.0
     assert float(line.group(3)) == pytest.approx(float(line.group(1)) / scale, rel=0.01)
     assert float(line.group(3)) <= 1e-2
-    profile = Trajectory.load(tmp_path / "refined" / "solution.npz")
+    profile = LinkageTrajectory.load(tmp_path / "refined" / "solution.npz")
     final = profile.metadata["N"]  # the refined mesh, cut further where a limit needed it
     assert profile.n_samples == final + 1 and final >= N
     cut = re.search(r"intervals cut in two \(N = (\d+)\)", out)
@@ -1105,7 +1105,7 @@ def test_the_walk_file_reads_with_plain_readers_and_is_its_own_inverse_dynamics(
     assert frame.shape == (501, len(rows[0])) and "CoP_stance_shank_start_x [m]" in frame
     # the file's torques against the oracle's inverse dynamics of the file's motion (--quick:
     # its 12 intervals made the transcription's own torques 23 % off their motion)
-    profile = Trajectory.load(path)
+    profile = LinkageTrajectory.load(path)
     oracle = ne_inverse_dynamics(profile)
     assert np.abs(profile.torques - oracle).max() < 1e-9 * np.abs(oracle).max()
     assert verify_gait(profile, presets.six_link_anthropoid()).ok

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from model import DefinitionError
+from model import DefinitionError, Dynamics
 from planner import OCP
 
 SCHEMES = [("trapezoid", None), ("hermite-simpson", None), ("radau", 3), ("legendre", 3)]
@@ -285,7 +285,7 @@ def test_rates_at_the_boundaries_and_at_an_instant(name, degree):
 def test_linkage_torque_rates_are_named_dM():
     from model import presets
 
-    chain = presets.n_link_chain(2).dynamics()
+    chain = Dynamics(presets.n_link_chain(2))
     down = np.array([-np.pi / 2, -np.pi / 2])
     ocp = (
         OCP(chain, T=1.0, N=6)

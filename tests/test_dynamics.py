@@ -67,7 +67,7 @@ def tree(seed: int, n_links: int, general: bool) -> Linkage:
 @functools.cache
 def dynamics_of(linkage: Linkage) -> Dynamics:
     # One Dynamics per scene for the whole module: each Function is generated once.
-    return linkage.dynamics()
+    return Dynamics(linkage)
 
 
 def random_states(linkage: Linkage, count: int, seed: int):
@@ -230,7 +230,7 @@ def test_ground_reaction(check, case):
 def test_ground_reaction_at_rest_carries_the_weight():
     """Static pose: the ground pushes up with the total weight, nothing sideways."""
     psi = np.random.default_rng(3).uniform(-np.pi, np.pi, 6)
-    force = SIX.dynamics().ground_reaction(psi, np.zeros(6), np.zeros(6))
+    force = Dynamics(SIX).ground_reaction(psi, np.zeros(6), np.zeros(6))
     weight = 9.81 * sum(link.mass for link in SIX.links)
     assert abs(force - 1j * weight) <= 1e-12 * weight
 
@@ -414,7 +414,7 @@ def test_batch_path_equals_single_state_path(check, monkeypatch, linkage, method
         return original(self, columns)
 
     monkeypatch.setattr(NumpyTape, "__call__", spy)
-    dyn = linkage.dynamics()  # fresh: no tape cached from other tests
+    dyn = Dynamics(linkage)  # fresh: no tape cached from other tests
     k = NumpyTape.MIN_BATCH + 44
     psi, dpsi, ddpsi, torques = random_states(linkage, k, seed=11)
     values = {"psi": psi, "dpsi": dpsi, "ddpsi": ddpsi, "torques": torques}
@@ -434,7 +434,7 @@ def test_batch_path_crosses_chunks(check):
     k = NumpyTape.CHUNK + 300
     psi, dpsi, ddpsi, _ = random_states(SIX, k, seed=12)
     check.close(
-        SIX.dynamics().inverse_dynamics(psi, dpsi, ddpsi),
+        Dynamics(SIX).inverse_dynamics(psi, dpsi, ddpsi),
         ne.inverse_dynamics(SIX, psi, dpsi, ddpsi),
         "inverse dynamics",
     )
@@ -475,7 +475,7 @@ def test_passive_motion_conserves_energy():
     E = T + Pi - Pi_lowest, the energy above the pose hanging straight down, is >= 0 for every
     state and here several hundred J, so the ratio is not a ratio of small numbers.
     """
-    dyn = SIX.dynamics()
+    dyn = Dynamics(SIX)
     ode = dyn.function("ode")
     rng = np.random.default_rng(2026)
     x0 = np.concatenate([rng.uniform(-np.pi, np.pi, 6), rng.normal(0.0, 1.0, 6)])
@@ -558,7 +558,7 @@ def _no_gravity(linkage: Linkage) -> Linkage:
 
 # ---- lazy generation ----------------------------------------------------------------------------
 def test_inverse_dynamics_alone_builds_nothing_else():
-    dyn = presets.six_link_anthropoid().dynamics()
+    dyn = Dynamics(presets.six_link_anthropoid())
     assert dyn.built == ()
     dyn.inverse_dynamics(np.zeros(6), np.zeros(6), np.zeros(6))
     assert dyn.built == ("inverse_dynamics",)
@@ -571,7 +571,7 @@ def test_inverse_dynamics_alone_builds_nothing_else():
 
 
 def test_functions_are_cached_and_named():
-    dyn = presets.six_link_anthropoid().dynamics()
+    dyn = Dynamics(presets.six_link_anthropoid())
     for name, (inputs, outputs, _) in FUNCTIONS.items():
         function = dyn.function(name)
         assert dyn.function(name) is function
@@ -690,14 +690,14 @@ def test_leaf_without_rotational_inertia_is_refused():
     answered with NaN."""
     point_mass = [Link("arm", None, 1.0, 1.0), Link("bob", "arm", 1.0, 1.0, com=0.0, inertia=0.0)]
     with pytest.raises(DefinitionError, match=r"`links\[1\]`: 'bob' has no moment of inertia"):
-        Linkage(point_mass).dynamics().forward_dynamics([0.0, 1.0], [0.0, 0.0], [0.0, 0.0])
+        Dynamics(Linkage(point_mass)).forward_dynamics([0.0, 1.0], [0.0, 0.0], [0.0, 0.0])
 
 
 def test_one_link_linkage_keeps_its_shapes():
     """A one-link tree (``n_link_chain(1)``, or a tree with every other link locked) must
     keep the documented shapes: M (n, n), torques (n,), positions (n,); only the energies and
     the ground force, one number per state, become scalars."""
-    dyn = presets.n_link_chain(1).dynamics()
+    dyn = Dynamics(presets.n_link_chain(1))
     one = np.array([0.3])
     assert np.shape(dyn.hinge_positions(one)) == (2,)  # n + 1 = 2: not affected
     assert np.shape(dyn.mass_matrix(one)) == (1, 1)

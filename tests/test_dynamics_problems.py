@@ -18,8 +18,8 @@ from reference.newton_euler import inverse_dynamics as oracle_inverse_dynamics
 from reference.newton_euler import random_tree
 from scipy.integrate import cumulative_simpson
 
-from model import presets
-from model.errors import DefinitionError, DefinitionTypeError
+from model import Dynamics, LinkageTrajectory, presets
+from planner.errors import DefinitionError, DefinitionTypeError
 from planner.trajectory import Trajectory
 from problems import (
     FIT_WINDOW,
@@ -38,7 +38,7 @@ HALF_PI = math.pi / 2
 
 @pytest.fixture(scope="module")
 def six():
-    return presets.six_link_anthropoid().dynamics()
+    return Dynamics(presets.six_link_anthropoid())
 
 
 @pytest.fixture(scope="module")
@@ -342,12 +342,12 @@ def test_second_problem_validation(six, paper22):
         simulate(six, lambda t: np.zeros(4), x0, (0.0, 0.1))
     with pytest.raises(DefinitionError, match=r"`torques`: the profile gives NaN or inf torques"):
         simulate(six, lambda t: np.full((np.size(t), 6), np.inf), x0, (0.0, 0.1))
-    five = presets.five_link_biped().dynamics()
+    five = Dynamics(presets.five_link_biped())
     with pytest.raises(
         DefinitionError, match=r"profile has 6 torque channels but the linkage has 5"
     ):
         simulate(five, profile, np.zeros(10), (0.0, 0.1))
-    renamed = Trajectory.from_linkage(
+    renamed = LinkageTrajectory.from_linkage(
         profile.time, profile.psi, profile.dpsi, profile.torques, [f"L{i}" for i in range(6)]
     )
     with pytest.raises(DefinitionError, match=r"the profile is for links \['L0'"):
@@ -505,10 +505,10 @@ def test_integrator_failure_names_the_interval_inside_a_chunk(six, paper22, meth
 def test_profile_and_its_control_function_give_the_same_motion():
     # Output times that miss the profile's knots by an ulp (0.05 vs 50 * 0.001) must still be
     # reported at the right instant: the Trajectory path against the callable path.
-    chain = presets.n_link_chain(2).dynamics()
+    chain = Dynamics(presets.n_link_chain(2))
     t = np.linspace(0.0, 1.0, 1001)
     torques = np.column_stack([np.sin(7 * t), np.cos(5 * t)])
-    profile = Trajectory.from_linkage(
+    profile = LinkageTrajectory.from_linkage(
         t, np.zeros((1001, 2)), np.zeros((1001, 2)), torques, chain.names
     )
     spline = profile.control_function("cubic")
@@ -538,7 +538,7 @@ def test_a_planner_solution_replays_like_its_own_replay():
 
     from planner import OCP
 
-    chain = presets.n_link_chain(2).dynamics()
+    chain = Dynamics(presets.n_link_chain(2))
     solution = (
         OCP(chain, T=1.0, N=20)
         .bound("M", -50, 50)

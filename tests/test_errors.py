@@ -1,4 +1,4 @@
-"""model.errors: the error classes and the shared validators, message by message."""
+"""planner.errors: the error classes and the shared validators, message by message."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 
-from model.errors import (
+from planner.errors import (
     AnthropoidError,
     DefinitionError,
     DefinitionTypeError,

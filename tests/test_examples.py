@@ -11,8 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from model import presets
-from planner.trajectory import Trajectory
+from model import LinkageTrajectory, presets
 from problems import GaitLaw, upright_instability_rate
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -41,7 +40,7 @@ def test_first_then_second_problem(tmp_path):
     for name in ("first_problem.csv", "first_problem.json", "first_problem.png"):
         assert (tmp_path / name).stat().st_size > 0, name
     assert "max|M|" in out
-    profile = Trajectory.load(tmp_path / "first_problem.csv")
+    profile = LinkageTrajectory.load(tmp_path / "first_problem.csv")
     law = GaitLaw.preset("paper22")
     np.testing.assert_array_equal(profile.psi, law.psi(profile.time))
     assert profile.time.size == 1001  # 1 kHz over one period
@@ -49,7 +48,7 @@ def test_first_then_second_problem(tmp_path):
     out = _run("second_problem.py", "--output-dir", tmp_path)
     assert "comparing with GaitLaw 'paper22'" in out
     assert (tmp_path / "second_problem.png").stat().st_size > 0
-    motion = Trajectory.load(tmp_path / "second_problem.csv")
+    motion = LinkageTrajectory.load(tmp_path / "second_problem.csv")
     assert motion.time[-1] == 0.8
     _check_replay(out)
 
@@ -88,7 +87,7 @@ def test_the_readme_planning_example_draws_a_walk(tmp_path):
     from reference import newton_euler as ne
 
     six = presets.six_link_anthropoid()
-    step = Trajectory.load(tmp_path / "step.csv")
+    step = LinkageTrajectory.load(tmp_path / "step.csv")
     hinges = ne.hinge_positions(six, step.psi)
     assert np.all(hinges[:, six.index("stance_thigh") + 1].imag >= 0.8 - 1e-7)  # the hip
     assert np.all(hinges.imag >= -1e-8)  # no hinge, foot or head below the ground

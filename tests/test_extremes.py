@@ -31,7 +31,7 @@ from extremes import (
 from reference import newton_euler as ne
 from reference.checks import relative_error
 
-from model import Link, Linkage, LinkPoint, presets
+from model import Dynamics, Link, Linkage, LinkPoint, presets
 from planner import OCP, Transcription
 from planner.solver import jacobian_mode
 from problems import periodic_gait, walking_step
@@ -103,7 +103,7 @@ def test_model_case(case: ModelCase, check):
     built = case.linkage()
     linkages = built if isinstance(built, list) else [built]
     for linkage in linkages:
-        dyn = linkage.dynamics()
+        dyn = Dynamics(linkage)
         point = LinkPoint(case.point or linkage.names[-1])
         states = case.states(linkage)
         for quantity, outcome in case.checks.items():
@@ -168,7 +168,7 @@ def _free_time_problem(case) -> tuple[OCP, float]:
         names = ("q", "v")
     else:
         rod = Linkage([Link("rod", None, 1.0, 2.0, com=0.5, inertia=0.1)], gravity=0.0)
-        dynamics, inertia = rod.dynamics(), ROD_INERTIA
+        dynamics, inertia = Dynamics(rod), ROD_INERTIA
         kw = {"formulation": case.formulation}
         names = ("psi", "dpsi")
     T = case.duration
@@ -290,7 +290,7 @@ def test_work_objective_means_the_same_in_millimetres_and_grams():
     torques = rng.normal(0.0, 30.0, (64, 6))
     values = []
     for linkage, torque in ((six, 1.0), (mm, 1e9)):
-        ocp = OCP(linkage.dynamics(), T=1.0, N=2).bound("M", -150 * torque, 150 * torque)
+        ocp = OCP(Dynamics(linkage), T=1.0, N=2).bound("M", -150 * torque, 150 * torque)
         point = ocp._point()
         integrand = objective_integrand(linkage, "work", 150.0 * torque)(point)
         f = ca.Function("f", [point.x, point.u], [integrand])

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from reference import newton_euler as ne
 
-from model import FLOATING_FUNCTIONS, DefinitionError, presets
+from model import FLOATING_FUNCTIONS, DefinitionError, Dynamics, presets
 
 SIX = presets.six_link_anthropoid()
 TREES = [(seed, n, general) for seed, n in enumerate((1, 3, 6, 9, 12)) for general in (False, True)]
@@ -48,7 +48,7 @@ def floating_states(linkage, count, seed):
 
 @pytest.mark.parametrize(("label", "linkage"), SCENES, ids=IDS)
 def test_mass_matrix_against_floating_newton_euler(label, linkage, check):
-    dyn = linkage.dynamics()
+    dyn = Dynamics(linkage)
     q, _ = floating_states(linkage, 48, 1)
     psi = q[:, 2:]
     mass = dyn.floating.mass_matrix(psi)
@@ -64,7 +64,7 @@ def test_mass_matrix_against_floating_newton_euler(label, linkage, check):
 
 @pytest.mark.parametrize(("label", "linkage"), SCENES, ids=IDS)
 def test_energy_against_numpy_and_the_mass_matrix(label, linkage, check):
-    dyn = linkage.dynamics()
+    dyn = Dynamics(linkage)
     q, dq = floating_states(linkage, 48, 2)
     kinetic, potential = dyn.floating.energy(q, dq)
     ref_kinetic, ref_potential = ne.floating_energy(linkage, q, dq)
@@ -82,7 +82,7 @@ def test_energy_against_numpy_and_the_mass_matrix(label, linkage, check):
 
 @pytest.mark.parametrize(("label", "linkage"), SCENES, ids=IDS)
 def test_momentum_is_the_first_rows_of_the_mass_matrix(label, linkage, check):
-    dyn = linkage.dynamics()
+    dyn = Dynamics(linkage)
     q, dq = floating_states(linkage, 48, 3)
     psi, dpsi, dbase = q[:, 2:], dq[:, 2:], dq[:, :2]
     velocities = ne.com_velocities(linkage, psi, dpsi) + (dbase[:, 0] + 1j * dbase[:, 1])[:, None]
@@ -94,7 +94,7 @@ def test_momentum_is_the_first_rows_of_the_mass_matrix(label, linkage, check):
 
 
 def test_functions_share_the_fixed_model():
-    dyn = SIX.dynamics()
+    dyn = Dynamics(SIX)
     floating = dyn.floating
     assert dyn.floating is floating
     assert floating.n == SIX.n + 2

@@ -6,8 +6,8 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from model import presets
-from model.errors import DefinitionError, DefinitionTypeError
+from model import Dynamics, presets
+from planner.errors import DefinitionError, DefinitionTypeError
 from problems import LAW_PRESETS, GaitLaw, torques_along
 
 HALF_PI = math.pi / 2
@@ -221,7 +221,7 @@ def test_bad_times_and_presets():
 
 def test_the_shortest_periods_still_give_finite_torques_or_a_named_error():
     # 1e-150 s: accelerations ~1e300 rad/s^2, still finite; the torques too (a few kg m^2)
-    six = presets.six_link_anthropoid().dynamics()
+    six = Dynamics(presets.six_link_anthropoid())
     fast = GaitLaw(period=1e-150, zeta=[0.2] * 6, varpi=[0.0] * 6)
     assert np.all(np.isfinite(torques_along(six, fast, np.linspace(0, 1e-150, 5)).torques))
     # 2e-153 s: accelerations finite (~5e306 rad/s^2), the torques beyond double precision

@@ -10,7 +10,7 @@ import pytest
 from numpy.polynomial import legendre as npleg
 from reference import newton_euler
 
-from model import presets
+from model import Dynamics, presets
 from planner import OCP, Transcription
 
 SCHEMES = [("trapezoid", None), ("hermite-simpson", None), ("radau", 3), ("legendre", 3)]
@@ -198,7 +198,7 @@ def test_explicit_ddpsi_at_an_instant_is_forward_dynamics_of_the_interpolant():
     linkage = presets.n_link_chain(2)
     down = np.array([-np.pi / 2, -np.pi / 2])
     swing = (
-        OCP(linkage.dynamics(), T=1.0, N=6, formulation="explicit")
+        OCP(Dynamics(linkage), T=1.0, N=6, formulation="explicit")
         .initial(psi=down, dpsi=[0.0, 0.0])
         .final(psi=down + np.array([0.4, 0.6]), dpsi=[0.0, 0.0])
         .minimize(integral=lambda p: ca.sumsqr(p.M))

@@ -14,7 +14,7 @@ import pytest
 from reference import newton_euler
 from scipy.integrate import quad
 
-from model import DefinitionError, presets
+from model import DefinitionError, Dynamics, LinkageTrajectory, presets
 from planner import OCP, Transcription
 from planner.schemes import make_scheme
 
@@ -28,7 +28,7 @@ def swing(transcription, degree, formulation="implicit", N=6):
     """Two-link chain from hanging at rest to a raised pose at rest in 1.5 s, min sum M^2."""
     return (
         OCP(
-            CHAIN.dynamics(),
+            Dynamics(CHAIN),
             T=1.5,
             N=N,
             transcription=transcription,
@@ -133,15 +133,14 @@ def test_consistent_motion_passes_through_the_nodes(name, degree):
     # of its dynamics rows (Legendre's nodes are no dynamics points: its torques there are
     # extrapolations of the control polynomial)
     if name != "legendre":
-        np.testing.assert_allclose(u[1:-1], solution.torques[1:-1], atol=1e-6)
+        np.testing.assert_allclose(u[1:-1], solution.drives[1:-1], atol=1e-6)
 
 
 def test_exported_file_is_the_consistent_motion(tmp_path):
     _, solution = solved("hermite-simpson", None)
     path = solution.save(tmp_path / "swing.csv", rate_hz=50.0)
-    from planner import Trajectory
 
-    back = Trajectory.load(path)
+    back = LinkageTrajectory.load(path)
     assert back.metadata["motion"] == "consistent"
     x, xdot, u = solution.motion(back.time)
     np.testing.assert_array_equal(back.states, x)

@@ -10,11 +10,11 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from model import AnthropoidError, DefinitionError, presets
-from model.errors import DefinitionTypeError
+from model import AnthropoidError, DefinitionError, Dynamics, presets
 from planner import OCP, Point, Transcription
+from planner.errors import DefinitionTypeError
 
-CHAIN = presets.n_link_chain(2).dynamics()
+CHAIN = Dynamics(presets.n_link_chain(2))
 
 
 def double_integrator():
@@ -197,7 +197,7 @@ def test_linkage_guess_torques_by_inverse_dynamics():
         (
             {"state_names": ("a", "b", "c", "d")},
             DefinitionError,
-            r"`state_names`: a model.Dynamics",
+            r"`state_names`: a Dynamics names its own",
         ),
     ],
 )
@@ -207,7 +207,7 @@ def test_constructor_errors(kwargs, error, match):
 
 
 def test_dynamics_type_and_signature_errors():
-    with pytest.raises(DefinitionTypeError, match=r"`dynamics`: must be a model.Dynamics"):
+    with pytest.raises(DefinitionTypeError, match=r"`dynamics`: must be a model"):
         OCP("pendulum", T=1.0, N=3)
     x = ca.SX.sym("x", 2)
     u = ca.SX.sym("u")
@@ -388,8 +388,8 @@ def test_solver_and_solution_argument_errors():
     with pytest.raises(DefinitionError, match=r"`guess`: expected a decision vector of shape"):
         solve(transcription, guess=np.zeros(3), progress=False)
     solution = solve(transcription, progress=False)
-    with pytest.raises(DefinitionError, match=r"`torques`: defined for a model.Dynamics problem"):
-        _ = solution.torques
+    with pytest.raises(DefinitionError, match=r"`drives`: defined for a system with the role"):
+        _ = solution.drives
     with pytest.raises(DefinitionError, match=r"`t`: must be finite times in s"):
         solution.state([np.nan])
     with pytest.raises(DefinitionError, match=r"`rate_hz`: must be > 0 Hz"):

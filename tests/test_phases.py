@@ -26,8 +26,8 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import minimize
 
-from model import DefinitionError, DefinitionTypeError
-from planner import OCP, Phases, PhasesSolution, Trajectory, Transcription
+from model import DefinitionError, DefinitionTypeError, LinkageTrajectory
+from planner import OCP, Phases, PhasesSolution, Transcription
 from planner.phase_transcription import Mesh
 from planner.schemes import make_scheme
 
@@ -218,7 +218,7 @@ def test_the_whole_sequence_replays_exports_and_estimates_its_accuracy(tmp_path)
     np.testing.assert_allclose(trajectory.states[before.N], after.states[0], atol=1e-12)
     assert [p["name"] for p in trajectory.metadata["phases"]] == ["before", "after"]
     path = solution.save(tmp_path / "kick.npz", rate_hz=100.0)
-    again = Trajectory.load(path)
+    again = LinkageTrajectory.load(path)
     np.testing.assert_array_equal(again.states, solution.to_trajectory(100.0).states)
 
 

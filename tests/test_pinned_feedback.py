@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from reference.checks import central_jacobian
 
-from planner.trajectory import Trajectory
+from model import LinkageTrajectory
 from problems.periodic_gait import periodic_gait
 from problems.pinned_feedback import (
     LAW,
@@ -113,7 +113,7 @@ def test_the_file_carries_the_gains_and_a_drive_reading_it_holds_the_gait(
     names = gait.problem.linkage.names
     path = tmp_path / "torques.csv"
     feedback.channels(gait.to_trajectory(RATE_HZ)).save(path)
-    loaded = Trajectory.load(path)
+    loaded = LinkageTrajectory.load(path)
     assert loaded.metadata["feedback"]["law"] == LAW
     states = loaded.metadata["feedback"]["state"]
     table = np.stack(

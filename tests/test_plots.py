@@ -7,15 +7,15 @@ import pytest
 from matplotlib.figure import Figure
 from PIL import Image
 
-from model import presets
-from model.errors import DefinitionError, DefinitionTypeError
+from model import Dynamics, LinkageTrajectory, drawing, presets
 from planner import plots
+from planner.errors import DefinitionError, DefinitionTypeError
 from planner.trajectory import Trajectory, TrajectoryFileError, TrajectoryFileNotFoundError
 
 
 @pytest.fixture(scope="module")
 def dynamics():
-    return presets.six_link_anthropoid().dynamics()
+    return Dynamics(presets.six_link_anthropoid())
 
 
 @pytest.fixture(scope="module")
@@ -28,7 +28,7 @@ def walk(dynamics):
     psi = np.pi / 2 + zeta * np.sin(phase)
     dphase = -(np.pi**2) * np.sin(2 * np.pi * t[:, None])
     dpsi = zeta * np.cos(phase) * dphase
-    return Trajectory.from_linkage(
+    return LinkageTrajectory.from_linkage(
         t,
         psi,
         dpsi,
@@ -74,7 +74,7 @@ def test_plot_of_a_generic_trajectory_groups_by_unit():
 
 
 def test_stick_figure_strip_draws_each_link_between_its_hinges(dynamics, walk):
-    figure = plots.stick_figure_strip(dynamics, walk, n_frames=4)
+    figure = drawing.stick_figure_strip(dynamics, walk, n_frames=4)
     (ax,) = figure.axes
     n = dynamics.n
     assert len(ax.lines) == 4 * n + 1
@@ -96,33 +96,33 @@ def test_stick_figure_strip_draws_each_link_between_its_hinges(dynamics, walk):
 def test_stick_figure_strip_into_given_axes_and_errors(dynamics, walk):
     figure = Figure()
     ax = figure.add_subplot()
-    assert plots.stick_figure_strip(dynamics, walk, n_frames=1, ax=ax, spacing=0.5) is figure
+    assert drawing.stick_figure_strip(dynamics, walk, n_frames=1, ax=ax, spacing=0.5) is figure
     assert len(ax.lines) == dynamics.n + 1
     t = walk.time
     generic = Trajectory(t, np.c_[t], np.zeros((21, 0)), ("x",), ("m",), (), ())
     with pytest.raises(DefinitionError, match=r"needs a linkage trajectory"):
-        plots.stick_figure_strip(dynamics, generic)
-    other = presets.five_link_biped().dynamics()
+        drawing.stick_figure_strip(dynamics, generic)
+    other = Dynamics(presets.five_link_biped())
     with pytest.raises(DefinitionError, match=r"its links \['stance_shank'.* differ from"):
-        plots.stick_figure_strip(other, walk)
+        drawing.stick_figure_strip(other, walk)
     with pytest.raises(DefinitionError, match=r"`n_frames`: must be >= 1, got 0"):
-        plots.stick_figure_strip(dynamics, walk, n_frames=0)
+        drawing.stick_figure_strip(dynamics, walk, n_frames=0)
     with pytest.raises(DefinitionTypeError, match=r"`n_frames`: must be an integer"):
-        plots.stick_figure_strip(dynamics, walk, n_frames=2.5)
+        drawing.stick_figure_strip(dynamics, walk, n_frames=2.5)
     with pytest.raises(DefinitionTypeError, match=r"`dynamics`: must be a model.Dynamics"):
-        plots.stick_figure_strip(object(), walk)
+        drawing.stick_figure_strip(object(), walk)
     with pytest.raises(DefinitionTypeError, match=r"`ax`: must be matplotlib Axes"):
-        plots.stick_figure_strip(dynamics, walk, ax="axes")
+        drawing.stick_figure_strip(dynamics, walk, ax="axes")
     with pytest.raises(DefinitionError, match=r"`spacing`: must be >= 0 m, got -1"):
-        plots.stick_figure_strip(dynamics, walk, spacing=-1)
+        drawing.stick_figure_strip(dynamics, walk, spacing=-1)
     with pytest.raises(DefinitionError, match=r"`spacing`: must be finite, got nan"):
-        plots.stick_figure_strip(dynamics, walk, spacing=float("nan"))
+        drawing.stick_figure_strip(dynamics, walk, spacing=float("nan"))
     with pytest.raises(DefinitionTypeError, match=r"`spacing`: must be a real number"):
-        plots.stick_figure_strip(dynamics, walk, spacing="wide")
+        drawing.stick_figure_strip(dynamics, walk, spacing="wide")
 
 
 def test_animate_writes_a_gif_with_the_frames_asked_for(dynamics, walk, tmp_path):
-    path = plots.animate(
+    path = drawing.animate(
         dynamics, walk, tmp_path / "walk.gif", fps=10, n_frames=5, dpi=30, figsize=(2, 2)
     )
     assert path == tmp_path / "walk.gif"
@@ -134,32 +134,32 @@ def test_animate_writes_a_gif_with_the_frames_asked_for(dynamics, walk, tmp_path
 
 
 def test_animate_default_frame_count_is_real_time(dynamics, walk, tmp_path):
-    short = Trajectory.from_linkage(
+    short = LinkageTrajectory.from_linkage(
         walk.time * 0.1, walk.psi, walk.dpsi * 10, walk.torques, dynamics.names
     )
-    path = plots.animate(dynamics, short, str(tmp_path / "short.gif"), fps=30, dpi=20)
+    path = drawing.animate(dynamics, short, str(tmp_path / "short.gif"), fps=30, dpi=20)
     with Image.open(path) as image:
         assert image.n_frames == 4  # 0.1 s at 30 fps: frames at 0, 1/30, 2/30, 0.1 s
 
 
 def test_animate_errors_and_atomic_write(dynamics, walk, tmp_path, monkeypatch):
     with pytest.raises(TrajectoryFileError, match=r"written as GIF; give a file name ending"):
-        plots.animate(dynamics, walk, tmp_path / "walk.mp4")
+        drawing.animate(dynamics, walk, tmp_path / "walk.mp4")
     with pytest.raises(TrajectoryFileNotFoundError, match=r"folder .* does not exist"):
-        plots.animate(dynamics, walk, tmp_path / "no" / "walk.gif")
+        drawing.animate(dynamics, walk, tmp_path / "no" / "walk.gif")
     with pytest.raises(DefinitionError, match=r"`fps`: must be > 0"):
-        plots.animate(dynamics, walk, tmp_path / "walk.gif", fps=0)
+        drawing.animate(dynamics, walk, tmp_path / "walk.gif", fps=0)
     with pytest.raises(DefinitionError, match=r"`fps`: must be finite, got inf"):
-        plots.animate(dynamics, walk, tmp_path / "walk.gif", fps=float("inf"))
+        drawing.animate(dynamics, walk, tmp_path / "walk.gif", fps=float("inf"))
     with pytest.raises(DefinitionTypeError, match=r"`fps`: must be a real number, got 'fast'"):
-        plots.animate(dynamics, walk, tmp_path / "walk.gif", fps="fast")
+        drawing.animate(dynamics, walk, tmp_path / "walk.gif", fps="fast")
     with pytest.raises(DefinitionError, match=r"`n_frames`: must be >= 2"):
-        plots.animate(dynamics, walk, tmp_path / "walk.gif", n_frames=1)
+        drawing.animate(dynamics, walk, tmp_path / "walk.gif", n_frames=1)
 
     def refuse(source, target):
         raise OSError("no space left")
 
-    monkeypatch.setattr(plots.os, "replace", refuse)
+    monkeypatch.setattr(drawing.os, "replace", refuse)
     with pytest.raises(OSError, match="no space left"):
-        plots.animate(dynamics, walk, tmp_path / "walk.gif", n_frames=2, dpi=20)
+        drawing.animate(dynamics, walk, tmp_path / "walk.gif", n_frames=2, dpi=20)
     assert list(tmp_path.iterdir()) == []

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from reference import newton_euler
 
-from model import presets
+from model import Dynamics, presets
 from planner import OCP
 
 SCHEMES = [("trapezoid", None), ("hermite-simpson", None), ("radau", 3), ("legendre", 3)]
@@ -17,7 +17,7 @@ SCHEME_IDS = [name + (str(degree) if degree else "") for name, degree in SCHEMES
 TIGHT = {"tol": 1e-10}
 
 LINKAGE = presets.n_link_chain(2)
-CHAIN = LINKAGE.dynamics()
+CHAIN = Dynamics(LINKAGE)
 DOWN = np.array([-np.pi / 2, -np.pi / 2])
 FX_LIMIT, ACCELERATION_LIMIT = 15.0, 30.0  # unbounded: |Fx| reaches 25 N, |ddpsi_2| 64 rad/s^2
 

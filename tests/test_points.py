@@ -16,7 +16,14 @@ import numpy as np
 import pytest
 from reference import newton_euler as ne
 
-from model import POINT_FUNCTIONS, DefinitionError, DefinitionTypeError, LinkPoint, presets
+from model import (
+    POINT_FUNCTIONS,
+    DefinitionError,
+    DefinitionTypeError,
+    Dynamics,
+    LinkPoint,
+    presets,
+)
 
 SIX = presets.six_link_anthropoid()
 TREES = [(seed, n, general) for seed, n in enumerate((2, 5, 8, 12)) for general in (False, True)]
@@ -51,7 +58,7 @@ def relative(actual, reference):
 
 @pytest.mark.parametrize(("label", "linkage"), list(scenes()), ids=[s[0] for s in scenes()])
 def test_end_points_are_the_oracle_hinges(label, linkage, check):
-    dyn = linkage.dynamics()
+    dyn = Dynamics(linkage)
     psi, _, _ = states(linkage, 64, 1)
     hinges = ne.hinge_positions(linkage, psi)
     for i, name in enumerate(linkage.names):
@@ -60,7 +67,7 @@ def test_end_points_are_the_oracle_hinges(label, linkage, check):
 
 @pytest.mark.parametrize(("label", "linkage"), list(scenes()), ids=[s[0] for s in scenes()])
 def test_offset_points_match_rigid_body_kinematics(label, linkage, check):
-    dyn = linkage.dynamics()
+    dyn = Dynamics(linkage)
     psi, dpsi, ddpsi = states(linkage, 64, 2)
     rng = np.random.default_rng(3)
     for i, name in enumerate(linkage.names):
@@ -91,7 +98,7 @@ def central_difference(f, t, h):
 
 @pytest.mark.parametrize(("along", "lateral"), [(1.0, 0.0), (0.3, 0.1), (1.2, -0.25)])
 def test_rates_are_time_derivatives_of_the_position(along, lateral):
-    dyn = SIX.dynamics()
+    dyn = Dynamics(SIX)
     point = dyn.point("swing_shank", along, lateral)
     n = SIX.n
     t = np.linspace(0.0, 2.0, 41)
@@ -113,7 +120,7 @@ def test_rates_are_time_derivatives_of_the_position(along, lateral):
 
 @pytest.mark.parametrize(("label", "linkage"), list(scenes()), ids=[s[0] for s in scenes()])
 def test_jacobian_against_finite_differences_and_velocity(label, linkage, check):
-    dyn = linkage.dynamics()
+    dyn = Dynamics(linkage)
     n = linkage.n
     psi, dpsi, _ = states(linkage, 16, 4)
     rng = np.random.default_rng(5)
@@ -141,7 +148,7 @@ def test_jacobian_against_finite_differences_and_velocity(label, linkage, check)
 
 
 def test_jacobian_is_zero_off_the_path():
-    dyn = SIX.dynamics()
+    dyn = Dynamics(SIX)
     jacobian = dyn.point("head").function("jacobian")
     # head hangs from torso from the stance thigh from the stance shank: the swing leg's
     # angles do not move it, structurally.
@@ -152,7 +159,7 @@ def test_jacobian_is_zero_off_the_path():
 
 
 def test_functions_are_named_and_generated_once():
-    dyn = SIX.dynamics()
+    dyn = Dynamics(SIX)
     foot = dyn.point("swing_shank", name="foot")
     assert dyn.point("swing_shank", name="foot") is foot
     for kind, (inputs, outputs, _) in POINT_FUNCTIONS.items():
@@ -175,7 +182,7 @@ def test_functions_are_named_and_generated_once():
 
 
 def test_batch_equals_single_states():
-    dyn = SIX.dynamics()
+    dyn = Dynamics(SIX)
     point = dyn.point("torso", 0.5, 0.1)
     psi, dpsi, ddpsi = states(SIX, 300, 6)  # above the numpy-tape threshold
     batch = point.acceleration(psi, dpsi, ddpsi)
@@ -190,12 +197,12 @@ def test_label_and_link_point_value():
     assert LinkPoint("a").label == "a_end"
     assert LinkPoint("a", 0.5, -0.1).label == "a_at_0.5_-0.1"
     assert LinkPoint("a", name="heel").label == "heel"
-    dyn = SIX.dynamics()
+    dyn = Dynamics(SIX)
     assert dyn.point(LinkPoint("swing_shank", 1.0, 0.0)) is dyn.point("swing_shank")
 
 
 def test_bad_points_are_refused():
-    dyn = SIX.dynamics()
+    dyn = Dynamics(SIX)
     with pytest.raises(DefinitionError, match=r"`link`: no link called 'arm' to carry the point"):
         dyn.point("arm")
     with pytest.raises(DefinitionError, match=r"`along`: must be finite, got nan"):
@@ -220,7 +227,7 @@ def test_hinge_moments_do_the_work_of_the_force(label, linkage, check):
     # A force F on the point and the hinge torques standing for it do the same virtual work
     # for every motion: M . w_rel = F . v_P (v_P from the oracle). The joint rates span every
     # direction, so this pins the whole linear map.
-    dyn = linkage.dynamics()
+    dyn = Dynamics(linkage)
     psi, dpsi, _ = states(linkage, 32, 7)
     rng = np.random.default_rng(8)
     force = rng.normal(0.0, 100.0, (32, 2))
@@ -246,7 +253,7 @@ def test_held_dynamics_hold_the_point_and_obey_the_oracles_equations(label, link
     # A closed chain (the point held at rest, e.g. a second foot on the ground): the oracle's
     # kinematics give the point no acceleration, and the oracle's inverse dynamics need the
     # applied torques plus those that stand for the holding force (validated above).
-    dyn = linkage.dynamics()
+    dyn = Dynamics(linkage)
     psi, dpsi, _ = states(linkage, 16, 9)
     torques = np.random.default_rng(10).normal(0.0, 20.0, (16, linkage.n))
     i = linkage.n - 1
@@ -269,7 +276,7 @@ def test_held_dynamics_hold_the_point_and_obey_the_oracles_equations(label, link
 def test_a_held_chain_keeps_its_energy_and_its_point():
     # No torques, the end of the six-link's last link held: the holding force does no work
     # (its point does not move), so the energy stays; RK4's error is fourth order.
-    dyn = SIX.dynamics()
+    dyn = Dynamics(SIX)
     point = dyn.point(SIX.names[-1])
     n = SIX.n
     psi = np.array([1.4, 1.9, 1.5, 1.6, 1.2, 0.9])

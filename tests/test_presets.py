@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from model import DefinitionError, DefinitionTypeError, Linkage, presets
+from model import DefinitionError, DefinitionTypeError, Dynamics, Linkage, presets
 
 # scene.md: link, name, parent, l (m), m (kg), n, J (kg m^2)
 SCENE = [
@@ -141,7 +141,7 @@ def test_exoskeleton_leg_follows_winters_table():
     assert scaled.gravity == 9.8
     # a runnable model: hanging straight down it needs no torque
     down = np.full(3, -np.pi / 2)
-    assert np.abs(leg.dynamics().gravity_torques(down)).max() < 1e-12
+    assert np.abs(Dynamics(leg).gravity_torques(down)).max() < 1e-12
 
 
 @pytest.mark.parametrize(

@@ -29,8 +29,8 @@ from reference import newton_euler as ne
 from scipy.integrate import solve_ivp
 from scipy.special import erf
 
-from model.errors import DefinitionError, DefinitionTypeError
 from planner import OCP, Phases, RefinementError, refine_to
+from planner.errors import DefinitionError, DefinitionTypeError
 from planner.refinement import MAX_SPLIT, SAFETY, split_counts, split_mesh
 from problems import periodic_gait, walking_step
 

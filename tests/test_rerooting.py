@@ -22,6 +22,7 @@ from reference import newton_euler as ne
 from model import (
     DefinitionError,
     DefinitionTypeError,
+    Dynamics,
     Link,
     Linkage,
     LinkPoint,
@@ -137,7 +138,7 @@ def test_same_bodies_at_the_same_places(label, linkage, point):
 
 def test_kinetic_energy_is_equal_when_the_new_root_is_at_rest():
     rerooting = reroot(SIX, "swing_shank")
-    foot = SIX.dynamics().point("swing_shank")
+    foot = Dynamics(SIX).point("swing_shank")
     psi, dpsi = angles(SIX, 16, 2)
     for k in range(16):
         jacobian = foot.jacobian(psi[k], floating=False)
@@ -369,7 +370,7 @@ def test_bad_rerooting_input_is_refused():
     with pytest.raises(DefinitionError, match=r"`at`: must be 'end'"):
         reroot(SIX, "head", at="start")
     with pytest.raises(DefinitionTypeError, match=r"`linkage`: must be a model.Linkage"):
-        reroot(SIX.dynamics(), "head")
+        reroot(Dynamics(SIX), "head")
     with pytest.raises(DefinitionTypeError, match=r"`Link 'a'.rerooted`: must be True or"):
         Link("a", None, 1.0, 1.0, rerooted=1)
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from reference import newton_euler as ne
 
-from model import DefinitionError, presets
+from model import DefinitionError, Dynamics, presets
 from planner import OCP, SampleLimitError, Transcription, hold_at_samples, sample_misses, solve
 from problems import walking_step
 
@@ -23,7 +23,7 @@ LIMIT = 8.0  # N m: active over arcs of the swing (its motion needs 8.9 N m betw
 
 def swing(N=12):
     return (
-        OCP(CHAIN.dynamics(), T=1.5, N=N)
+        OCP(Dynamics(CHAIN), T=1.5, N=N)
         .initial(psi=[DOWN, DOWN], dpsi=0.0)
         .final(psi=[DOWN + 1.0, DOWN + 1.5], dpsi=0.0)
         .bound("M", -LIMIT, LIMIT)

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from test_transcription import min_energy
 
-from model.errors import DefinitionError, DefinitionTypeError
 from planner import TRANSCRIPTIONS, make_scheme, schemes
+from planner.errors import DefinitionError, DefinitionTypeError
 from planner.schemes import REGISTRY, WITH_DEGREE, Entry, Scheme, check_degree
 from problems.cli import build_parser
 

@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from model.errors import DefinitionError, DefinitionTypeError
+from planner.errors import DefinitionError, DefinitionTypeError
 from planner.simulation import (
     METHODS,
     MIN_TOLERANCE,

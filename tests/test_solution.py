@@ -10,11 +10,18 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from model import AnthropoidError, DefinitionError, DefinitionTypeError, presets
+from model import (
+    AnthropoidError,
+    DefinitionError,
+    DefinitionTypeError,
+    Dynamics,
+    LinkageTrajectory,
+    presets,
+)
 from planner import OCP, Solution, Trajectory, Transcription
 from planner.collocation import collocation_roots
 
-CHAIN = presets.n_link_chain(2).dynamics()
+CHAIN = Dynamics(presets.n_link_chain(2))
 DOWN = -np.pi / 2
 TARGET = np.array([DOWN + 1.0, DOWN + 1.5])
 SCHEMES = [
@@ -139,10 +146,10 @@ def test_time_outside_the_horizon_raises():
 def test_ddpsi_and_torques_views():
     solution = solved("hermite-simpson")
     expected = np.atleast_2d(
-        CHAIN.forward_dynamics(solution.states[:, :2], solution.states[:, 2:], solution.torques)
+        CHAIN.forward_dynamics(solution.states[:, :2], solution.states[:, 2:], solution.drives)
     )
-    np.testing.assert_allclose(solution.ddpsi, expected, atol=1e-7 * np.abs(expected).max())
-    np.testing.assert_allclose(solution.value("M_link2", solution.time), solution.torques[:, 1])
+    np.testing.assert_allclose(solution.accelerations, expected, atol=1e-7 * np.abs(expected).max())
+    np.testing.assert_allclose(solution.value("M_link2", solution.time), solution.drives[:, 1])
 
 
 # ---- accuracy estimates -----------------------------------------------------------------
@@ -462,8 +469,8 @@ def test_to_trajectory_at_nodes_and_resampled():
     assert isinstance(nodes, Trajectory)
     np.testing.assert_array_equal(nodes.time, solution.time)
     np.testing.assert_array_equal(nodes.psi, solution.states[:, :2])
-    np.testing.assert_array_equal(nodes.torques, solution.torques)
-    np.testing.assert_array_equal(nodes.ddpsi, solution.ddpsi)
+    np.testing.assert_array_equal(nodes.torques, solution.drives)
+    np.testing.assert_array_equal(nodes.ddpsi, solution.accelerations)
     assert nodes.state_names == ("psi_link1", "psi_link2", "dpsi_link1", "dpsi_link2")
     meta = nodes.metadata
     assert meta["transcription"] == "radau" and meta["degree"] == 3 and meta["N"] == 6
@@ -494,7 +501,7 @@ def test_save_round_trip_equals_the_interpolant(
     solution = solved(transcription, degree)
     path = tmp_path / f"swing{suffix}"
     solution.save(path, rate_hz=rate_hz, motion="transcription")
-    back = Trajectory.load(path)
+    back = LinkageTrajectory.load(path)
     # the time grid read back is the export grid, bit for bit (full-precision files)
     np.testing.assert_array_equal(back.time, np.array(expected_grid))
     # every column is the solution's own interpolant at those times, bit for bit
@@ -535,14 +542,14 @@ def test_generic_ode_solution_exports_its_own_names():
     # Hermite-Simpson is exact here: the re-integration error is at round-off
     assert solution.integration_error().max < 1e-9
     assert solution.residual_error().max < 1e-9
-    assert solution.ddpsi is None
+    assert solution.accelerations is None
 
 
 @pytest.mark.parametrize(("T", "N"), [(0.3, 7), (1.1, 50)])
 def test_radau_node_controls_are_the_nlp_variables_at_awkward_meshes(T, N):
     # t_k / T * N lands a few ulps off k for these meshes; a node must still read its own NLP
     # variable (the end point of the interval it closes), never an extrapolation.
-    dyn = presets.n_link_chain(2).dynamics()
+    dyn = Dynamics(presets.n_link_chain(2))
     solution = (
         OCP(dyn, T=T, N=N, transcription="radau", degree=2)
         .initial(psi=[-1.5, -1.5], dpsi=0)

@@ -11,9 +11,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from model import AnthropoidError, DefinitionError, presets
-from model.errors import DefinitionTypeError
+from model import AnthropoidError, DefinitionError, Dynamics, presets
 from planner import OCP, SolverError, Transcription, solve
+from planner.errors import DefinitionTypeError
 from problems import GaitLaw
 
 ZETA = np.array([0.20, 0.30, 0.40, 0.30, 0.10, 0.05])
@@ -37,7 +37,7 @@ def law(t):
 law_sx = GaitLaw.preset("paper22").psi
 
 
-SIX_LINK = presets.six_link_anthropoid().dynamics()
+SIX_LINK = Dynamics(presets.six_link_anthropoid())
 
 
 def gait(N=10, formulation="implicit", transcription="hermite-simpson"):
@@ -180,7 +180,7 @@ def test_implicit_and_explicit_reach_the_same_optimum(transcription):
     assert a.formulation == "implicit" and b.formulation == "explicit"
     assert a.cost == pytest.approx(b.cost, rel=1e-6)
     np.testing.assert_allclose(a.states, b.states, atol=1e-6)
-    np.testing.assert_allclose(a.torques, b.torques, atol=1e-6 * np.abs(b.torques).max())
+    np.testing.assert_allclose(a.drives, b.drives, atol=1e-6 * np.abs(b.drives).max())
     # ddpsi where the dynamics hold (a Radau node 0 is an extrapolation, different in each)
     ddpsi_a, ddpsi_b = a.acceleration(a.point_time), b.acceleration(b.point_time)
     np.testing.assert_allclose(ddpsi_a, ddpsi_b, atol=1e-6 * np.abs(ddpsi_b).max())
@@ -295,7 +295,7 @@ def test_benchmark_quick_run():
 
 # ---- warm start of the multipliers ---------------------------------------------------------
 
-CHAIN = presets.n_link_chain(2).dynamics()
+CHAIN = Dynamics(presets.n_link_chain(2))
 DOWN = -np.pi / 2
 RAISED = np.array([DOWN + 1.0, DOWN + 1.5])
 TIGHT = {"tol": 1e-10}
@@ -333,7 +333,7 @@ def assert_same_optimum(a, b):
     assert a.success and b.success
     assert a.cost == pytest.approx(b.cost, rel=1e-10)
     np.testing.assert_allclose(a.states, b.states, atol=1e-8)
-    np.testing.assert_allclose(a.torques, b.torques, atol=1e-7 * np.abs(b.torques).max())
+    np.testing.assert_allclose(a.drives, b.drives, atol=1e-7 * np.abs(b.drives).max())
 
 
 def test_resolving_from_its_own_solution_starts_from_its_multipliers():
@@ -637,7 +637,7 @@ def test_solve_module_is_importable_under_its_own_name():
 def swing_up(linkage, torque_unit, N=30):
     """A pendulum from hanging to upright at rest in 2 s, |M| <= 20 N m, min integral M^2."""
     return (
-        OCP(linkage.dynamics(), T=2.0, N=N)
+        OCP(Dynamics(linkage), T=2.0, N=N)
         .initial(psi=-np.pi / 2, dpsi=0.0)
         .final(psi=np.pi / 2, dpsi=0.0)
         .bound("M", -20.0 * torque_unit, 20.0 * torque_unit)
@@ -649,8 +649,8 @@ def swing_up(linkage, torque_unit, N=30):
 def assert_same_physical_answer(si, mm, torque_unit, states=1e-7, torques=1e-6):
     assert si.success and mm.success
     np.testing.assert_allclose(mm.states, si.states, atol=states)
-    scale = np.abs(si.torques).max()
-    np.testing.assert_allclose(mm.torques / torque_unit, si.torques, atol=torques * scale)
+    scale = np.abs(si.drives).max()
+    np.testing.assert_allclose(mm.drives / torque_unit, si.drives, atol=torques * scale)
     assert mm.cost / torque_unit**2 == pytest.approx(si.cost, rel=1e-8)
 
 
@@ -678,7 +678,7 @@ def test_si_and_millimetre_gram_pendulum_give_the_same_swing_up_in_as_many_itera
 def test_si_and_millimetre_gram_six_link_gait_give_the_same_gait_in_as_many_iterations():
     def bounded_gait(linkage, torque_unit):
         return (
-            OCP(linkage.dynamics(), T=1.0, N=16)
+            OCP(Dynamics(linkage), T=1.0, N=16)
             .constrain("near_law", lambda p: p.psi - law_sx(p.t), lower=-0.1, upper=0.1)
             .periodic()
             .bound("M", -2000.0 * torque_unit, 2000.0 * torque_unit)

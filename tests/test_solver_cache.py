@@ -9,11 +9,11 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from model import DefinitionError, DefinitionTypeError, presets
+from model import DefinitionError, DefinitionTypeError, Dynamics, presets
 from planner import OCP, Transcription
 from planner.solver_cache import SOLVERS, CachedSolver, SolverCache
 
-CHAIN = presets.n_link_chain(2).dynamics()
+CHAIN = Dynamics(presets.n_link_chain(2))
 DOWN = -np.pi / 2
 RAISED = [DOWN + 1.0, DOWN + 1.5]
 

@@ -24,9 +24,10 @@ import numpy as np
 import pytest
 import reference.newton_euler as ne
 
-from model.errors import DefinitionError, DefinitionTypeError
+from model import LinkageTrajectory
 from model.presets import six_link_anthropoid
 from planner import ACCURACY_WARNING, AccuracyWarning, Trajectory
+from planner.errors import DefinitionError, DefinitionTypeError
 from problems import Study, StudyProgress, StudyResult, cli, run_study, verify_gait, walking_step
 from problems.study_backends import (
     CLUSTER_INSTALL,
@@ -90,7 +91,7 @@ def _assert_complete_files(folder: Path) -> None:
     rows = read_rows(folder)
     for point_id, row in rows.items():
         if row["success"]:
-            Trajectory.load(folder / "solutions" / f"{point_id}.npz")
+            LinkageTrajectory.load(folder / "solutions" / f"{point_id}.npz")
     with open(folder / "results.csv", newline="") as handle:
         table = list(csv.DictReader(handle))
     assert sorted(r["point"] for r in table) == sorted(rows)
@@ -592,7 +593,7 @@ def test_command_line_study_takes_every_registered_transcription_and_a_degree(tm
     assert row["cost"] == pytest.approx(alone.cost, rel=1e-6)
     default = walking_step(N=8, transcription="radau").solve(progress=False)  # degree 3
     assert abs(row["cost"] - default.cost) > 1e-3 * default.cost
-    saved = Trajectory.load(next((folder / "solutions").glob("p*.npz")))
+    saved = LinkageTrajectory.load(next((folder / "solutions").glob("p*.npz")))
     assert (saved.metadata["transcription"], saved.metadata["degree"]) == ("radau", 2)
     # Bad degrees are refused before any point is defined, naming the option.
     for extra, message in (

@@ -23,9 +23,10 @@ import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 
-from model.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from model import LinkageTrajectory
 from planner import files as files_module
 from planner import interpolation
+from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.trajectory import (
     FORMAT_NAME,
     Trajectory,
@@ -49,7 +50,7 @@ def linkage_trajectory(k: int = 41, duration: float = 1.3, extras: bool = True) 
     ddpsi = -0.3 * omega**2 * np.sin(omega * t[:, None] + phase)
     torques = np.exp(t)[:, None] * np.array([1.0 / 3.0, -2.0 / 7.0, 1e-17])
     force = (np.cos(t) / 3.0) + 1j * (700.0 + np.sin(t))
-    return Trajectory.from_linkage(
+    return LinkageTrajectory.from_linkage(
         t,
         psi,
         dpsi,
@@ -115,7 +116,7 @@ def test_from_linkage_builds_the_convention():
 def test_ground_reaction_as_real_columns_and_arrays_read_only():
     t = np.linspace(0.0, 1.0, 5)
     one = np.ones((5, 1))
-    traj = Trajectory.from_linkage(t, one, one, one, ["a"], ground_reaction=np.c_[t, 2 * t])
+    traj = LinkageTrajectory.from_linkage(t, one, one, one, ["a"], ground_reaction=np.c_[t, 2 * t])
     np.testing.assert_array_equal(traj.ground_reaction, t + 2j * t)
     with pytest.raises(ValueError, match="read-only"):
         traj.states[0, 0] = 1.0
@@ -145,8 +146,11 @@ def test_none_means_empty_and_replace_revalidates():
 
 
 def test_linkage_properties_refuse_a_generic_trajectory():
-    traj = generic_trajectory()
-    assert not traj.is_linkage
+    generic = generic_trajectory()
+    # the planner's trajectory knows no linkage; the model's view of it reads the convention
+    assert not any(hasattr(generic, name) for name in ("psi", "torques", "is_linkage"))
+    traj = LinkageTrajectory.of(generic)
+    assert not traj.is_linkage and traj == generic
     for name in ("psi", "dpsi", "torques", "ddpsi", "link_names", "ground_reaction"):
         with pytest.raises(TrajectoryError, match=rf"`{name}`: this trajectory does not follow"):
             getattr(traj, name)
@@ -158,7 +162,7 @@ def test_missing_linkage_extras_are_named():
         _ = traj.ddpsi
     with pytest.raises(TrajectoryError, match=r"`ground_reaction`: .*pass ground_reaction="):
         _ = traj.ground_reaction
-    renamed = Trajectory(
+    renamed = LinkageTrajectory(
         traj.time,
         traj.states,
         traj.controls,
@@ -289,7 +293,7 @@ def test_from_linkage_validation(change, error, match):
         "names": ("a", "b"),
     }
     with pytest.raises(error, match=match):
-        Trajectory.from_linkage(**{**arguments, **change})
+        LinkageTrajectory.from_linkage(**{**arguments, **change})
 
 
 # ---- interpolation ----------------------------------------------------------------------------
@@ -411,7 +415,7 @@ def test_hermite_with_derivative_channels_converges_at_fourth_order():
     query = np.linspace(0.0, 2.0, 2001)
     for k in (9, 17, 33, 65, 129):
         t = np.linspace(0.0, 2.0, k)
-        traj = Trajectory.from_linkage(
+        traj = LinkageTrajectory.from_linkage(
             t, np.sin(3 * t)[:, None], 3 * np.cos(3 * t)[:, None], np.zeros((k, 1)), ["a"]
         )
         states, _ = traj.at(query)
@@ -616,7 +620,7 @@ def test_round_trip_at_the_samples_is_bit_for_bit(tmp_path, suffix):
 def test_round_trip_at_a_rate_equals_the_interpolant(tmp_path, suffix):
     traj = linkage_trajectory()
     path = traj.save(str(tmp_path / f"motion{suffix}"), rate_hz=37.0)
-    back = Trajectory.load(path)
+    back = LinkageTrajectory.load(path)
     assert back.time[0] == 0.0 and back.time[-1] == traj.tf and back.n_samples == 50
     states, controls = traj.at(back.time)
     assert bits(back.states) == bits(states)
@@ -659,9 +663,12 @@ def test_csv_layout_is_readable_by_spreadsheets_numpy_and_pandas(tmp_path):
     assert bits(frame["psi_shank [rad]"].to_numpy()) == bits(traj.states[:, 0])
     # without its sidecar it reads as a file made by hand: the same columns and groups
     (tmp_path / "m.csv.meta.json").unlink()
-    alone = Trajectory.load(path)
+    alone = LinkageTrajectory.load(path)
     assert alone.metadata == {} and alone.control_names == traj.control_names
     assert bits(alone.states) == bits(traj.states)
+    # the generic trajectory knows no naming convention: every column of such a file a state
+    generic = Trajectory.load(path)
+    assert generic.state_names == tuple(name for name, _, _ in traj.columns[1:])
 
 
 def _old_layout(traj, path, before: bool = True) -> None:
@@ -703,7 +710,8 @@ def test_hand_made_csv_infers_groups(tmp_path):
         't [s], psi_a [rad],dpsi_a [rad/s],"M_a [N m]",Fx [N]\r\n'
         "0,1,2,3,4\r\n\r\n0.5,1.5,2.5,3.5,4.5\r\n"
     )
-    traj = Trajectory.load(path)
+    assert Trajectory.load(path).state_names == ("psi_a", "dpsi_a", "M_a", "Fx")
+    traj = LinkageTrajectory.load(path)
     assert traj.state_names == ("psi_a", "dpsi_a") and traj.control_names == ("M_a",)
     assert list(traj.extras) == ["Fx"] and traj.metadata == {}
     np.testing.assert_array_equal(traj.torques[:, 0], [3.0, 3.5])

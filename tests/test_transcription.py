@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from model import presets
+from model import Dynamics, presets
 from planner import OCP, Transcription, make_scheme
 from planner.collocation import (
     collocation_roots,
@@ -205,7 +205,7 @@ def test_defects_match_textbook_formulas_at_random_points(name, degree):
 
 def test_row_and_variable_names_are_complete_and_unique():
     ocp = (
-        OCP(presets.n_link_chain(2).dynamics(), T=1.0, N=3)
+        OCP(Dynamics(presets.n_link_chain(2)), T=1.0, N=3)
         .constrain("tilt", lambda p: p.psi_link1 - p.psi_link2, lower=-1, upper=1)
         .periodic()
         .minimize(integral=lambda p: ca.sumsqr(p.M))
@@ -308,7 +308,7 @@ def test_path_constraints_with_controls_stay_at_the_dynamics_points(name, degree
 
 
 def fd_problem(expand, transcription="hermite-simpson", degree=None, formulation="implicit"):
-    chain = presets.n_link_chain(2).dynamics()
+    chain = Dynamics(presets.n_link_chain(2))
     return Transcription(
         OCP(
             chain,

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from model import LinkageTrajectory
 from planner.trajectory import Trajectory
 from planner.units import KNOWN_UNITS, QUANTITIES, si_unit, to_si
 
@@ -72,5 +73,5 @@ def test_a_trajectory_in_degrees_and_kilonewton_metres_converts_to_si():
     assert si.extras["spin"][1] == "furlong/s"  # unknown: kept as it is
     assert si.metadata["converted_to_si"]["M_a"] == "kN m -> N m"
     assert si.metadata["source"] == "hand"
-    assert si.is_linkage and si.link_names == ("a",)
+    assert LinkageTrajectory.of(si).is_linkage and LinkageTrajectory.of(si).link_names == ("a",)
     assert to_si(si) is si  # nothing left to convert

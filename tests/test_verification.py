@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from reference import newton_euler as ne
 
-from model import presets
+from model import LinkageTrajectory, presets
 from planner import Trajectory
 from problems import verify_gait, walking_step
 from problems.verification import RATES_DENSITY, _Kinematics
@@ -64,7 +64,7 @@ def test_the_file_a_gait_writes_passes_and_is_its_own_inverse_dynamics(gait, pro
     oracle = ne.inverse_dynamics(SIX, profile.psi, profile.dpsi, profile.ddpsi)
     assert np.abs(profile.torques - oracle).max() < 1e-9
     # a CSV read back (header and rows only, the rest in its sidecar) verifies the same
-    back = Trajectory.load(profile.save(tmp_path / "torques.csv"))
+    back = LinkageTrajectory.load(profile.save(tmp_path / "torques.csv"))
     assert verify_gait(back, SIX).ok
     # and so do other rates: the limits hold between the samples too
     for rate in (250.0, 3000.0):
@@ -117,7 +117,7 @@ def test_tampered_files_fail(profile, tmp_path, name, round_trip):
     change, failing = TAMPERED[name]
     tampered = rebuilt(profile, **change(profile))
     if round_trip:
-        tampered = Trajectory.load(tampered.save(tmp_path / "tampered.csv"))
+        tampered = LinkageTrajectory.load(tampered.save(tmp_path / "tampered.csv"))
     report = verify_gait(tampered, SIX)
     failed = {c.name for c in report.failures}
     if failing:

@@ -21,8 +21,8 @@ from reference import gait_oracle as go
 from reference import newton_euler as ne
 
 import planner.phase_transcription as pt
-from model import DefinitionError, DefinitionTypeError, Link, Linkage, presets
-from planner import OCP, Trajectory, Transcription
+from model import DefinitionError, DefinitionTypeError, Link, Linkage, LinkageTrajectory, presets
+from planner import OCP, Transcription
 from planner.sampled_limits import PASSIVE
 from problems import (
     Biped,
@@ -245,7 +245,7 @@ def test_verify_gait_finds_what_is_wrong_node_by_node():
     # Torques over the limit at node 7, by 5 N m.
     torques = trajectory.torques.copy()
     torques[7, 2] = 155.0
-    broken = Trajectory.from_linkage(
+    broken = LinkageTrajectory.from_linkage(
         trajectory.time,
         trajectory.psi,
         trajectory.dpsi,
@@ -265,7 +265,7 @@ def test_verify_gait_finds_what_is_wrong_node_by_node():
     # A start that does not follow from the heel strike: the momentum check fails too.
     dpsi = trajectory.dpsi.copy()
     dpsi[0, 3] += 0.5
-    shifted = Trajectory.from_linkage(
+    shifted = LinkageTrajectory.from_linkage(
         trajectory.time, trajectory.psi, dpsi, trajectory.torques, SIX.names,
         ddpsi=trajectory.ddpsi, metadata=trajectory.metadata,
     )  # fmt: skip
@@ -274,7 +274,7 @@ def test_verify_gait_finds_what_is_wrong_node_by_node():
     # A file read back verifies the same.
     path = result.to_trajectory().save(pytest.importorskip("pathlib").Path("gait_check.npz"))
     try:
-        assert verify_gait(Trajectory.load(path), SIX).ok
+        assert verify_gait(LinkageTrajectory.load(path), SIX).ok
     finally:
         path.unlink()
 
@@ -287,7 +287,7 @@ def raised_profile(s):
 
 def with_settings(trajectory, **gait):
     metadata = {**trajectory.metadata, "gait": {**trajectory.metadata["gait"], **gait}}
-    return Trajectory.from_linkage(
+    return LinkageTrajectory.from_linkage(
         trajectory.time, trajectory.psi, trajectory.dpsi, trajectory.torques,
         trajectory.link_names, ddpsi=trajectory.ddpsi, metadata=metadata,
     )  # fmt: skip
@@ -342,7 +342,7 @@ def test_a_callable_clearance_profile_travels_with_the_gait_and_is_verified(tmp_
     assert verify_gait(fine, SIX)["clearance"].margin == pytest.approx(oracle.min(), abs=1e-12)
     # A file read back carries the profile.
     for suffix in ("json", "csv", "npz"):
-        loaded = Trajectory.load(trajectory.save(tmp_path / f"profile.{suffix}"))
+        loaded = LinkageTrajectory.load(trajectory.save(tmp_path / f"profile.{suffix}"))
         assert loaded.metadata["gait"]["clearance_profile"] == table, suffix
         assert verify_gait(loaded, SIX).ok, suffix
     assert result.problem.settings()["clearance"] is None

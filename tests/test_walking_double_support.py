@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from reference.checks import central_jacobian
 
-from planner.trajectory import Trajectory
+from model import LinkageTrajectory
 from problems import walking_step
 from problems.walking_control import GaitReference, PhasePD
 from problems.walking_feedback import design_feedback
@@ -178,7 +178,7 @@ def test_the_periodic_lqr_walks_the_double_support_step_and_the_file_carries_bot
     # the file: a double_support column and the rows of the branch in force
     path = tmp_path / "torques.csv"
     feedback.channels(gait.to_trajectory(1000.0)).save(path)
-    loaded = Trajectory.load(path)
+    loaded = LinkageTrajectory.load(path)
     flag = np.asarray(loaded.extras["double_support"][0])
     assert flag[0] == 0.0 and flag[-1] == 1.0
     first = int(np.argmax(flag))

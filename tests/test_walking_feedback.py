@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from planner.trajectory import Trajectory
+from model import LinkageTrajectory
 from problems import walking_step
 from problems.cli import main
 from problems.verification import verify_gait
@@ -31,7 +31,7 @@ def test_the_file_carries_the_gains_at_each_samples_phase(designed, tmp_path):
     profile = feedback.channels(gait.to_trajectory(500.0))
     path = tmp_path / "torques.csv"
     profile.save(path)
-    loaded = Trajectory.load(path)
+    loaded = LinkageTrajectory.load(path)
     assert verify_gait(loaded, step.linkage).ok
     # the law is in the sidecar, where a drive's integrator reads the file's metadata
     assert LAW in json.dumps(json.loads((tmp_path / "torques.csv.meta.json").read_text()))
@@ -59,7 +59,7 @@ def test_a_drive_that_reads_only_the_file_walks(designed, tmp_path):
     feedback = design_feedback(gait, ground_mu=1.0)
     path = tmp_path / "torques.csv"
     feedback.channels(gait.to_trajectory(1000.0)).save(path)
-    loaded = Trajectory.load(path)
+    loaded = LinkageTrajectory.load(path)
     states = loaded.metadata["feedback"]["state"]
     table = np.stack(
         [
@@ -94,7 +94,7 @@ def test_walk_feedback_prints_the_closed_loop_and_writes_the_gains(tmp_path, cap
     assert (folder / "closed_loop.png").is_file()
     assert (folder / "closed_loop_walk.png").is_file()  # the run that took the largest push
     assert not (folder / "closed_loop_walk.gif").exists()  # --no-gif
-    loaded = Trajectory.load(folder / "torques.csv")
+    loaded = LinkageTrajectory.load(folder / "torques.csv")
     assert "K_torso__dpsi_head" in loaded.extras
 
 
@@ -108,5 +108,5 @@ def test_walk_feedback_designs_a_double_support_steps_two_laws(tmp_path, capsys)
     assert "through the held heel strike and the lift-off" in text
     assert "  plan             50/50" in text
     assert "MuJoCo: not run for a step with a double support" in text
-    loaded = Trajectory.load(folder / "torques.csv")
+    loaded = LinkageTrajectory.load(folder / "torques.csv")
     assert set(np.unique(loaded.extras["double_support"][0])) == {0.0, 1.0}

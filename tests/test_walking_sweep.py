@@ -12,8 +12,8 @@ import warnings
 
 import pytest
 
-from model import AnthropoidError, Link, Linkage, presets
-from planner import AccuracyWarning, Trajectory
+from model import AnthropoidError, Link, Linkage, LinkageTrajectory, presets
+from planner import AccuracyWarning
 from problems import verify_gait, walking_step
 
 SIX = presets.six_link_anthropoid()
@@ -47,7 +47,7 @@ def test_every_step_fails_loudly_or_writes_a_file_that_verifies(name, tmp_path):
                 outcomes[key] = type(error).__name__
                 continue
             path = gait.to_trajectory(1000.0).save(tmp_path / f"{length}_{duration}.csv")
-            report = verify_gait(Trajectory.load(path), linkage)
+            report = verify_gait(LinkageTrajectory.load(path), linkage)
             assert report.ok, (key, str(report))
             outcomes[key] = "verified"
     # the sweep reaches both ends: plans that verify, and steps that fail loudly

@@ -30,7 +30,8 @@ import warnings
 
 import numpy as np
 
-from planner import AccuracyWarning, Trajectory
+from model import LinkageTrajectory
+from planner import AccuracyWarning
 from problems import verify_gait, walking_step
 
 RATES = (250.0, 1000.0, 4000.0)
@@ -45,7 +46,7 @@ def measure(gait, rate_hz: float) -> dict[str, float]:
     out: dict[str, float] = {}
     for motion in ("transcription", "consistent"):
         trajectory = solution.to_trajectory(rate_hz, motion=motion)
-        with_settings = Trajectory.from_linkage(
+        with_settings = LinkageTrajectory.from_linkage(
             trajectory.time,
             trajectory.psi,
             trajectory.dpsi,

@@ -117,7 +117,7 @@ def batch_us(dynamics: Dynamics, rng: np.random.Generator, size: int, repeats: i
 
 def measure(name: str, linkage, options) -> dict:
     rng = np.random.default_rng(0)
-    dynamics = linkage.dynamics()
+    dynamics = Dynamics(linkage)
     call_dm, call_numpy = single_call_us(dynamics, rng, options.calls, options.repeats)
     ours = dynamics.function("inverse_dynamics").n_instructions()
     ad_complex = eq.ad_function(linkage, "inverse_dynamics", "complex").n_instructions()
@@ -277,7 +277,7 @@ def oracle_agreement(ne, linkages, count: int, rng: np.random.Generator) -> dict
     measures it the same way)."""
     worst = {"inverse dynamics": 0.0, "mass matrix": 0.0, "forward dynamics (M-norm)": 0.0}
     for linkage in linkages:
-        dynamics = linkage.dynamics()
+        dynamics = Dynamics(linkage)
         n = linkage.n
         psi = rng.uniform(-np.pi, np.pi, (count, n))
         dpsi, ddpsi = rng.normal(0, 2, (count, n)), rng.normal(0, 5, (count, n))
@@ -307,7 +307,7 @@ def passive_energy_drift(seconds: float = 2.0) -> float:
     random state, cvodes at rtol = atol = 1e-12; E = T + Pi - Pi_lowest, the energy above the
     pose hanging straight down (>= 0 for every state, so not a ratio of small numbers)."""
     linkage = presets.six_link_anthropoid()
-    dynamics = linkage.dynamics()
+    dynamics = Dynamics(linkage)
     n = linkage.n
     lowest = -sum(
         linkage.gravity
@@ -423,7 +423,7 @@ def main(argv=None) -> int:
     )
     print(format_table(rows))
     print()
-    six_dynamics = presets.six_link_anthropoid().dynamics()
+    six_dynamics = Dynamics(presets.six_link_anthropoid())
     mapped = map_us(six_dynamics, np.random.default_rng(1), options.batch, options.repeats)
     print(format_targets(rows[0], mapped))
     print()

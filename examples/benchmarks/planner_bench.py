@@ -48,7 +48,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from model import presets
+from model import Dynamics, presets
 from planner import OCP, Phases
 from planner.solver_cache import SOLVERS
 from problems import GaitLaw
@@ -69,7 +69,7 @@ def paper22_gait(
     band: float = BAND,
 ) -> OCP:
     """The six-link periodic gait OCP of this benchmark (angles within +-``band`` rad)."""
-    dynamics = dynamics or presets.six_link_anthropoid().dynamics()
+    dynamics = dynamics or Dynamics(presets.six_link_anthropoid())
     return (
         OCP(
             dynamics,
@@ -293,7 +293,7 @@ def main(argv=None) -> int:
     Ns = (10, 20, 40) if args.quick else (10, 20, 40, 80, 160)
     fitted = f"N = 20..{Ns[-1]}"
     repeat = 1 if args.quick else max(1, args.repeat)
-    dynamics = presets.six_link_anthropoid().dynamics()
+    dynamics = Dynamics(presets.six_link_anthropoid())
     schemes = (
         ("trapezoid", None),
         ("hermite-simpson", None),

@@ -34,8 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from model import presets
-from planner.trajectory import Trajectory
+from model import Dynamics, LinkageTrajectory, presets
 from problems import GaitLaw, replay_law, torques_along, upright_instability_rate
 
 TESTS = Path(__file__).resolve().parents[2] / "tests"
@@ -102,7 +101,7 @@ def main(argv=None) -> int:
     parser.add_argument("--repeat", type=int, default=5, help="runs per case (median)")
     args = parser.parse_args(argv)
     repeat = 1 if args.quick else max(1, args.repeat)
-    dynamics = presets.six_link_anthropoid().dynamics()
+    dynamics = Dynamics(presets.six_link_anthropoid())
     law = GaitLaw.preset("paper22")
 
     print("\n".join(errata_table(dynamics, law)))
@@ -116,7 +115,7 @@ def main(argv=None) -> int:
         path = torques_along(dynamics, law, np.linspace(0.0, law.period, 1001)).save(
             Path(folder) / "torques.csv"
         )
-        profile = Trajectory.load(path)
+        profile = LinkageTrajectory.load(path)
     print("\nreplay of a 1 kHz torque file (not-a-knot cubic spline between its samples)")
     print("\n".join(replay_rows(dynamics, law, FILE_CASES, repeat, torques=profile)))
     return 0

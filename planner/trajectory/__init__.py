@@ -4,16 +4,16 @@ One concept per module:
 
 * :mod:`planner.trajectory.value`: :class:`Trajectory` (samples of states, controls and
   derived channels on a time grid; interpolation, resampling) and :class:`ControlFunction`;
-* :mod:`planner.trajectory.linkage`: the linkage convention (psi_/dpsi_ states, M_ torques,
-  ddpsi_ extras): ``Trajectory.from_linkage`` and the views ``psi``, ``dpsi``, ``torques``,
-  ``ddpsi``, ``ground_reaction``;
+* :mod:`planner.trajectory.channels`: :class:`Channels`, what the formats and the plot read
+  of a trajectory;
 * :mod:`planner.trajectory.formats`: the CSV, JSON and NPZ files (``FORMATS``), written
   atomically and read back bit for bit;
 * :mod:`planner.trajectory.checks`: validation of arrays, channel names, units, metadata;
 * :mod:`planner.trajectory.errors`: the errors.
 
 The interpolation kernels are :mod:`planner.interpolation`. Used by ``planner.Solution``
-and by ``problems.torques_along`` / ``problems.simulate``.
+and by ``problems.torques_along`` / ``problems.simulate``. The trajectory knows no linkage:
+``model.LinkageTrajectory`` (a subclass) reads a linkage's channels as angles and torques.
 """
 
 from planner.trajectory.errors import (

@@ -1,6 +1,6 @@
 """Validation of what a trajectory is made of: sample arrays, channel names and units,
-JSON-serialisable metadata. Each check raises :class:`model.errors.DefinitionError` or
-:class:`model.errors.DefinitionTypeError` naming the field, the value and the fix."""
+JSON-serialisable metadata. Each check raises :class:`planner.errors.DefinitionError` or
+:class:`planner.errors.DefinitionTypeError` naming the field, the value and the fix."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
+from planner.errors import DefinitionError, DefinitionTypeError
 
 #: Characters a channel name or unit may not hold: they would break the CSV header
 #: ``name [unit]`` (comma, quote, brackets), the comment convention (#) or a line.

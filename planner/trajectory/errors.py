@@ -1,10 +1,10 @@
 """The errors of trajectories: a query a trajectory cannot answer, a file it cannot read or
-write. All derive from :class:`model.errors.AnthropoidError` (and the matching built-in
+write. All derive from :class:`planner.errors.AnthropoidError` (and the matching built-in
 exception), so one ``except`` clause catches the library's own failures."""
 
 from __future__ import annotations
 
-from model.errors import AnthropoidError
+from planner.errors import AnthropoidError
 
 
 class TrajectoryError(AnthropoidError, ValueError):

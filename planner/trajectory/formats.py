@@ -38,9 +38,8 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
+from planner.errors import DefinitionError, DefinitionTypeError
 from planner.files import atomic_path
-from planner.linkage_system import infer_group
 from planner.trajectory.errors import (
     TrajectoryFileError,
     TrajectoryFileNotFoundError,
@@ -48,7 +47,7 @@ from planner.trajectory.errors import (
 )
 
 if TYPE_CHECKING:
-    from planner.trajectory.value import Trajectory
+    from planner.trajectory.channels import Channels
 
 #: The ``format`` field written into every file, and the version this code writes and reads.
 FORMAT_NAME = "anthropoid-planner trajectory"
@@ -77,7 +76,7 @@ _WRITE_HINTS = {
 
 
 # ---- saving and loading -------------------------------------------------------------------
-def save(trajectory: Trajectory, path: str | os.PathLike, rate_hz: float | None = None) -> Path:
+def save(trajectory: Channels, path: str | os.PathLike, rate_hz: float | None = None) -> Path:
     """Write ``trajectory`` to ``path`` in the format given by its suffix (see
     :meth:`planner.trajectory.Trajectory.save`); returns the path."""
     path = _as_path(path)
@@ -114,10 +113,13 @@ def save(trajectory: Trajectory, path: str | os.PathLike, rate_hz: float | None 
     return path
 
 
-def load(path: str | os.PathLike, build: Callable[..., Built]) -> Built:
+def load(
+    path: str | os.PathLike, build: Callable[..., Built], infer_group: Callable[[str], str]
+) -> Built:
     """Read the file at ``path`` and return ``build(**fields)`` (the Trajectory constructor's
     fields); a field that ``build`` refuses raises :class:`TrajectoryFileError` naming the
-    file (see :meth:`planner.trajectory.Trajectory.load`)."""
+    file (see :meth:`planner.trajectory.Trajectory.load`). ``infer_group``: a column name ->
+    "state", "control" or "extra", for a file made by hand without a groups line."""
     path = _as_path(path)
     suffix = _suffix(path)
     if not path.exists():
@@ -126,7 +128,7 @@ def load(path: str | os.PathLike, build: Callable[..., Built]) -> Built:
         )
     if path.is_dir():
         raise TrajectoryFileError(f"{path}: is a folder, not a trajectory file")
-    fields = _READERS[suffix](path)
+    fields = _READERS[suffix](path, infer_group)
     try:
         return build(**fields)
     except (DefinitionError, DefinitionTypeError) as error:
@@ -177,7 +179,7 @@ def sidecar_path(path: str | os.PathLike) -> Path:
     return path.with_name(path.name + SIDECAR_SUFFIX)
 
 
-def _write_sidecar(trajectory: Trajectory, handle) -> None:
+def _write_sidecar(trajectory: Channels, handle) -> None:
     document = {
         "format": FORMAT_NAME,
         "version": FORMAT_VERSION,
@@ -192,7 +194,7 @@ def _float_text(values: np.ndarray) -> list[str]:
     return [repr(v) for v in values.tolist()]
 
 
-def _groups(trajectory: Trajectory) -> dict[str, list[str]]:
+def _groups(trajectory: Channels) -> dict[str, list[str]]:
     return {
         "state": list(trajectory.state_names),
         "control": list(trajectory.control_names),
@@ -200,19 +202,19 @@ def _groups(trajectory: Trajectory) -> dict[str, list[str]]:
     }
 
 
-def _write_csv(trajectory: Trajectory, handle) -> None:
+def _write_csv(trajectory: Channels, handle) -> None:
     # The header and the rows, nothing else: what readers with no options take (the groups
     # and the metadata go to the sidecar).
     columns = trajectory.columns
     handle.write(",".join(f"{name} [{unit}]" for name, unit, _ in columns) + "\n")
     table = np.column_stack(
-        [trajectory.time, trajectory.states, trajectory.controls, trajectory._extra_values]
+        [trajectory.time, trajectory.states, trajectory.controls, trajectory.extra_values]
     )
     for row in table.tolist():
         handle.write(",".join(map(repr, row)) + "\n")
 
 
-def _write_json(trajectory: Trajectory, handle) -> None:
+def _write_json(trajectory: Channels, handle) -> None:
     # One line per column of data keeps the file readable without one line per number.
     parts = [
         "{",
@@ -236,7 +238,7 @@ def _write_json(trajectory: Trajectory, handle) -> None:
     handle.write("\n".join(parts) + "\n")
 
 
-def _write_npz(trajectory: Trajectory, handle) -> None:
+def _write_npz(trajectory: Channels, handle) -> None:
     def strings(values: Sequence[str]) -> np.ndarray:
         return np.array(list(values), dtype=str) if values else np.zeros(0, dtype="<U1")
 
@@ -247,7 +249,7 @@ def _write_npz(trajectory: Trajectory, handle) -> None:
         time=trajectory.time,
         states=trajectory.states,
         controls=trajectory.controls,
-        extras=trajectory._extra_values,
+        extras=trajectory.extra_values,
         state_names=strings(trajectory.state_names),
         state_units=strings(trajectory.state_units),
         control_names=strings(trajectory.control_names),
@@ -304,6 +306,7 @@ def _assemble(
     values: Sequence[np.ndarray],
     groups: Mapping[str, Sequence[str]] | None,
     metadata: Any,
+    infer_group: Callable[[str], str],
 ) -> dict[str, Any]:
     """Constructor fields from named columns, ordered by ``groups`` (or by name rules)."""
     by_name = dict(zip(names, zip(values, units, strict=True), strict=True))
@@ -368,7 +371,7 @@ def _read_text(path: Path) -> str:
         raise TrajectoryFileError(f"{path}: cannot be read: {error.strerror}") from None
 
 
-def _read_csv(path: Path) -> dict[str, Any]:
+def _read_csv(path: Path, infer_group: Callable[[str], str]) -> dict[str, Any]:
     text = _read_text(path)
     comments: dict[str, Any] = {}
     header: list[tuple[str, str]] | None = None
@@ -495,6 +498,7 @@ def _read_csv(path: Path) -> dict[str, Any]:
         [table[:, c] for c in range(1, len(header))],
         comments.get("groups"),
         comments.get("metadata"),
+        infer_group,
     )
 
 
@@ -513,7 +517,7 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
     return document
 
 
-def _read_json(path: Path) -> dict[str, Any]:
+def _read_json(path: Path, infer_group: Callable[[str], str]) -> dict[str, Any]:
     text = _read_text(path)
     try:
         document = json.loads(text)
@@ -612,6 +616,7 @@ def _read_json(path: Path) -> dict[str, Any]:
         arrays[1:],
         groups,
         document.get("metadata"),
+        infer_group,
     )
 
 
@@ -636,7 +641,7 @@ _NPZ_KEYS = (
 )
 
 
-def _read_npz(path: Path) -> dict[str, Any]:
+def _read_npz(path: Path, infer_group: Callable[[str], str]) -> dict[str, Any]:
     try:
         with np.load(path, allow_pickle=False) as archive:
             missing = [k for k in _NPZ_KEYS if k not in archive.files]
@@ -702,12 +707,12 @@ def _read_npz(path: Path) -> dict[str, Any]:
     }
 
 
-_WRITERS: dict[str, tuple[Callable[[Trajectory, Any], None], bool]] = {
+_WRITERS: dict[str, tuple[Callable[[Channels, Any], None], bool]] = {
     ".csv": (_write_csv, False),
     ".json": (_write_json, False),
     ".npz": (_write_npz, True),
 }
-_READERS: dict[str, Callable[[Path], dict[str, Any]]] = {
+_READERS: dict[str, Callable[[Path, Callable[[str], str]], dict[str, Any]]] = {
     ".csv": _read_csv,
     ".json": _read_json,
     ".npz": _read_npz,

@@ -12,12 +12,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from model.errors import DefinitionError
+from planner.errors import DefinitionError
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from planner.trajectory.value import Trajectory
+    from planner.trajectory.channels import Channels
 
 #: Colours of the links, cycled: matplotlib's tab10, so a link keeps its colour in every plot.
 COLOURS = (
@@ -26,7 +26,7 @@ COLOURS = (
 )  # fmt: skip
 
 
-def _panels(trajectory: Trajectory, extras: bool) -> list[tuple[str, str, list[str]]]:
+def _panels(trajectory: Channels, extras: bool) -> list[tuple[str, str, list[str]]]:
     """(label, unit, channel names) per panel: each group split by unit, in column order."""
     panels: list[tuple[str, str, list[str]]] = []
     for name, unit, group in trajectory.columns[1:]:
@@ -50,7 +50,7 @@ def _common_prefix(names: Sequence[str]) -> str:
 
 
 def draw(
-    trajectory: Trajectory,
+    trajectory: Channels,
     *,
     extras: bool = False,
     figsize: tuple[float, float] | None = None,

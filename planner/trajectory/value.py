@@ -17,10 +17,11 @@
     .control_function(kind="cubic"|"linear") -> callable t -> (nu,) or (K, nu)
     .resample(rate_hz=None, times=None) -> Trajectory
     .save(path, rate_hz=None), Trajectory.load(path)   (planner.trajectory.formats)
-    .plot(...) -> matplotlib Figure (states and controls against time); stick figures and
-                  GIF animations for linkages live in planner.plots and take a model.Dynamics
-    Trajectory.from_linkage(...), .psi, .dpsi, .torques, .ddpsi, .ground_reaction,
-    .link_names   (the linkage convention: planner.trajectory.linkage)
+    .plot(...) -> matplotlib Figure (states and controls against time)
+
+The trajectory knows no linkage: ``model.LinkageTrajectory`` is the subclass that reads the
+channels as link angles, rates and torques (``.psi``, ``.torques``, ...), and the linkage's
+stick figures and GIFs live in ``model.drawing``.
 
 Interpolation (the kernels are :mod:`planner.interpolation`)
 -----------------------------------------------------------
@@ -50,8 +51,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError, check_positive
 from planner import interpolation
+from planner.errors import DefinitionError, DefinitionTypeError, check_positive
 from planner.trajectory import formats, plot
 from planner.trajectory.checks import (
     check_finite_array,
@@ -61,7 +62,6 @@ from planner.trajectory.checks import (
     labels,
 )
 from planner.trajectory.errors import TrajectoryError
-from planner.trajectory.linkage import LinkageViews
 
 if TYPE_CHECKING:  # matplotlib is imported lazily: the planner core must not pay for it
     from matplotlib.figure import Figure
@@ -77,7 +77,7 @@ def _derivative_unit(unit: str) -> tuple[str, ...]:
 
 # ---- the type -----------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False, repr=False)
-class Trajectory(LinkageViews):
+class Trajectory:
     """Samples of states, controls and derived channels on a strictly increasing time grid.
 
     Parameters
@@ -303,7 +303,8 @@ class Trajectory(LinkageViews):
         return interpolation.spline_slopes(self.time, self.controls)
 
     @cached_property
-    def _extra_values(self) -> np.ndarray:
+    def extra_values(self) -> np.ndarray:
+        """(K, number of extras) the extras' samples, in the order of ``extras``."""
         if not self.extras:
             return np.zeros((self.n_samples, 0))
         return np.stack([values for values, _ in self.extras.values()], axis=1)
@@ -311,8 +312,8 @@ class Trajectory(LinkageViews):
     @cached_property
     def _extra_slopes(self) -> np.ndarray:
         if not self.extras:
-            return self._extra_values
-        return interpolation.spline_slopes(self.time, self._extra_values)
+            return self.extra_values
+        return interpolation.spline_slopes(self.time, self.extra_values)
 
     @property
     def hermite_states(self) -> tuple[str, ...]:
@@ -345,7 +346,7 @@ class Trajectory(LinkageViews):
     def extras_at(self, t) -> dict[str, np.ndarray]:
         """Extras at time(s) ``t`` by not-a-knot cubic spline: name -> (q,) or scalar float."""
         times, scalar = self._query(t)
-        values = interpolation.hermite(self.time, self._extra_values, self._extra_slopes, times)
+        values = interpolation.hermite(self.time, self.extra_values, self._extra_slopes, times)
         return {
             name: (values[0, j] if scalar else values[:, j]) for j, name in enumerate(self.extras)
         }
@@ -401,7 +402,7 @@ class Trajectory(LinkageViews):
             **self.metadata,
             "resampled": {"rate_hz": rate, "source_samples": self.n_samples},
         }
-        return Trajectory(
+        return type(self)(
             time=grid,
             states=states,
             controls=controls,
@@ -427,6 +428,13 @@ class Trajectory(LinkageViews):
         """
         return formats.save(self, path, rate_hz)
 
+    @staticmethod
+    def infer_group(name: str) -> str:
+        """The group ("state", "control" or "extra") of a column of a file made by hand, which
+        has no groups line: a generic trajectory reads every column as a state (a subclass that
+        knows a naming convention, e.g. ``model.LinkageTrajectory``, reads the names)."""
+        return "state"
+
     @classmethod
     def load(cls, path: str | os.PathLike) -> Trajectory:
         """Read a file written by ``save`` (or a hand-made CSV with a ``t [s]`` column).
@@ -435,7 +443,20 @@ class Trajectory(LinkageViews):
         :class:`TrajectoryFileError` for anything malformed, naming the file, the line or
         column, and the fix.
         """
-        return formats.load(path, cls)
+        return formats.load(path, cls, cls.infer_group)
+
+    # ---- a guess for another problem -------------------------------------------------------
+    def interpolate_guess(self, s: np.ndarray) -> dict[str, np.ndarray]:
+        """Every channel at normalised times s = (t - t0) / duration, name -> (K,): states and
+        controls through the interpolant, extras linearly (a warm start for an OCP,
+        ``OCP.guess(trajectory)``)."""
+        t = self.t0 + np.asarray(s, dtype=float) * self.duration
+        states, controls = self.at(t)
+        out = {n: states[:, i] for i, n in enumerate(self.state_names)}
+        out.update({n: controls[:, i] for i, n in enumerate(self.control_names)})
+        for name, (values, _unit) in self.extras.items():
+            out[name] = np.interp(t, self.time, values)
+        return out
 
     # ---- plotting ------------------------------------------------------------------------
     def plot(self, **options: Any) -> Figure:
@@ -542,7 +563,7 @@ def _replace(trajectory: Trajectory, **changes: Any) -> Trajectory:
         "metadata": trajectory.metadata,
     }
     fields.update(changes)
-    return Trajectory(**fields)
+    return type(trajectory)(**fields)
 
 
 __all__ = ["ControlFunction", "Trajectory"]

@@ -1,41 +1,69 @@
-"""The linkage convention of a trajectory: its channels read as link angles, rates, torques.
+"""A trajectory of a linkage: its channels read as link angles, rates, torques.
 
-A trajectory follows the linkage convention (used by the planner for a ``model.Dynamics``
-and by ``problems``) when its channels are
+A trajectory follows the linkage convention (:mod:`model.linkage_naming`, the planner's
+System of a ``model.Dynamics``) when its channels are
 
     states   psi_<link> [rad] for every link, then dpsi_<link> [rad/s]
     controls M_<link>   [N m]  (hinge torques)
     extras   ddpsi_<link> [rad/s^2], Fx [N], Fy [N] (ground reaction at H0) when known
 
-:class:`LinkageViews` gives :class:`planner.trajectory.Trajectory` the constructor
-``from_linkage`` and the (K, n) views ``psi``, ``dpsi``, ``torques``, ``ddpsi``,
-``ground_reaction`` and ``link_names``, which raise :class:`TrajectoryError` on a trajectory
-that does not follow the convention.
+:class:`LinkageTrajectory` is a :class:`planner.trajectory.Trajectory` (the planner's generic
+samples, which know no linkage) with the constructor ``from_linkage`` and the (K, n) views
+``psi``, ``dpsi``, ``torques``, ``ddpsi``, ``ground_reaction`` and ``link_names``, which raise
+:class:`planner.trajectory.TrajectoryError` on a trajectory that does not follow the
+convention. A linkage's Solution returns one (``System.trajectory_type``); read a linkage's
+file with ``LinkageTrajectory.load``, which also infers the groups of a file made by hand
+from the convention's names (:func:`model.linkage_naming.infer_group`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from model.errors import DefinitionError, DefinitionTypeError
-from planner import linkage_system as naming
+from model import linkage_naming as naming
+from planner.errors import DefinitionError, DefinitionTypeError
+from planner.trajectory import Trajectory, TrajectoryError
 from planner.trajectory.checks import check_label, float_array
-from planner.trajectory.errors import TrajectoryError
-
-if TYPE_CHECKING:
-    from planner.trajectory.value import Trajectory
 
 
-class LinkageViews:
-    """The linkage convention's constructor and views, mixed into
-    :class:`planner.trajectory.Trajectory` (which provides ``state_names``, ``state_units``,
-    ``states``, ``control_names``, ``control_units``, ``controls`` and ``extras``)."""
+@dataclass(frozen=True, eq=False, repr=False)
+class LinkageTrajectory(Trajectory):
+    """A :class:`planner.trajectory.Trajectory` read in the linkage convention (the fields and
+    validation are the Trajectory's; this class adds the linkage's constructor and views)."""
+
+    @staticmethod
+    def infer_group(name: str) -> str:
+        """The group of a column of a file made by hand (no groups line), by the convention."""
+        return naming.infer_group(name)
 
     # ---- construction ----------------------------------------------------------------------
+    @classmethod
+    def of(cls, trajectory: Trajectory) -> LinkageTrajectory:
+        """``trajectory`` (any :class:`planner.trajectory.Trajectory`: read from a file with
+        ``Trajectory.load``, built by hand) with the linkage's views: the same samples, names,
+        units and metadata; itself when it is one already."""
+        if isinstance(trajectory, cls):
+            return trajectory
+        if not isinstance(trajectory, Trajectory):
+            raise DefinitionTypeError(
+                f"`trajectory`: must be a planner.Trajectory, got {type(trajectory).__name__}"
+            )
+        return cls(
+            time=trajectory.time,
+            states=trajectory.states,
+            controls=trajectory.controls,
+            state_names=trajectory.state_names,
+            state_units=trajectory.state_units,
+            control_names=trajectory.control_names,
+            control_units=trajectory.control_units,
+            extras=trajectory.extras,
+            metadata=trajectory.metadata,
+        )
+
     @classmethod
     def from_linkage(
         cls,
@@ -47,7 +75,7 @@ class LinkageViews:
         ddpsi=None,
         ground_reaction=None,
         metadata: Mapping | None = None,
-    ) -> Trajectory:
+    ) -> LinkageTrajectory:
         """A trajectory in the linkage convention.
 
         Parameters
@@ -131,7 +159,7 @@ class LinkageViews:
         return TrajectoryError(
             f"`{what}`: this trajectory does not follow the linkage convention "
             f"({naming.CONVENTION}); its states are {list(self.state_names)}; build it with "
-            "Trajectory.from_linkage or read the columns by name with .column(name)"
+            "LinkageTrajectory.from_linkage or read the columns by name with .column(name)"
         )
 
     @property
@@ -186,7 +214,7 @@ class LinkageViews:
         if missing:
             raise TrajectoryError(
                 f"`ddpsi`: this trajectory stores no angular accelerations (missing extras "
-                f"{missing}); pass ddpsi= to Trajectory.from_linkage"
+                f"{missing}); pass ddpsi= to LinkageTrajectory.from_linkage"
             )
         return np.stack([self.extras[name][0] for name in names], axis=1)
 
@@ -205,8 +233,8 @@ class LinkageViews:
         fx, fy = naming.contact_force_names(naming.root_contact(self._links))
         raise TrajectoryError(
             f"`ground_reaction`: this trajectory stores no ground reaction (extras {fx}, {fy}); "
-            "pass ground_reaction= to Trajectory.from_linkage"
+            "pass ground_reaction= to LinkageTrajectory.from_linkage"
         )
 
 
-__all__ = ["LinkageViews"]
+__all__ = ["LinkageTrajectory"]

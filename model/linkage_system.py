@@ -1,22 +1,14 @@
-"""The linkage adapter: a ``model.Dynamics`` as a planner :class:`~planner.system.System`, and
-the linkage naming convention, which lives here and nowhere else in ``planner``.
-
-The convention (every file, trajectory and OCP of a linkage uses it; link names are
-``model.Linkage.names``):
-
-    states    psi_<link> [rad] for every link, then dpsi_<link> [rad/s]   (groups psi, dpsi)
-    controls  M_<link> [N m], the hinge torques (group M), then the ground forces of held
-              points F_<point>_x, F_<point>_y [N] (group F)
-    auxiliary ddpsi_<link> [rad/s^2] in the implicit formulation (group ddpsi; explicit, the
-              Point field ddpsi is the forward dynamics)
-    extras    ddpsi_<link> [rad/s^2], Fx, Fy [N] (ground reaction at H0) in a trajectory
+"""The linkage adapter: a ``model.Dynamics`` as a planner :class:`planner.system.System`.
 
 :func:`linkage_system` builds the System (x = [psi; dpsi], u = M (and F), z = ddpsi when
-implicit) with the roles the planner reads: the residual rows named by link, a guess
-function's tuple read as (psi, dpsi[, ddpsi[, M]]), torques that no guess gives completed by
-inverse dynamics, ``drives`` = M and ``accelerations`` = ddpsi, and the model's parameters
-for metadata. The name functions below serve the trajectory's linkage views
-(:mod:`planner.trajectory.linkage`), its file reader and the plots.
+implicit; names from :mod:`model.linkage_naming`) with the roles the planner reads: the
+residual rows named by link, a guess function's tuple read as (psi, dpsi[, ddpsi[, M]]),
+torques that no guess gives completed by inverse dynamics, ``drives`` = M and
+``accelerations`` = ddpsi, the model's parameters for metadata, and
+:class:`model.linkage_trajectory.LinkageTrajectory` as the type of its trajectories.
+``Dynamics.as_system`` calls it, which is how ``planner.OCP`` takes a Dynamics without
+importing the model: the adapter lives on the model's side of the one-way imports
+(planner <- model <- problems).
 """
 
 from __future__ import annotations
@@ -26,108 +18,30 @@ from collections.abc import Mapping, Sequence
 import casadi as ca
 import numpy as np
 
-from model.dynamics import Dynamics
+from model.linkage_naming import (
+    ACCELERATION_UNIT,
+    ACCELERATIONS,
+    ANGLE_UNIT,
+    ANGLES,
+    FORCE_UNIT,
+    FORCES,
+    RATE_UNIT,
+    RATES,
+    TORQUE_UNIT,
+    TORQUES,
+    acceleration_names,
+    angle_names,
+    force_names,
+    rate_names,
+    torque_names,
+)
+from model.linkage_trajectory import LinkageTrajectory
 from planner.system import DerivedField, System
 
-#: Group names of the convention, in the order of the variables.
-ANGLES, RATES, ACCELERATIONS, TORQUES, FORCES = "psi", "dpsi", "ddpsi", "M", "F"
-#: Units of the convention's channels.
-ANGLE_UNIT, RATE_UNIT, ACCELERATION_UNIT, TORQUE_UNIT, FORCE_UNIT = (
-    "rad",
-    "rad/s",
-    "rad/s^2",
-    "N m",
-    "N",
-)
-#: Extras of the ground reaction at H0 in trajectories written before contact-named columns
-#: (read back as the ground reaction, N).
-GROUND_REACTION = ("Fx", "Fy")
-#: The convention in words, for messages.
-CONVENTION = f"states {ANGLES}_<link> [{ANGLE_UNIT}] then {RATES}_<link> [{RATE_UNIT}]"
 
-
-def _named(group: str, links: Sequence[str]) -> tuple[str, ...]:
-    return tuple(f"{group}_{link}" for link in links)
-
-
-def angle_names(links: Sequence[str]) -> tuple[str, ...]:
-    """psi_<link> for every link."""
-    return _named(ANGLES, links)
-
-
-def rate_names(links: Sequence[str]) -> tuple[str, ...]:
-    """dpsi_<link> for every link."""
-    return _named(RATES, links)
-
-
-def acceleration_names(links: Sequence[str]) -> tuple[str, ...]:
-    """ddpsi_<link> for every link."""
-    return _named(ACCELERATIONS, links)
-
-
-def torque_names(links: Sequence[str]) -> tuple[str, ...]:
-    """M_<link> for every link."""
-    return _named(TORQUES, links)
-
-
-def force_names(points: Sequence[str]) -> tuple[str, ...]:
-    """F_<point>_x, F_<point>_y for every held point (by its identifier)."""
-    return tuple(f"{FORCES}_{point}_{axis}" for point in points for axis in ("x", "y"))
-
-
-def links_of(state_names: Sequence[str], state_units: Sequence[str]) -> tuple[str, ...] | None:
-    """The links of states that follow the convention (psi_<link> [rad] for every link, then
-    dpsi_<link> [rad/s] in the same order), or None."""
-    names = tuple(state_names)
-    if not names or len(names) % 2:
-        return None
-    n = len(names) // 2
-    prefix = f"{ANGLES}_"
-    if not all(name.startswith(prefix) for name in names[:n]):
-        return None
-    links = tuple(name[len(prefix) :] for name in names[:n])
-    if names[n:] != rate_names(links):
-        return None
-    if tuple(state_units) != (ANGLE_UNIT,) * n + (RATE_UNIT,) * n:
-        return None
-    return links
-
-
-def contact_force_names(contact: str) -> tuple[str, str]:
-    """The extras of a contact's ground force, N: ``F_<contact>_x``, ``F_<contact>_y`` (the
-    contact named after its point: ``swing_shank_end``; the root's start hinge H0, pinned
-    to the ground, is ``<root>_start``)."""
-    return f"F_{contact}_x", f"F_{contact}_y"
-
-
-def root_contact(links: Sequence[str]) -> str:
-    """The name of the contact at H0, the start of the root link: ``<root>_start``."""
-    return f"{links[0]}_start"
-
-
-def link_of(name: str) -> str | None:
-    """The link of a channel psi_<link>, dpsi_<link> or M_<link>, else None."""
-    for group in (ANGLES, RATES, TORQUES):
-        if name.startswith(f"{group}_"):
-            return name[len(group) + 1 :]
-    return None
-
-
-def infer_group(name: str) -> str:
-    """The trajectory group of a column of a file made by hand (no groups line): torques
-    M_<link> are controls, accelerations ddpsi_<link> and the ground reaction extras, the
-    rest states."""
-    if name.startswith(f"{TORQUES}_"):
-        return "control"
-    if name.startswith((f"{ACCELERATIONS}_", "F_", "CoP_")) or name in GROUND_REACTION:
-        return "extra"
-    return "state"
-
-
-def linkage_system(
-    dynamics: Dynamics, formulation: str = "implicit", contacts: Sequence = ()
-) -> System:
-    """The linkage system: x = [psi; dpsi], u = M (and F), z = ddpsi (implicit only).
+def linkage_system(dynamics, formulation: str = "implicit", contacts: Sequence = ()) -> System:
+    """The linkage system of ``dynamics`` (a ``model.Dynamics``): x = [psi; dpsi], u = M (and
+    F), z = ddpsi (implicit only).
 
     ``contacts``: points of the linkage (``model.LinkPoint``) held by the ground, whose
     ground forces (Fx, Fy), N, are more controls (``F_<point>_x``, ``F_<point>_y``; group
@@ -246,6 +160,7 @@ def linkage_system(
         velocities=RATES,
         drives_for_motion=drives_for_motion,
         nominal=_nominal(dynamics.linkage, torques, forces),
+        trajectory_type=LinkageTrajectory,
     )
 
 
@@ -272,28 +187,4 @@ def _nominal(linkage, torques, forces) -> dict[str, float]:
 NOMINAL_TORQUE = 0.1
 
 
-__all__ = [
-    "ACCELERATIONS",
-    "ACCELERATION_UNIT",
-    "ANGLES",
-    "ANGLE_UNIT",
-    "CONVENTION",
-    "FORCES",
-    "FORCE_UNIT",
-    "GROUND_REACTION",
-    "RATES",
-    "RATE_UNIT",
-    "TORQUES",
-    "TORQUE_UNIT",
-    "acceleration_names",
-    "angle_names",
-    "contact_force_names",
-    "force_names",
-    "infer_group",
-    "link_of",
-    "linkage_system",
-    "links_of",
-    "rate_names",
-    "root_contact",
-    "torque_names",
-]
+__all__ = ["NOMINAL_TORQUE", "linkage_system"]

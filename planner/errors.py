@@ -1,4 +1,4 @@
-"""The library's error classes.
+"""The product's error classes (planner, model and problems raise them).
 
 Every error the project raises on purpose derives from :class:`AnthropoidError`, so a caller
 can catch the library's own failures in one clause. Definition errors also derive from the
