@@ -25,7 +25,7 @@ import numpy as np
 
 from model import Dynamics, presets
 from problems import LAW_PRESETS, GaitLaw, torques_along
-from problems.cli import MAX_RATE_HZ, positive
+from problems.cli.common import MAX_RATE_HZ, positive
 
 
 def main(argv=None) -> int:

@@ -20,7 +20,8 @@ import casadi as ca
 import numpy as np
 from matplotlib.figure import Figure
 
-from problems import walking_plots, walking_step
+from problems import walking_step
+from problems.walking import plots as walking_plots
 
 TORQUE_LIMIT = 100.0  # N m
 HIP_MINIMUM = 0.8  # m

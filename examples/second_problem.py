@@ -27,7 +27,7 @@ import numpy as np
 
 from model import Dynamics, LinkageTrajectory, presets
 from problems import LAW_PRESETS, GaitLaw, fit_growth_rate, simulate, torques_along
-from problems.cli import positive
+from problems.cli.common import positive
 
 
 def main(argv=None) -> int:

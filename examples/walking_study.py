@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from problems import Study
-from problems.study_plots import save_plots
+from problems.study.plots import save_plots
 
 
 def ankle_step(ankle: str, step_length: float, N: int) -> dict:

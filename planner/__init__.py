@@ -18,7 +18,7 @@ from planner.sampled_limits import SampleLimitError, hold_at_samples, sample_mis
 from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
 from planner.solution import IntegrationError, Replay, Solution
 from planner.solver import SolverError, solve
-from planner.system import System
+from planner.system import System, SystemSource
 from planner.trajectory import Trajectory
 from planner.transcription import Transcription
 
@@ -42,6 +42,7 @@ __all__ = [
     "Solution",
     "SolverError",
     "System",
+    "SystemSource",
     "Trajectory",
     "Transcription",
     "check_accuracy_of",

@@ -55,7 +55,7 @@ from planner.errors import (
     check_integer,
 )
 from planner.guesses import GuessLayer, SampledGuess, evaluate_guess_layer
-from planner.schemes import TRANSCRIPTIONS
+from planner.schemes import DEFAULT_TRANSCRIPTION, TRANSCRIPTIONS
 from planner.system import System, SystemSource
 
 if TYPE_CHECKING:
@@ -578,7 +578,7 @@ class OCPDefinition:
     dynamics: Any
     T: float | tuple[float, float]
     N: int
-    transcription: str = "hermite-simpson"
+    transcription: str = DEFAULT_TRANSCRIPTION
     degree: int | None = None
     formulation: str | None = None
     state_names: tuple[str, ...] | None = None

@@ -15,8 +15,6 @@
 The command line is ``python -m problems`` (see ``problems.cli``).
 """
 
-from problems.accuracy import ACCURACY_PRESETS, AccuracyPreset
-from problems.biped import Biped
 from problems.dynamics_problems import (
     FIT_WINDOW,
     MAX_OUTPUT_SAMPLES,
@@ -32,13 +30,15 @@ from problems.dynamics_problems import (
     upright_instability_rate,
     versions,
 )
-from problems.gait_law import LAW_PRESETS, GaitLaw
-from problems.gait_problem import OBJECTIVES, Gait
-from problems.periodic_gait import KEYPOINTS, PeriodicGait, PeriodicGaitProblem, periodic_gait
-from problems.study import Study, run_study
-from problems.study_result import StudyProgress, StudyResult
-from problems.verification import Check, GaitReport, GaitVerificationError, verify_gait
-from problems.walking import WalkingGait, WalkingStep, WorldMotion, walking_step
+from problems.gait.accuracy import ACCURACY_PRESETS, AccuracyPreset
+from problems.gait.biped import Biped
+from problems.gait.law import LAW_PRESETS, GaitLaw
+from problems.gait.problem import OBJECTIVES, Gait
+from problems.gait.verification import Check, GaitReport, GaitVerificationError, verify_gait
+from problems.pinned.gait import KEYPOINTS, PeriodicGait, PeriodicGaitProblem, periodic_gait
+from problems.study.result import StudyProgress, StudyResult
+from problems.study.study import Study, run_study
+from problems.walking.step import WalkingGait, WalkingStep, WorldMotion, walking_step
 
 __all__ = [
     "ACCURACY_PRESETS",

@@ -51,7 +51,7 @@ from planner.simulation import (
 )
 from planner.trajectory import Trajectory
 from planner.units import QUANTITIES, accepted, si_unit, to_si
-from problems.gait_law import GaitLaw
+from problems.gait.law import GaitLaw
 
 __all__ = [
     "FIT_WINDOW",

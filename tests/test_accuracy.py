@@ -22,10 +22,10 @@ import pytest
 from model import presets
 from planner.errors import DefinitionError, DefinitionTypeError
 from problems import ACCURACY_PRESETS, periodic_gait, walking_step
-from problems.accuracy import MIN_INTERVALS
+from problems.gait.accuracy import MIN_INTERVALS
 
 # The module both gait problems solve through (a spy replaces its solve).
-gait_module = importlib.import_module("problems.gait_problem")
+gait_module = importlib.import_module("problems.gait.problem")
 
 #: The reference's density per preset (intervals per second of Radau(5)), so that its own
 #: error is at most a tenth of the preset's bound.

@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-import problems.accuracy as problems_accuracy
+import problems.gait.accuracy as problems_accuracy
 from model import Dynamics, LinkageTrajectory, equations, presets
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from planner.trajectory import Trajectory
@@ -303,13 +303,14 @@ def test_simulate_says_it_still_runs_between_progress_reports(monkeypatch, tmp_p
     import io
     import time
 
-    from problems import cli
-
     stream = io.StringIO()
     monkeypatch.setattr(sys, "stderr", stream)
     monkeypatch.setattr(sys, "stdout", io.StringIO())
-    monkeypatch.setattr(cli, "Reporter", functools.partial(cli.Reporter, heartbeat_s=0.05))
-    real = cli.simulate
+    from problems.cli import program
+    from problems.cli import simulate as simulate_command
+
+    monkeypatch.setattr(program, "Reporter", functools.partial(program.Reporter, heartbeat_s=0.05))
+    real = simulate_command.simulate
     fractions = []
 
     def slow_simulate(*args, progress, **options):
@@ -323,7 +324,7 @@ def test_simulate_says_it_still_runs_between_progress_reports(monkeypatch, tmp_p
 
         return real(*args, progress=recorded, **options)
 
-    monkeypatch.setattr(cli, "simulate", slow_simulate)
+    monkeypatch.setattr(simulate_command, "simulate", slow_simulate)
     code = main(["simulate", str(profile_files / "torques.csv"), "--method", "rk", "--substeps",
                  "400", "--no-plots", "--output-dir", str(tmp_path)])  # fmt: skip
     lines = stream.getvalue().splitlines()
@@ -676,7 +677,7 @@ def test_reporter_heartbeat_while_a_silent_stage_runs():
     import io
     import time
 
-    from problems.cli import Reporter
+    from problems.cli.common import Reporter
 
     stream = io.StringIO()
     report = Reporter(stream, heartbeat_s=0.01)
@@ -718,16 +719,17 @@ def test_programming_errors_keep_their_traceback(capsys, monkeypatch):
 
 
 def test_library_parameter_names_become_option_names():
-    from problems import cli
+    from problems.cli import common
+    from problems.cli.simulate import SIMULATE_OPTIONS
 
     assert (
-        cli._in_option_words("`rate_hz`: must be > 0 Hz; `x0`: too", cli._SIMULATE_OPTIONS)
+        common.in_option_words("`rate_hz`: must be > 0 Hz; `x0`: too", SIMULATE_OPTIONS)
         == "--rate-hz: must be > 0 Hz; `x0`: too"
     )
-    assert cli._in_option_words(
-        "`GaitLaw.center`: has 5 values but `zeta` has 6", cli._LAW_OPTIONS
+    assert common.in_option_words(
+        "`GaitLaw.center`: has 5 values but `zeta` has 6", common.LAW_OPTIONS
     ) == ("--center-rad: has 5 values but --zeta-rad has 6")
-    assert cli._in_option_words("`GaitLaw.varpi[2]`: must be finite", cli._LAW_OPTIONS) == (
+    assert common.in_option_words("`GaitLaw.varpi[2]`: must be finite", common.LAW_OPTIONS) == (
         "--varpi-rad value 3: must be finite"
     )
 
@@ -1194,3 +1196,37 @@ def test_a_failed_write_leaves_nothing_of_the_new_run(capsys, tmp_path, monkeypa
     code, _, err = run(capsys, "walk", "--quick", "-q", "--no-plots", "--output-dir",
                        tmp_path / "new")  # fmt: skip
     assert code == 1 and not (tmp_path / "new").exists()
+
+
+def test_walk_and_study_options_default_to_the_walking_steps_own_defaults():
+    # one source: the command line reads walking_step's signature, it types no number again
+    import inspect
+
+    from planner.schemes import DEFAULT_TRANSCRIPTION
+    from problems.cli import build_parser
+    from problems.walking.step import DEFAULT_N, WALKING_DEFAULTS, walking_step
+
+    signature = inspect.signature(walking_step).parameters
+    assert WALKING_DEFAULTS["N"] == DEFAULT_N and signature["N"].default is None
+    parser = build_parser()
+    walk = parser.parse_args(["walk"])
+    study = parser.parse_args(["study"])
+    for option, argument in (
+        ("step_length_m", "step_length"),
+        ("step_time_s", "step_time"),
+        ("mu", "mu"),
+        ("torque_limit_nm", "torque_limit"),
+        ("clearance_m", "clearance"),
+        ("double_support_s", "double_support"),
+        ("ground_margin_m", "ground_margin"),
+        ("objective", "objective"),
+        ("formulation", "formulation"),
+    ):
+        assert getattr(walk, option) == signature[argument].default, option
+        if option in ("mu", "torque_limit_nm", "clearance_m", "double_support_s"):
+            assert getattr(study, option) == (signature[argument].default,), option
+    assert study.transcription == DEFAULT_TRANSCRIPTION
+    help_text = parser._subparsers._group_actions[0].choices["walk"].format_help()
+    assert (
+        f"default: {DEFAULT_N}," in help_text and f"(default: {DEFAULT_TRANSCRIPTION})" in help_text
+    )

@@ -36,7 +36,7 @@ from planner import OCP, Transcription
 from planner.solver import jacobian_mode
 from problems import periodic_gait, walking_step
 from problems.__main__ import main
-from problems.gait_problem import objective_integrand
+from problems.gait.problem import objective_integrand
 
 TESTS = Path(__file__).parent
 

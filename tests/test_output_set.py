@@ -1,4 +1,4 @@
-"""problems.output_set: a command's files written as one set, or none of them."""
+"""problems.cli.output_set: a command's files written as one set, or none of them."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from problems.output_set import MANIFEST, OutputFolderError, OutputSet, check_folder
+from problems.cli.output_set import MANIFEST, OutputFolderError, OutputSet, check_folder
 
 
 def _run(folder, command="walk", files=("a.csv", "b.png"), fail=False):

@@ -1,4 +1,4 @@
-"""The fixed-base periodic gait (problems.periodic_gait) checked with code written another way:
+"""The fixed-base periodic gait (problems.pinned.gait) checked with code written another way:
 periodicity, the swing foot through the law's keypoints (between nodes, on the solution's
 interpolant), clearance, posture and torque bounds through the Newton-Euler oracle in numpy;
 exported torques against the oracle's inverse dynamics; the law's cost recomputed by

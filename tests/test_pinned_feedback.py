@@ -1,4 +1,4 @@
-"""Feedback of the fixed-base periodic gait (problems.pinned_feedback).
+"""Feedback of the fixed-base periodic gait (problems.pinned.feedback).
 
 Oracles: central differences of the simulated period map (the exact chain of Jacobians
 against the simulation it differentiates); two open-loop runs' divergence against the plan's
@@ -13,8 +13,7 @@ import pytest
 from reference.checks import central_jacobian
 
 from model import LinkageTrajectory
-from problems.periodic_gait import periodic_gait
-from problems.pinned_feedback import (
+from problems.pinned.feedback import (
     LAW,
     PinnedLQR,
     closed_loop_orbit,
@@ -23,7 +22,8 @@ from problems.pinned_feedback import (
     run_pinned_in_mujoco,
     simulate_periods,
 )
-from problems.walking_control import TimedReference
+from problems.pinned.gait import periodic_gait
+from problems.walking.control import TimedReference
 
 RATE_HZ = 250.0  # a coarser controller than the default 1 kHz: the same code, 4x faster
 
@@ -146,7 +146,7 @@ def test_mujoco_holds_the_gait_under_the_gains_and_drops_it_without(designed):
 
 def test_bad_inputs_are_named(designed):
     from model import DefinitionError
-    from problems.walking_feedback import with_gains
+    from problems.walking.feedback import with_gains
 
     gait, feedback = designed
     with pytest.raises(DefinitionError, match=r"`initial`: the error of the start state .* 12 "):

@@ -1,4 +1,4 @@
-"""Walking studies (problems.study): the table against one-by-one solves on the process pool
+"""Walking studies (problems.study.study): the table against one-by-one solves on the process pool
 and on a real Dask LocalCluster, resume after an injected exception and after a killed worker
 (no point solved twice, none missing, no half-written file), failed points recorded with their
 status, the continuation schedule, the study folder's checks, the command line and the plots.
@@ -29,16 +29,16 @@ from model.presets import six_link_anthropoid
 from planner import ACCURACY_WARNING, AccuracyWarning, Trajectory
 from planner.errors import DefinitionError, DefinitionTypeError
 from problems import Study, StudyProgress, StudyResult, cli, run_study, verify_gait, walking_step
-from problems.study_backends import (
+from problems.cli.study import ProgressBar, value_list
+from problems.study.backends import (
     CLUSTER_INSTALL,
     DaskBackend,
     available_cores,
     check_workers,
     make_backend,
 )
-from problems.study_cli import ProgressBar, value_list
-from problems.study_plots import FILES, cost_map_figure, save_plots
-from problems.study_point import (
+from problems.study.plots import FILES, cost_map_figure, save_plots
+from problems.study.point import (
     DEFINITION_FAILED,
     WORKER_LOST,
     PointSpec,
@@ -47,9 +47,9 @@ from problems.study_point import (
     trajectory_bytes,
     warm_record,
 )
-from problems.study_runner import MAX_LOSSES
-from problems.study_schedule import Schedule, choose_ordering
-from problems.study_store import (
+from problems.study.runner import MAX_LOSSES
+from problems.study.schedule import Schedule, choose_ordering
+from problems.study.store import (
     StudyFileError,
     StudyFolder,
     StudyFolderError,
@@ -797,7 +797,7 @@ def test_a_damaged_record_or_solution_is_reported_and_solved_again(tmp_path, cap
     record.write_bytes(record.read_bytes()[:100])  # a copy cut short
     solution = folder / "solutions" / "p1_1.npz"
     solution.write_bytes(b"not a zip")
-    with caplog.at_level(logging.WARNING, logger="problems.study"):
+    with caplog.at_level(logging.WARNING, logger="problems.study.study"):
         result = study.run(folder, workers=1)
     assert sorted(Path(p).name for p in result.run["damaged"]) == ["p0_0.npz", "p1_1.npz"]
     assert result.run["solved"] == 2 and len(result.solved) == 6

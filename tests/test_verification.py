@@ -15,7 +15,7 @@ from reference import newton_euler as ne
 from model import LinkageTrajectory, presets
 from planner import Trajectory
 from problems import verify_gait, walking_step
-from problems.verification import RATES_DENSITY, _Kinematics
+from problems.gait.verification import RATES_DENSITY, _Kinematics
 
 SIX = presets.six_link_anthropoid()
 

@@ -1,4 +1,4 @@
-"""The hybrid walking step (problems.walking) checked with code written another way.
+"""The hybrid walking step (problems.walking.step) checked with code written another way.
 
 Every property of the solved gaits is recomputed in numpy from the exported node trajectory
 through ``reference.newton_euler`` and ``reference.gait_oracle`` (a dense KKT impact, the

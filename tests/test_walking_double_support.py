@@ -17,16 +17,16 @@ from reference.checks import central_jacobian
 
 from model import LinkageTrajectory
 from problems import walking_step
-from problems.walking_control import GaitReference, PhasePD
-from problems.walking_feedback import design_feedback
-from problems.walking_linearisation import fixed_point, return_map
-from problems.walking_lqr import (
+from problems.walking.control import GaitReference, PhasePD
+from problems.walking.feedback import design_feedback
+from problems.walking.linearisation import fixed_point, return_map
+from problems.walking.lqr import (
     SwitchedLQR,
     lift_off_saltation,
     linearise_double_support,
     periodic_riccati,
 )
-from problems.walking_simulation import (
+from problems.walking.simulation import (
     Disturbances,
     Plant,
     locate_event,
@@ -196,7 +196,7 @@ def test_the_periodic_lqr_walks_the_double_support_step_and_the_file_carries_bot
 def test_mujoco_refuses_the_double_support_step_by_name(plan):
     pytest.importorskip("mujoco")
     from model import DefinitionError
-    from problems.walking_mujoco import run_in_mujoco
+    from problems.walking.mujoco import run_in_mujoco
 
     _, gait, _ = plan
     feedback = design_feedback(gait, ground_mu=GROUND_MU)
@@ -207,7 +207,7 @@ def test_mujoco_refuses_the_double_support_step_by_name(plan):
 
 def test_an_unknown_end_of_a_linearised_stretch_is_named(plan):
     from model import DefinitionError
-    from problems.walking_lqr import linearise_along
+    from problems.walking.lqr import linearise_along
 
     _, gait, plant = plan
     single, _ = GaitReference.branches(gait, rate_hz=1000.0)

@@ -1,9 +1,9 @@
-"""The periodic LQR of a walking step (problems.walking_lqr).
+"""The periodic LQR of a walking step (problems.walking.lqr).
 
 Oracles: scipy's discrete algebraic Riccati equation (a constant system is a periodic one);
 the value function, x0' P(0) x0, against the cost summed along the linear closed loop; the
 saltation matrix against central differences of the strike found by the simulation; and the
-closed loop's multipliers (problems.walking_linearisation) against the linear model's.
+closed loop's multipliers (problems.walking.linearisation) against the linear model's.
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ from reference.checks import central_jacobian
 from scipy.linalg import solve_discrete_are
 
 from problems import walking_step
-from problems.walking_control import GaitReference, OpenLoop
-from problems.walking_linearisation import fixed_point
-from problems.walking_lqr import (
+from problems.walking.control import GaitReference, OpenLoop
+from problems.walking.linearisation import fixed_point
+from problems.walking.lqr import (
     LqrWeights,
     PhaseLQR,
     linearise_along,
@@ -24,7 +24,7 @@ from problems.walking_lqr import (
     periodic_riccati,
     saltation,
 )
-from problems.walking_simulation import Disturbances, Plant, locate_strike, simulate_walking
+from problems.walking.simulation import Disturbances, Plant, locate_strike, simulate_walking
 
 GROUND_MU = 1.0
 

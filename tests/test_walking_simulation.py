@@ -1,5 +1,5 @@
-"""Many steps simulated (problems.walking_simulation) under the controllers of
-problems.walking_control.
+"""Many steps simulated (problems.walking.simulation) under the controllers of
+problems.walking.control.
 
 Oracles: scipy's adaptive integrator and energy conservation for the plant's RK4; the angular
 momentum about the stance foot, which a push changes by r x P; the angular momentum about the
@@ -16,8 +16,8 @@ from scipy.integrate import solve_ivp
 
 from model import DefinitionError, presets
 from problems import walking_step
-from problems.walking_control import GaitReference, OpenLoop, PhasePD
-from problems.walking_simulation import Disturbances, Plant, simulate_walking
+from problems.walking.control import GaitReference, OpenLoop, PhasePD
+from problems.walking.simulation import Disturbances, Plant, simulate_walking
 
 SIX = presets.six_link_anthropoid()
 #: the ground's friction in these runs: the plan (mu = 0.8) runs along its cone's edge right
@@ -178,7 +178,7 @@ def test_a_runs_world_motion_stands_each_step_on_its_foothold(plan, tmp_path):
         length = np.abs(motion.segments[name][:, 1] - motion.segments[name][:, 0])
         assert np.ptp(length) < 1e-12
     assert motion.time[-1] == run.time[-1] and np.all(np.diff(motion.time) > 0)
-    from problems.walking_plots import animate_walk
+    from problems.walking.plots import animate_walk
 
     path = animate_walk(motion, tmp_path / "run.gif", fps=10.0, caption="3 steps; ", window=1.0)
     assert path.read_bytes()[:6] == b"GIF89a"

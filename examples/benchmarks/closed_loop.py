@@ -10,7 +10,7 @@ recursion); the closed loop's periodic gait and Floquet multipliers (Newton on t
 return map); one return map; 50 simulated steps in the product's hybrid simulation; 20 steps
 in MuJoCo (when installed). The same for the six-link step with a 0.05 s double support
 (ground friction 1.5; no MuJoCo run: refused, see run_in_mujoco) and for the paper's
-fixed-base periodic gait (``problems.pinned_feedback``: the period's LQR, the closed loop's
+fixed-base periodic gait (``problems.pinned.feedback``: the period's LQR, the closed loop's
 orbit, 20 periods in the product and in MuJoCo). Ratios are to the solve's median of the
 same problem in the same run.
 """
@@ -23,9 +23,9 @@ import time
 
 from model import presets
 from problems import walking_step
-from problems.walking_feedback import design_feedback
-from problems.walking_linearisation import fixed_point, return_map
-from problems.walking_simulation import simulate_walking
+from problems.walking.feedback import design_feedback
+from problems.walking.linearisation import fixed_point, return_map
+from problems.walking.simulation import simulate_walking
 
 
 def _median(function, repeat):
@@ -85,13 +85,13 @@ def _double_support_rows(repeat: int) -> list[tuple[str, float, str]]:
 
 
 def _pinned_rows(repeat: int, mujoco_installed: bool) -> list[tuple[str, float, str]]:
-    from problems.periodic_gait import periodic_gait
-    from problems.pinned_feedback import (
+    from problems.pinned.feedback import (
         closed_loop_orbit,
         design_pinned_feedback,
         run_pinned_in_mujoco,
         simulate_periods,
     )
+    from problems.pinned.gait import periodic_gait
 
     problem = periodic_gait()
     solve, gait = _median(lambda: problem.solve(progress=False), repeat)
@@ -119,7 +119,7 @@ def main() -> None:
     try:
         import mujoco  # noqa: F401 - whether the extra is there
 
-        from problems.walking_mujoco import run_in_mujoco
+        from problems.walking.mujoco import run_in_mujoco
     except ImportError:
         run_in_mujoco = None
     bipeds = {"six-link": presets.six_link_anthropoid, "five-link": presets.five_link_biped}

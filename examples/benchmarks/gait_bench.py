@@ -36,7 +36,7 @@ import numpy as np
 
 from model import presets
 from problems import GaitLaw, periodic_gait, walking_step
-from problems.gait_problem import total_iterations, total_seconds
+from problems.gait.problem import total_iterations, total_seconds
 
 #: Targets of the walking issue, s, for define + build + solve.
 TARGETS = {"walking step": 0.4, "fixed-base gait": 0.5}

@@ -21,7 +21,8 @@ from pathlib import Path
 
 from matplotlib.animation import PillowWriter
 
-from problems import walking_plots, walking_step
+from problems import walking_step
+from problems.walking import plots as walking_plots
 
 
 def _median(function, repeat: int) -> float:

@@ -6,7 +6,7 @@ a fine reference of the same local optimum.
     python examples/benchmarks/speed_accuracy.py --replot results.json   # summaries, figure
 
 Problems: the six-link walking step (``problems.walking_step``, 0.5 m in 0.5 s) and the
-fixed-base periodic gait (``problems.periodic_gait``, the "walking" law, period 1 s).
+fixed-base periodic gait (``problems.pinned.gait``, the "walking" law, period 1 s).
 Grid: trapezoid, Hermite-Simpson, Radau degree 3 and 5, Legendre degree 3; N = 10 .. 320
 (doubling); implicit and explicit dynamics; IPOPT tol 1e-4 and 1e-8. A run whose NLP has more
 than ``--max-variables`` variables is skipped (listed at the end).

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from problems import Study
-from problems.study_backends import available_cores
+from problems.study.backends import available_cores
 
 
 def _axes(quick: bool) -> dict[str, np.ndarray]:

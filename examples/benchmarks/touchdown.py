@@ -17,7 +17,7 @@ touchdown shifts for errors of 1, 2 and 4 mm (early for a low foot, late for a h
 with the step-length change of the worst 2 mm shift (mm). Variants: the touchdown speed
 v_td (the heel-strike row vy(T) <= -v_td) with and without the clearance profile's approach
 term v_td (T - t) exp(-((T - t) / w)^4) for several windows w. The defaults of
-``problems.walking`` (v_td = 0.3 m/s, w = 30 ms) were chosen from this table.
+``problems.walking.step`` (v_td = 0.3 m/s, w = 30 ms) were chosen from this table.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ import time
 
 import numpy as np
 
-import problems.walking as walking
+import problems.walking.step as walking
 from problems import walking_step
 
 ERRORS_MM = (1.0, 2.0, 4.0)

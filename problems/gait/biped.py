@@ -31,7 +31,7 @@ import numpy as np
 from model.linkage import Linkage
 from model.rerooting import Rerooting, swap_legs
 from planner.errors import DefinitionError, DefinitionTypeError, check_positive
-from problems.gait_law import GaitLaw
+from problems.gait.law import GaitLaw
 
 HALF_PI = 0.5 * math.pi
 #: Hip-to-foot distance of the guess's legs at heel strike, as a fraction of the leg length.

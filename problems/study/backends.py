@@ -20,7 +20,7 @@ cluster.
 Every backend offers ``submit(task) -> handle``, ``wait(handles, timeout) -> finished
 handles``, ``result(handle)`` (raises :class:`WorkerLost` when the worker died),
 ``capacity`` (how many points to keep in flight), ``workers`` and ``close(cancel)``.
-Locks the study's process holds are not the workers': ``problems.study_store`` closes them
+Locks the study's process holds are not the workers': ``problems.study.store`` closes them
 in every forked child.
 """
 
@@ -42,7 +42,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
-from problems.study_point import PointSpec, install, solve_installed, solve_point
+from problems.study.point import PointSpec, install, solve_installed, solve_point
 
 logger = logging.getLogger(__name__)
 

@@ -8,7 +8,7 @@ Layout::
                         NLP iterate and multipliers in physical units (exact warm starts)
     solutions/<id>.npz  a solved point's gait at its nodes (``planner.LinkageTrajectory.load``: to
                         plot, export, simulate, or guess another OCP from)
-    *.png               the plots (``problems.study_plots``)
+    *.png               the plots (``problems.study.plots``)
 
 Every file is written to a temporary file in the same folder and renamed over its name when
 complete (``planner.files.atomic_path``), records and the table flushed to disk first. A
@@ -46,7 +46,7 @@ import numpy as np
 from planner.errors import AnthropoidError, DefinitionError
 from planner.files import atomic_path
 
-logger = logging.getLogger("problems.study")
+logger = logging.getLogger("problems.study.study")
 
 try:  # POSIX advisory locks; elsewhere a folder is not locked
     import fcntl
@@ -297,7 +297,7 @@ class StudyFolder:
         return read_rows(self.path, ids)
 
     def save(self, result: Mapping[str, Any]) -> None:
-        """Write a point's result (``problems.study_point.solve_point``): its solution,
+        """Write a point's result (``problems.study.point.solve_point``): its solution,
         then its record (which settles it)."""
         point_id = result["id"]
         if result.get("trajectory") is not None:

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 from planner.errors import DefinitionError, DefinitionTypeError
 from planner.refinement import check_accuracy, refine_to
+from planner.schemes import DEFAULT_TRANSCRIPTION
 
 #: No preset mesh has fewer intervals.
 MIN_INTERVALS = 8
@@ -67,7 +68,7 @@ ACCURACY_PRESETS: dict[str, AccuracyPreset] = {
         # step 3.5 N m. (Before the touchdown: 1.4, 0.8, 0.9, 1.4 against a bound of 3.)
         AccuracyPreset(
             "draft",
-            "hermite-simpson",
+            DEFAULT_TRANSCRIPTION,
             None,
             40.0,
             1e-4,
@@ -77,7 +78,7 @@ ACCURACY_PRESETS: dict[str, AccuracyPreset] = {
         # six-link step 0.83 N m, gait 0.045; 0.4 m step 0.09, five-link step 1.58.
         AccuracyPreset(
             "balanced",
-            "hermite-simpson",
+            DEFAULT_TRANSCRIPTION,
             None,
             160.0,
             1e-8,
@@ -91,7 +92,7 @@ ACCURACY_PRESETS: dict[str, AccuracyPreset] = {
         # (speed_accuracy.py --skip grid, against Radau(5) at 1280/s).
         AccuracyPreset(
             "precise",
-            "hermite-simpson",
+            DEFAULT_TRANSCRIPTION,
             None,
             640.0,
             1e-8,
@@ -124,7 +125,7 @@ def resolve_mesh(accuracy, duration: float, N, transcription, degree, default_N:
     if accuracy is None:
         return {
             "N": default_N if N is None else N,
-            "transcription": transcription or "hermite-simpson",
+            "transcription": transcription or DEFAULT_TRANSCRIPTION,
             "degree": degree,
         }
     if not isinstance(accuracy, str):

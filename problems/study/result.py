@@ -23,7 +23,7 @@ import numpy as np
 from model import LinkageTrajectory
 from planner import Trajectory
 from planner.errors import DefinitionError
-from problems.study_store import SOLUTIONS, read_definition, read_rows
+from problems.study.store import SOLUTIONS, read_definition, read_rows
 
 
 @dataclass(frozen=True)
@@ -100,7 +100,7 @@ class StudyResult:
 
     @classmethod
     def load(cls, folder: str | os.PathLike, run: dict[str, Any] | None = None) -> StudyResult:
-        """Read the study in ``folder`` (``problems.study_store.StudyFileError`` if it is
+        """Read the study in ``folder`` (``problems.study.store.StudyFileError`` if it is
         not one)."""
         folder = Path(os.fspath(folder))
         definition = read_definition(folder)["definition"]

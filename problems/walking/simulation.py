@@ -1,7 +1,7 @@
 """Many steps of a walking biped, simulated as a hybrid system: the second problem of dynamics
 across heel strikes, under a controller, with disturbances.
 
-The plant is the product's pinned-foot model of a step (:mod:`problems.walking`): the stance
+The plant is the product's pinned-foot model of a step (:mod:`problems.walking.step`): the stance
 foot H0 is a hinge on the ground; x = (psi, dpsi) (2n,) rad and rad/s. Between heel strikes
 x' = (dpsi, FD(psi, dpsi, M)) with the controller's torques M held over each control period
 (a digital controller: zero-order hold at ``control_rate_hz``) and integrated by
@@ -35,8 +35,8 @@ import numpy as np
 from model.dynamics import Dynamics
 from model.linkage import Linkage
 from planner.errors import DefinitionError, check_integer, check_positive, check_real
-from problems.biped import Biped
-from problems.walking import UNLOADED, WorldMotion, world_motion
+from problems.gait.biped import Biped
+from problems.walking.step import UNLOADED, WorldMotion, world_motion
 
 #: the swing foot must be this far ahead of the stance foot, as a fraction of the planned step
 #: length, for a touch of the ground to count as a heel strike (it starts at the stance foot's
@@ -162,8 +162,8 @@ class WalkingRun:
         """The run's bodies in world coordinates (``dynamics`` the simulated biped's model,
         e.g. the plan's ``step.dynamics``), sampled at about ``rate_hz`` (every control
         instant nearest a multiple of 1 / rate_hz) and at its last instant, for
-        :func:`problems.walking_plots.world_strip` and
-        :func:`problems.walking_plots.animate_walk`."""
+        :func:`problems.walking.plots.world_strip` and
+        :func:`problems.walking.plots.animate_walk`."""
         rate = check_positive("rate_hz", rate_hz, "Hz")
         marks = np.arange(self.time[0], self.time[-1], 1.0 / rate)
         picks = np.unique(np.r_[np.searchsorted(self.time, marks), self.time.size - 1])

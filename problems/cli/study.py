@@ -32,11 +32,18 @@ import numpy as np
 
 from model.presets import PRESETS
 from planner.errors import DefinitionError
-from planner.schemes import REGISTRY, TRANSCRIPTIONS, WITH_DEGREE, check_degree
-from problems.study import Study
-from problems.study_backends import available_cores
-from problems.study_result import StudyProgress, StudyResult
-from problems.study_schedule import ORDERINGS
+from planner.schemes import (
+    DEFAULT_TRANSCRIPTION,
+    REGISTRY,
+    TRANSCRIPTIONS,
+    WITH_DEGREE,
+    check_degree,
+)
+from problems.study.backends import available_cores
+from problems.study.result import StudyProgress, StudyResult
+from problems.study.schedule import ORDERINGS
+from problems.study.study import Study
+from problems.walking.step import WALKING_DEFAULTS
 
 DEFAULT_FOLDER = "study_out"
 #: Most values one axis takes, and most points a study holds (each point a solve and a few
@@ -120,7 +127,7 @@ def count_at_most(maximum: int, what: str, fix: str) -> Callable[[str], int]:
     return parse
 
 
-def add_parser(commands, common: argparse.ArgumentParser) -> None:
+def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.ArgumentParser) -> None:
     """The ``study`` subcommand's parser."""
     study = commands.add_parser(
         "study",
@@ -143,41 +150,42 @@ def add_parser(commands, common: argparse.ArgumentParser) -> None:
         "--step-length-m",
         type=value_list("m", 2.0),
         metavar="SPEC",
-        help="step lengths, m (default: 0.5; --quick: 0.4,0.5)",
+        help=f"step lengths, m (default: {WALKING_DEFAULTS['step_length']:g}; --quick: 0.4,0.5)",
     )
     study.add_argument(
         "--step-time-s",
         type=value_list("s", 10.0),
         metavar="SPEC",
-        help="step times, s (default: 0.5; --quick: 0.45,0.5)",
+        help=f"step times, s (default: {WALKING_DEFAULTS['step_time']:g}; --quick: 0.45,0.5)",
     )
     study.add_argument(
         "--mu",
         type=value_list("(friction coefficient)", 10.0),
-        default=(0.8,),
+        default=(WALKING_DEFAULTS["mu"],),
         metavar="SPEC",
-        help="friction coefficients (default: 0.8)",
+        help=f"friction coefficients (default: {WALKING_DEFAULTS['mu']:g})",
     )
     study.add_argument(
         "--torque-limit-nm",
         type=value_list("N m", 1e5),
-        default=(150.0,),
+        default=(WALKING_DEFAULTS["torque_limit"],),
         metavar="SPEC",
-        help="bounds on |M_i|, N m (default: 150)",
+        help=f"bounds on |M_i|, N m (default: {WALKING_DEFAULTS['torque_limit']:g})",
     )
     study.add_argument(
         "--clearance-m",
         type=value_list("m", 1.0, zero=True),
-        default=(0.05,),
+        default=(WALKING_DEFAULTS["clearance"],),
         metavar="SPEC",
-        help="mid-swing foot clearances, m (default: 0.05)",
+        help=f"mid-swing foot clearances, m (default: {WALKING_DEFAULTS['clearance']:g})",
     )
     study.add_argument(
         "--double-support-s",
         type=value_list("s", 10.0, zero=True),
-        default=(0.0,),
+        default=(WALKING_DEFAULTS["double_support"],),
         metavar="SPEC",
-        help="double-support durations within the step time, s (default: 0, none)",
+        help="double-support durations within the step time, s (default: "
+        f"{WALKING_DEFAULTS['double_support']:g}, none)",
     )
     study.add_argument(
         "--preset",
@@ -188,15 +196,15 @@ def add_parser(commands, common: argparse.ArgumentParser) -> None:
     study.add_argument("--passive-ankle", action="store_true", help="no torque at the stance foot")
     study.add_argument(
         "--objective",
-        default="torque",
+        default=WALKING_DEFAULTS["objective"],
         choices=("torque", "torque-rate", "work"),
         help="integral of sum M^2 (default), of sum dM^2, or positive work",
     )
     study.add_argument(
         "--transcription",
-        default="hermite-simpson",
+        default=DEFAULT_TRANSCRIPTION,
         choices=TRANSCRIPTIONS,
-        help="collocation scheme (default: hermite-simpson)",
+        help=f"collocation scheme (default: {DEFAULT_TRANSCRIPTION})",
     )
     study.add_argument("--degree", type=positive_count, default=None, metavar="D",
                        help=f"degree of {DEGREES} (default: {DEFAULT_DEGREES})")  # fmt: skip
@@ -264,7 +272,11 @@ def add_parser(commands, common: argparse.ArgumentParser) -> None:
 
 
 def _axes_and_fixed(args) -> tuple[dict[str, tuple], dict[str, Any]]:
-    default = ((0.4, 0.5), (0.45, 0.5)) if args.quick else ((0.5,), (0.5,))
+    default = (
+        ((0.4, 0.5), (0.45, 0.5))
+        if args.quick
+        else ((WALKING_DEFAULTS["step_length"],), (WALKING_DEFAULTS["step_time"],))
+    )
     axes: dict[str, tuple] = {
         "step_length": args.step_length_m or default[0],
         "step_time": args.step_time_s or default[1],
@@ -417,7 +429,7 @@ def summary(result: StudyResult, out: TextIO) -> None:
         print(f"failed: {row['point']} ({where}): {row['status']}", file=out)
 
 
-def command(args, out: TextIO, report) -> int:
+def run(args, out: TextIO, report) -> int:
     """Run ``python -m problems study``; returns the exit status."""
     axes, fixed = _axes_and_fixed(args)
     points = math.prod(len(values) for values in axes.values())
@@ -433,7 +445,7 @@ def command(args, out: TextIO, report) -> int:
         f"{args.output_dir} (the same command resumes it)"
     )
     bar = ProgressBar(sys.stderr, enabled=not args.quiet)
-    logger = logging.getLogger("problems.study")
+    logger = logging.getLogger("problems.study.study")
     handler = _Warnings(report)
     logger.addHandler(handler)
     try:
@@ -481,7 +493,7 @@ def command(args, out: TextIO, report) -> int:
     written = [result.folder / "results.csv"]
     if not args.no_plots:
         # matplotlib is imported only when plots are asked for.
-        from problems import study_plots
+        from problems.study import plots as study_plots
 
         written += study_plots.save_plots(result)
     print(
@@ -496,7 +508,7 @@ __all__ = [
     "DEGREES",
     "ProgressBar",
     "add_parser",
-    "command",
+    "run",
     "summary",
     "value_list",
 ]

@@ -1,20 +1,20 @@
 """Feedback of the paper's fixed-base periodic gait, its Floquet multipliers, and its run in
 MuJoCo.
 
-The fixed-base gait (:mod:`problems.periodic_gait`) keeps the stance foot pinned at H0 for
+The fixed-base gait (:mod:`problems.pinned.gait`) keeps the stance foot pinned at H0 for
 ever: no impact, no leg swap, the torques a function of time. Its Poincare section is an
 instant, t = 0 mod T, and its return map the flow over one period, as the digital controller
 makes it: K periods x_{k+1} = F(x_k, M_k, h) of h = T / K (the rate nearest to
 ``control_rate_hz`` that divides T, so that every gait period meets the same control
-instants), M_k held (:class:`problems.walking_simulation.Plant`'s generated RK4). No
+instants), M_k held (:class:`problems.walking.simulation.Plant`'s generated RK4). No
 saltation enters (a state change does not move the section, an instant) and no multiplier is
 pinned at 0 or 1: the time-forced system has no phase to drift along.
 
 * open loop, M_k = M_ff(t_k): the monodromy A_{K-1} ... A_0 along the plan
-  (:func:`problems.walking_lqr.linearise_along` with ``end=None``); its eigenvalues are
+  (:func:`problems.walking.lqr.linearise_along` with ``end=None``); its eigenvalues are
   the open-loop multipliers;
 * closed loop, M_k = clip(M_ff(t_k) + K_k (x_ref(t_k) - x_k), -limit, limit) with the periodic
-  LQR (:func:`problems.walking_lqr.lqr_along`, jump = I, Bryson's weights): its multipliers
+  LQR (:func:`problems.walking.lqr.lqr_along`, jump = I, Bryson's weights): its multipliers
   are those of the closed loop's own periodic orbit (Newton on :func:`period_map`, whose
   Jacobian is the exact chain of the periods' Jacobians), near the plan but not on it (the
   plan is a continuous optimum, the plant a held-torque RK4).
@@ -32,11 +32,11 @@ import numpy as np
 
 from planner.errors import DefinitionError, check_integer, check_positive
 from planner.trajectory import Trajectory
-from problems.walking_control import TimedReference
-from problems.walking_feedback import limit_metadata, with_gains
-from problems.walking_linearisation import ReturnMap, newton_fixed_point
-from problems.walking_lqr import Linearisation, LqrWeights, linearise_along, lqr_along
-from problems.walking_simulation import Plant, scaled_linkage
+from problems.walking.control import TimedReference
+from problems.walking.feedback import limit_metadata, with_gains
+from problems.walking.linearisation import ReturnMap, newton_fixed_point
+from problems.walking.lqr import Linearisation, LqrWeights, linearise_along, lqr_along
+from problems.walking.simulation import Plant, scaled_linkage
 
 LAW = (
     "M = clip(M_ff(t_k) + K(t_k) (x_ref(t_k) - x), -limit, limit), t_k = k h the control "
@@ -91,7 +91,7 @@ class PinnedLQR:
 class PinnedFeedback:
     """A fixed-base gait's feedback design.
 
-    gait: the solved :class:`problems.periodic_gait.PeriodicGait`; reference: the plan at the
+    gait: the solved :class:`problems.pinned.gait.PeriodicGait`; reference: the plan at the
     K + 1 control instants; along: the plan's linearisation (open-loop monodromy);
     controller: the closed loop; open_loop: the plan's torques alone (zero gains);
     cost (2n, 2n): the Riccati P at t = 0; cycles: the periods the Riccati recursion ran;

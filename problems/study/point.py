@@ -44,8 +44,8 @@ from planner import (
 )
 from planner.accuracy_check import ACCURACY_WARNING, AccuracyWarning, check_accuracy_of
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
-from problems.gait_problem import total_iterations
-from problems.walking import WalkingGait, WalkingStep, walking_step
+from problems.gait.problem import total_iterations
+from problems.walking.step import WalkingGait, WalkingStep, walking_step
 
 #: The status recorded for a point whose problem could not be defined (walking_step or the
 #: user's function raised a definition error for these values).

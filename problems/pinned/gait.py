@@ -11,7 +11,7 @@ x(0) = x(T); the hinge torques are the controls. The law gives the task and the 
 * ``posture``: the upright links (default the upper body of a biped, or none) within
   ``posture`` rad of the vertical pi/2;
 * torque bounds |M_i| <= ``torque_limit``; the objective (``"torque"``, ``"torque-rate"``,
-  ``"work"``; :mod:`problems.gait_problem`).
+  ``"work"``; :mod:`problems.gait.problem`).
 
 The law's own cost on the same mesh (its angles, rates and accelerations at the mesh points,
 torques by inverse dynamics) is the benchmark (``PeriodicGait.law_cost``).
@@ -40,10 +40,10 @@ from model.presets import six_link_anthropoid
 from planner.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 from planner.problem import OCP
 from planner.transcription import Transcription
-from problems.accuracy import resolve_mesh, solve_plan
-from problems.biped import Biped
-from problems.gait_law import GaitLaw
-from problems.gait_problem import (
+from problems.gait.accuracy import resolve_mesh, solve_plan
+from problems.gait.biped import Biped
+from problems.gait.law import GaitLaw
+from problems.gait.problem import (
     RATE_HZ,
     Gait,
     check_links,
@@ -126,7 +126,7 @@ class PeriodicGaitProblem:
         it, the tolerance of the preset the problem was built with applies.
         ``options={"tol": ...}`` overrides a preset's tolerance. ``rate_hz``,
         ``hold_limits``: the limits also hold on the exported motion at that rate, as in
-        :meth:`problems.walking.WalkingStep.solve`.
+        :meth:`problems.walking.step.WalkingStep.solve`.
         """
         ocp = self.ocp if ocp is None else ocp
         if not isinstance(ocp, OCP):
@@ -163,7 +163,7 @@ class PeriodicGaitProblem:
 
 @dataclass(frozen=True, eq=False)
 class PeriodicGait(Gait):
-    """A solved fixed-base periodic gait (see :class:`problems.gait_problem.Gait`)."""
+    """A solved fixed-base periodic gait (see :class:`problems.gait.problem.Gait`)."""
 
 
 def periodic_gait(

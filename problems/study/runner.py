@@ -2,7 +2,7 @@
 
 The process that runs a study is the only one that writes its folder. It keeps a few points in
 flight (the backend's capacity), each with its starts read from the folder (the solved
-neighbours the :class:`~problems.study_schedule.Schedule` names), and settles each point that
+neighbours the :class:`~problems.study.schedule.Schedule` names), and settles each point that
 comes back: record and solution written, the table rewritten, the schedule told (which may make
 neighbours ready). A point whose worker died goes back to the queue; after ``MAX_LOSSES``
 deaths it is recorded as failed (``Worker_Lost``), so a point that kills its worker cannot stop
@@ -23,13 +23,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from problems.study_backends import WorkerLost, make_backend
-from problems.study_point import WORKER_LOST, PointSpec
-from problems.study_result import GridPoint, StudyProgress, StudyResult
-from problems.study_schedule import Schedule, choose_ordering
-from problems.study_store import StudyFolder
+from problems.study.backends import WorkerLost, make_backend
+from problems.study.point import WORKER_LOST, PointSpec
+from problems.study.result import GridPoint, StudyProgress, StudyResult
+from problems.study.schedule import Schedule, choose_ordering
+from problems.study.store import StudyFolder
 
-logger = logging.getLogger("problems.study")
+logger = logging.getLogger("problems.study.study")
 
 #: Deaths of a point's worker before the point is recorded as failed.
 MAX_LOSSES = 3

@@ -4,7 +4,7 @@ map of the cost over the grid with the failed points marked.
 Curves run along the study's first axis, one per value of the other axes (for a study over
 step length x step time: one curve per step time, the speed growing with the step length).
 Figures are built directly (``matplotlib.figure.Figure``, no pyplot state) and written
-atomically (``problems.walking_plots.save_figure``).
+atomically (``problems.walking.plots.save_figure``).
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from problems.study_result import StudyResult
-from problems.walking_plots import save_figure
+from problems.study.result import StudyResult
+from problems.walking.plots import save_figure
 
 #: File names of :func:`save_plots`.
 FILES = ("cost_of_transport.png", "peak_torque.png", "cost_map.png")

@@ -19,7 +19,7 @@ from PIL import Image
 from planner.errors import DefinitionError, check_positive
 from planner.files import atomic_path
 from planner.gif import GifFrames
-from problems.walking import WalkingGait, WorldMotion
+from problems.walking.step import WalkingGait, WorldMotion
 
 #: matplotlib's tab10, one colour per body.
 COLOURS = (
@@ -213,7 +213,7 @@ __all__ = ["animate_walk", "draw_world", "gait_figure", "save_figure", "world_st
 
 
 def closed_loop_figure(check) -> Figure:
-    """The closed-loop check (:class:`problems.walking_feedback.ClosedLoopCheck`): the
+    """The closed-loop check (:class:`problems.walking.feedback.ClosedLoopCheck`): the
     largest angle error from the plan at the same phase, per step and case, and the open-loop
     replay's error against time until it falls."""
     figure = Figure(figsize=(11.0, 4.2))

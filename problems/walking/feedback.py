@@ -2,7 +2,7 @@
 
 :func:`design_feedback` takes a solved single-support walking step and returns a
 :class:`Feedback`: the plan as a phase-indexed reference, the periodic LQR gains
-(:mod:`problems.walking_lqr`), the controller (clipped to the drives' limits) and the plant it
+(:mod:`problems.walking.lqr`), the controller (clipped to the drives' limits) and the plant it
 was designed on. :meth:`Feedback.channels` writes it into the exported profile: per sample the
 phase ``phase`` and every gain ``K_<hinge>__<state>`` (N m/rad, N m s/rad), with the law, the
 phase's definition, the control rate and the weights in ``metadata["feedback"]``; a drive reads
@@ -20,9 +20,9 @@ import numpy as np
 
 from planner.errors import DefinitionError
 from planner.trajectory import Trajectory
-from problems.walking_control import GaitReference, OpenLoop
-from problems.walking_linearisation import ReturnMap, fixed_point
-from problems.walking_lqr import (
+from problems.walking.control import GaitReference, OpenLoop
+from problems.walking.linearisation import ReturnMap, fixed_point
+from problems.walking.lqr import (
     LqrWeights,
     PeriodicGains,
     PhaseLQR,
@@ -32,7 +32,7 @@ from problems.walking_lqr import (
     linearise_double_support,
     periodic_lqr,
 )
-from problems.walking_simulation import (
+from problems.walking.simulation import (
     Disturbances,
     Plant,
     WalkingRun,

@@ -98,7 +98,7 @@ class GaitReference(TimedReference):
 
     @classmethod
     def of(cls, gait, rate_hz: float = 1000.0) -> GaitReference:
-        """The reference of a solved :class:`problems.walking.WalkingGait` at ``rate_hz``."""
+        """The reference of a solved :class:`problems.walking.step.WalkingGait` at ``rate_hz``."""
         problem = gait.problem
         return cls(gait.to_trajectory(rate_hz), problem.dynamics, problem.biped.stance_thigh)
 

@@ -37,19 +37,21 @@ Constraints (names as in the OCP, each row scaled by a nominal magnitude):
 * torque bounds |M_i| <= ``torque_limit``; ``passive`` hinges have M_i = 0 (a passive
   ankle: ``passive=("stance_shank",)``, the torque at H0).
 
-Objective (``problems.gait_problem.OBJECTIVES``): ``"torque"`` (default) the integral of
+Objective (``problems.gait.problem.OBJECTIVES``): ``"torque"`` (default) the integral of
 sum M_i^2, ``"torque-rate"`` or ``"work"`` (positive mechanical work).
 
-The guess is the law (22) fitted to the step (:meth:`problems.biped.Biped.step_law`); its cost
+The guess is the law (22) fitted to the step (:meth:`problems.gait.biped.Biped.step_law`); its cost
 on the same mesh, torques by inverse dynamics, is the benchmark to beat (``law_cost``).
 """
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
+from types import MappingProxyType
 from typing import Any
 
 import casadi as ca
@@ -67,10 +69,10 @@ from planner.errors import (
 )
 from planner.problem import OCP, Phases
 from planner.transcription import Transcription
-from problems.accuracy import resolve_mesh, solve_plan
-from problems.biped import Biped
-from problems.gait_law import GaitLaw
-from problems.gait_problem import (
+from problems.gait.accuracy import resolve_mesh, solve_plan
+from problems.gait.biped import Biped
+from problems.gait.law import GaitLaw
+from problems.gait.problem import (
     RATE_HZ,
     Gait,
     check_links,
@@ -346,6 +348,10 @@ class WalkingStep:
         }
 
 
+#: Mesh intervals of the single support when neither N nor an accuracy preset is given.
+DEFAULT_N = 30
+
+
 def walking_step(
     linkage: Linkage | None = None,
     step_length: float = 0.5,
@@ -499,7 +505,7 @@ def walking_step(
             f"{double_support!r}"
         )
     single_time = step_time - double_support
-    mesh = resolve_mesh(accuracy, single_time, N, transcription, degree, default_N=30)
+    mesh = resolve_mesh(accuracy, single_time, N, transcription, degree, default_N=DEFAULT_N)
     # The law lands the foot when the single support ends; a double support holds the pose
     # the law lands in (periodicity: the law starts from that pose with the legs swapped).
     lift = GUESS_LIFT * biped.leg_length
@@ -790,7 +796,7 @@ def world_motion(biped: Biped, dynamics: Dynamics, time, states, step, footholds
 
 @dataclass(frozen=True, eq=False)
 class WalkingGait(Gait):
-    """A solved walking step (:class:`problems.gait_problem.Gait`: cost, ``law_cost``,
+    """A solved walking step (:class:`problems.gait.problem.Gait`: cost, ``law_cost``,
     ``positive_work``, ``summary()``, ``to_trajectory(rate_hz)``, ``verify()``) and what a
     walking study reads from it: ``speed`` m/s, ``cost_of_transport``, ``impact`` and
     ``world(steps)``."""
@@ -861,4 +867,26 @@ class WalkingGait(Gait):
         }
 
 
-__all__ = ["WalkingGait", "WalkingStep", "WorldMotion", "walking_step", "world_motion"]
+#: walking_step's defaults by argument name (``N``: the intervals used when None): the one
+#: source the command line's options read theirs from.
+WALKING_DEFAULTS: Mapping[str, Any] = MappingProxyType(
+    {
+        **{
+            name: parameter.default
+            for name, parameter in inspect.signature(walking_step).parameters.items()
+            if parameter.default is not inspect.Parameter.empty
+        },
+        "N": DEFAULT_N,
+    }
+)
+
+
+__all__ = [
+    "DEFAULT_N",
+    "WALKING_DEFAULTS",
+    "WalkingGait",
+    "WalkingStep",
+    "WorldMotion",
+    "walking_step",
+    "world_motion",
+]

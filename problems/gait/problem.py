@@ -38,8 +38,8 @@ from planner.solution import Solution
 from planner.solver import solve
 from planner.trajectory import Trajectory
 from planner.transcription import Transcription
-from problems.accuracy import refine_gait
-from problems.verification import GaitReport, verify_gait
+from problems.gait.accuracy import refine_gait
+from problems.gait.verification import GaitReport, verify_gait
 
 OBJECTIVES = ("torque", "torque-rate", "work")
 HALF_PI = 0.5 * math.pi
@@ -102,7 +102,7 @@ def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=
 
 def refine_and_hold(problem, target: float, options: dict, hold: bool, rate_hz, pinned=()):
     """A gait problem's ``solve(accuracy=target)``: the mesh refined to the target
-    (:func:`problems.accuracy.refine_gait`), the limits held on the exported motion (when
+    (:func:`problems.gait.accuracy.refine_gait`), the limits held on the exported motion (when
     ``hold``), the accuracy of the plan that comes out measured once (and warned about).
     Returns (solution, the OCP on the refined mesh)."""
     options = dict(options)

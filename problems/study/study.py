@@ -2,9 +2,9 @@
 
 A :class:`Study` is a definition, a value: the axes (name -> values; the grid is their
 product), the base problem (``walking_step`` with the axes as its arguments, or a function of
-the swept values returning a :class:`~problems.walking.WalkingStep` or the ``walking_step``
+the swept values returning a :class:`~problems.walking.step.WalkingStep` or the ``walking_step``
 arguments), fixed arguments, and the outputs to record per point
-(:data:`problems.study_point.OUTPUTS`). :meth:`Study.run` solves it into a folder:
+(:data:`problems.study.point.OUTPUTS`). :meth:`Study.run` solves it into a folder:
 
 >>> study = Study({"step_length": [0.4, 0.5, 0.6], "step_time": [0.45, 0.5, 0.55]},
 ...               fixed={"N": 30})
@@ -14,11 +14,11 @@ arguments), fixed arguments, and the outputs to record per point
 * **Continuation**: each point starts from an already solved neighbour (its NLP point, bit for
   bit, whatever process solved it), then from another neighbour, then from the gait law; a
   point that fails all of them is recorded as failed with IPOPT's status, and the study goes
-  on (``problems.study_schedule`` for the orderings, ``problems.study_point`` for one point).
+  on (``problems.study.schedule`` for the orderings, ``problems.study.point`` for one point).
 * **Execution**: a local process pool sized to the cores by default (``workers``), or a Dask
   cluster (``scheduler``: an address, ``"local"`` for a LocalCluster, or a Client; the
-  optional extra ``pip install ".[cluster]"``) (``problems.study_backends``).
-* **Nothing lost**: every point is written as it arrives, atomically (``problems.study_store``);
+  optional extra ``pip install ".[cluster]"``) (``problems.study.backends``).
+* **Nothing lost**: every point is written as it arrives, atomically (``problems.study.store``);
   running the same study into the same folder again solves only what is missing, and a folder
   that holds another study is refused.
 
@@ -43,8 +43,8 @@ import numpy as np
 
 from model.linkage import Linkage
 from planner.errors import DefinitionError, DefinitionTypeError
-from problems import study_runner
-from problems.study_point import (
+from problems.study import runner as study_runner
+from problems.study.point import (
     DEFAULT_OUTPUTS,
     OUTPUTS,
     PointSpec,
@@ -52,8 +52,8 @@ from problems.study_point import (
     output_name,
     walking_step_parameters,
 )
-from problems.study_result import GridPoint, StudyProgress, StudyResult, grid_points
-from problems.study_schedule import check_ordering
+from problems.study.result import GridPoint, StudyProgress, StudyResult, grid_points
+from problems.study.schedule import check_ordering
 
 FORMAT_VERSION = 1
 
@@ -128,15 +128,15 @@ class Study:
         their product, the last axis varying fastest. Without ``problem`` the names are
         ``walking_step`` parameters (step_length m, step_time s, mu, torque_limit N m, ...).
     problem : None for ``walking_step``, or a function called with the fixed arguments and a
-        point's values as keywords, returning a :class:`~problems.walking.WalkingStep` (its
+        point's values as keywords, returning a :class:`~problems.walking.step.WalkingStep` (its
         ``ocp`` may be changed with ``dataclasses.replace``) or a dict of ``walking_step``
         arguments. It runs in the worker processes: with the process pool on Linux any
         function works; a Dask cluster pickles it (cloudpickle: also a lambda), and remote
         workers need the modules it imports.
     fixed : keyword arguments of every point (e.g. ``{"N": 30}``).
-    outputs : what to record per point: names of :data:`problems.study_point.OUTPUTS`
-        (default :data:`~problems.study_point.DEFAULT_OUTPUTS`) and (name, function of the
-        :class:`~problems.walking.WalkingGait` returning a number, bool, string or dict of
+    outputs : what to record per point: names of :data:`problems.study.point.OUTPUTS`
+        (default :data:`~problems.study.point.DEFAULT_OUTPUTS`) and (name, function of the
+        :class:`~problems.walking.step.WalkingGait` returning a number, bool, string or dict of
         them) pairs.
     ipopt : IPOPT options over the planner's defaults (e.g. ``{"max_iter": 500}``).
     multipliers : also warm-start IPOPT's multipliers from the neighbour (default False: the
@@ -274,7 +274,7 @@ class Study:
             "axes": {name: list(values) for name, values in self.axes.items()},
             # JSON objects have no order; the grid (and its point ids) has.
             "axis_order": list(self.axes),
-            "problem": "problems.walking.walking_step"
+            "problem": "problems.walking.step.walking_step"
             if spec.problem is None
             else f"{getattr(spec.problem, '__module__', '?')}.{_qualname(spec.problem)}",
             "fixed": jsonable("fixed", spec.fixed),
@@ -305,14 +305,14 @@ class Study:
         Parameters
         ----------
         folder : the study folder (created; a folder of the same study resumes it, one of
-            another study is refused with :class:`problems.study_store.StudyFolderError`).
+            another study is refused with :class:`problems.study.store.StudyFolderError`).
         workers : worker processes (default: one per core); 1 solves in this process. With
             ``scheduler="local"``, the LocalCluster's workers.
         scheduler : None (the local process pool), a Dask scheduler address
             (``"tcp://host:8786"``), ``"local"`` (a Dask LocalCluster for this run) or a
             ``distributed.Client``.
         ordering : "auto", "lines", "coarse" or "cold" (no warm starts)
-            (``problems.study_schedule``).
+            (``problems.study.schedule``).
         line_axis : the axis along which lines run (default the last).
         retry_failed : solve the points recorded as failed again (after lost workers, or
             a failure that came from the machine rather than the problem).

@@ -1,0 +1,429 @@
+"""What the commands share: the output layer (Reporter, errors), option types with their
+units, the limits that keep a run short, and the helpers that write a command's files."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import os
+import re
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+
+from model.presets import PRESETS
+from planner.errors import DefinitionError, DefinitionTypeError
+from planner.refinement import check_accuracy
+from planner.simulation import tolerance_problem
+from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
+from problems.cli import study as study_cli
+from problems.cli.output_set import OutputFolderError, OutputSet
+from problems.gait.accuracy import ACCURACY_PRESETS
+from problems.gait.law import LAW_PRESETS, GaitLaw
+
+PRESET_HELP = f"linkage preset, one of: {', '.join(PRESETS)} (default: six-link)"
+
+
+PROG = "anthropoid-planner"
+
+
+#: File formats of --formats: the trajectory package's suffixes, without the dot.
+FORMATS = tuple(suffix.lstrip(".") for suffix in TRAJECTORY_FORMATS)
+
+
+LAWS = tuple(LAW_PRESETS)
+
+
+#: What --degree takes, from the registry of transcriptions: "radau 1..9, legendre 1..9".
+DEGREES, DEFAULT_DEGREES = study_cli.DEGREES, study_cli.DEFAULT_DEGREES
+
+
+#: Highest --rate-hz, Hz, and most samples a command makes even with --force (memory).
+MAX_RATE_HZ = 1e6
+
+
+MAX_SAMPLES = 2_000_000
+
+
+#: Most samples (rows of the demo table, samples of a written profile) without --force:
+#: 200,000 samples are ~100 MB per CSV or JSON file and ~6 s of writing here.
+LIMIT_SAMPLES = 200_000
+
+
+#: Longest estimated integration without --force, s, and the estimate's cost per finite
+#: element of the six-link model, s (measured: rk 6 us, collocation 170 us; cvodes and idas
+#: choose their own steps and are not estimated).
+LIMIT_SECONDS = 60.0
+
+
+SECONDS_PER_ELEMENT = {"rk": 6e-6, "collocation": 2e-4}
+
+
+#: Most mesh intervals of a plan (walk, study): ~50 variables each for the six-link step, an
+#: NLP of 100,000 variables; a finer plan comes from --accuracy (refinement where needed).
+MAX_INTERVALS = 2000
+
+
+#: Most walking steps drawn in walk.png and walk.gif (the GIF grows with them).
+MAX_DRAWN_STEPS = 50
+
+
+class UsageError(Exception):
+    """Bad command-line input: reported as one line, exit status 2."""
+
+
+class CommandFailed(Exception):
+    """A computation that failed on valid input: reported as one line, exit status 1."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage dump) raised instead of exiting, and no
+    abbreviated options (``--step-length`` is no prefix of ``--step-length-m``: one
+    spelling of each option)."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
+
+    def error(self, message: str):  # type: ignore[override]
+        raise UsageError(f"{message} (see {self.prog} --help)")
+
+
+class Reporter:
+    """Progress on stderr: lines tagged with the elapsed time, throttled, switchable.
+
+    ``step`` announces a stage; ``progress`` reports a fraction (throttled to one line per
+    0.5 s); ``working`` wraps a stage that reports little or nothing itself (an animation, a
+    plot, a long integration between its progress reports): it announces it, adds a
+    "still ..." line after every ``heartbeat_s`` seconds without any other line while it runs,
+    and a closing line with its duration when it took a second or more.
+    """
+
+    def __init__(
+        self, stream: TextIO, enabled: bool = True, heartbeat_s: float = 1.0, where: str = PROG
+    ) -> None:
+        self._stream = stream
+        self._enabled = enabled
+        self._where = where
+        self._heartbeat_s = heartbeat_s
+        self._start = time.perf_counter()
+        self._last = -math.inf
+        self._lock = threading.Lock()
+        self._lines = 0  # progress lines written, so that a heartbeat speaks only in silence
+
+    def step(self, message: str) -> None:
+        if self._enabled:
+            with self._lock:
+                print(f"[{time.perf_counter() - self._start:6.2f} s] {message}", file=self._stream)
+                self._stream.flush()
+                self._lines += 1
+
+    def warn(self, message: str) -> None:
+        """One line "<prog> <command>: warning: ..." on the stream, even with --quiet."""
+        with self._lock:
+            print(f"{self._where}: warning: {message}", file=self._stream)
+            self._stream.flush()
+
+    def progress(self, fraction: float, message: str) -> None:
+        now = time.perf_counter()
+        if fraction >= 1.0 or now - self._last >= 0.5:
+            self._last = now
+            self.step(f"{message} ({100.0 * fraction:3.0f}%)")
+
+    @contextlib.contextmanager
+    def working(self, message: str) -> Iterator[None]:
+        """Announce ``message``, then a heartbeat line while the block runs."""
+        self.step(message)
+        if not self._enabled:
+            yield
+            return
+        begin = time.perf_counter()
+        done = threading.Event()
+        beats = []
+
+        def beat() -> None:
+            lines = self._lines
+            while not done.wait(self._heartbeat_s):
+                if self._lines == lines:  # nothing said for heartbeat_s: say it still runs
+                    beats.append(None)
+                    self.step(f"still {message}: {time.perf_counter() - begin:.1f} s so far")
+                lines = self._lines
+
+        thread = threading.Thread(target=beat, name="progress-heartbeat", daemon=True)
+        thread.start()
+        try:
+            yield
+        finally:
+            done.set()
+            thread.join()
+        elapsed = time.perf_counter() - begin
+        if elapsed >= 1.0 or beats:
+            self.step(f"done {message} in {elapsed:.1f} s")
+
+
+def one_of(items: Sequence[str]) -> str:
+    """ "a, b or c": the items in words."""
+    return ", ".join(items[:-1]) + f" or {items[-1]}" if len(items) > 1 else "".join(items)
+
+
+# ---- argument types (each raises a one-line message naming the unit) -----------------------
+def positive(unit: str, maximum: float = math.inf) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number in (0, maximum] of ``unit`` (the examples use it
+    too, so that every command line says the same about a bad number)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number in {unit}, got {text!r}") from None
+        if not math.isfinite(value) or value <= 0:
+            raise argparse.ArgumentTypeError(f"must be a finite number > 0 {unit}, got {text!r}")
+        if value > maximum:
+            raise argparse.ArgumentTypeError(
+                f"must be at most {maximum:,.0f} {unit}, got {text!r}; give a smaller value"
+            )
+        return value
+
+    return parse
+
+
+def tolerance(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number such as 1e-10, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number such as 1e-10, got {text!r}")
+    problem = tolerance_problem(value)
+    if problem is not None:
+        raise argparse.ArgumentTypeError(problem)
+    return value
+
+
+def accuracy_option(text: str) -> str | float:
+    """--accuracy: a preset name, or a refinement target (a number in [1e-9, 1))."""
+    if text in ACCURACY_PRESETS:
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a preset ({one_of(tuple(ACCURACY_PRESETS))}) or a refinement target "
+            f"such as 1e-5, got {text!r}"
+        ) from None
+    try:
+        return check_accuracy(value)
+    except DefinitionError as error:
+        raise argparse.ArgumentTypeError(str(error).replace("`accuracy`: ", "")) from None
+
+
+def non_negative(unit: str) -> Callable[[str], float]:
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number in {unit}, got {text!r}") from None
+        if not math.isfinite(value) or value < 0:
+            raise argparse.ArgumentTypeError(f"must be a finite number >= 0 {unit}, got {text!r}")
+        return value
+
+    return parse
+
+
+def angles(text: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated numbers in rad, one per link, got {text!r}"
+        ) from None
+    if not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"must be finite numbers in rad, got {text!r}")
+    return values
+
+
+def formats_option(text: str) -> tuple[str, ...]:
+    items = tuple(dict.fromkeys(f.strip().lower().lstrip(".") for f in text.split(",") if f))
+    unknown = [f for f in items if f not in FORMATS]
+    if unknown or not items:
+        raise argparse.ArgumentTypeError(
+            f"unknown format(s) {unknown or [text]}; choose from {', '.join(FORMATS)}"
+        )
+    return items
+
+
+# ---- parser -------------------------------------------------------------------------------
+def output_options(command: argparse.ArgumentParser, folder: str, formats: tuple[str, ...]) -> None:
+    """--output-dir, --formats and --no-plots of a command that writes files."""
+    command.add_argument(
+        "--output-dir",
+        default=folder,
+        metavar="DIR",
+        help=f"output folder (created; default: {folder})",
+    )
+    command.add_argument(
+        "--formats",
+        type=formats_option,
+        default=formats,
+        metavar="LIST",
+        help=f"comma-separated file formats among {', '.join(FORMATS)} "
+        f"(default: {','.join(formats)})",
+    )
+    command.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+
+
+# ---- helpers --------------------------------------------------------------------------------
+def preset_linkage(name: str):
+    if name not in PRESETS:
+        raise UsageError(f"unknown preset {name!r}; choose one of: {', '.join(PRESETS)}")
+    return PRESETS[name]()
+
+
+def in_option_words(message: str, options: dict[str, str]) -> str:
+    """A library message with its parameter names (`rate_hz`, `GaitLaw.zeta[2]`) replaced
+    by the command-line options they came from (--rate-hz, --zeta-rad value 3)."""
+
+    def option(match: re.Match) -> str:
+        name = options.get(match.group(1))
+        if name is None:
+            return match.group(0)
+        return name if match.group(2) is None else f"{name} value {int(match.group(2)) + 1}"
+
+    return re.sub(r"`(?:GaitLaw\.)?([A-Za-z_]+)(?:\[(\d+)\])?`", option, message)
+
+
+#: GaitLaw fields and the options of 'torques' that set them.
+LAW_OPTIONS = {
+    "period": "--period-s",
+    "zeta": "--zeta-rad",
+    "varpi": "--varpi-rad",
+    "center": "--center-rad",
+}
+
+
+def gait_law_of(args, linkage):
+    for option, values in (
+        ("--zeta-rad", args.zeta_rad),
+        ("--varpi-rad", args.varpi_rad),
+        ("--center-rad", args.center_rad),
+    ):
+        if values is not None and len(values) != linkage.n:
+            raise UsageError(
+                f"{option}: expected {linkage.n} values (one per link of preset "
+                f"{args.preset!r}), got {len(values)}"
+            )
+    for i, value in enumerate(args.zeta_rad or ()):
+        if value < 0:
+            raise UsageError(
+                f"--zeta-rad: value {i + 1} is {value:g} rad, but an amplitude must be >= 0 "
+                f"rad; give {-value:g} and add pi to value {i + 1} of --varpi-rad instead"
+            )
+
+    if args.law not in LAWS:
+        raise UsageError(f"unknown gait law {args.law!r}; choose one of: {', '.join(LAWS)}")
+    law = GaitLaw.preset(args.law)
+    changes = {
+        "period": args.period_s,
+        "zeta": args.zeta_rad,
+        "varpi": args.varpi_rad,
+        "center": args.center_rad,
+    }
+    if any(v is not None for v in changes.values()):
+        values = {
+            "period": law.period,
+            "zeta": law.zeta,
+            "varpi": law.varpi,
+            "center": law.center,
+        }
+        values.update({k: v for k, v in changes.items() if v is not None})
+        try:
+            law = GaitLaw(**values, name=f"{law.name} (modified)")
+        except (DefinitionError, DefinitionTypeError) as exc:
+            raise UsageError(in_option_words(str(exc), LAW_OPTIONS)) from exc
+    return law
+
+
+def write_plots(dynamics, trajectory, folder: Path, stem: str, strip: bool, gif: bool, report):
+    """PNG plots (and a GIF) of a trajectory; returns the paths written."""
+    os.environ.setdefault("MPLBACKEND", "Agg")  # files only: no window, no display needed
+    import matplotlib.pyplot as plt
+
+    from model import drawing
+    from planner import plots
+
+    written = []
+    with report.working(f"plotting {stem}.png"):
+        figure = plots.plot_trajectory(trajectory, extras=True)
+        figure.savefig(folder / f"{stem}.png", dpi=100)
+        plt.close(figure)
+    written.append(folder / f"{stem}.png")
+    if strip:
+        with report.working("plotting stick_figure.png"):
+            figure = drawing.stick_figure_strip(dynamics, trajectory)
+            figure.savefig(folder / "stick_figure.png", dpi=100)
+            plt.close(figure)
+        written.append(folder / "stick_figure.png")
+    if gif:
+        fps = 30  # drawing.animate's default: real-time playback
+        frames = max(2, round(trajectory.duration * fps) + 1)
+        path = folder / "animation.gif"
+        with report.working(f"writing animation.gif ({frames} frames)"):
+            drawing.animate(dynamics, trajectory, path, fps=fps)
+        written.append(path)
+    return written
+
+
+def save_trajectory(trajectory, folder: Path, stem: str, formats) -> list[Path]:
+    paths = []
+    for fmt in formats:
+        path = folder / f"{stem}.{fmt}"
+        trajectory.save(path)
+        paths.append(path)
+    return paths
+
+
+def output_set(text: str, command: str) -> OutputSet:
+    """The output folder of --output-dir as a set of files (:class:`OutputSet`): checked now
+    (a new or empty folder, or an earlier run of the same command, whose files the run
+    replaces as a set), written only when the run has results, nothing left on failure."""
+    try:
+        return OutputSet(Path(text), command)
+    except OutputFolderError as error:
+        raise UsageError(str(error)) from None
+
+
+def check_samples(count: int, force: bool, asked: str, fix: str, result: str) -> None:
+    """Refuse more than LIMIT_SAMPLES samples without --force, more than MAX_SAMPLES ever."""
+    if count > MAX_SAMPLES:
+        raise UsageError(
+            f"{asked} asks for {count:,} samples, more than the {MAX_SAMPLES:,} any command "
+            f"makes; {fix}"
+        )
+    if count > LIMIT_SAMPLES and not force:
+        raise UsageError(
+            f"{asked} asks for {count:,} samples ({result}), more than {LIMIT_SAMPLES:,}; "
+            f"{fix}, or add --force to go ahead"
+        )
+
+
+def torque_table(trajectory, names: Sequence[str], out: TextIO) -> None:
+    width = 10
+    header = f"{'t (s)':>7}" + "".join(f"{'M_' + str(i + 1):>{width}}" for i in range(len(names)))
+    print(header, file=out)
+    for t, row in zip(trajectory.time, np.asarray(trajectory.torques), strict=True):
+        print(f"{t:7.3f}" + "".join(f"{v:{width}.2f}" for v in row), file=out)
+
+
+def new_folder(stem: str) -> Path:
+    """A new folder ``<stem>_<date>_<time>`` (with a counter if taken) in the working dir."""
+    base = f"{stem}_{time.strftime('%Y%m%d_%H%M%S')}"
+    candidate, counter = Path(base), 1
+    while candidate.exists():
+        counter += 1
+        candidate = Path(f"{base}_{counter}")
+    return candidate

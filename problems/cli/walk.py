@@ -1,0 +1,665 @@
+"""'walk': plan a walking step (the main job): torques for the drives, files, plots, feedback."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+import warnings
+from typing import TextIO
+
+from model import LinkageTrajectory
+from planner.accuracy_check import AccuracyWarning
+from planner.sampled_limits import SampleLimitError
+from planner.schemes import DEFAULT_TRANSCRIPTION, TRANSCRIPTIONS, WITH_DEGREE
+from problems.cli.common import (
+    DEFAULT_DEGREES,
+    DEGREES,
+    MAX_DRAWN_STEPS,
+    MAX_INTERVALS,
+    CommandFailed,
+    Reporter,
+    UsageError,
+    accuracy_option,
+    check_samples,
+    new_folder,
+    non_negative,
+    one_of,
+    output_set,
+    positive,
+    preset_linkage,
+    save_trajectory,
+)
+from problems.cli.study import count_at_most, positive_count
+from problems.gait.accuracy import ACCURACY_PRESETS
+from problems.gait.problem import WORK_REGULARISATION
+from problems.gait.verification import verify_gait
+from problems.walking.step import WALKING_DEFAULTS, walking_step
+
+
+def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.ArgumentParser) -> None:
+    """The 'walk' command's parser."""
+    walk = commands.add_parser(
+        "walk",
+        parents=[common, limits],
+        help="plan a periodic walking step: drive torques, files, plots (the main job)",
+        description=(
+            "Plan one periodic walking step of a biped by direct collocation on IPOPT: single "
+            "support on the stance foot, the swing foot from (-s, 0) behind to (s, 0), heel "
+            "strike (inelastic impact) and leg swap, periodic across steps; ground reaction "
+            "and impulse inside the friction cone, swing-foot clearance, knee and posture "
+            "limits, torque bounds; minimum integral of sum M_i^2. The gait law (22) fitted "
+            "to the step is the initial guess and the benchmark. Prints a summary (cost "
+            "against the law's, iterations, times, accuracy, an independent verification) and "
+            "writes to --output-dir: torques.csv and torques.json at --rate-hz (one step, N m, "
+            "for a drive controller; the next step repeats it with the legs exchanged), "
+            "solution.npz (the nodes at full precision, to warm-start from), gait.png "
+            "(angles, torques, ground reaction and friction use, foot path), walk.png and "
+            "walk.gif (--steps steps in world coordinates). Exit status 1 when IPOPT fails or "
+            "the verification fails."
+        ),
+    )
+    walk.add_argument("--preset", default="six-link", metavar="NAME",
+                      help="biped preset: six-link or five-link (default: six-link)")  # fmt: skip
+    walk.add_argument(
+        "--step-length-m",
+        type=positive("m", 2.0),
+        default=WALKING_DEFAULTS["step_length"],
+        metavar="S",
+        help="distance between the feet at heel strike, m (default: "
+        f"{WALKING_DEFAULTS['step_length']:g})",
+    )
+    walk.add_argument(
+        "--step-time-s",
+        type=positive("s", 10.0),
+        default=WALKING_DEFAULTS["step_time"],
+        metavar="T",
+        help=f"duration of one step, s (default: {WALKING_DEFAULTS['step_time']:g})",
+    )
+    walk.add_argument(
+        "--transcription",
+        default=None,
+        choices=TRANSCRIPTIONS,
+        help=f"collocation scheme (default: {DEFAULT_TRANSCRIPTION})",
+    )
+    walk.add_argument("-N", "--intervals", type=count_at_most(MAX_INTERVALS, "intervals",
+                      "refine with --accuracy TARGET instead"), default=None, metavar="N",
+                      help=f"mesh intervals (default: {WALKING_DEFAULTS['N']}, 12 with --quick; "
+                           f"at most "
+                           f"{MAX_INTERVALS:,})")  # fmt: skip
+    walk.add_argument("--degree", type=positive_count, default=None, metavar="D",
+                      help=f"degree of {DEGREES} (default: {DEFAULT_DEGREES})")  # fmt: skip
+    presets = "; ".join(f"{p.name}: {p.summary}" for p in ACCURACY_PRESETS.values())
+    walk.add_argument(
+        "--accuracy",
+        type=accuracy_option,
+        default=None,
+        metavar="PRESET|TARGET",
+        help=f"a preset instead of -N/--transcription/--degree ({presets}), or a number: "
+        "refine the mesh (from -N/--transcription) until the per-interval re-integration error "
+        "per nominal state scale (1 rad, 3 rad/s) is within it, e.g. 1e-5",
+    )
+    walk.add_argument(
+        "--formulation",
+        default=WALKING_DEFAULTS["formulation"],
+        choices=("implicit", "explicit"),
+        help="implicit: accelerations are variables (default); explicit: forward dynamics",
+    )
+    walk.add_argument("--mu", type=positive("(friction coefficient)", 10.0),
+                      default=WALKING_DEFAULTS["mu"],
+                      help=f"friction coefficient of the ground (default: "
+                           f"{WALKING_DEFAULTS['mu']:g})")  # fmt: skip
+    walk.add_argument(
+        "--torque-limit-nm",
+        type=positive("N m", 1e5),
+        default=WALKING_DEFAULTS["torque_limit"],
+        metavar="M",
+        help="bound on every hinge torque |M_i|, N m (default: "
+        f"{WALKING_DEFAULTS['torque_limit']:g})",
+    )
+    walk.add_argument(
+        "--passive-ankle",
+        action="store_true",
+        help="no torque at the stance foot (a point foot's passive ankle)",
+    )
+    walk.add_argument(
+        "--foot-heel-m",
+        type=non_negative("m"),
+        default=None,
+        metavar="H",
+        help="the sole reaches H m behind the ankle: the ankle torque's centre of pressure "
+        "M / Fy stays on the sole (default 0.05 m for 0.86 m legs, scaled with the legs)",
+    )
+    walk.add_argument(
+        "--foot-toe-m",
+        type=non_negative("m"),
+        default=None,
+        metavar="T",
+        help="the sole reaches T m ahead of the ankle (default 0.15 m for 0.86 m legs)",
+    )
+    walk.add_argument(
+        "--touchdown-speed-mps",
+        type=non_negative("m/s"),
+        default=None,
+        metavar="V",
+        help="least downward speed of the landing foot at heel strike, m/s, and the slope of "
+        "the clearance's approach line (default 0.3 m/s for 0.86 m legs; 0 lets it graze in)",
+    )
+    walk.add_argument(
+        "--ground-margin-m",
+        type=non_negative("m"),
+        default=WALKING_DEFAULTS["ground_margin"],
+        metavar="G",
+        help="every point of the body but the feet (knees, hips, neck, head) stays G m above "
+        f"the ground (default: {WALKING_DEFAULTS['ground_margin']:g})",
+    )
+    walk.add_argument(
+        "--double-support-s",
+        type=float,
+        default=WALKING_DEFAULTS["double_support"],
+        metavar="D",
+        help="a double support of D s after heel strike, within the step time (two phases; "
+        "default: 0, the legs swap at heel strike)",
+    )
+    walk.add_argument(
+        "--clearance-m",
+        type=float,
+        default=WALKING_DEFAULTS["clearance"],
+        metavar="H",
+        help="mid-swing foot clearance h of the profile h sin^2(pi t/T), m (default: "
+        f"{WALKING_DEFAULTS['clearance']:g})",
+    )
+    walk.add_argument(
+        "--objective",
+        default=WALKING_DEFAULTS["objective"],
+        choices=("torque", "torque-rate", "work"),
+        help="integral of sum M^2 (default), of sum dM^2, or positive work",
+    )
+    walk.add_argument(
+        "--rate-hz",
+        type=positive("Hz", 1e5),
+        default=1000.0,
+        metavar="HZ",
+        help="samples per second of the torque files, Hz (default: 1000)",
+    )
+    walk.add_argument("--steps", type=count_at_most(MAX_DRAWN_STEPS, "steps",
+                      "the pictures repeat one step: a few show it"), default=2,
+                      help=f"steps drawn in walk.png and walk.gif (default: 2, at most "
+                           f"{MAX_DRAWN_STEPS})")  # fmt: skip
+    walk.add_argument(
+        "--output-dir",
+        default=None,
+        metavar="DIR",
+        help="output folder (default: a new folder walk_<date>_<time> here); a folder of an "
+        "earlier walk has its files replaced as a set, any other non-empty folder is refused",
+    )
+    walk.add_argument(
+        "--feedback",
+        action="store_true",
+        help="design the feedback of the step (a periodic LQR through the heel strike, and "
+        "the lift-off with --double-support-s, indexed by the hip's progress), write its gains "
+        "into torques.csv (columns phase, K_<hinge>__<state>; the law in "
+        "torques.csv.meta.json) and check the closed loop in the product's hybrid simulation "
+        "and in MuJoCo: multipliers, open loop, 50 steps, mass +-10 %%, ground +-5 mm and "
+        "+-1 cm, a start error, weaker drives, largest pushes (about two minutes; draws "
+        "closed_loop.png and the pushed walk, closed_loop_walk.png and .gif)",
+    )
+    walk.add_argument(
+        "--ground-friction",
+        type=positive("", 100.0),
+        default=1.0,
+        metavar="MU",
+        help="friction coefficient of the simulated ground of --feedback (default: 1.0; the "
+        "plan runs along its own cone, --mu, right after heel strike, so the feedback needs a "
+        "little more)",
+    )
+    walk.add_argument("--no-plots", action="store_true", help="write no PNG or GIF")
+    walk.add_argument("--no-gif", action="store_true", help="write the PNGs but no GIF")
+    walk.add_argument(
+        "--quick",
+        action="store_true",
+        help="a coarse, fast run (N = 12, a short GIF): a smoke test of the whole job",
+    )
+
+
+def run(args, out: TextIO, report: Reporter) -> int:
+    if args.preset not in ("six-link", "five-link"):
+        raise UsageError(f"--preset: {args.preset!r} is not a biped; use six-link or five-link")
+    if not math.isfinite(args.clearance_m) or args.clearance_m < 0:
+        raise UsageError(f"--clearance-m: must be a finite number >= 0 m, got {args.clearance_m}")
+    if not math.isfinite(args.double_support_s) or not 0 <= args.double_support_s:
+        raise UsageError(
+            f"--double-support-s: must be a number >= 0 s, got {args.double_support_s}"
+        )
+    if args.degree is not None and args.transcription not in WITH_DEGREE:
+        raise UsageError(f"--degree: applies to --transcription {one_of(WITH_DEGREE)} only")
+    samples = math.ceil(args.step_time_s * args.rate_hz - 1e-9) + 1
+    check_samples(
+        samples,
+        args.force,
+        f"--rate-hz {args.rate_hz:g} Hz x --step-time-s {args.step_time_s:g} s",
+        "lower --rate-hz",
+        f"files of about {samples * 2 * 600 / 1e6:,.0f} MB",
+    )
+    preset = args.accuracy if isinstance(args.accuracy, str) else None
+    target = args.accuracy if isinstance(args.accuracy, float) else None
+    if preset is not None:
+        given = [
+            option
+            for option, value in (
+                ("-N", args.intervals),
+                ("--transcription", args.transcription),
+                ("--degree", args.degree),
+            )
+            if value is not None
+        ]
+        if given:
+            raise UsageError(
+                f"--accuracy {preset}: the preset sets the mesh; drop {', '.join(given)} (or "
+                "give a number to --accuracy to refine from that mesh)"
+            )
+        mesh = {"accuracy": preset}
+    else:
+        mesh = {
+            "N": args.intervals or (12 if args.quick else 30),
+            "transcription": args.transcription or DEFAULT_TRANSCRIPTION,
+            "degree": args.degree,
+        }
+    if target is not None and args.double_support_s > 0:
+        raise UsageError(
+            "--accuracy: a refinement target needs a single support; with --double-support-s "
+            "give a preset or -N"
+        )
+    sole = (args.foot_heel_m, args.foot_toe_m)
+    if (sole[0] is None) != (sole[1] is None):
+        raise UsageError("--foot-heel-m, --foot-toe-m: give both (the sole behind and ahead of "
+                         "the ankle) or neither")  # fmt: skip
+    if sole[0] is not None and sole[0] + sole[1] <= 0:
+        raise UsageError("--foot-heel-m, --foot-toe-m: the sole must be longer than 0 m; for a "
+                         "point foot give --passive-ankle")  # fmt: skip
+    linkage = preset_linkage(args.preset)
+    output = output_set(str(args.output_dir or new_folder("walk")), "walk")
+    report.step(f"defining the walking step of {args.preset} ({linkage.n} links)")
+    extra = {}
+    if sole[0] is not None:
+        extra["foot"] = sole
+    if args.touchdown_speed_mps is not None:
+        extra["touchdown_speed"] = args.touchdown_speed_mps
+    step = walking_step(
+        linkage,
+        args.step_length_m,
+        args.step_time_s,
+        **mesh,
+        formulation=args.formulation,
+        mu=args.mu,
+        torque_limit=args.torque_limit_nm,
+        passive=(linkage.names[0],) if args.passive_ankle else (),
+        clearance=args.clearance_m,
+        objective=args.objective,
+        double_support=args.double_support_s,
+        ground_margin=args.ground_margin_m,
+        **extra,
+    )
+    last = [-math.inf]
+
+    def iteration(row) -> None:
+        now = time.perf_counter()
+        if now - last[0] >= 1.0:
+            last[0] = now
+            report.step(
+                f"  IPOPT iteration {row['iteration']}: objective {row['objective']:.6g}, "
+                f"max violation {row['infeasibility']:.2e}"
+            )
+
+    scheme = step.ocp.transcription + (f"({step.ocp.degree})" if step.ocp.degree else "")
+    doing = f"solving with IPOPT ({scheme}, N = {step.ocp.N}"
+    doing += f", refining to {target:g})" if target is not None else ")"
+    with report.working(doing), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", AccuracyWarning)
+        try:
+            gait = step.solve(
+                progress=iteration,
+                raise_on_failure=False,
+                accuracy=target,
+                rate_hz=args.rate_hz,
+            )
+        except SampleLimitError as error:
+            raise CommandFailed(
+                f"the plan's limits could not be held at every sample: {error}; nothing written"
+            ) from None
+    solution = gait.solution
+    stats = solution.stats
+    history = stats.get("refinement")
+    accuracy = stats.get("accuracy")
+    objective_words = {
+        "torque": "integral of sum M_i^2, N^2 m^2 s",
+        "torque-rate": "integral of sum dM_i^2 (+ 1e-3 sum M_i^2)",
+        "work": f"positive work (+ {WORK_REGULARISATION / args.torque_limit_nm:.3g} sum M_i^2), J",
+    }[args.objective]
+    phases = f", double support {step.double_support:g} s" if step.double_support > 0 else ""
+    single = gait.segments()[0][0]
+    scheme = single.scheme.label
+    if preset is not None:
+        chosen = ACCURACY_PRESETS[preset]
+        scheme += f" (accuracy {preset}: tol {chosen.tol:g}, stated torque error <= "
+        scheme += f"{chosen.torque_error:g} N m)"
+    # The mesh solved first (the refinement's last, or the one asked for); the limits held
+    # between the points may cut intervals of it (said below).
+    planned = history.sizes[-1] if history is not None else step.ocp.N
+    print(
+        f"walking step of {args.preset}: {step.step_length:g} m in {step.step_time:g} s "
+        f"({step.speed:.3g} m/s){phases}, {scheme} N = {planned}"
+        + (" (refined mesh)" if history is not None else "")
+        + f", {args.formulation}",
+        file=out,
+    )
+    if history is not None:
+        for line in history.table().splitlines():
+            print(f"  {line}", file=out)
+    held = stats.get("sampled_limits")
+    rounds = held["rounds"] if held is not None else []
+    first = rounds[0] if rounds else {
+        "iterations": solution.iterations,
+        "build_seconds": stats["build_seconds"],
+        "solve_seconds": stats["solve_seconds"],
+    }  # fmt: skip
+    print(
+        f"IPOPT: {solution.status} in {first['iterations']} iterations; build "
+        f"{first['build_seconds']:.3f} s, solve {first['solve_seconds']:.3f} s"
+        + ("" if history is None else f" (last pass; all passes {history.seconds:.3f} s)"),
+        file=out,
+    )
+    if not solution.success:
+        raise CommandFailed(f"IPOPT did not converge: {solution.status}; nothing written")
+    if held is not None:
+        again = rounds[1:]
+        split = sum(r.get("split", 0) for r in rounds)
+        raised = sum(r.get("raised", 0) for r in rounds)
+        words = (
+            "they hold without a re-solve"
+            if not again
+            else f"{raised} interval bounds backed off"
+            + (f", {split} intervals cut in two (N = {single.N})" if split else "")
+            + f" in {len(again)} warm re-solve{'s' if len(again) > 1 else ''} "
+            f"({sum(r['iterations'] for r in again)} iterations, "
+            f"{sum(r['build_seconds'] + r['solve_seconds'] for r in again):.3f} s)"
+        )
+        print(
+            f"limits on the exported motion at {args.rate_hz:g} Hz and between the samples: "
+            f"{words}",
+            file=out,
+        )
+    print(
+        f"cost ({objective_words}): {gait.cost:.6g}; the gait law (22) fitted to the step, "
+        f"same mesh: {gait.law_cost:.6g} ({gait.law_cost / gait.cost:.3g}x the optimum)",
+        file=out,
+    )
+    impact = gait.impact
+    peaks = ", ".join(
+        f"{name} {value:.1f}" for name, value in gait.summary()["peak_torque"].items()
+    )
+    print(
+        f"cost of transport {gait.cost_of_transport:.4f} (positive work "
+        f"{gait.positive_work:.2f} J per step); peak |M| (N m): {peaks}",
+        file=out,
+    )
+    after = (
+        "both feet stay on the ground"
+        if step.double_support > 0
+        else f"the old stance foot lifts off at ({impact['lift_off'][0]:.3f}, "
+        f"{impact['lift_off'][1]:.3f}) m/s"
+    )
+    touchdown = gait.touchdown_velocity
+    print(
+        f"heel strike: the foot lands at ({touchdown.real:.3f}, {touchdown.imag:.3f}) m/s "
+        f"(at least {step.touchdown_speed:g} m/s down), impulse ({impact['impulse'][0]:.3f}, "
+        f"{impact['impulse'][1]:.3f}) N s, {after}",
+        file=out,
+    )
+    low, high = gait.centre_of_pressure(args.rate_hz)
+    if args.passive_ankle:
+        sole_words = "a passive ankle (a point foot: no ankle torque)"
+    elif step.foot_sole is None:
+        sole_words = "no sole given"
+    else:
+        heel, toe = step.foot_sole
+        sole_words = f"the sole from {-1000 * heel:.0f} to {1000 * toe:.0f} mm"
+    print(
+        f"centre of pressure of the stance foot (M / Fy from the ankle, every sample): "
+        f"{1000 * low:.1f} .. {1000 * high:.1f} mm; {sole_words}",
+        file=out,
+    )
+    if accuracy is not None:
+        worst = accuracy["state"]
+        nominal = single.ocp.variable_scale(worst) if worst in single.state_names else 1.0
+        unit = (
+            single.system.state_units[single.state_names.index(worst)]
+            if worst in single.state_names
+            else ""
+        )
+        print(
+            f"accuracy: largest per-interval re-integration error "
+            f"{accuracy['error'] * nominal:.2e} {unit} ({worst}, interval "
+            f"{accuracy['interval']}; {accuracy['error']:.2e} of its nominal scale {nominal:g} "
+            f"{unit}, the units of --accuracy)",
+            file=out,
+        )
+    for warning in caught:
+        if issubclass(warning.category, AccuracyWarning):
+            report.warn(
+                f"the plan obeys its dynamics only to {accuracy['error']:.2g} of a state's "
+                "nominal scale between the mesh points (more than "
+                f"{accuracy['threshold']:g}): refine the mesh with a larger -N, --accuracy "
+                "balanced or --accuracy 1e-3"
+            )
+    if history is not None and not history.reached:
+        raise CommandFailed(
+            f"the accuracy target {target:g} was not reached: {history.reason}; nothing written"
+        )
+    # Everything goes to a staging folder first and replaces the output folder as a set once
+    # the file the drives read has been read back and verified.
+    feedback = None
+    if args.feedback:
+        from problems.walking.feedback import design_feedback
+
+        with report.working("designing the feedback (a periodic LQR through the step's events)"):
+            feedback = design_feedback(gait, ground_mu=args.ground_friction)
+    with output:
+        with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
+            profile = gait.to_trajectory(args.rate_hz)
+            if feedback is not None:
+                profile = feedback.channels(profile)
+            written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
+            save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
+        with report.working("verifying torques.csv (numpy, independent of the planner)"):
+            check = verify_gait(LinkageTrajectory.load(written[0]), linkage)
+        dynamics = check.facts.get("dynamics residual", math.nan)
+        print(
+            f"torques.csv: {profile.n_samples} samples at {args.rate_hz:g} Hz of the consistent "
+            f"motion (positions integrate the velocities, accelerations are their slope); its "
+            f"torques are the inverse dynamics of its own motion to {dynamics:.1e} N m",
+            file=out,
+        )
+        failed = "" if check.ok else " - FAILED: " + "; ".join(c.name for c in check.failures)
+        print(
+            f"verification of torques.csv ({profile.n_samples} samples, numpy, independent of "
+            f"the planner): {'all' if check.ok else 'NOT all'} {len(check.checks)} checks "
+            f"passed{failed}; worst margins (> 0 inside):",
+            file=out,
+        )
+        for line in _check_lines(check):
+            print(f"  {line}", file=out)
+        for key in ("rates",):
+            if key in check.facts:
+                print(f"  {key}: {check.facts[key]}", file=out)
+        if not check.ok:
+            raise CommandFailed(
+                f"torques.csv failed its verification: {check.failures[0]}; nothing written"
+            )
+        closed = None
+        if feedback is not None:
+            closed = _closed_loop(feedback, report, out)
+        if not args.no_plots:
+            from problems.walking import plots as walking_plots
+
+            with report.working("plotting gait.png"):
+                walking_plots.save_figure(walking_plots.gait_figure(gait), output.path("gait.png"))
+            motion = gait.world(steps=args.steps, rate_hz=30.0 if args.quick else 60.0)
+            with report.working("plotting walk.png"):
+                walking_plots.save_figure(walking_plots.world_strip(motion),
+                                          output.path("walk.png"))  # fmt: skip
+            if not args.no_gif:
+                with report.working(f"writing walk.gif ({args.steps} steps)"):
+                    fps = 15.0 if args.quick else 30.0
+                    walking_plots.animate_walk(motion, output.path("walk.gif"), fps=fps)
+            if closed is not None:
+                with report.working("plotting closed_loop.png"):
+                    walking_plots.save_figure(walking_plots.closed_loop_figure(closed),
+                                              output.path("closed_loop.png"))  # fmt: skip
+                _draw_pushed_walk(closed, gait.problem.dynamics, output, args.no_gif, report)
+        paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
+    for path in paths:
+        print(f"wrote {path}", file=out)
+    return 0
+
+
+def _closed_loop(feedback, report, out):
+    """Run and print the closed-loop check of ``walk --feedback``; returns it."""
+    from problems.walking.feedback import closed_loop_check
+
+    weights = feedback.gains.weights
+    events = (
+        "the heel strike"
+        if feedback.double is None
+        else "the held heel strike and the lift-off (a law for each support; torques.csv's "
+        "double_support column says which)"
+    )
+    print(
+        f"feedback: periodic LQR through {events} at {feedback.control_rate_hz:g} Hz "
+        f"(Bryson weights: {weights.angle:g} rad, {weights.rate:g} rad/s, {weights.torque:g} "
+        f"N m), designed in {feedback.design_seconds:.2f} s; torques.csv carries its gains "
+        f"({len(feedback.names) * 2 * len(feedback.names)} columns K_<hinge>__<state>, N m/rad "
+        "and N m s/rad) and the phase; the law is in torques.csv.meta.json",
+        file=out,
+    )
+    with report.working("checking the closed loop (the product's hybrid simulation)"):
+        check = closed_loop_check(feedback)
+    multipliers = ", ".join(f"{abs(m):.3f}" for m in check.loop.multipliers[:3])
+    print(
+        f"closed loop, simulated (pinned stance foot, rigid impacts, ground friction "
+        f"{feedback.plant.mu:g}): largest Floquet multipliers |lambda| {multipliers} "
+        f"(stable below 1); open loop (the plan's torques alone): largest |lambda| "
+        f"{abs(check.open_loop_multipliers[0]):.3g} linearised along the plan, and simulated: "
+        f"{check.open_loop.fell or 'walked'}",
+        file=out,
+    )
+    _print_runs(out, check.runs, check.steps, [
+        ("peak |M| N m", 12, lambda steps: f"{max(r.peak_torque for r in steps):.1f}"),
+        ("tracking rad", 12, lambda steps: f"{max(r.tracking for r in steps):.2e}"),
+    ])  # fmt: skip
+    forward, back = check.pushes
+    print(
+        f"  largest push on the torso's centre of mass at mid-step that it walks 10 more steps "
+        f"after: forward {forward:.1f} N s, back {back:.1f} N s (bisection to 0.5 N s)",
+        file=out,
+    )
+    if feedback.double is not None:
+        print(
+            "MuJoCo: not run for a step with a double support (its front foot rebounds off "
+            "MuJoCo's soft ground at touchdown, and the closed chain's law pulls on a foot that "
+            "is not held: open work)",
+            file=out,
+        )
+        return check
+    try:
+        import mujoco  # noqa: F401 - only whether the extra is there
+    except ImportError:
+        print('MuJoCo: not installed (pip install ".[mujoco]"): no run in MuJoCo', file=out)
+        return check
+    from problems.walking.mujoco import mujoco_check
+
+    with report.working("walking in MuJoCo (feet with soles, soft contacts)"):
+        engine = mujoco_check(feedback)
+    print(
+        f"MuJoCo (the same body and the file's law at {feedback.control_rate_hz:g} Hz; feet "
+        "with soles, soft contacts; planned stance Fy at most "
+        f"{engine.planned_normal:.0f} N):",
+        file=out,
+    )
+    _print_runs(out, engine.runs, engine.steps, [
+        ("peak |M| N m", 12, lambda steps: f"{max(r.peak_torque for r in steps):.1f}"),
+        ("slip mm", 8, lambda steps: f"{1000 * max(r.slip for r in steps):.1f}"),
+        ("peak Fy N", 9, lambda steps: f"{max(r.peak_normal for r in steps):.0f}"),
+        ("tracking rad", 12, lambda steps: f"{max(r.tracking for r in steps):.2e}"),
+    ])  # fmt: skip
+    forward, back = engine.pushes
+    print(
+        f"  largest push survived in MuJoCo: forward {forward:.1f} N s, back {back:.1f} N s",
+        file=out,
+    )
+    return check
+
+
+def _draw_pushed_walk(closed, dynamics, output, no_gif: bool, report) -> None:
+    """closed_loop_walk.png (and .gif): the simulated closed-loop walk that survived the
+    largest forward push, in world coordinates."""
+    from problems.walking import plots as walking_plots
+    from problems.walking.feedback import PUSH_STEPS
+
+    run = closed.push_runs[0]
+    motion = run.world(dynamics, rate_hz=60.0)
+    what = (
+        f"closed loop, simulated: a forward push of {closed.pushes[0]:.1f} N s on the torso "
+        f"in step 2 (the largest survived), {run.walked}/{PUSH_STEPS} steps"
+    )
+    with report.working("plotting closed_loop_walk.png"):
+        figure = walking_plots.world_strip(motion, frames_per_step=3, title=what)
+        walking_plots.save_figure(figure, output.path("closed_loop_walk.png"))
+    if not no_gif:
+        with report.working(f"writing closed_loop_walk.gif ({run.walked} steps)"):
+            walking_plots.animate_walk(
+                motion,
+                output.path("closed_loop_walk.gif"),
+                fps=20.0,
+                caption=f"push {closed.pushes[0]:.1f} N s in step 2; ",
+                window=2.5,
+            )
+
+
+def _print_runs(out, runs: dict, steps: int, columns) -> None:
+    """A table of simulated walks: case, steps walked, the ranges of step time and length,
+    then ``columns`` ((header, width, steps -> text)); a fall's reason after the row."""
+    print(
+        f"  {'case':<14} {'steps':>7} {'step time s':>15} {'step length m':>15} "
+        + " ".join(f"{header:>{width}}" for header, width, _ in columns),
+        file=out,
+    )
+    for label, run in runs.items():
+        walked = f"{run.walked}/{steps}"
+        if not run.steps:
+            print(f"  {label:<14} {walked:>7}  fell: {run.fell}", file=out)
+            continue
+        times = [r.duration for r in run.steps]
+        lengths = [r.length for r in run.steps]
+        cells = " ".join(f"{cell(run.steps):>{width}}" for _, width, cell in columns)
+        print(
+            f"  {label:<14} {walked:>7} {min(times):7.4f}..{max(times):6.4f} "
+            f"{min(lengths):7.4f}..{max(lengths):6.4f} {cells}"
+            + (f"  fell: {run.fell}" if run.fell else ""),
+            file=out,
+        )
+
+
+def _check_lines(report) -> list[str]:
+    """One line per check of a verification: name, worst margin with its unit, where, how
+    many values, the tolerance."""
+    lines = []
+    for c in report.checks:
+        verdict = "ok  " if c.passed else "FAIL"
+        lines.append(
+            # + 0.0: a margin of -0.0 (an exact match) prints as +0.00e+00
+            f"{verdict} {c.name:<19} {c.margin + 0.0:+.2e} {c.unit:<9} at {c.where} "
+            f"({c.samples} values, tolerance {c.tolerance:.0e})"
+        )
+    return lines
