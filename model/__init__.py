@@ -1,6 +1,6 @@
 """Complex-variable Lagrange models of planar link trees, generated as CasADi SX.
 
->>> from model import presets
+>>> from model import Dynamics, presets
 >>> dyn = Dynamics(presets.six_link_anthropoid())
 >>> dyn.inverse_dynamics(psi, dpsi, ddpsi)        # hinge torques, N m
 >>> foot = dyn.point("swing_shank")               # the end hinge of the swing shank
