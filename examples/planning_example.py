@@ -1,4 +1,4 @@
-"""The README's planning example ("Planning: optimal control by direct collocation"), solved
+"""The planning guide's example ("Planning: optimal control by direct collocation"), solved
 and drawn: the six-link walking step of the main job changed as a user changes any OCP
 (drives bounded to 100 N m, the hip at least 0.8 m high, a torque-rate penalty).
 
@@ -28,7 +28,7 @@ HIP_MINIMUM = 0.8  # m
 
 
 def readme_problem(N: int):
-    """The README's block: the walking step, its OCP changed (a planner.OCP is a value)."""
+    """The guide's block: the walking step, its OCP changed (a planner.OCP is a value)."""
     step = walking_step(N=N)
     hip = step.dynamics.point("stance_thigh")  # the hip: end of the stance thigh
     ocp = (

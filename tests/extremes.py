@@ -13,9 +13,9 @@ Newton-Euler in numpy: mass matrices, inverse and forward dynamics, the floating
 Jacobians), a dense KKT solve of the impact in numpy, and closed-form optima of free-time
 problems (the planner's cases).
 
-``python tests/extremes.py`` prints the table that README.md shows (tests/test_extremes.py
-checks that the README holds exactly this table); ``python -m pytest tests/test_extremes.py``
-runs the fast cases, ``-m slow`` the long matrix.
+``python tests/extremes.py`` prints the table that tests/extremes.md shows
+(tests/test_extremes.py checks that the guide holds exactly this table);
+``python -m pytest tests/test_extremes.py`` runs the fast cases, ``-m slow`` the long matrix.
 """
 
 from __future__ import annotations
@@ -803,7 +803,7 @@ def _input_rows():
 
 
 def table() -> str:
-    """The matrix as the Markdown table of README.md."""
+    """The matrix as the Markdown table of tests/extremes.md."""
     lines = ["| case | tolerance / outcome | note |", "|---|---|---|"]
     for title, rows in (
         ("model", _model_rows()),

@@ -83,7 +83,7 @@ def test_the_readme_planning_example_draws_a_walk(tmp_path):
     with Image.open(tmp_path / "planning_example.png") as image:
         assert image.size[0] > 500 and image.size[1] > 400
     # What the picture shows, checked with the oracle on the saved nodes: the bounds of the
-    # README's block hold and the walk stays above the ground.
+    # the guides' block hold and the walk stays above the ground.
     from reference import newton_euler as ne
 
     six = presets.six_link_anthropoid()
@@ -134,7 +134,7 @@ def test_second_problem_writes_its_input_when_missing(tmp_path):
 
 
 def test_problems_benchmark_quick_run():
-    """The benchmark behind README's errata and replay numbers runs and prints its tables."""
+    """The benchmark behind the guides' errata and replay numbers runs and prints its tables."""
     result = _call("benchmarks/problems_bench.py", "--quick")
     assert result.returncode == 0, result.stderr
     assert "Traceback" not in result.stderr
@@ -152,7 +152,7 @@ def test_problems_benchmark_quick_run():
 
 
 def test_convergence_orders_benchmark_prints_slopes_near_the_scheme_orders():
-    """The script behind README's convergence slopes: each fitted slope within 0.3 of the
+    """The script behind the guides' convergence slopes: each fitted slope within 0.3 of the
     scheme's nominal order (the same bound as tests/test_transcription.py, computed here from
     the printed table, so a script that prints wrong or stale slopes fails)."""
     result = _call("benchmarks/convergence_orders.py", "--quick")
@@ -165,7 +165,7 @@ def test_convergence_orders_benchmark_prints_slopes_near_the_scheme_orders():
 
 
 def test_gait_benchmark_quick_run():
-    """The benchmark behind README's walking numbers runs and prints its tables."""
+    """The benchmark behind the guides' walking numbers runs and prints its tables."""
     result = _call("benchmarks/gait_bench.py", "--quick")
     assert result.returncode == 0, result.stderr
     out = result.stdout
@@ -184,7 +184,7 @@ def test_gait_benchmark_quick_run():
 
 
 def test_units_comparison_quick_run():
-    """The script behind README's millimetre-gram numbers: it runs, and the row it prints
+    """The script behind the guides' millimetre-gram numbers: it runs, and the row it prints
     shows the same gait (differences <= 1e-6) in iterations within 20 % and an objective
     scale 1e18 larger (parsed from the table, so stale or wrong output fails)."""
     result = _call("benchmarks/units_compare.py", "--quick")
@@ -200,7 +200,7 @@ def test_units_comparison_quick_run():
 
 
 def test_speed_accuracy_benchmark_quick_run(tmp_path):
-    """The study behind README's speed/accuracy table, Pareto plot, refinement and preset
+    """The study behind the guides' speed/accuracy table, Pareto plot, refinement and preset
     numbers runs in its quick form, writes its figure and data, and what it measured is
     consistent: every run's torque error falls with N at a fixed transcription and tolerance,
     the re-integration error too, and the refinement reached its target."""

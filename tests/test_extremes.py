@@ -5,7 +5,7 @@ of the impact in numpy; planner cases against closed-form optima of free-time pr
 cases verified in numpy (``verify_gait``) or against a tight solve; the walking step and the
 fixed-base gait in millimetres and grams against SI; bad input at the public API and the
 command line. Tolerances and expected outcomes are the data of ``tests/extremes.py``; the
-README's table is that data too (``test_readme_shows_the_matrix``).
+guide's table (tests/extremes.md) is that data too (``test_the_guide_shows_the_matrix``).
 """
 
 from __future__ import annotations
@@ -329,6 +329,6 @@ def test_bad_input_covered_elsewhere(case):
     assert text in (TESTS / filename).read_text(), case.covered_by
 
 
-def test_readme_shows_the_matrix():
-    readme = (TESTS.parent / "README.md").read_text()
-    assert table() in readme, "README.md's extremes table differs from tests/extremes.py"
+def test_the_guide_shows_the_matrix():
+    guide = (TESTS / "extremes.md").read_text()
+    assert table() in guide, "tests/extremes.md's table differs from tests/extremes.py"

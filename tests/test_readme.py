@@ -1,29 +1,75 @@
-"""The README's Python code runs as written: every block on its own (a fresh namespace and a
-scratch folder of its own), as a reader copies one block into a new file."""
+"""The README's and the guides' Python code runs as written: every block on its own (a fresh
+namespace and a scratch folder of its own), as a reader copies one block into a new file; and
+every link between them leads to a file that exists."""
 
 import re
 from pathlib import Path
 
-README = Path(__file__).resolve().parent.parent / "README.md"
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+#: The README and every guide beside what it describes.
+DOCUMENTS = [
+    ROOT / "README.md",
+    *sorted((ROOT / "examples").rglob("*.md")),
+    *sorted((ROOT / "model").glob("*.md")),
+    *sorted((ROOT / "tests").glob("*.md")),
+]
 
 
-def python_blocks() -> list[str]:
-    return re.findall(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S)
+def python_blocks(path: Path) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", path.read_text(encoding="utf-8"), flags=re.S)
 
 
-def test_readme_python_blocks_run_each_on_its_own(tmp_path, monkeypatch):
-    blocks = python_blocks()
-    assert len(blocks) >= 3, "the README lost its code examples"
+def run_blocks(path: Path, tmp_path: Path, monkeypatch) -> list[tuple[Path, dict]]:
     namespaces = []
-    for number, block in enumerate(blocks):
+    for number, block in enumerate(python_blocks(path)):
         folder = tmp_path / f"block{number + 1}"
         folder.mkdir()
         monkeypatch.chdir(folder)
         namespace: dict = {}
-        exec(compile(block, f"README.md python block {number + 1}", "exec"), namespace)
+        where = f"{path.relative_to(ROOT)} python block {number + 1}"
+        exec(compile(block, where, "exec"), namespace)
         namespaces.append((folder, namespace))
-    # The blocks' products exist: an exported torque profile and an exported gait.
-    torques = [folder for folder, _ in namespaces if (folder / "torques.csv").exists()]
-    assert torques and (torques[0] / "torques.csv").stat().st_size > 0
-    gait = [ns for folder, ns in namespaces if (folder / "gait.csv").exists()]
-    assert gait and gait[0]["sol"].success and gait[0]["fine"].success
+    return namespaces
+
+
+def test_the_guides_are_found():
+    # the guard: the documents the README links to are the ones this module runs
+    names = {str(path.relative_to(ROOT)) for path in DOCUMENTS}
+    assert {"README.md", "examples/planning.md", "model/README.md", "tests/extremes.md"} <= names
+    assert sum(len(python_blocks(path)) for path in DOCUMENTS) >= 6
+
+
+def test_the_readme_example_writes_its_torque_file(tmp_path, monkeypatch):
+    namespaces = run_blocks(ROOT / "README.md", tmp_path, monkeypatch)
+    assert len(namespaces) == 1, "the README holds one example, its own OCP"
+    folder, namespace = namespaces[0]
+    assert namespace["solution"].success
+    assert (folder / "torques.csv").stat().st_size > 0
+
+
+@pytest.mark.parametrize(
+    "document",
+    [path for path in DOCUMENTS if path.name != "README.md" or path.parent != ROOT],
+    ids=lambda path: str(path.relative_to(ROOT)),
+)
+def test_guide_python_blocks_run_each_on_its_own(document, tmp_path, monkeypatch):
+    namespaces = run_blocks(document, tmp_path, monkeypatch)
+    if document.name == "planning.md":
+        # its blocks export a gait that solved, on its mesh and refined
+        gait = [ns for folder, ns in namespaces if (folder / "gait.csv").exists()]
+        assert gait and gait[0]["sol"].success and gait[0]["fine"].success
+
+
+@pytest.mark.parametrize("document", DOCUMENTS, ids=lambda path: str(path.relative_to(ROOT)))
+def test_links_lead_to_files_that_exist(document):
+    text = document.read_text(encoding="utf-8")
+    targets = re.findall(r"\]\(([^)#\s]+)\)", text)
+    missing = [
+        target
+        for target in targets
+        if not target.startswith(("http://", "https://"))
+        and not (document.parent / target).exists()
+    ]
+    assert not missing, f"{document.relative_to(ROOT)} links to missing files: {missing}"

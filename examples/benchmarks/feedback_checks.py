@@ -1,4 +1,4 @@
-"""The numbers the README quotes about the feedback beside the closed-loop tables.
+"""The numbers the feedback guide (examples/feedback.md) quotes beside the closed-loop tables.
 
     python examples/benchmarks/feedback_checks.py              # about 2 minutes
     python examples/benchmarks/feedback_checks.py --weights    # + the weights' trade (~12 min)

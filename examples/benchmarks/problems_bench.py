@@ -1,4 +1,4 @@
-"""Problems benchmark: the numbers that README's sections on the paper's errata and on the
+"""Problems benchmark: the numbers that the guides' sections on the paper's errata and on the
 first and second problems of dynamics quote, measured in one run on the six-link scene and
 the benchmark law "paper22".
 
@@ -39,7 +39,7 @@ from problems import GaitLaw, replay_law, torques_along, upright_instability_rat
 
 TESTS = Path(__file__).resolve().parents[2] / "tests"
 
-#: (label, options of replay_law) for the exact torques; README's replay table.
+#: (label, options of replay_law) for the exact torques; the guides' replay table.
 EXACT_CASES = (
     ("rk (RK4), 8 steps per 1 ms interval", {"method": "rk", "steps": 8, "max_interval": 1e-3}),
     (

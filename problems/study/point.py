@@ -181,7 +181,7 @@ class PointSpec:
     outputs : names of :data:`OUTPUTS` and (name, callable of the WalkingGait) pairs.
     ipopt : IPOPT options over the planner's defaults.
     multipliers : also warm-start IPOPT's multipliers from a neighbour of the same layout
-        (False: the primal point only; measured in the README's study section).
+        (False: the primal point only; measured in examples/walking_study.md).
     accept_acceptable : count "Solved_To_Acceptable_Level" as solved.
     """
 

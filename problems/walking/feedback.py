@@ -6,7 +6,7 @@
 was designed on. :meth:`Feedback.channels` writes it into the exported profile: per sample the
 phase ``phase`` and every gain ``K_<hinge>__<state>`` (N m/rad, N m s/rad), with the law, the
 phase's definition, the control rate and the weights in ``metadata["feedback"]``; a drive reads
-its row of K beside its torque. :func:`closed_loop_check` runs the checks the README prints:
+its row of K beside its torque. :func:`closed_loop_check` runs the checks the feedback guide prints:
 the multipliers, open loop against closed loop, 50 steps, a heavier and a lighter body, a
 ground a little higher or lower, and the largest pushes.
 """

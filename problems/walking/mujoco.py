@@ -34,7 +34,7 @@ from problems.walking.simulation import Disturbances, largest_push
 
 #: a swing foot touches down when its contact's normal force passes this, N
 TOUCHDOWN_FORCE = 5.0
-#: MuJoCo settings of the walker (see walking_mujoco_settings in the README)
+#: MuJoCo settings of the walker (see examples/feedback.md)
 CONTACT_TIME_CONSTANT = 0.004
 TIMESTEP = 0.0005
 #: each foot's mass, kg: not in the plan (1.7 % of the six-link's 60 kg for two); with
