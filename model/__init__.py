@@ -10,6 +10,7 @@
 """
 
 from model import presets
+from model.contact import Contact, Ground
 from model.dynamics import FUNCTIONS, Dynamics
 from model.floating import FLOATING_FUNCTIONS, FloatingBase
 from model.impact import ImpactMap
@@ -26,10 +27,12 @@ __all__ = [
     "FUNCTIONS",
     "POINT_FUNCTIONS",
     "AnthropoidError",
+    "Contact",
     "DefinitionError",
     "DefinitionTypeError",
     "Dynamics",
     "FloatingBase",
+    "Ground",
     "ImpactMap",
     "Link",
     "LinkPoint",

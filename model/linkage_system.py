@@ -18,6 +18,7 @@ from collections.abc import Mapping, Sequence
 import casadi as ca
 import numpy as np
 
+from model.contact import Contact
 from model.linkage_naming import (
     ACCELERATION_UNIT,
     ACCELERATIONS,
@@ -43,7 +44,8 @@ def linkage_system(dynamics, formulation: str = "implicit", contacts: Sequence =
     """The linkage system of ``dynamics`` (a ``model.Dynamics``): x = [psi; dpsi], u = M (and
     F), z = ddpsi (implicit only).
 
-    ``contacts``: points of the linkage (``model.LinkPoint``) held by the ground, whose
+    ``contacts``: contacts (``model.Contact``) or points of the linkage (``model.LinkPoint``,
+    link names for their end hinges) held by the ground, whose
     ground forces (Fx, Fy), N, are more controls (``F_<point>_x``, ``F_<point>_y``; group
     ``F``): the equations of motion are those of the tree with these forces applied (their
     hinge moments, ``PointKinematics.hinge_moments``), so a closed chain (a double support)
@@ -53,7 +55,7 @@ def linkage_system(dynamics, formulation: str = "implicit", contacts: Sequence =
     links = dynamics.names
     states = (*angle_names(links), *rate_names(links))
     torques = torque_names(links)
-    points = [dynamics.point(c) for c in contacts]
+    points = [dynamics.point(c.point if isinstance(c, Contact) else c) for c in contacts]
     forces = force_names([p.identifier for p in points])
     controls = (*torques, *forces)
     x = ca.SX.sym("x", 2 * n)

@@ -65,7 +65,9 @@ from typing import Any
 import numpy as np
 
 from model import LinkageTrajectory
+from model.contact import Contact
 from model.linkage import Linkage
+from model.points import LinkPoint
 from model.rerooting import swap_legs
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.trajectory import Trajectory
@@ -477,7 +479,8 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
         reaction = reaction - force
     mu = settings.get("mu")
     if mu is not None:
-        add("friction cone", float(mu) * reaction.imag - np.abs(reaction.real), "N", weight)
+        stance = _stance_foot(kin.linkage, float(mu))
+        add("friction cone", stance.cone_margin(reaction.real, reaction.imag), "N", weight)
     moment = torques[:, 0]
     loaded = reaction.imag > 0.05 * weight
     if np.any(loaded):
@@ -523,6 +526,19 @@ def _per_sample(margins: np.ndarray) -> np.ndarray:
     out[:-1] = margins
     out[1:] = np.minimum(out[1:], margins)
     return out
+
+
+def _stance_foot(linkage: Linkage, mu: float) -> Contact:
+    """The stance foot, H0 (the root's start), as a contact with the ground's friction."""
+    root = linkage.names[0]
+    return Contact(LinkPoint(root, along=0.0, name=f"{root}_start"), friction=mu)
+
+
+def _feet(linkage: Linkage, settings, mu: float) -> tuple[Contact, Contact]:
+    """The stance foot and the swing foot (the end of ``settings["swing_foot"]``) as contacts
+    with the ground's friction ``mu``."""
+    swing = settings.get("swing_foot") or swap_legs(linkage).root_point.link
+    return _stance_foot(linkage, mu), Contact(LinkPoint(swing), friction=mu)
 
 
 def _foot(kin: _Kinematics, settings) -> tuple[int, complex]:
@@ -600,7 +616,7 @@ def _verify_walking(add, kin: _Kinematics, settings, trajectory, weight) -> None
     psi, dpsi, times = trajectory.psi, trajectory.dpsi, trajectory.time
     linkage = kin.linkage
     n = linkage.n
-    mu = float(settings["mu"])
+    _, swing = _feet(linkage, settings, float(settings["mu"]))
     step_length = float(settings["step_length"])
     swap = swap_legs(linkage)
     foot_link, foot_offset = _foot(kin, settings)
@@ -636,7 +652,7 @@ def _verify_walking(add, kin: _Kinematics, settings, trajectory, weight) -> None
     momentum_scale = float(np.sum(kin.mass))
     add(
         "impulse cone",
-        np.array([mu * impulse.imag - abs(impulse.real)]),
+        np.array([swing.cone_margin(impulse.real, impulse.imag)]),
         "N s",
         momentum_scale,
         where="heel strike",
@@ -672,7 +688,7 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     the ground until T, the legs swap without an impact."""
     linkage = kin.linkage
     n = linkage.n
-    mu = float(settings["mu"])
+    rear_foot, front_foot = _feet(linkage, settings, float(settings["mu"]))
     step_length = float(settings["step_length"])
     psi, dpsi, times = trajectory.psi, trajectory.dpsi, trajectory.time
     swap = swap_legs(linkage)
@@ -726,7 +742,12 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     rear, front = complex(*impulses[:2]), complex(*impulses[2:])
     add(
         "impulse cones",
-        np.array([mu * front.imag - abs(front.real), mu * rear.imag - abs(rear.real)]),
+        np.array(
+            [
+                front_foot.cone_margin(front.real, front.imag),
+                rear_foot.cone_margin(rear.real, rear.imag),
+            ]
+        ),
         "N s",
         float(np.sum(kin.mass)),
         where="heel strike (front, rear)",
@@ -743,7 +764,7 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     front_force = np.zeros(times.size, dtype=complex)
     for _, _, force in _contacts(kin, settings, trajectory):
         front_force += force
-    cone = mu * front_force.imag - np.abs(front_force.real)
+    cone = front_foot.cone_margin(front_force.real, front_force.imag)
     add("front foot cone", np.where(double, cone, np.inf), "N", weight)
     single = ~double
     height = kin.point(foot_link, foot_offset, psi[single])[0].imag

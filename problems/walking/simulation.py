@@ -32,8 +32,10 @@ from typing import Protocol
 import casadi as ca
 import numpy as np
 
+from model.contact import Contact
 from model.dynamics import Dynamics
 from model.linkage import Linkage
+from model.points import LinkPoint
 from planner.errors import DefinitionError, check_integer, check_positive, check_real
 from problems.gait.biped import Biped
 from problems.walking.step import UNLOADED, WorldMotion, world_motion
@@ -199,8 +201,19 @@ class Plant:
         return Biped.of(self.dynamics.linkage)
 
     @cached_property
+    def stance_contact(self) -> Contact:
+        """The stance foot, H0 (the root's start), with the ground's friction."""
+        root = self.dynamics.linkage.names[0]
+        return Contact(LinkPoint(root, along=0.0, name=f"{root}_start"), friction=self.mu)
+
+    @cached_property
+    def swing_contact(self) -> Contact:
+        """The swing foot (the swing shank's end): it lands, and is held in a double support."""
+        return Contact(LinkPoint(self.biped.swing_shank), friction=self.mu)
+
+    @cached_property
     def foot(self):
-        return self.dynamics.point(self.biped.swing_shank)
+        return self.dynamics.point(self.swing_contact.point)
 
     @cached_property
     def impact(self):
@@ -497,7 +510,7 @@ def simulate_walking(
                 reaction, front, heights = (
                     np.asarray(v).ravel() for v in plant.observe_double(x, torques)
                 )
-            stance = _cone_problem("stance", reaction, plant.mu, slack)
+            stance = _cone_problem(plant.stance_contact, "the stance foot", reaction, slack)
             if stance is not None and front is not None and reaction[1] < unloaded:
                 # The rear foot, unloaded as the plan's lift-off defines it, leaves the
                 # cone: it rolls off, as a foot does. The legs swap now, a little early.
@@ -505,7 +518,11 @@ def simulate_walking(
             problem = (
                 stance
                 or _ground_problem(heights, foothold, ground)
-                or (None if front is None else _cone_problem("front", front, plant.mu, slack))
+                or (
+                    None
+                    if front is None
+                    else _cone_problem(plant.swing_contact, "the front foot", front, slack)
+                )
             )
             log.time.append(clock + t)
             log.states.append(x.copy())
@@ -546,7 +563,7 @@ def simulate_walking(
                 )
                 if lift_off is not None:
                     lift = np.array([0.0, 0.0])  # the rear foot stays: nothing to lift
-                problem = _impact_problem(impulse, lift, plant.mu)
+                problem = _impact_problem(impulse, lift, plant.swing_contact)
                 if problem is not None and check_contacts:
                     fell = f"heel strike of step {index}: {problem}"
                     break
@@ -695,14 +712,12 @@ def locate_event(advance, x, torques, period: float, value):
     return high, state
 
 
-def _cone_problem(foot: str, force, mu, slack) -> str | None:
-    """Why the ``foot`` ("stance", "front") cannot carry ``force`` (Fx, Fy) N, or None."""
-    fx, fy = force
-    if fy < -slack:
-        return f"the {foot} foot is pulled off the ground (Fy = {fy:.1f} N)"
-    if abs(fx) > mu * fy + slack:
-        return f"the {foot} foot slips (|Fx| = {abs(fx):.1f} N > mu Fy = {mu * fy:.1f} N)"
-    return None
+def _cone_problem(contact: Contact, who: str, force, slack) -> str | None:
+    """Why ``contact`` (``who`` in the message) cannot carry ``force`` (Fx, Fy) N, or None
+    (no check for a plant without a friction coefficient)."""
+    if contact.friction is None:
+        return None
+    return contact.violation(force[0], force[1], slack, who=who)
 
 
 def _ground_problem(heights, foothold: complex, ground) -> str | None:
@@ -712,13 +727,12 @@ def _ground_problem(heights, foothold: complex, ground) -> str | None:
     return None
 
 
-def _impact_problem(impulse, lift, mu) -> str | None:
+def _impact_problem(impulse, lift, landing: Contact) -> str | None:
     ix, iy = impulse
-    slack = CONE_SLACK * abs(iy)
-    if iy < 0.0:
-        return f"the ground would pull the landing foot (impulse Fy = {iy:.2f} N s)"
-    if abs(ix) > mu * iy + slack:
-        return f"the landing foot slips (|Ix| = {abs(ix):.2f} > mu Iy = {mu * iy:.2f} N s)"
+    if landing.friction is not None:
+        slipped = landing.violation(ix, iy, CONE_SLACK * abs(iy), "the landing foot", "N s")
+        if slipped is not None:
+            return f"{slipped}, at the impact"
     if lift[1] < 0.0:
         return f"the trailing foot does not lift off (it would move down at {lift[1]:.3f} m/s)"
     return None

@@ -57,8 +57,10 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from model.contact import Contact
 from model.dynamics import Dynamics
 from model.linkage import Linkage
+from model.points import LinkPoint
 from model.presets import six_link_anthropoid
 from planner.errors import (
     DefinitionError,
@@ -167,9 +169,22 @@ class WalkingStep:
         return self.biped.linkage
 
     @cached_property
+    def stance_contact(self) -> Contact:
+        """The stance foot: the start hinge H0 of the root link, pinned, with the ground's
+        friction ``mu``."""
+        root = self.linkage.names[0]
+        return Contact(LinkPoint(root, along=0.0, name=f"{root}_start"), friction=self.mu)
+
+    @cached_property
+    def swing_contact(self) -> Contact:
+        """The swing foot, which lands: the end of the swing shank, with the ground's
+        friction ``mu``."""
+        return Contact(LinkPoint(self.biped.swing_shank), friction=self.mu)
+
+    @cached_property
     def foot(self):
-        """The swing foot: the end of the swing shank (``model.PointKinematics``)."""
-        return self.dynamics.point(self.biped.swing_shank)
+        """The swing foot's kinematics (``model.PointKinematics`` of :attr:`swing_contact`)."""
+        return self.dynamics.point(self.swing_contact.point)
 
     @cached_property
     def impact(self):
@@ -557,7 +572,6 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
     linkage = biped.linkage
     n = linkage.n
     weight = biped.total_mass * linkage.gravity
-    mu = step.mu
     position = step.foot.function("position")
     velocity = step.foot.function("velocity")
     reaction = dynamics.function("ground_reaction")
@@ -566,9 +580,10 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
     def psi_of(p, name):
         return p[f"psi_{name}"]
 
+    stance, swing = step.stance_contact, step.swing_contact
+
     def friction(p):
-        fx, fy = reaction(p.psi, p.dpsi, p.ddpsi)
-        return ca.vertcat(mu * fy - fx, mu * fy + fx)
+        return stance.cone(*reaction(p.psi, p.dpsi, p.ddpsi))
 
     def clearance(p):
         return position(p.psi)[1] - step.clearance_at(p.t / p.T)
@@ -593,14 +608,14 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
 
     def impulse(p):
         dpsi_plus, lam, _ = impact(p.x[:n], p.x[n:])
-        rows = [mu * lam[1] - lam[0], mu * lam[1] + lam[0]]
+        rows = [swing.cone(lam[0], lam[1])]
         if step.double_support > 0:
             # Both feet held through the impact: the rear foot's impulse is what the change
             # of momentum leaves, and it must push too (inside its cone).
             before = ca.vertcat(*momentum(p.x[:n], ca.vertcat(0, 0, p.x[n:])))
             after = ca.vertcat(*momentum(p.x[:n], ca.vertcat(0, 0, dpsi_plus)))
             rear = after - before - lam
-            rows += [mu * rear[1] - rear[0], mu * rear[1] + rear[0]]
+            rows.append(stance.cone(rear[0], rear[1]))
         return ca.vertcat(*rows)
 
     mesh = {"N": N, "transcription": transcription, "degree": degree, "formulation": formulation}
@@ -618,8 +633,8 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
             "landing",
             landing,
             at="end",
-            lower=[step.step_length, 0.0],
-            upper=[step.step_length, 0.0],
+            lower=[step.step_length, swing.ground.height],
+            upper=[step.step_length, swing.ground.height],
             scale=step.step_length,
         )
         .boundary("lift off", foot_vertical_velocity, at="start", lower=0.0, scale=speed)
@@ -651,24 +666,21 @@ def _double_support_ocp(step: WalkingStep, mesh: dict) -> OCP:
     biped, dynamics = step.biped, step.dynamics
     linkage = biped.linkage
     weight = biped.total_mass * linkage.gravity
-    mu = step.mu
     acceleration = step.foot.function("acceleration")
     reaction = dynamics.function("ground_reaction")
     ocp = gait_ocp(dynamics, step.double_support, mesh, step.torque_limit)
-    ocp = replace(ocp, contacts=(step.foot.point,))
+    rear_foot, front_foot = step.stance_contact, step.swing_contact
+    ocp = replace(ocp, contacts=(front_foot,))
     for name in step.passive:
         ocp = ocp.bound(f"M_{name}", 0.0, 0.0)
 
-    def cones(p):
+    def rear_force(p):
+        """The rear foot's ground force, N: the whole tree's reaction less the front foot's."""
         fx, fy = reaction(p.psi, p.dpsi, p.ddpsi)  # both feet together
-        front_x, front_y = p.F[0], p.F[1]
-        rear_x, rear_y = fx - front_x, fy - front_y
-        return ca.vertcat(
-            mu * rear_y - rear_x,
-            mu * rear_y + rear_x,
-            mu * front_y - front_x,
-            mu * front_y + front_x,
-        )
+        return fx - p.F[0], fy - p.F[1]
+
+    def cones(p):
+        return ca.vertcat(rear_foot.cone(*rear_force(p)), front_foot.cone(p.F[0], p.F[1]))
 
     def knees(p):
         return ca.vertcat(
@@ -691,10 +703,7 @@ def _double_support_ocp(step: WalkingStep, mesh: dict) -> OCP:
         # UNLOADED of it (a foot leaving the ground loaded would need the drives to jump).
         .constrain(
             "rear unloads",
-            lambda p: (
-                cones(p)[0:2].T @ ca.DM([0.5, 0.5]) / mu
-                - weight * (2.0 - (2.0 - UNLOADED) * p.t / p.T)
-            ),
+            lambda p: rear_force(p)[1] - weight * (2.0 - (2.0 - UNLOADED) * p.t / p.T),
             upper=0.0,
             scale=weight,
         )
@@ -706,9 +715,7 @@ def _double_support_ocp(step: WalkingStep, mesh: dict) -> OCP:
         # contact: it carries no torque).
         ocp = ocp.constrain(
             "centre of pressure",
-            lambda p: centre_of_pressure_rows(
-                step, p, reaction(p.psi, p.dpsi, p.ddpsi)[1] - p.F[1]
-            ),
+            lambda p: centre_of_pressure_rows(step, p, rear_force(p)[1]),
             lower=0.0,
             scale=weight * sum(step.foot_sole),
         )
