@@ -33,6 +33,7 @@ import casadi as ca
 import numpy as np
 
 from model.complex_sx import Constants, Cx, apply, expj, imag_of_conj_product, times_constants
+from model.contact import Contact
 from model.floating import FloatingBase
 from model.impact import ImpactMap
 from model.linkage import Linkage
@@ -330,21 +331,37 @@ class Dynamics:
         return self._memo("floating", lambda: FloatingBase(self))
 
     def impact(
-        self, point: str | LinkPoint | PointKinematics, root_pinned: bool = False
+        self,
+        point: str | LinkPoint | PointKinematics | Contact | Sequence,
+        root_pinned: bool = False,
     ) -> ImpactMap:
         """The inelastic, non-sliding impact of ``point`` with the ground while the root hinge
-        H0 (the old contact) is at rest (:mod:`model.impact`). A link name means its end.
-        ``root_pinned``: H0 stays held through the impact (a double support begins) instead
-        of being free to lift off."""
-        if not isinstance(point, PointKinematics):
-            point = self.point(point)
-        elif point.dynamics is not self:
-            raise DefinitionError("`point`: the point belongs to another Dynamics")
+        H0 (the old contact) is at rest (:mod:`model.impact`). A link name means its end; a
+        :class:`model.Contact` its point; a sequence of them lands every point at once (a
+        heel and a toe). ``root_pinned``: H0 stays held through the impact (a double
+        support begins) instead of being free to lift off."""
+        many = isinstance(point, Sequence) and not isinstance(point, str)
+        points = tuple(self._own_point(p) for p in (point if many else (point,)))
+        if not points:
+            raise DefinitionError("`point`: give at least one point that lands")
+        labels = [p.label for p in points]
+        if len(set(labels)) != len(labels):
+            raise DefinitionError(f"`point`: a point lands twice: {labels}")
         impacts = self._memo("impacts", dict)
-        key = (point.label, bool(root_pinned))
+        key = (tuple(labels), bool(root_pinned))
         if key not in impacts:
-            impacts[key] = ImpactMap(point, root_pinned)
+            impacts[key] = ImpactMap(points if many else points[0], root_pinned)
         return impacts[key]
+
+    def _own_point(self, point) -> PointKinematics:
+        """``point`` (a link name, LinkPoint, Contact or PointKinematics) as this model's."""
+        if isinstance(point, Contact):
+            point = point.point
+        if not isinstance(point, PointKinematics):
+            return self.point(point)
+        if point.dynamics is not self:
+            raise DefinitionError("`point`: the point belongs to another Dynamics")
+        return point
 
     # ---- tree operators (constant 0/1 matrices) ---------------------------------------
     def _operators(self) -> dict[str, ca.DM]:

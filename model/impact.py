@@ -23,6 +23,10 @@ With ``root_pinned`` the old contact holds too (a double support begins): the sa
 the fixed-base mass matrix M(psi) and the psi columns of J, M (dpsi+ - dpsi-) = J^T Lambda,
 J dpsi+ = 0; the pin takes what impulse it must and the base velocity after impact is zero.
 
+Several points may land at once (a foot's heel and toe slapping down together, two feet):
+J stacks their Jacobians (2k, n + 2), Lambda their impulses (2k,), and G (2k, 2k) is solved
+by CasADi's symbolic QR instead of Cramer's rule; one point keeps Cramer's rule.
+
 Every step is an SX expression, so the map and its derivatives enter an NLP like any other
 expression (``OCP.periodic(step_map)``). Composed with a relabelling of the tree
 (:mod:`model.rerooting`, e.g. ``swap_legs``) it is the step-to-step map Delta(x) of a walking
@@ -31,6 +35,7 @@ gait: x+ = relabel(psi-, dpsi+).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import casadi as ca
@@ -53,29 +58,38 @@ IMPACT_FUNCTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], str]] = {
     "impact": (
         ("psi", "dpsi"),
         ("dpsi_plus", "impulse", "base_velocity_plus"),
-        "post-impact rates (n,) rad/s, ground impulse on the point (2,) N s, velocity of the "
-        "old contact H0 after impact (2,) m/s",
+        "post-impact rates (n,) rad/s, ground impulses on the points (2k,) N s (x, y of each "
+        "point in turn), velocity of the old contact H0 after impact (2,) m/s",
     ),
 }
 
 
 class ImpactMap:
-    """Impact of a point of a :class:`model.Dynamics` with the ground (``dyn.impact(point)``).
+    """Impact of points of a :class:`model.Dynamics` with the ground (``dyn.impact(point)``,
+    ``dyn.impact([heel, toe])``): the k points land together.
 
-    ``function()``: the SX Function ``impact_<point>``: (psi (n,), dpsi (n,)) ->
-    (dpsi_plus (n,), impulse (2,), base_velocity_plus (2,)); numpy one state or a (K, n)
-    batch through ``__call__``; ``step_function(rerooting)``: the composed map x- -> x+.
+    ``function()``: the SX Function ``impact_<point>[_<point>...]``: (psi (n,), dpsi (n,)) ->
+    (dpsi_plus (n,), impulse (2k,), base_velocity_plus (2,)); numpy one state or a (K, n)
+    batch through ``__call__``; ``step_function(rerooting)``: the composed map x- -> x+ (one
+    landing point, the new root).
     """
 
-    def __init__(self, point: PointKinematics, root_pinned: bool = False) -> None:
-        self.point = point
-        self._dynamics = point.dynamics
+    def __init__(
+        self, points: PointKinematics | Sequence[PointKinematics], root_pinned: bool = False
+    ) -> None:
+        #: The landing points, in the order of the impulses.
+        self.points: tuple[PointKinematics, ...] = (
+            (points,) if not isinstance(points, Sequence) else tuple(points)
+        )
+        #: The landing point when there is one (the heel strike of a point foot).
+        self.point = self.points[0]
+        self._dynamics = self.point.dynamics
         #: True: the root hinge H0 stays pinned through the impact (both contacts hold: a
         #: double support begins); the fixed-base equations M (dpsi+ - dpsi-) = J^T Lambda,
         #: J dpsi+ = 0 apply and the base velocity after impact is zero.
         self.root_pinned = bool(root_pinned)
         prefix = "impact_pinned" if self.root_pinned else "impact"
-        self._name = f"{prefix}_{point.identifier}"
+        self._name = "_".join([prefix, *(p.identifier for p in self.points)])
 
     @property
     def name(self) -> str:
@@ -92,7 +106,7 @@ class ImpactMap:
     def _build(self) -> list[ca.SX]:
         dyn = self._dynamics
         dpsi = dyn.symbols["dpsi"]
-        jacobian = self.point.expression("jacobian", dyn.symbols["psi"])
+        jacobian = ca.vertcat(*(p.expression("jacobian", dyn.symbols["psi"]) for p in self.points))
         if self.root_pinned:
             # H0 held: the fixed-base mass matrix and the psi columns of J (no base rows).
             return self._solve(dyn.mass_matrix_expression(), jacobian[:, 2:], dpsi, 0)
@@ -104,14 +118,17 @@ class ImpactMap:
         n = dpsi.size1()
         diagonal, upper, order = ca.ldl(mass_matrix, True)
         lever = ca.ldl_solve(jacobian.T, diagonal, upper, order)  # X = M_e^{-1} J^T
-        gram = ca.mtimes(jacobian, lever)  # G = J M_e^{-1} J^T, 2 x 2 SPD
-        # Velocity of the landing point before impact (H0 at rest: the fixed-base rows).
+        gram = ca.mtimes(jacobian, lever)  # G = J M_e^{-1} J^T, 2k x 2k SPD
+        # Velocity of the landing points before impact (H0 at rest: the fixed-base rows).
         approach = ca.mtimes(jacobian[:, base:], dpsi)
-        det = gram[0, 0] * gram[1, 1] - gram[0, 1] * gram[1, 0]
-        impulse = ca.vertcat(
-            -(gram[1, 1] * approach[0] - gram[0, 1] * approach[1]) / det,
-            -(gram[0, 0] * approach[1] - gram[1, 0] * approach[0]) / det,
-        )
+        if gram.size1() == 2:  # one point: Cramer's rule, the shortest expression
+            det = gram[0, 0] * gram[1, 1] - gram[0, 1] * gram[1, 0]
+            impulse = ca.vertcat(
+                -(gram[1, 1] * approach[0] - gram[0, 1] * approach[1]) / det,
+                -(gram[0, 0] * approach[1] - gram[1, 0] * approach[0]) / det,
+            )
+        else:
+            impulse = -ca.solve(gram, approach)
         jump = ca.mtimes(lever, impulse)  # dq+ - dq-
         base_velocity = jump[:2] if base else ca.SX.zeros(2)
         return [dpsi + jump[base : base + n], impulse, base_velocity]
@@ -150,11 +167,13 @@ class ImpactMap:
         plus, lam, base2 = (np.atleast_2d(a) for a in (dpsi_plus, impulse, base))
         if self.root_pinned:
             mass = dyn.mass_matrix(psi2)
-            jacobian = self.point.jacobian(psi2, floating=False)
+            jacobian = np.concatenate(
+                [p.jacobian(psi2, floating=False) for p in self.points], axis=1
+            )
             before, after = dpsi2, plus
         else:
             mass = dyn.floating.mass_matrix(psi2)
-            jacobian = self.point.jacobian(psi2)
+            jacobian = np.concatenate([p.jacobian(psi2) for p in self.points], axis=1)
             before = np.hstack([np.zeros_like(base2), dpsi2])
             after = np.hstack([base2, plus])
         with np.errstate(all="ignore"):  # NaN or inf results are refused below
@@ -215,6 +234,11 @@ class ImpactMap:
             raise DefinitionError(
                 "`rerooting`: it re-roots another tree; re-root this model's linkage"
             )
+        if len(self.points) != 1:
+            raise DefinitionError(
+                f"`rerooting`: a step map re-roots at one landing point; this impact lands "
+                f"{len(self.points)} ({', '.join(p.label for p in self.points)})"
+            )
         at = rerooting.root_point
         here = self.point.point
         if (at.link, at.along, at.lateral) != (here.link, here.along, here.lateral):
@@ -234,4 +258,4 @@ class ImpactMap:
         )
 
     def __repr__(self) -> str:
-        return f"ImpactMap({self.point.label!r})"
+        return f"ImpactMap({', '.join(repr(p.label) for p in self.points)})"

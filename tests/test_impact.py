@@ -25,6 +25,7 @@ from reference import newton_euler as ne
 from scipy.integrate import solve_ivp
 
 from model import (
+    Contact,
     DefinitionError,
     DefinitionTypeError,
     Dynamics,
@@ -357,3 +358,66 @@ def test_pinned_root_impact_against_a_dense_kkt_solve(label, check):
     t_plus, _ = ne.energy(linkage, psi, dpsi_plus)
     np.testing.assert_allclose(t_minus - t_plus, lost, rtol=1e-9, atol=1e-12 * t_minus.max())
     assert np.all(lost >= 0)
+
+
+def test_several_points_land_together_as_a_dense_kkt_solve_says(check):
+    # A foot and a hand (the swing shank's end, a point of the head off its axis) land
+    # together on the floating base; oracle: the dense KKT system of the Newton-Euler mass
+    # matrix and the stacked rigid-body Jacobians. (Two points of one rigid link held
+    # together constrain it three times with four rows: their impulse along the line
+    # between them is not unique, and the map refuses it as singular.)
+    dynamics = Dynamics(SIX)
+    heel = LinkPoint("swing_shank", along=1.0, name="heel")
+    toe = LinkPoint("head", along=0.7, lateral=0.2, name="toe")
+    impact = dynamics.impact([Contact(heel, friction=0.8), toe])
+    assert impact.function().name() == "impact_heel_toe" and len(impact.points) == 2
+    psi, dpsi = states(SIX, COUNT, 11)
+    dpsi_plus, impulse, base = impact(psi, dpsi)
+    assert impulse.shape == (COUNT, 4)
+    mass = ne.floating_mass_matrix(SIX, psi)
+    jacobian = np.concatenate(
+        [ne.point_jacobian(SIX, *offset_of(SIX, p), psi) for p in (heel, toe)], axis=1
+    )
+    for k in range(COUNT):
+        kkt = np.block([[mass[k], -jacobian[k].T], [jacobian[k], np.zeros((4, 4))]])
+        before = np.r_[0.0, 0.0, dpsi[k]]
+        x = np.linalg.solve(kkt, np.r_[mass[k] @ before, np.zeros(4)])
+        check.close(
+            np.r_[base[k], dpsi_plus[k], impulse[k]][None], x[None], f"heel and toe, state {k}"
+        )
+
+
+def test_landing_with_the_old_contact_held_as_a_point_is_the_pinned_impact():
+    # H0 held as a second landing point of the floating base (its Jacobian: the base rows)
+    # is the pinned root's impact: the same rates, the same impulse on the foot, the base at
+    # rest; and H0's impulse is what the change of momentum leaves (Newton's second law).
+    dynamics = Dynamics(SIX)
+    stance = LinkPoint("stance_shank", along=0.0, name="stance_shank_start")
+    both = dynamics.impact([stance, "swing_shank"])
+    pinned = dynamics.impact("swing_shank", root_pinned=True)
+    psi, dpsi = states(SIX, COUNT, 12)
+    held, pin = both(psi, dpsi), pinned(psi, dpsi)
+    np.testing.assert_allclose(held[0], pin[0], rtol=0, atol=1e-9 * np.abs(pin[0]).max())
+    np.testing.assert_allclose(held[1][:, 2:], pin[1], rtol=0, atol=1e-9 * np.abs(pin[1]).max())
+    np.testing.assert_allclose(held[2], 0.0, atol=1e-9)
+    v_minus = ne.com_velocities(SIX, psi, dpsi)
+    v_plus = ne.com_velocities(SIX, psi, held[0])
+    masses = np.array([link.mass for link in SIX.links])
+    change = (v_plus - v_minus) @ masses
+    total = held[1][:, 0] + held[1][:, 2] + 1j * (held[1][:, 1] + held[1][:, 3])
+    np.testing.assert_allclose(total, change, rtol=0, atol=1e-9 * np.abs(change).max())
+
+
+def test_bad_sets_of_landing_points_are_refused():
+    dynamics = Dynamics(SIX)
+    with pytest.raises(DefinitionError, match=r"`point`: give at least one point that lands"):
+        dynamics.impact([])
+    with pytest.raises(DefinitionError, match=r"`point`: a point lands twice"):
+        dynamics.impact(["swing_shank", LinkPoint("swing_shank")])
+    two = dynamics.impact(["swing_shank", LinkPoint("swing_shank", along=0.5)])
+    with pytest.raises(DefinitionError, match=r"a step map re-roots at one landing point"):
+        two.step_function(swap_legs(SIX))
+    psi, dpsi = states(SIX, 1, 13)
+    with pytest.raises(DefinitionError, match=r"`impact_swing_shank_end_swing_shank_at_0_5_0`: "
+                       r"the impact is singular"):  # fmt: skip
+        two(psi[0], dpsi[0])
