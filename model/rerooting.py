@@ -28,6 +28,7 @@ relabelling of a walking step.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import casadi as ca
@@ -232,16 +233,40 @@ def reroot(linkage: Linkage, link: str | LinkPoint, at: str = "end") -> Rerootin
 
 
 # ---- the leg swap of a biped ------------------------------------------------------------
-def _swing_candidates(linkage: Linkage, thigh: int) -> list[tuple[int, int]]:
-    """(swing thigh, swing shank) chains hanging at the end hinge of ``thigh``."""
+def _chain_below(linkage: Linkage, top: int, length: int) -> tuple[int, ...] | None:
+    """The chain of ``length`` links from ``top`` down, each the one child of the last and
+    starting at its end hinge, the last carrying nothing; or None."""
+    chain = [top]
+    while len(chain) < length:
+        kids = linkage.children[chain[-1]]
+        if len(kids) != 1 or linkage.origin_in_parent(kids[0]) != linkage.links[chain[-1]].length:
+            return None
+        chain.append(kids[0])
+    return tuple(chain) if not linkage.children[chain[-1]] else None
+
+
+def _leg_candidates(linkage: Linkage) -> list[tuple[tuple[int, ...], tuple[int, ...]]]:
+    """(stance leg, swing leg) pairs of a biped: the stance leg, from the root up, a chain of
+    k links each the one child of the last at its end; at its end hinge (the hip) a chain of
+    k links ending in a free link (the swing leg, from the hip down), for every k."""
     found = []
-    for c in linkage.children[thigh]:
-        if linkage.origin_in_parent(c) != linkage.links[thigh].length:
-            continue
-        kids = linkage.children[c]
-        if len(kids) == 1 and not linkage.children[kids[0]]:
-            found.append((c, kids[0]))
-    return found
+    stance = [0]
+    while True:
+        hip = stance[-1]
+        for c in linkage.children[hip]:
+            if c in stance or linkage.origin_in_parent(c) != linkage.links[hip].length:
+                continue
+            swing = _chain_below(linkage, c, len(stance))
+            if swing is not None:
+                found.append((tuple(stance), swing))
+        kids = [
+            c
+            for c in linkage.children[hip]
+            if linkage.origin_in_parent(c) == linkage.links[hip].length
+        ]
+        if len(kids) != 1:
+            return found
+        stance.append(kids[0])
 
 
 def _differences(original: Linkage, swapped: Linkage, rename: dict[str, str], rtol: float):
@@ -280,14 +305,17 @@ def _differences(original: Linkage, swapped: Linkage, rename: dict[str, str], rt
 
 
 def swap_legs(
-    linkage: Linkage, swing: tuple[str, str] | None = None, rtol: float = 1e-12
+    linkage: Linkage, swing: Sequence[str] | None = None, rtol: float = 1e-12
 ) -> Rerooting:
     """The leg swap of a biped at heel strike: re-root at the swing foot and rename the legs.
 
-    The biped: the root (stance shank, from the stance foot H0) carries one child (the stance
-    thigh); at the thigh's end hinge (the hip) hangs a two-link swing leg (thigh, shank: its
-    end is the swing foot) and any upper body (none, a link, a chain, branches). ``swing``
-    names the swing thigh and shank when several two-link chains hang at the hip.
+    The biped: the stance leg is a chain of k links from the root (its start H0 is the
+    stance foot) up to the hip, each link the one child of the one below at its end; at the
+    hip (the chain's end hinge) hangs a swing leg, a chain of k links ending in a free link
+    whose end is the swing foot, and any upper body (none, a link, a chain, branches). Two
+    links per leg (shank, thigh) is the seed paper's; one is a compass walker; a leg may end
+    in a foot link. ``swing`` names the swing leg's links, from the hip down, when several
+    chains could be it.
 
     The legs must be mirror images (equal lengths, masses, inertias; centres of mass at the
     mirrored fractions 1 - com; no attachment offsets that break the symmetry), checked to
@@ -308,56 +336,46 @@ def swap_legs(
             f"`linkage`: must be a model.Linkage, got {type(linkage).__name__}"
         )
     shape = (
-        "swap_legs needs a biped: the root (stance shank) with one child (stance thigh) whose "
-        "end hinge (the hip) carries a two-link swing leg (thigh, then shank ending in the "
-        "foot)"
+        "swap_legs needs a biped: a stance leg of k links from the root up to the hip, and at "
+        "the hip a swing leg of k links ending in the foot"
     )
     root = 0
-    if len(linkage.children[root]) != 1:
+    if not linkage.children[root]:
         raise DefinitionError(
-            f"`linkage`: {shape}; the root {linkage.names[root]!r} has "
-            f"{len(linkage.children[root])} children"
+            f"`linkage`: {shape}; the root {linkage.names[root]!r} has 0 children"
         )
-    thigh = linkage.children[root][0]
-    if linkage.origin_in_parent(thigh) != linkage.links[root].length:
-        raise DefinitionError(
-            f"`linkage`: {shape}; {linkage.names[thigh]!r} does not start at the end (knee) "
-            f"of {linkage.names[root]!r}"
-        )
+    legs = _leg_candidates(linkage)
     if swing is not None:
-        if (
-            not isinstance(swing, tuple | list)
-            or len(swing) != 2
-            or not all(isinstance(s, str) for s in swing)
+        if isinstance(swing, str) or not (
+            isinstance(swing, Sequence) and swing and all(isinstance(s, str) for s in swing)
         ):
             raise DefinitionTypeError(
-                f"`swing`: must be the names (swing thigh, swing shank), got {swing!r}"
+                f"`swing`: must be the names of the swing leg's links from the hip down, e.g. "
+                f"('swing_thigh', 'swing_shank'), got {swing!r}"
             )
-        pair = (linkage.index(swing[0]), linkage.index(swing[1]))
-        if pair not in _swing_candidates(linkage, thigh):
+        chain = tuple(linkage.index(name) for name in swing)
+        legs = [leg for leg in legs if leg[1] == chain]
+        if not legs:
             raise DefinitionError(
-                f"`swing`: {tuple(swing)} is not a two-link leg hanging at the hip (the end of "
-                f"{linkage.names[thigh]!r}) whose shank carries nothing"
+                f"`swing`: {tuple(swing)} is not a leg hanging at the hip (a chain as long as "
+                "the stance leg, from the hip down, whose last link carries nothing)"
             )
-        candidates = [pair]
-    else:
-        candidates = _swing_candidates(linkage, thigh)
-    if not candidates:
+    if not legs:
         raise DefinitionError(
-            f"`linkage`: {shape}; no two-link chain ending in a free link hangs at the end of "
-            f"{linkage.names[thigh]!r}"
+            f"`linkage`: {shape}; no chain as long as the stance leg, ending in a free link, "
+            f"hangs at the end of a stance leg from {linkage.names[root]!r}"
         )
     best = None
-    for swing_thigh, swing_shank in candidates:
-        names = linkage.names
+    names = linkage.names
+    for stance_leg, swing_leg in legs:
+        # The stance leg's j-th link from the foot is the swing leg's j-th from the foot.
+        mirrored = tuple(reversed(swing_leg))
         rename = {  # new name -> the body it is (its name in the old tree)
-            names[root]: names[swing_shank],
-            names[thigh]: names[swing_thigh],
-            names[swing_thigh]: names[thigh],
-            names[swing_shank]: names[root],
+            **{names[a]: names[b] for a, b in zip(stance_leg, mirrored, strict=True)},
+            **{names[b]: names[a] for a, b in zip(stance_leg, mirrored, strict=True)},
         }
         back = {old: new for new, old in rename.items()}
-        rerooted = reroot(linkage, names[swing_shank])
+        rerooted = reroot(linkage, names[swing_leg[-1]])
         renamed = Linkage(
             [
                 replace(
@@ -372,10 +390,10 @@ def swap_legs(
         full = {name: rename.get(name, name) for name in names}
         problems = _differences(linkage, renamed, full, rtol)
         if best is None or len(problems) < len(best[0]):
-            best = (problems, rename)
+            best = (problems, rename, stance_leg)
         if not problems:
             break
-    problems, rename = best
+    problems, rename, stance_leg = best
     if problems:
         listed = "; ".join(problems[:4])
         if len(problems) > 4:
@@ -384,8 +402,7 @@ def swap_legs(
             "`linkage`: the legs are not mirror images, so swapping them would change the "
             "tree: " + listed
         )
-    names = linkage.names
-    stance = {names[root], names[thigh]}
+    stance = {names[i] for i in stance_leg}
     source = tuple(linkage.index(rename.get(name, name)) for name in names)
     offsets = np.zeros(linkage.n)
     for i, name in enumerate(names):

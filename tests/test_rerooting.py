@@ -284,10 +284,43 @@ def test_six_link_swap_is_exact():
     np.testing.assert_array_equal(dpsi_twice, dpsi)
 
 
+def compass_biped() -> Linkage:
+    """Legs of one link each (a compass walker) and a trunk at the hip."""
+    return Linkage(
+        [
+            Link("stance_leg", None, 0.9, 6.0, com=0.6, inertia=0.3),
+            Link("swing_leg", "stance_leg", 0.9, 6.0, com=0.4, inertia=0.3),
+            Link("trunk", "stance_leg", 0.5, 30.0, com=0.5, inertia=0.8),
+        ]
+    )
+
+
+def footed_biped() -> Linkage:
+    """Legs of three links (the foot from the toe to the ankle, the shank, the thigh) and a
+    torso: a biped whose feet are links."""
+    return Linkage(
+        [
+            Link("stance_foot", None, 0.15, 1.0, com=0.6, inertia=0.004),
+            Link("stance_shank", "stance_foot", 0.43, 3.3, com=0.57, inertia=0.05),
+            Link("stance_thigh", "stance_shank", 0.43, 7.0, com=0.57, inertia=0.12),
+            Link("swing_thigh", "stance_thigh", 0.43, 7.0, com=0.43, inertia=0.12),
+            Link("swing_shank", "swing_thigh", 0.43, 3.3, com=0.43, inertia=0.05),
+            Link("swing_foot", "swing_shank", 0.15, 1.0, com=0.4, inertia=0.004),
+            Link("torso", "stance_thigh", 0.5, 34.0, com=0.55, inertia=0.9),
+        ]
+    )
+
+
 @pytest.mark.parametrize(
     "linkage",
-    [presets.five_link_biped(), branched_biped(), presets.n_link_chain(4)],
-    ids=["five-link", "arms", "knee-chain"],
+    [
+        presets.five_link_biped(),
+        branched_biped(),
+        presets.n_link_chain(4),
+        compass_biped(),
+        footed_biped(),
+    ],
+    ids=["five-link", "arms", "knee-chain", "compass", "feet"],
 )
 def test_swap_of_other_bipeds(linkage):
     swap = swap_legs(linkage)
@@ -345,21 +378,24 @@ def test_swap_of_legs_that_are_not_mirror_images_is_refused():
 def test_trees_without_two_legs_are_refused():
     with pytest.raises(
         DefinitionError,
-        match=r"swap_legs needs a biped: .*; no two-link chain ending in a free link hangs at "
-        r"the end of 'shank'",
+        match=r"swap_legs needs a biped: .*; no chain as long as the stance leg, ending in a "
+        r"free link, hangs at the end of a stance leg from 'thigh'",
     ):
         swap_legs(presets.exoskeleton_leg())
-    two_roots_children = Linkage(
-        [Link("a", None, 1, 1), Link("b", "a", 1, 1), Link("c", "a", 1, 1)]
-    )
-    with pytest.raises(DefinitionError, match=r"the root 'a' has 2 children"):
-        swap_legs(two_roots_children)
+    # Two one-link legs at the root's end are a compass walker; a third link hanging there,
+    # heavier, is its trunk; legs that differ are refused by what differs.
+    compass = Linkage([Link("a", None, 1, 1), Link("b", "a", 1, 1), Link("c", "a", 1, 9)])
+    assert swap_legs(compass).root_point.link == "b"
+    lopsided = Linkage([Link("a", None, 1, 1), Link("b", "a", 1, 2)])
+    with pytest.raises(DefinitionError, match=r"b\.mass = 2 kg differs from its mirror a"):
+        swap_legs(lopsided)
     with pytest.raises(DefinitionError, match=r"the root 'link1' has 0 children"):
         swap_legs(presets.n_link_chain(1))
     with pytest.raises(DefinitionTypeError, match=r"`linkage`: must be a model.Linkage"):
         swap_legs("six")
     with pytest.raises(DefinitionTypeError, match=r"`swing`: must be the names"):
         swap_legs(SIX, swing="swing_thigh")
+    assert swap_legs(footed_biped(), swing=("swing_thigh", "swing_shank", "swing_foot")).new
 
 
 def test_bad_rerooting_input_is_refused():

@@ -414,9 +414,12 @@ def test_bad_walking_input_is_refused():
     lopsided = presets.six_link_anthropoid(swing_thigh_length=0.5)
     with pytest.raises(DefinitionError, match=r"swing_thigh\.length = 0\.5 m differs"):
         walking_step(lopsided)
+    # a shank and a thigh read as a compass walker whose one-link legs differ
     one_leg = Linkage([Link("shank", None, 0.4, 3.0), Link("thigh", "shank", 0.4, 7.0)])
-    with pytest.raises(DefinitionError, match=r"no two-link chain ending in a free link"):
+    with pytest.raises(DefinitionError, match=r"the legs are not mirror images"):
         walking_step(one_leg)
+    with pytest.raises(DefinitionError, match=r"swap_legs needs a biped: .* has 0 children"):
+        walking_step(Linkage([Link("pole", None, 1.0, 5.0)]))
 
 
 # ---- a double support between the steps (planner.Phases) ---------------------------------------

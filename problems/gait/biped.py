@@ -1,9 +1,11 @@
 """A walking biped seen in a linkage: its legs, its upper body, walking postures and the gait
 law (22) fitted to a step.
 
-A biped here is what :func:`model.swap_legs` accepts: the root is the stance shank (from the
-stance foot H0), its one child the stance thigh, and at the thigh's end (the hip) hang a
-two-link swing leg mirroring the stance leg and any upper body. Angles follow the project's
+A biped here is what :func:`model.swap_legs` accepts: a stance leg of k links from the root
+(its start H0 is the stance foot) up to the hip, at the hip a swing leg of k links mirroring
+it down to the swing foot, and any upper body. Its feet are contacts (:meth:`Biped.feet`:
+``model.Contact``), its legs chains of links; the seed paper's legs have two (shank,
+thigh), and the walking postures and the law's fit below need two. Angles follow the project's
 convention (absolute, from +x counter-clockwise): a leg standing on its foot points up
 (about pi/2), a leg hanging from the hip points down (about -pi/2). The knee is bent when
 psi_thigh - psi_shank > 0 for either leg (the knee ahead of the line hip-foot, walking to
@@ -28,7 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from model.contact import Contact
 from model.linkage import Linkage
+from model.points import LinkPoint
 from model.rerooting import Rerooting, swap_legs
 from planner.errors import DefinitionError, DefinitionTypeError, check_positive
 from problems.gait.law import GaitLaw
@@ -46,16 +50,15 @@ class Biped:
     ----------
     linkage : the tree.
     swap : the leg swap at heel strike (:func:`model.swap_legs`).
-    stance_shank, stance_thigh, swing_thigh, swing_shank : link names.
+    stance_leg : the stance leg's links from the foot (the root) up to the hip.
+    swing_leg : the swing leg's links from the hip down to the foot (the end of the last).
     upper_body : names of every other link (hanging at the hip, directly or not).
     """
 
     linkage: Linkage
     swap: Rerooting
-    stance_shank: str
-    stance_thigh: str
-    swing_thigh: str
-    swing_shank: str
+    stance_leg: tuple[str, ...]
+    swing_leg: tuple[str, ...]
     upper_body: tuple[str, ...]
 
     @classmethod
@@ -67,14 +70,56 @@ class Biped:
                 f"`linkage`: must be a model.Linkage, got {type(linkage).__name__}"
             )
         swap = swap_legs(linkage, swing)
-        names = linkage.names
-        stance_shank = names[0]
-        stance_thigh = names[linkage.children[0][0]]
-        swing_shank = swap.root_point.link
-        swing_thigh = names[linkage.parents[linkage.index(swing_shank)]]
-        legs = {stance_shank, stance_thigh, swing_thigh, swing_shank}
-        upper = tuple(name for name in names if name not in legs)
-        return cls(linkage, swap, stance_shank, stance_thigh, swing_thigh, swing_shank, upper)
+        # The swap turns the stance leg's links up (+pi) and the swing leg's down (-pi) and
+        # leaves the upper body; each leg is a chain, ordered here by depth in the tree.
+        depth = [len(linkage.ancestors(i)) for i in range(linkage.n)]
+        offsets = swap.angle_offsets
+
+        def leg(sign: float) -> tuple[str, ...]:
+            members = [i for i in range(linkage.n) if offsets[i] * sign > 0]
+            return tuple(linkage.names[i] for i in sorted(members, key=depth.__getitem__))
+
+        stance, swing_leg = leg(1.0), leg(-1.0)
+        upper = tuple(name for name in linkage.names if name not in {*stance, *swing_leg})
+        return cls(linkage, swap, stance, swing_leg, upper)
+
+    # ---- the legs' links and the feet ------------------------------------------------
+    @property
+    def stance_shank(self) -> str:
+        """The stance leg's link at the foot (the root)."""
+        return self.stance_leg[0]
+
+    @property
+    def stance_thigh(self) -> str:
+        """The stance leg's link at the hip."""
+        return self.stance_leg[-1]
+
+    @property
+    def swing_thigh(self) -> str:
+        """The swing leg's link at the hip."""
+        return self.swing_leg[0]
+
+    @property
+    def swing_shank(self) -> str:
+        """The swing leg's link at the foot."""
+        return self.swing_leg[-1]
+
+    def feet(self, friction: float | None = None) -> tuple[Contact, Contact]:
+        """(stance foot, swing foot) as contacts with ``friction``: H0, the start of the
+        root (named ``<root>_start``), and the end of the swing leg's last link."""
+        root = self.stance_leg[0]
+        return (
+            Contact(LinkPoint(root, along=0.0, name=f"{root}_start"), friction=friction),
+            Contact(LinkPoint(self.swing_leg[-1]), friction=friction),
+        )
+
+    def _two_link_legs(self, what: str) -> None:
+        if len(self.stance_leg) != 2:
+            raise DefinitionError(
+                f"`linkage`: {what} needs legs of two links (shank, thigh); this biped's legs "
+                f"have {len(self.stance_leg)} ({', '.join(self.stance_leg)}); give the guess "
+                "and postures of its own"
+            )
 
     # ---- geometry ----------------------------------------------------------------------
     def length(self, name: str) -> float:
@@ -82,12 +127,13 @@ class Biped:
 
     @property
     def leg_length(self) -> float:
-        """Shank plus thigh, m."""
-        return self.length(self.stance_shank) + self.length(self.stance_thigh)
+        """The stance leg's links end to end (shank plus thigh), m."""
+        return math.fsum(self.length(name) for name in self.stance_leg)
 
     @property
-    def legs(self) -> tuple[str, str, str, str]:
-        return (self.stance_shank, self.stance_thigh, self.swing_thigh, self.swing_shank)
+    def legs(self) -> tuple[str, ...]:
+        """Every leg link: the stance leg up, then the swing leg down."""
+        return (*self.stance_leg, *self.swing_leg)
 
     def index(self, name: str) -> int:
         return self.linkage.index(name)
@@ -117,6 +163,7 @@ class Biped:
         """Angles (n,) rad of the biped standing on its stance foot at the origin with the hip
         at ``hip`` and the swing foot at ``swing_foot`` (complex, m), knees ahead of the legs'
         lines (walking to +x), every upper-body link at the angle ``trunk`` (rad)."""
+        self._two_link_legs("a walking posture")
         psi = np.full(self.linkage.n, float(trunk))
         shank, thigh = self._two_links(
             0j, hip, self.length(self.stance_shank), self.length(self.stance_thigh), -1

@@ -35,7 +35,6 @@ import numpy as np
 from model.contact import Contact
 from model.dynamics import Dynamics
 from model.linkage import Linkage
-from model.points import LinkPoint
 from planner.errors import DefinitionError, check_integer, check_positive, check_real
 from problems.gait.biped import Biped
 from problems.walking.step import UNLOADED, WorldMotion, world_motion
@@ -202,14 +201,14 @@ class Plant:
 
     @cached_property
     def stance_contact(self) -> Contact:
-        """The stance foot, H0 (the root's start), with the ground's friction."""
-        root = self.dynamics.linkage.names[0]
-        return Contact(LinkPoint(root, along=0.0, name=f"{root}_start"), friction=self.mu)
+        """The stance foot (the biped's: H0, the root's start), with the ground's friction."""
+        return self.biped.feet(self.mu)[0]
 
     @cached_property
     def swing_contact(self) -> Contact:
-        """The swing foot (the swing shank's end): it lands, and is held in a double support."""
-        return Contact(LinkPoint(self.biped.swing_shank), friction=self.mu)
+        """The swing foot (the end of the swing leg): it lands, and is held in a double
+        support."""
+        return self.biped.feet(self.mu)[1]
 
     @cached_property
     def foot(self):

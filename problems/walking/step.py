@@ -60,7 +60,6 @@ import numpy as np
 from model.contact import Contact
 from model.dynamics import Dynamics
 from model.linkage import Linkage
-from model.points import LinkPoint
 from model.presets import six_link_anthropoid
 from planner.errors import (
     DefinitionError,
@@ -170,16 +169,15 @@ class WalkingStep:
 
     @cached_property
     def stance_contact(self) -> Contact:
-        """The stance foot: the start hinge H0 of the root link, pinned, with the ground's
+        """The stance foot (the biped's: H0, the root's start, pinned), with the ground's
         friction ``mu``."""
-        root = self.linkage.names[0]
-        return Contact(LinkPoint(root, along=0.0, name=f"{root}_start"), friction=self.mu)
+        return self.biped.feet(self.mu)[0]
 
     @cached_property
     def swing_contact(self) -> Contact:
-        """The swing foot, which lands: the end of the swing shank, with the ground's
-        friction ``mu``."""
-        return Contact(LinkPoint(self.biped.swing_shank), friction=self.mu)
+        """The swing foot, which lands (the biped's: the end of the swing leg), with the
+        ground's friction ``mu``."""
+        return self.biped.feet(self.mu)[1]
 
     @cached_property
     def foot(self):
