@@ -12,7 +12,8 @@ watches a gait for slips. Each asks the contact, never writes the cone itself:
 * :meth:`Contact.cone_margin`: the smallest of those rows, mu Fy - |Fx| (N, or N s for an
   impulse): how far inside the cone a sampled force stays, negative outside.
 * :meth:`Contact.violation`: why a force cannot be carried (pulled off, slipping), in words, or
-  None.
+  None; :meth:`Contact.friction_use`: |Fx| / (mu Fy), the part of the cone a force uses (the
+  walking pictures draw it).
 
 The ground is flat and horizontal (:class:`Ground`: y = height, normal +y): forces are in the
 world frame, x along the ground and y up.
@@ -121,6 +122,15 @@ class Contact:
                 f"{self.friction * fy:.1f} {unit})"
             )
         return None
+
+    def friction_use(self, fx, fy) -> np.ndarray:
+        """|Fx| / (mu Fy) for numeric forces: the part of the cone a force uses (<= 1 inside,
+        NaN where Fy = 0 or without friction); the shapes of ``fx`` and ``fy`` broadcast."""
+        fx, fy = np.asarray(fx, dtype=float), np.asarray(fy, dtype=float)
+        if self.friction is None:
+            return np.full(np.broadcast(fx, fy).shape, np.nan)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(fy != 0.0, np.abs(fx) / (self.friction * fy), np.nan)
 
     def height_above_ground(self, y) -> np.ndarray | ca.SX:
         """The point's height above the ground, m, for its y coordinate ``y`` (m)."""

@@ -34,6 +34,11 @@ def test_the_cone_carries_exactly_the_forces_within_atan_mu_of_the_normal(mu):
     away = np.abs(np.abs(theta) - math.atan(mu)) > 1e-9  # not on the boundary itself
     np.testing.assert_array_equal((margin >= 0)[away], inside[away])
     assert contact.cone_half_angle == pytest.approx(math.atan(mu), rel=1e-15)
+    # the part of the cone used: |tan theta| / mu, 1 on its boundary
+    use = contact.friction_use(fx, fy)
+    front = np.abs(theta) < math.pi / 2 - 1e-6
+    np.testing.assert_allclose(use[front], np.abs(np.tan(theta[front])) / mu, rtol=1e-12)
+    assert np.isnan(contact.friction_use(1.0, 0.0)) and np.isnan(Contact(FOOT).friction_use(1, 2))
     # the rows each: mu Fy - Fx and mu Fy + Fx, along a new first axis
     rows = contact.cone(fx, fy)
     assert rows.shape == (2, theta.size) and contact.cone_rows == ("mu Fy - Fx", "mu Fy + Fx")

@@ -73,15 +73,16 @@ def gait_figure(gait: WalkingGait, samples: int = 501) -> Figure:
     ax.plot(t, force.real, label="Fx stance foot")
     ax.plot(t, force.imag, label="Fy stance foot")
     use = ax.twinx()
-    use.plot(t, np.abs(force.real) / (problem.mu * force.imag), color="0.3", linestyle="--")
+    rear_foot, front_foot = problem.stance_contact, problem.swing_contact
+    use.plot(t, rear_foot.friction_use(force.real, force.imag), color="0.3", linestyle="--")
     if np.any(front != 0):
         held = ~single
         ax.plot(t[held], front.real[held], label="Fx front foot")
         ax.plot(t[held], front.imag[held], label="Fy front foot")
-        use.plot(t[held], np.abs(front.real[held]) / (problem.mu * front.imag[held]),
+        use.plot(t[held], front_foot.friction_use(front.real[held], front.imag[held]),
                  color="0.6", linestyle="--")  # fmt: skip
     ax.set(xlabel="t [s]", ylabel="F [N]", title="ground reactions")
-    use.set_ylabel(f"friction use |Fx| / (mu Fy), mu = {problem.mu:g}")
+    use.set_ylabel(f"friction use |Fx| / (mu Fy), mu = {rear_foot.friction:g}")
     use.set_ylim(0.0, 1.05)
     ax.legend(loc="upper left", fontsize="small")
     ax = axes[1, 1]
