@@ -29,6 +29,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import _tables
+
 ROOT = Path(__file__).resolve().parents[2]
 
 CASES = {
@@ -124,4 +126,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(_tables.run(main, __file__))

@@ -19,7 +19,10 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import time
+
+import _tables
 
 from model import presets
 from problems import walking_step
@@ -139,4 +142,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(_tables.run(main, __file__))

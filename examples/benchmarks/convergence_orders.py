@@ -14,7 +14,9 @@ The N are chosen so that the errors stay above round-off (a fit on round-off is 
 from __future__ import annotations
 
 import argparse
+import sys
 
+import _tables
 import casadi as ca
 import numpy as np
 
@@ -69,4 +71,4 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(_tables.run(main, __file__))

@@ -26,6 +26,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests"))
 
+import _tables
 from reference.checks import central_jacobian  # the tests' own difference oracle
 
 from problems import periodic_gait, walking_step
@@ -156,4 +157,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(_tables.run(main, __file__))

@@ -26,8 +26,10 @@ tests/test_motion.py checks the same against the Newton-Euler oracle.
 from __future__ import annotations
 
 import argparse
+import sys
 import warnings
 
+import _tables
 import numpy as np
 
 from model import LinkageTrajectory
@@ -100,4 +102,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    sys.exit(_tables.run(main, __file__))

@@ -32,6 +32,7 @@ import statistics
 import sys
 import time
 
+import _tables
 import numpy as np
 
 from model import presets
@@ -232,4 +233,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(_tables.run(main, __file__))

@@ -39,6 +39,7 @@ import sys
 import time
 from pathlib import Path
 
+import _tables
 import casadi as ca
 import numpy as np
 
@@ -476,4 +477,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(_tables.run(main, __file__))

@@ -63,6 +63,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import _tables
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
@@ -512,4 +513,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(_tables.run(main, __file__))

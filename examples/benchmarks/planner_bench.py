@@ -45,6 +45,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+import _tables
 import casadi as ca
 import numpy as np
 
@@ -564,4 +565,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(_tables.run(main, __file__))

@@ -32,6 +32,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import _tables
 import numpy as np
 
 from model import Dynamics, LinkageTrajectory, presets
@@ -122,4 +123,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(_tables.run(main, __file__))

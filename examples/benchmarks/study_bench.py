@@ -34,6 +34,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+import _tables
 import numpy as np
 
 from problems import Study
@@ -158,4 +159,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(_tables.run(main, __file__))

@@ -23,8 +23,10 @@ term v_td (T - t) exp(-((T - t) / w)^4) for several windows w. The defaults of
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 
+import _tables
 import numpy as np
 
 import problems.walking.step as walking
@@ -121,4 +123,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    sys.exit(_tables.run(main, __file__))

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+import _tables
 import numpy as np
 
 from model import Linkage, presets
@@ -82,4 +83,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(_tables.run(main, __file__))
