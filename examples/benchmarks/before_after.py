@@ -29,8 +29,6 @@ import sys
 import tempfile
 from pathlib import Path
 
-import _tables
-
 ROOT = Path(__file__).resolve().parents[2]
 
 CASES = {
@@ -126,4 +124,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

@@ -22,8 +22,6 @@ import statistics
 import sys
 import time
 
-import _tables
-
 from model import presets
 from problems import walking_step
 from problems.walking.feedback import design_feedback
@@ -142,4 +140,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

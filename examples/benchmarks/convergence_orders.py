@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-import _tables
 import casadi as ca
 import numpy as np
 
@@ -71,4 +70,6 @@ def main(argv: list[str] | None = None) -> None:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

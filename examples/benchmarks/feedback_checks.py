@@ -26,7 +26,6 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests"))
 
-import _tables
 from reference.checks import central_jacobian  # the tests' own difference oracle
 
 from problems import periodic_gait, walking_step
@@ -157,4 +156,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

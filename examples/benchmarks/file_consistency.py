@@ -29,7 +29,6 @@ import argparse
 import sys
 import warnings
 
-import _tables
 import numpy as np
 
 from model import LinkageTrajectory
@@ -102,4 +101,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

@@ -32,7 +32,6 @@ import statistics
 import sys
 import time
 
-import _tables
 import numpy as np
 
 from model import presets
@@ -233,4 +232,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

@@ -39,7 +39,6 @@ import sys
 import time
 from pathlib import Path
 
-import _tables
 import casadi as ca
 import numpy as np
 
@@ -477,4 +476,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

@@ -63,7 +63,6 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import _tables
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
@@ -513,4 +512,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

@@ -20,7 +20,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import _tables
 from matplotlib.animation import PillowWriter
 
 from problems import walking_step
@@ -96,4 +95,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

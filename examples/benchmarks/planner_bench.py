@@ -45,7 +45,6 @@ import sys
 import tempfile
 from pathlib import Path
 
-import _tables
 import casadi as ca
 import numpy as np
 
@@ -565,4 +564,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

@@ -32,7 +32,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import _tables
 import numpy as np
 
 from model import Dynamics, LinkageTrajectory, presets
@@ -123,4 +122,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

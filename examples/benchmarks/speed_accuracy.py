@@ -49,7 +49,6 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-import _tables
 import numpy as np
 
 from model import presets
@@ -832,4 +831,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

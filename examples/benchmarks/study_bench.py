@@ -34,7 +34,6 @@ import sys
 import tempfile
 from pathlib import Path
 
-import _tables
 import numpy as np
 
 from problems import Study
@@ -159,4 +158,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

@@ -26,7 +26,6 @@ import argparse
 import sys
 import time
 
-import _tables
 import numpy as np
 
 import problems.walking.step as walking
@@ -123,4 +122,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))

@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-import _tables
 import numpy as np
 
 from model import Linkage, presets
@@ -83,4 +82,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
     sys.exit(_tables.run(main, __file__))
