@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from model.linkage import Linkage
+from model.linkage_naming import root_contact
 from model.points import LinkPoint
 from planner.errors import DefinitionError, DefinitionTypeError, check_real
 
@@ -77,6 +79,16 @@ class Contact:
             raise DefinitionTypeError(
                 f"`name`: a contact's name must be a non-empty string or None, got {self.name!r}"
             )
+
+    @classmethod
+    def at_root(
+        cls, linkage: Linkage, friction: float | None = None, ground: Ground | None = None
+    ) -> Contact:
+        """The contact at H0, the start hinge of ``linkage``'s root (a walker's stance foot,
+        pinned), named ``<root>_start`` as the files' ground-reaction columns are."""
+        root = linkage.names[0]
+        point = LinkPoint(root, along=0.0, name=root_contact(linkage.names))
+        return cls(point, friction, ground if ground is not None else Ground())
 
     @property
     def label(self) -> str:

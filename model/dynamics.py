@@ -287,17 +287,20 @@ class Dynamics:
     # ---- points, floating base, impacts (built from the same description) --------------
     def point(
         self,
-        link: str | LinkPoint,
+        link: str | LinkPoint | Contact,
         along: float = 1.0,
         lateral: float = 0.0,
         name: str | None = None,
     ) -> PointKinematics:
         """A point fixed on ``link`` (``along``, ``lateral``: fractions of its length; the
-        default is the end hinge), or a :class:`model.LinkPoint`; see :mod:`model.points`.
+        default is the end hinge), a :class:`model.LinkPoint` or a :class:`model.Contact`'s
+        point; see :mod:`model.points`.
 
         Points are cached by their label: asking twice for the same point returns the same
         object; two different points under one name are refused.
         """
+        if isinstance(link, Contact):
+            link = link.point
         if isinstance(link, LinkPoint):
             if (along, lateral, name) != (1.0, 0.0, None):
                 raise DefinitionError(
@@ -350,13 +353,11 @@ class Dynamics:
         impacts = self._memo("impacts", dict)
         key = (tuple(labels), bool(root_pinned))
         if key not in impacts:
-            impacts[key] = ImpactMap(points if many else points[0], root_pinned)
+            impacts[key] = ImpactMap(points, root_pinned)
         return impacts[key]
 
     def _own_point(self, point) -> PointKinematics:
         """``point`` (a link name, LinkPoint, Contact or PointKinematics) as this model's."""
-        if isinstance(point, Contact):
-            point = point.point
         if not isinstance(point, PointKinematics):
             return self.point(point)
         if point.dynamics is not self:

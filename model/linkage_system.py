@@ -18,7 +18,6 @@ from collections.abc import Mapping, Sequence
 import casadi as ca
 import numpy as np
 
-from model.contact import Contact
 from model.linkage_naming import (
     ACCELERATION_UNIT,
     ACCELERATIONS,
@@ -55,7 +54,7 @@ def linkage_system(dynamics, formulation: str = "implicit", contacts: Sequence =
     links = dynamics.names
     states = (*angle_names(links), *rate_names(links))
     torques = torque_names(links)
-    points = [dynamics.point(c.point if isinstance(c, Contact) else c) for c in contacts]
+    points = [dynamics.point(c) for c in contacts]
     forces = force_names([p.identifier for p in points])
     controls = (*torques, *forces)
     x = ca.SX.sym("x", 2 * n)

@@ -19,7 +19,7 @@ from the convention's names (:func:`model.linkage_naming.infer_group`).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from functools import cached_property
 
 import numpy as np
@@ -52,17 +52,7 @@ class LinkageTrajectory(Trajectory):
             raise DefinitionTypeError(
                 f"`trajectory`: must be a planner.Trajectory, got {type(trajectory).__name__}"
             )
-        return cls(
-            time=trajectory.time,
-            states=trajectory.states,
-            controls=trajectory.controls,
-            state_names=trajectory.state_names,
-            state_units=trajectory.state_units,
-            control_names=trajectory.control_names,
-            control_units=trajectory.control_units,
-            extras=trajectory.extras,
-            metadata=trajectory.metadata,
-        )
+        return cls(**{f.name: getattr(trajectory, f.name) for f in fields(Trajectory)})
 
     @classmethod
     def from_linkage(

@@ -100,3 +100,16 @@ def test_an_ocp_takes_contacts_as_it_takes_points():
     by_point = OCP(dynamics, T=0.2, N=2, contacts=(FOOT,)).system
     assert by_contact.control_names == by_point.control_names
     assert by_contact.control_names[-2:] == ("F_swing_shank_end_x", "F_swing_shank_end_y")
+
+
+def test_the_contact_at_the_root_is_h0_named_as_the_files_name_it():
+    six = presets.six_link_anthropoid()
+    stance = Contact.at_root(six, 0.8)
+    assert (stance.point.link, stance.point.along, stance.point.lateral) == ("stance_shank", 0, 0)
+    assert stance.label == "stance_shank_start" and stance.friction == 0.8
+    assert (
+        stance.ground == Ground() and Contact.at_root(six, ground=Ground(0.1)).ground.height == 0.1
+    )
+    # H0 is where the root's start hinge is: the origin for any pose
+    position = Dynamics(six).point(stance).function("position")
+    np.testing.assert_array_equal(np.asarray(position(np.random.default_rng(1).normal(size=6))), 0)

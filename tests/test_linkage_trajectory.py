@@ -109,3 +109,10 @@ def test_from_linkage_validation(change, error, match):
     }
     with pytest.raises(error, match=match):
         LinkageTrajectory.from_linkage(**{**arguments, **change})
+
+
+def test_of_takes_trajectories_only_and_keeps_a_linkage_trajectory():
+    linkage = linkage_trajectory()
+    assert LinkageTrajectory.of(linkage) is linkage
+    with pytest.raises(DefinitionTypeError, match=r"`trajectory`: must be a planner.Trajectory, "):
+        LinkageTrajectory.of({"time": [0, 1]})

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from planner import OCP, System
-from planner.errors import DefinitionError
+from planner.errors import DefinitionError, DefinitionTypeError
 from planner.system import DerivedField
 from planner.trajectory import Trajectory
 
@@ -157,3 +157,17 @@ def test_a_system_is_checked_where_it_is_built_and_given():
     system = pendulum()
     ocp = OCP(system, T=1.0, N=4)
     assert ocp.system is system and ocp.formulation == "explicit"
+
+
+def test_a_model_that_is_no_system_source_or_gives_no_system_is_refused():
+    # the planner takes a model through its as_system; a wrong one is named at definition time
+    class Broken:
+        default_formulation = "implicit"
+
+        def as_system(self, formulation, contacts=()):
+            return "not a System"
+
+    with pytest.raises(DefinitionTypeError, match=r"`dynamics`: Broken.as_system must return a "):
+        OCP(Broken(), T=1.0, N=4)
+    with pytest.raises(DefinitionError, match=r"`contacts`: contact forces need a model that "):
+        OCP(pendulum("explicit"), T=1.0, N=4, contacts=("link",))

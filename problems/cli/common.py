@@ -21,54 +21,32 @@ from planner.errors import DefinitionError, DefinitionTypeError
 from planner.refinement import check_accuracy
 from planner.simulation import tolerance_problem
 from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
-from problems.cli import study as study_cli
 from problems.cli.output_set import OutputFolderError, OutputSet
 from problems.gait.accuracy import ACCURACY_PRESETS
 from problems.gait.law import LAW_PRESETS, GaitLaw
 
+#: The help of --preset, for every command that takes one.
 PRESET_HELP = f"linkage preset, one of: {', '.join(PRESETS)} (default: six-link)"
 
 
 PROG = "anthropoid-planner"
-
-
 #: File formats of --formats: the trajectory package's suffixes, without the dot.
 FORMATS = tuple(suffix.lstrip(".") for suffix in TRAJECTORY_FORMATS)
-
-
 LAWS = tuple(LAW_PRESETS)
-
-
-#: What --degree takes, from the registry of transcriptions: "radau 1..9, legendre 1..9".
-DEGREES, DEFAULT_DEGREES = study_cli.DEGREES, study_cli.DEFAULT_DEGREES
-
-
 #: Highest --rate-hz, Hz, and most samples a command makes even with --force (memory).
 MAX_RATE_HZ = 1e6
-
-
 MAX_SAMPLES = 2_000_000
-
-
 #: Most samples (rows of the demo table, samples of a written profile) without --force:
 #: 200,000 samples are ~100 MB per CSV or JSON file and ~6 s of writing here.
 LIMIT_SAMPLES = 200_000
-
-
 #: Longest estimated integration without --force, s, and the estimate's cost per finite
 #: element of the six-link model, s (measured: rk 6 us, collocation 170 us; cvodes and idas
 #: choose their own steps and are not estimated).
 LIMIT_SECONDS = 60.0
-
-
 SECONDS_PER_ELEMENT = {"rk": 6e-6, "collocation": 2e-4}
-
-
 #: Most mesh intervals of a plan (walk, study): ~50 variables each for the six-link step, an
 #: NLP of 100,000 variables; a finer plan comes from --accuracy (refinement where needed).
 MAX_INTERVALS = 2000
-
-
 #: Most walking steps drawn in walk.png and walk.gif (the GIF grows with them).
 MAX_DRAWN_STEPS = 50
 

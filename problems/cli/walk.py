@@ -14,8 +14,6 @@ from planner.accuracy_check import AccuracyWarning
 from planner.sampled_limits import SampleLimitError
 from planner.schemes import DEFAULT_TRANSCRIPTION, TRANSCRIPTIONS, WITH_DEGREE
 from problems.cli.common import (
-    DEFAULT_DEGREES,
-    DEGREES,
     MAX_DRAWN_STEPS,
     MAX_INTERVALS,
     CommandFailed,
@@ -31,7 +29,7 @@ from problems.cli.common import (
     preset_linkage,
     save_trajectory,
 )
-from problems.cli.study import count_at_most, positive_count
+from problems.cli.study import DEFAULT_DEGREES, DEGREES, count_at_most, positive_count
 from problems.gait.accuracy import ACCURACY_PRESETS
 from problems.gait.problem import WORK_REGULARISATION
 from problems.gait.verification import verify_gait

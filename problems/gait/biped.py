@@ -107,9 +107,8 @@ class Biped:
     def feet(self, friction: float | None = None) -> tuple[Contact, Contact]:
         """(stance foot, swing foot) as contacts with ``friction``: H0, the start of the
         root (named ``<root>_start``), and the end of the swing leg's last link."""
-        root = self.stance_leg[0]
         return (
-            Contact(LinkPoint(root, along=0.0, name=f"{root}_start"), friction=friction),
+            Contact.at_root(self.linkage, friction),
             Contact(LinkPoint(self.swing_leg[-1]), friction=friction),
         )
 

@@ -479,7 +479,7 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
         reaction = reaction - force
     mu = settings.get("mu")
     if mu is not None:
-        stance = _stance_foot(kin.linkage, float(mu))
+        stance = Contact.at_root(kin.linkage, float(mu))
         add("friction cone", stance.cone_margin(reaction.real, reaction.imag), "N", weight)
     moment = torques[:, 0]
     loaded = reaction.imag > 0.05 * weight
@@ -528,17 +528,9 @@ def _per_sample(margins: np.ndarray) -> np.ndarray:
     return out
 
 
-def _stance_foot(linkage: Linkage, mu: float) -> Contact:
-    """The stance foot, H0 (the root's start), as a contact with the ground's friction."""
-    root = linkage.names[0]
-    return Contact(LinkPoint(root, along=0.0, name=f"{root}_start"), friction=mu)
-
-
-def _feet(linkage: Linkage, settings, mu: float) -> tuple[Contact, Contact]:
-    """The stance foot and the swing foot (the end of ``settings["swing_foot"]``) as contacts
-    with the ground's friction ``mu``."""
-    swing = settings.get("swing_foot") or swap_legs(linkage).root_point.link
-    return _stance_foot(linkage, mu), Contact(LinkPoint(swing), friction=mu)
+def _swing_foot(kin: _Kinematics, settings, mu: float) -> Contact:
+    """The swing foot (the end of ``settings["swing_foot"]``) as a contact with friction."""
+    return Contact(LinkPoint(kin.linkage.names[_foot(kin, settings)[0]]), friction=mu)
 
 
 def _foot(kin: _Kinematics, settings) -> tuple[int, complex]:
@@ -616,7 +608,7 @@ def _verify_walking(add, kin: _Kinematics, settings, trajectory, weight) -> None
     psi, dpsi, times = trajectory.psi, trajectory.dpsi, trajectory.time
     linkage = kin.linkage
     n = linkage.n
-    _, swing = _feet(linkage, settings, float(settings["mu"]))
+    swing = _swing_foot(kin, settings, float(settings["mu"]))
     step_length = float(settings["step_length"])
     swap = swap_legs(linkage)
     foot_link, foot_offset = _foot(kin, settings)
@@ -688,7 +680,8 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     the ground until T, the legs swap without an impact."""
     linkage = kin.linkage
     n = linkage.n
-    rear_foot, front_foot = _feet(linkage, settings, float(settings["mu"]))
+    mu = float(settings["mu"])
+    rear_foot, front_foot = Contact.at_root(linkage, mu), _swing_foot(kin, settings, mu)
     step_length = float(settings["step_length"])
     psi, dpsi, times = trajectory.psi, trajectory.dpsi, trajectory.time
     swap = swap_legs(linkage)

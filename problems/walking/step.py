@@ -168,16 +168,19 @@ class WalkingStep:
         return self.biped.linkage
 
     @cached_property
-    def stance_contact(self) -> Contact:
-        """The stance foot (the biped's: H0, the root's start, pinned), with the ground's
-        friction ``mu``."""
-        return self.biped.feet(self.mu)[0]
+    def feet(self) -> tuple[Contact, Contact]:
+        """(stance foot, swing foot): the biped's feet (``Biped.feet``) with the ground's
+        friction ``mu``: H0 pinned, and the end of the swing leg, which lands (and is held
+        through a double support)."""
+        return self.biped.feet(self.mu)
 
-    @cached_property
+    @property
+    def stance_contact(self) -> Contact:
+        return self.feet[0]
+
+    @property
     def swing_contact(self) -> Contact:
-        """The swing foot, which lands (the biped's: the end of the swing leg), with the
-        ground's friction ``mu``."""
-        return self.biped.feet(self.mu)[1]
+        return self.feet[1]
 
     @cached_property
     def foot(self):
