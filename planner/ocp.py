@@ -189,6 +189,17 @@ class Point:
         return self._symbols
 
 
+def parameter_fields(names: tuple[str, ...], values) -> dict[str, Any]:
+    """The Point fields of static parameters: each by name, and ``params`` (np,), from
+    ``values`` (np,) (symbols or expressions) in the order of ``names``; none without
+    parameters."""
+    if not names:
+        return {}
+    fields = {name: values[i] for i, name in enumerate(names)}
+    fields["params"] = values
+    return fields
+
+
 def evaluate_expression(label: str, expression, point: Point) -> ca.SX:
     """Evaluate a user expression (callable of a Point, or CasADi Function) to an SX column."""
     if isinstance(expression, ca.Function):
@@ -750,13 +761,8 @@ class OCPDefinition:
         return tuple(p.name for p in self.params)
 
     def param_fields(self, values) -> dict[str, Any]:
-        """The Point fields of the static parameters: each by name, and ``params`` (np,), from
-        ``values`` (np,) (symbols or expressions)."""
-        if not self.params:
-            return {}
-        fields = {p.name: values[i] for i, p in enumerate(self.params)}
-        fields["params"] = values
-        return fields
+        """The Point fields of the static parameters (:func:`parameter_fields`)."""
+        return parameter_fields(self.param_names, values)
 
     # ---- builders ----------------------------------------------------------------------
     def bound(self, name: str, lower=None, upper=None) -> Self:

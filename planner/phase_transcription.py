@@ -39,7 +39,8 @@ import numpy as np
 from planner.errors import DefinitionError, DefinitionTypeError
 from planner.guesses import evaluate_guess_layer
 from planner.ocp import OCPDefinition, Point, evaluate_expression
-from planner.schemes import TRANSCRIPTIONS, Scheme, make_scheme
+from planner.resolved_definition import ResolvedDefinition
+from planner.schemes import TRANSCRIPTIONS, Scheme
 
 #: Merge common subexpressions in the function of a dynamics point: rows that read the same
 #: quantity (the ground reaction of the friction cone and of the centre of pressure) otherwise
@@ -299,18 +300,19 @@ class PhaseTranscription:
     def __init__(self, ocp: OCPDefinition, provide) -> None:
         if not isinstance(ocp, OCPDefinition):
             raise DefinitionTypeError(f"`ocp`: must be a planner.OCP, got {type(ocp).__name__}")
+        #: The definition, as given (solutions keep it).
         self.ocp = ocp
+        #: What this transcription reads of it, read once (scales, bounds, rows, margins).
+        self.definition = definition = ResolvedDefinition.of(ocp)
         self._provide = provide
-        self.system = system = ocp.system
-        self.scheme = make_scheme(ocp.transcription, ocp.degree)
-        self.mesh = Mesh(self.scheme, ocp.N, ocp.mesh)
-        self.state_scale = np.array([ocp.variable_scale(n) for n in system.state_names])
-        self.control_scale = np.array([ocp.variable_scale(n) for n in system.control_names])
-        self.aux_scale = np.array([ocp.variable_scale(n) for n in system.aux_names])
-        if ocp.free_time:
-            self.T_scale = float(np.mean(ocp.T))
-        else:
-            self.T_scale = 1.0
+        self.system = definition.system
+        self.scheme = definition.scheme
+        self.mesh = Mesh(self.scheme, definition.N, definition.mesh)
+        self.state_scale = definition.state_scale
+        self.control_scale = definition.control_scale
+        self.aux_scale = definition.aux_scale
+        self.residual_scale = definition.residual_scale
+        self.T_scale = definition.T_scale
         self._build()
 
     # ---- sizes and layout ----------------------------------------------------------------
@@ -325,7 +327,7 @@ class PhaseTranscription:
     @property
     def label(self) -> str:
         """The mesh in words, for logs."""
-        return f"{self.scheme.label} N={self.ocp.N}"
+        return f"{self.scheme.label} N={self.definition.N}"
 
     def slice_of(self, key: str) -> slice:
         """Where the block ``key`` ("X", "U", "Z", "T") lies in this phase's layout."""
@@ -349,19 +351,20 @@ class PhaseTranscription:
         for key, size in (("X", s.nx * nX), ("U", s.nu * nC), ("Z", s.nz * nC)):
             self._slices[key] = slice(offset, offset + size)
             offset += size
-        self._slices["T"] = slice(offset, offset + (1 if self.ocp.free_time else 0))
-        offset += 1 if self.ocp.free_time else 0
+        free = 1 if self.definition.free_time else 0
+        self._slices["T"] = slice(offset, offset + free)
+        offset += free
         self._n_w = offset
 
     # ---- symbolic construction --------------------------------------------------------
     def _path_constraints(self):
-        return [c for c in self.ocp.constraints if c.where == "path"]
+        return list(self.definition.path)
 
     def _boundary_constraints(self):
-        return [c for c in self.ocp.constraints if c.where in ("start", "end")]
+        return list(self.definition.boundary)
 
     def _instant_constraints(self):
-        return [c for c in self.ocp.constraints if c.where == "at"]
+        return list(self.definition.instant)
 
     @cached_property
     def state_paths(self) -> tuple:
@@ -371,7 +374,7 @@ class PhaseTranscription:
         s = self.system
         x, u, z = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
         du = ca.SX.sym("du", s.nu)
-        params = self.ocp.param_fields(ca.SX.sym("params", len(self.ocp.params)))
+        params = self.definition.param_fields(ca.SX.sym("params", self.definition.n_params))
         point = Point(s, x, u, z, ca.SX.sym("t"), ca.SX.sym("T"), params, du=du)
         others = ca.vertcat(u, z, du)
         kept = []
@@ -386,10 +389,11 @@ class PhaseTranscription:
         units."""
         s = self.system
         x, t, T = ca.SX.sym("x", s.nx), ca.SX.sym("t"), ca.SX.sym("T")
-        P = ca.SX.sym("params", len(self.ocp.params))
+        P = ca.SX.sym("params", self.definition.n_params)
         # The constraints do not depend on u, z and du; zeros keep their shapes.
         zeros = ca.SX.zeros(s.nu)
-        point = Point(s, x, zeros, ca.SX.zeros(s.nz), t, T, self.ocp.param_fields(P), du=zeros)
+        fields = self.definition.param_fields(P)
+        point = Point(s, x, zeros, ca.SX.zeros(s.nz), t, T, fields, du=zeros)
         rows = [
             evaluate_expression(f"path[{c.name}]", c.expression, point) for c in self.state_paths
         ]
@@ -413,11 +417,11 @@ class PhaseTranscription:
         control rate on a scheme whose nodes two intervals share (trapezoid, Hermite-Simpson):
         (x, u, z, t, T, params, du) -> (those path rows, integrand) for the node's other side.
         """
-        s, ocp = self.system, self.ocp
+        s, definition = self.system, self.definition
         xs, us, zs = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
         t, T, dus = ca.SX.sym("t"), ca.SX.sym("T"), ca.SX.sym("du", s.nu)
-        P = ca.SX.sym("params", len(ocp.params))
-        fields = ocp.param_fields(P)
+        P = ca.SX.sym("params", definition.n_params)
+        fields = definition.param_fields(P)
         p = s.parameter_input(fields)
         rate = s.rate(xs, zs, us, t, *p)
         residual = s.residual(xs, zs, us, t, *p) if s.residual is not None else ca.SX(0, 1)
@@ -480,34 +484,26 @@ class PhaseTranscription:
     @property
     def integral_terms(self) -> tuple:
         """The objective terms with an integral, in order (rows of the point's integrand)."""
-        return tuple(term for term in self.ocp.objective if term.integral is not None)
+        return self.definition.integral_terms
 
     @property
     def terminal_terms(self) -> tuple:
         """The objective terms with a terminal part, in order."""
-        return tuple(term for term in self.ocp.objective if term.terminal is not None)
-
-    @property
-    def residual_scale(self) -> np.ndarray:
-        s = self.system
-        members = s.group(s.residual_scale_group)
-        if members is None or members == s.state_names:
-            return self.state_scale
-        return np.array([self.ocp.variable_scale(name) for name in members])
+        return self.definition.terminal_terms
 
     def _boundary_function(self) -> ca.Function:
         """(x0, xf, u0, uf, z0, zf, T, params[, du0, duf]) -> (boundary rows, terminal parts
         of the objective terms (n_terminal,)), physical units; the control rates at both ends
         only when read. (Periodicity is a join of the whole NLP: planner.transcription.)"""
-        s, ocp = self.system, self.ocp
+        s, definition = self.system, self.definition
         x0s, xfs = ca.SX.sym("x0", s.nx), ca.SX.sym("xf", s.nx)
         u0s, ufs = ca.SX.sym("u0", s.nu), ca.SX.sym("uf", s.nu)
         z0s, zfs = ca.SX.sym("z0", s.nz), ca.SX.sym("zf", s.nz)
         du0s, dufs = ca.SX.sym("du0", s.nu), ca.SX.sym("duf", s.nu)
         T = ca.SX.sym("T")
-        P = ca.SX.sym("params", len(ocp.params))
+        P = ca.SX.sym("params", definition.n_params)
         x0, xf = x0s, xfs
-        extra = {"x0": x0, "xf": xf, **ocp.param_fields(P)}
+        extra = {"x0": x0, "xf": xf, **definition.param_fields(P)}
         start = Point(s, x0, u0s, z0s, ca.SX(0), T, extra, du=du0s)
         end = Point(s, xf, ufs, zfs, T, T, extra, du=dufs)
         rows = []
@@ -532,9 +528,9 @@ class PhaseTranscription:
         """This phase's rows, objective terms and boundary states as expressions of the
         physical values the NLP provides (the functions inside work in physical units; the
         NLP applies the nominal scales around them: :mod:`planner.transcription`)."""
-        s, ocp, mesh, scheme = self.system, self.ocp, self.mesh, self.scheme
+        s, definition, mesh, scheme = self.system, self.definition, self.mesh, self.scheme
         self._layout()
-        nX, nC, N = mesh.n_state_points, mesh.n_dyn_points, ocp.N
+        nX, nC, N = mesh.n_state_points, mesh.n_dyn_points, definition.N
         given = self._provide(self)
         sym, v, p_T, params = given["sym"], given["v"], given["T"], given["params"]
         #: What this phase shares with the one before (planner.transcription.SharedStart).
@@ -543,7 +539,7 @@ class PhaseTranscription:
         Xs = ca.reshape(v[self._slices["X"]], s.nx, nX)
         Us = ca.reshape(v[self._slices["U"]], s.nu, nC)
         Zs = ca.reshape(v[self._slices["Z"]], s.nz, nC)
-        T = v[self._slices["T"]] if ocp.free_time else p_T
+        T = v[self._slices["T"]] if definition.free_time else p_T
         h = T / N  # the mean interval length; interval k has h r_k (mesh.relative)
         point_f = self._point_function()
         self.point_function = point_f
@@ -597,7 +593,7 @@ class PhaseTranscription:
         integral_rows = {term.name: i for i, term in enumerate(self.integral_terms)}
         terminal_rows = {term.name: i for i, term in enumerate(self.terminal_terms)}
         terms = []
-        for term in ocp.objective:
+        for term in definition.objective:
             value = 0
             if term.name in integral_rows:
                 value = value + integrals[integral_rows[term.name]]
@@ -678,7 +674,7 @@ class PhaseTranscription:
         interval that may jump at the nodes, which a rate would not see: when anything reads
         a rate, they are made continuous (u_k(1) = u_k+1(0), rows "continuity[u] node k").
         """
-        s, mesh, scheme, N = self.system, self.mesh, self.scheme, self.ocp.N
+        s, mesh, scheme, N = self.system, self.mesh, self.scheme, self.definition.N
         quadrature = mesh.quadrature
         side_cost, Pside, continuity = 0, sym(0, max(N - 1, 0)), sym(0, 1)
         if not self.reads_control_rate:
@@ -724,7 +720,7 @@ class PhaseTranscription:
         if constraint.fraction:
             s = instants
         else:
-            T = self.ocp.T
+            T = self.definition.T
             if np.any(instants > T):
                 raise DefinitionError(
                     f"`at[{constraint.name}]`: t={instants.max():g} s lies after the end of the "
@@ -740,8 +736,8 @@ class PhaseTranscription:
         s = self.system
         xs, us, zs = ca.SX.sym("x", s.nx), ca.SX.sym("u", s.nu), ca.SX.sym("z", s.nz)
         t, T, dus = ca.SX.sym("t"), ca.SX.sym("T"), ca.SX.sym("du", s.nu)
-        P = ca.SX.sym("params", len(self.ocp.params))
-        point = Point(s, xs, us, zs, t, T, self.ocp.param_fields(P), du=dus)
+        P = ca.SX.sym("params", self.definition.n_params)
+        point = Point(s, xs, us, zs, t, T, self.definition.param_fields(P), du=dus)
         label = f"at[{constraint.name}]"
         value = evaluate_expression(label, constraint.expression, point)
         if constraint.on == "motion" and _reads(value, dus):
@@ -838,8 +834,8 @@ class PhaseTranscription:
         return x, ca.vertcat(*controls), z
 
     def _bounds_and_names(self) -> None:
-        s, ocp, mesh = self.system, self.ocp, self.mesh
-        nX, nC, N = mesh.n_state_points, mesh.n_dyn_points, ocp.N
+        s, definition, mesh = self.system, self.definition, self.mesh
+        nX, nC, N = mesh.n_state_points, mesh.n_dyn_points, definition.N
         # variable bounds (scaled) and names
         lbx = np.full(self.n_w, -np.inf)
         ubx = np.full(self.n_w, np.inf)
@@ -851,8 +847,8 @@ class PhaseTranscription:
         ):
             if not var_names:
                 continue
-            lo = np.array([ocp.variable_bounds(n)[0] for n in var_names]) / scale
-            hi = np.array([ocp.variable_bounds(n)[1] for n in var_names]) / scale
+            lo, hi = definition.bounds_of(var_names)
+            lo, hi = lo / scale, hi / scale
             sl = self._slices[key]
             lbx[sl] = np.tile(lo, count)
             ubx[sl] = np.tile(hi, count)
@@ -863,10 +859,10 @@ class PhaseTranscription:
                     lbx[sl][j :: len(var_names)] += margin[0][:, 0] / scale[j]
                     ubx[sl][j :: len(var_names)] -= margin[1][:, 0] / scale[j]
             names.extend(f"bound[{n}] {label(c)}" for c in range(count) for n in var_names)
-        if ocp.free_time:
+        if definition.free_time:
             index = self._slices["T"].start
-            lbx[index] = ocp.T[0] / self.T_scale
-            ubx[index] = ocp.T[1] / self.T_scale
+            lbx[index] = definition.T[0] / self.T_scale
+            ubx[index] = definition.T[1] / self.T_scale
             names.append("bound[T]")
         self.lbx, self.ubx, self.w_names = lbx, ubx, tuple(names)
         w_scale = [
@@ -877,7 +873,7 @@ class PhaseTranscription:
                 (self.aux_scale, nC),
             )
         ]
-        self.w_scale = np.concatenate([*w_scale, [self.T_scale] if ocp.free_time else []])
+        self.w_scale = np.concatenate([*w_scale, [self.T_scale] if definition.free_time else []])
         # constraint rows
         g_names: list[str] = []
         lbg: list[np.ndarray] = []
@@ -940,7 +936,7 @@ class PhaseTranscription:
             g_scale.append(scale)
         for c in self._instant_constraints():
             _, intervals, _ = self._instant_places(c)
-            scale = ocp.constraint_scale(c)
+            scale = definition.constraint_scales[c.name]
             for i, k in enumerate(intervals):
                 place = f"{c.instant_label(i)} (interval {k})"
                 g_names.extend(f"{row} {place}" for row in c.row_names())
@@ -967,15 +963,16 @@ class PhaseTranscription:
         normalised times of K points, each the largest of the intervals that hold the point
         (a node shared by two intervals takes both into account; none at the phase's ends
         unless ``at_ends``); None without margins."""
-        margins = self.ocp.margin(name)
+        margins = self.definition.margins.get(name)
         if margins is None:
             return None
         breaks = self.mesh.breaks
         tolerance = 1e-12
         first = np.clip(np.searchsorted(breaks, times - tolerance, side="right") - 1, 0, None)
         last = np.clip(np.searchsorted(breaks, times + tolerance, side="left") - 1, None, None)
-        first = np.minimum(first, self.ocp.N - 1)
-        last = np.clip(np.maximum(last, first), 0, self.ocp.N - 1)
+        N = self.definition.N
+        first = np.minimum(first, N - 1)
+        last = np.clip(np.maximum(last, first), 0, N - 1)
         ends = ((times <= tolerance) | (times >= 1.0 - tolerance)) & (not margins[2])
         out = []
         for array in margins[:2]:
@@ -996,7 +993,7 @@ class PhaseTranscription:
     def _constraint_rows(self, constraints) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
         """Row names ("path[c]", "start[b][1]"), scaled lower and upper bounds and nominal
         scales of ``constraints`` at one point, stacked in order."""
-        scales = [self.ocp.constraint_scale(c) for c in constraints]
+        scales = [self.definition.constraint_scales[c.name] for c in constraints]
         names = [row for c in constraints for row in c.row_names()]
         lower = np.concatenate([c.lower / s for c, s in zip(constraints, scales, strict=True)])
         upper = np.concatenate([c.upper / s for c, s in zip(constraints, scales, strict=True)])
@@ -1013,7 +1010,8 @@ class PhaseTranscription:
         X = w[self._slices["X"]].reshape(mesh.n_state_points, s.nx) * self.state_scale
         U = w[self._slices["U"]].reshape(mesh.n_dyn_points, s.nu) * self.control_scale
         Z = w[self._slices["Z"]].reshape(mesh.n_dyn_points, s.nz) * self.aux_scale
-        T = float(w[self._slices["T"]][0] * self.T_scale) if self.ocp.free_time else self.ocp.T
+        definition = self.definition
+        T = float(w[self._slices["T"]][0] * self.T_scale) if definition.free_time else definition.T
         return {"X": X, "U": U, "Z": Z, "T": T}
 
     def pack(self, X: np.ndarray, U: np.ndarray, Z: np.ndarray, T: float) -> np.ndarray:
@@ -1023,26 +1021,26 @@ class PhaseTranscription:
         w[self._slices["X"]] = (np.asarray(X) / self.state_scale).reshape(-1)
         w[self._slices["U"]] = (np.asarray(U) / self.control_scale).reshape(-1)
         w[self._slices["Z"]] = (np.asarray(Z) / self.aux_scale).reshape(-1)
-        if self.ocp.free_time:
+        if self.definition.free_time:
             w[self._slices["T"]] = T / self.T_scale
         return w
 
     def initial_guess(self) -> np.ndarray:
         """This phase's scaled decision vector from the OCP's guesses (defaults: bound
         midpoints, or 0)."""
-        ocp, s, mesh = self.ocp, self.system, self.mesh
-        T = ocp.duration_guess
+        definition, s, mesh = self.definition, self.system, self.mesh
+        T = definition.duration_guess
         t_state = mesh.s_state * T
         t_dyn = mesh.s_dyn * T
         at_state: dict[str, np.ndarray] = {}
         at_dyn: dict[str, np.ndarray] = {}
-        context = (ocp.system, ocp.duration_guess, ocp.resolve)
-        for layer in ocp.guesses:
+        context = (s, T, definition.resolve)
+        for layer in definition.guesses:
             at_state.update(evaluate_guess_layer(*context, layer, t_state))
             at_dyn.update(evaluate_guess_layer(*context, layer, t_dyn))
 
         def default(name: str, count: int) -> np.ndarray:
-            lo, hi = ocp.variable_bounds(name)
+            lo, hi = definition.bounds[name]
             if np.isfinite(lo) and np.isfinite(hi):
                 value = 0.5 * (lo + hi)
             else:
@@ -1059,7 +1057,7 @@ class PhaseTranscription:
         Z = stack(s.aux_names, at_dyn, nC)
         U = stack(s.control_names, at_dyn, nC)
         missing = [n for n in s.control_names if n not in at_dyn]
-        if s.complete_guess is not None and missing and ocp.guesses:
+        if s.complete_guess is not None and missing and definition.guesses:
             # Controls that no guess gives, from the guessed motion by the system's own rule
             # (a linkage's torques by inverse dynamics, so that a gait law starts the solver
             # on a dynamically consistent point).

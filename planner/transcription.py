@@ -352,7 +352,7 @@ class Transcription:
         the static parameters' scales; each fixed duration, s; 1 / row scales (n_g,);
         1 / ``objective_scale``]."""
         own_scales = [b.w_scale[own] for b, own in zip(self.phases, self._own, strict=True)]
-        fixed_T = [[] if b.ocp.free_time else [b.ocp.T] for b in self.phases]
+        fixed_T = [[] if b.definition.free_time else [b.definition.T] for b in self.phases]
         return np.concatenate(
             [
                 *own_scales,
@@ -420,7 +420,7 @@ class Transcription:
     @property
     def given_objective_scale(self) -> float | None:
         """``scale(objective=...)`` of the phases, when they agree, or None."""
-        scales = {b.ocp.objective_scale for b in self.phases} - {None}
+        scales = {b.definition.objective_scale for b in self.phases} - {None}
         return scales.pop() if len(scales) == 1 else None
 
     def guess_solution(self):
@@ -551,7 +551,7 @@ def _common(
         ca.SX.sym("u", s.nu),
         ca.SX.sym("z", s.nz),
         *clock,
-        before.ocp.param_fields(ca.SX.sym("params", len(before.ocp.params))),
+        before.definition.param_fields(ca.SX.sym("params", before.definition.n_params)),
         du=ca.SX.sym("du", s.nu),
     )
     by_name = {d.name: d for d in others}
@@ -561,7 +561,8 @@ def _common(
         if d is None or not (
             np.array_equal(c.lower, d.lower)
             and np.array_equal(c.upper, d.upper)
-            and before.ocp.constraint_scale(c).tolist() == block.ocp.constraint_scale(d).tolist()
+            and before.definition.constraint_scales[c.name].tolist()
+            == block.definition.constraint_scales[d.name].tolist()
         ):
             continue
         rows = evaluate_expression(c.name, c.expression, point)

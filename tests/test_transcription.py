@@ -3,6 +3,8 @@ against finite differences, and convergence orders on problems with known optima
 
 from __future__ import annotations
 
+import inspect
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -14,6 +16,8 @@ from planner.collocation import (
     integration_weights,
     lagrange_matrix,
 )
+from planner.ocp import OCPDefinition
+from planner.resolved_definition import ResolvedDefinition
 from planner.solver import nlp_solver
 
 # ---- independent helpers (numpy, product formulas; no planner code) -------------------------
@@ -471,3 +475,77 @@ def test_min_energy_double_integrator_exact_or_second_order():
         abs(min_energy(N, "trapezoid").solve(progress=False, options=TIGHT).cost - 12.0) for N in Ns
     ]
     assert fitted_order(Ns, errors) >= 2 - 0.3
+
+
+# ---- the transcription reads its definition once ------------------------------------------
+
+#: The definition's rule-reading methods: the transcription reads them through one
+#: ResolvedDefinition, never again while it builds rows, bounds, margins and guesses.
+DEFINITION_QUERIES = (
+    "variable_scale",
+    "variable_bounds",
+    "constraint_scale",
+    "margin",
+    "param_fields",
+    "resolve",
+)
+
+
+def test_a_phase_transcription_asks_its_definition_once(monkeypatch):
+    callers: dict[str, list[str]] = {name: [] for name in DEFINITION_QUERIES}
+    for name in DEFINITION_QUERIES:
+        original = getattr(OCPDefinition, name)
+
+        def counted(self, *args, _name=name, _original=original, **kwargs):
+            callers[_name].append(inspect.stack()[1].frame.f_globals["__name__"])
+            return _original(self, *args, **kwargs)
+
+        monkeypatch.setattr(OCPDefinition, name, counted)
+    x, u, p = ca.SX.sym("x", 2), ca.SX.sym("u"), ca.SX.sym("p")
+    f = ca.Function("f", [x, u, p], [ca.vertcat(x[1], p * u)], ["x", "u", "p"], ["xdot"])
+    ocp = (
+        OCP(
+            f,
+            T=(0.5, 2.0),
+            N=6,
+            state_names=("q", "v"),
+            control_names=("a",),
+            dynamics_params=("p",),
+        )
+        .param("p", 0.5, 2.0, guess=1.0)
+        .bound("a", -3.0, 2.0)
+        .scale(q=0.25)
+        .constrain("speed", lambda pt: pt.v, lower=-4.0, upper=4.0)
+        .back_off("speed", lower=np.full(6, 0.1), upper=np.full(6, 0.2))
+        .initial(q=0.0, v=0.0)
+        .final(q=1.0, v=0.0)
+        .constrain_at("half way", lambda pt: pt.q, fraction=0.5, lower=0.2)
+        .minimize(integral=lambda pt: pt.a**2, terminal=lambda pt: pt.T)
+        .guess(lambda t: {"q": t}, T=1.0)
+    )
+    transcription = Transcription(ocp)
+    transcribers = ("planner.phase_transcription", "planner.transcription")
+    by_phase = [m for calls in callers.values() for m in calls if m in transcribers]
+    by_resolver = [
+        m for calls in callers.values() for m in calls if m.endswith("resolved_definition")
+    ]
+    assert not by_phase, f"the phase transcription asked its definition again: {callers}"
+    assert by_resolver  # the check sees the calls it counts
+    # ... and what it read is the definition's rules, in numbers: a given scale, the largest
+    # finite bound, 1 for a free variable; the constraints sorted by where they hold
+    resolved = transcription.phases[0].definition
+    assert isinstance(resolved, ResolvedDefinition)
+    assert resolved.scales == {"q": 0.25, "v": 1.0, "a": 3.0}
+    assert resolved.bounds["a"] == (-3.0, 2.0) and resolved.bounds["q"] == (-np.inf, np.inf)
+    assert resolved.T_scale == 1.25 and resolved.free_time and resolved.T == (0.5, 2.0)
+    assert [c.name for c in resolved.path] == ["speed"]
+    assert [c.where for c in resolved.boundary] == ["start", "start", "end", "end"]
+    assert [c.name for c in resolved.instant] == ["half way"]
+    assert resolved.constraint_scales["speed"].tolist() == [4.0]
+    lower, upper, at_ends = resolved.margins["speed"]
+    assert lower.shape == (6, 1) and np.all(lower == 0.1) and np.all(upper == 0.2) and at_ends
+    assert len(resolved.integral_terms) == 1 and len(resolved.terminal_terms) == 1
+    assert set(resolved.param_fields(ca.SX.sym("P", 1))) == {"p", "params"}
+    # its arrays cannot be changed behind the definition's back
+    with pytest.raises(ValueError):
+        resolved.state_scale[0] = 2.0
