@@ -29,7 +29,7 @@ import numpy as np
 
 from model.linkage import Linkage
 from model.linkage_naming import root_contact
-from model.points import LinkPoint
+from model.points import LinkPoint, label_identifier
 from planner.errors import DefinitionError, DefinitionTypeError, check_real
 
 
@@ -94,6 +94,12 @@ class Contact:
     def label(self) -> str:
         """The name, or the point's label."""
         return self.name if self.name is not None else self.point.label
+
+    @property
+    def identifier(self) -> str:
+        """The label as a name part (letters, digits, single underscores): the ground force's
+        controls and file columns are ``F_<identifier>_x``, ``F_<identifier>_y``."""
+        return label_identifier(self.label)
 
     @property
     def cone_rows(self) -> tuple[str, ...]:

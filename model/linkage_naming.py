@@ -8,7 +8,9 @@ Every file, trajectory and OCP of a linkage uses it (link names are ``model.Link
     auxiliary ddpsi_<link> [rad/s^2] in the implicit formulation (group ddpsi; explicit, the
               Point field ddpsi is the forward dynamics)
     extras    ddpsi_<link> [rad/s^2], and the ground forces of contacts F_<contact>_x, _y [N]
-              (F_<root>_start_x, _y: the ground reaction at H0) in a trajectory
+              (F_<root>_start_x, _y: the ground reaction at H0; a named ``model.Contact``
+              gives its name, an unnamed one its point's label) and the centre of pressure
+              CoP_<contact>_x [m] in a trajectory
 
 The planner never spells these names (``tests/test_architecture.py`` checks): it reads a
 linkage through the System the adapter :mod:`model.linkage_system` builds, and a trajectory's
@@ -29,6 +31,8 @@ ANGLE_UNIT, RATE_UNIT, ACCELERATION_UNIT, TORQUE_UNIT, FORCE_UNIT = (
     "N m",
     "N",
 )
+#: The prefix of a contact's centre of pressure extra (m along x from the contact).
+CENTRE_OF_PRESSURE = "CoP"
 #: Extras of the ground reaction at H0 in trajectories written before contact-named columns
 #: (read back as the ground reaction, N).
 GROUND_REACTION = ("Fx", "Fy")
@@ -62,7 +66,7 @@ def torque_names(links: Sequence[str]) -> tuple[str, ...]:
 
 def force_names(points: Sequence[str]) -> tuple[str, ...]:
     """F_<point>_x, F_<point>_y for every held point (by its identifier)."""
-    return tuple(f"{FORCES}_{point}_{axis}" for point in points for axis in ("x", "y"))
+    return tuple(name for point in points for name in contact_force_names(point))
 
 
 def links_of(state_names: Sequence[str], state_units: Sequence[str]) -> tuple[str, ...] | None:
@@ -87,7 +91,12 @@ def contact_force_names(contact: str) -> tuple[str, str]:
     """The extras of a contact's ground force, N: ``F_<contact>_x``, ``F_<contact>_y`` (the
     contact named after its point: ``swing_shank_end``; the root's start hinge H0, pinned
     to the ground, is ``<root>_start``)."""
-    return f"F_{contact}_x", f"F_{contact}_y"
+    return f"{FORCES}_{contact}_x", f"{FORCES}_{contact}_y"
+
+
+def centre_of_pressure_name(contact: str) -> str:
+    """The extra of a contact's centre of pressure, m along x: ``CoP_<contact>_x``."""
+    return f"{CENTRE_OF_PRESSURE}_{contact}_x"
 
 
 def root_contact(links: Sequence[str]) -> str:
@@ -109,7 +118,8 @@ def infer_group(name: str) -> str:
     rest states."""
     if name.startswith(f"{TORQUES}_"):
         return "control"
-    if name.startswith((f"{ACCELERATIONS}_", "F_", "CoP_")) or name in GROUND_REACTION:
+    extras = (f"{ACCELERATIONS}_", f"{FORCES}_", f"{CENTRE_OF_PRESSURE}_")
+    if name.startswith(extras) or name in GROUND_REACTION:
         return "extra"
     return "state"
 
@@ -119,6 +129,7 @@ __all__ = [
     "ACCELERATION_UNIT",
     "ANGLES",
     "ANGLE_UNIT",
+    "CENTRE_OF_PRESSURE",
     "CONVENTION",
     "FORCES",
     "FORCE_UNIT",
@@ -129,6 +140,7 @@ __all__ = [
     "TORQUE_UNIT",
     "acceleration_names",
     "angle_names",
+    "centre_of_pressure_name",
     "contact_force_names",
     "force_names",
     "infer_group",

@@ -18,6 +18,7 @@ from collections.abc import Mapping, Sequence
 import casadi as ca
 import numpy as np
 
+from model.contact import Contact
 from model.linkage_naming import (
     ACCELERATION_UNIT,
     ACCELERATIONS,
@@ -55,7 +56,13 @@ def linkage_system(dynamics, formulation: str = "implicit", contacts: Sequence =
     states = (*angle_names(links), *rate_names(links))
     torques = torque_names(links)
     points = [dynamics.point(c) for c in contacts]
-    forces = force_names([p.identifier for p in points])
+    # A contact's forces carry its name (its point's label when it has none).
+    forces = force_names(
+        [
+            c.identifier if isinstance(c, Contact) else p.identifier
+            for c, p in zip(contacts, points, strict=True)
+        ]
+    )
     controls = (*torques, *forces)
     x = ca.SX.sym("x", 2 * n)
     u = ca.SX.sym("u", len(controls))

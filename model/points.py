@@ -126,7 +126,7 @@ class LinkPoint:
         return levers
 
 
-def _identifier(label: str) -> str:
+def label_identifier(label: str) -> str:
     """A CasADi Function name part from a label: letters, digits and single underscores."""
     return re.sub(r"_+", "_", re.sub(r"\W", "_", label.replace("-", "m"))).strip("_") or "p"
 
@@ -147,7 +147,7 @@ class PointKinematics:
         self.offset = point.offset(linkage)  # validates the link
         self.index = linkage.index(point.link)
         #: The label as a CasADi Function name part (letters, digits, single underscores).
-        self.identifier = identifier or _identifier(point.label)
+        self.identifier = identifier or label_identifier(point.label)
 
     @property
     def label(self) -> str:

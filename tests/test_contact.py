@@ -113,3 +113,27 @@ def test_the_contact_at_the_root_is_h0_named_as_the_files_name_it():
     # H0 is where the root's start hinge is: the origin for any pose
     position = Dynamics(six).point(stance).function("position")
     np.testing.assert_array_equal(np.asarray(position(np.random.default_rng(1).normal(size=6))), 0)
+
+
+def test_a_named_contacts_forces_carry_its_name_into_controls_and_files(tmp_path):
+    """An unnamed contact's forces are named after its point (the files so far); a named
+    one after its name, in the OCP's controls and in the trajectory written from a solve."""
+    dynamics = Dynamics(presets.n_link_chain(2))
+    tip = LinkPoint("link2")
+    unnamed = OCP(dynamics, T=0.5, N=6, contacts=(Contact(tip),)).system
+    assert unnamed.control_names[-2:] == ("F_link2_end_x", "F_link2_end_y")
+    named = Contact(tip, name="front heel")
+    assert named.identifier == "front_heel"
+    ocp = (
+        OCP(dynamics, T=0.5, N=6, contacts=(named,))
+        .bound("F", 0.0, 0.0)  # the point hangs free: the forces are held at zero
+        .initial(psi=[-1.2, -1.0], dpsi=[0.0, 0.0])
+        .minimize(integral=lambda p: ca.sumsqr(p.M))
+    )
+    assert ocp.system.control_names[-2:] == ("F_front_heel_x", "F_front_heel_y")
+    trajectory = ocp.solve(progress=False).to_trajectory()
+    assert {"F_front_heel_x", "F_front_heel_y"} <= set(trajectory.extras)
+    assert trajectory.extras["F_front_heel_y"][1] == "N"
+    path = tmp_path / "plan.csv"
+    trajectory.save(path)
+    assert "F_front_heel_x [N]" in path.read_text().splitlines()[0]

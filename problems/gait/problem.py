@@ -29,6 +29,7 @@ import numpy as np
 
 from model import LinkageTrajectory
 from model.linkage import Linkage
+from model.linkage_naming import FORCES, centre_of_pressure_name, root_contact
 from planner.accuracy_check import ACCURACY_WARNING, check_accuracy_of
 from planner.errors import DefinitionError, check_positive, check_real
 from planner.phases_solution import PhasesSolution
@@ -360,7 +361,7 @@ class Gait:
         kept (after an impact) and the state just before it goes into
         ``metadata["gait"]["before_events"]``."""
         joined = self.solution.to_trajectory(rate_hz)
-        contacts = [name for name in joined.extras if name.startswith("F_")]
+        contacts = [name for name in joined.extras if name.startswith(f"{FORCES}_")]
         force = self.problem.dynamics.ground_reaction(joined.psi, joined.dpsi, joined.ddpsi)
         for name in contacts:  # the root's foot takes what the other contacts do not
             value = np.asarray(joined.extras[name][0])
@@ -391,9 +392,9 @@ class Gait:
         )
         for name in contacts:
             trajectory = trajectory.with_extra(name, joined.extras[name][0], "N")
-        root = f"{self.problem.linkage.names[0]}_start"
+        root = root_contact(self.problem.linkage.names)
         trajectory = trajectory.with_extra(
-            f"CoP_{root}_x", centre_of_pressure(joined.torques[:, 0], force), "m"
+            centre_of_pressure_name(root), centre_of_pressure(joined.torques[:, 0], force), "m"
         )
         return trajectory
 

@@ -67,6 +67,7 @@ import numpy as np
 from model import LinkageTrajectory
 from model.contact import Contact
 from model.linkage import Linkage
+from model.linkage_naming import FORCES, GROUND_REACTION, contact_force_names, root_contact
 from model.points import LinkPoint
 from model.rerooting import swap_legs
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
@@ -355,20 +356,15 @@ def _contacts(kin: _Kinematics, settings, trajectory) -> list[tuple[int, complex
     extras ``F_<point>_x`` / ``_y`` of points other than the root's (its reaction is what
     the dynamics leave), each the swing foot's (the front foot)."""
     link, offset = _foot(kin, settings)
-    root = _root_contact(kin.linkage)
-    names = [k for k in trajectory.extras if k.startswith("F_") and k.endswith("_x")]
+    root_x, _ = contact_force_names(root_contact(kin.linkage.names))
+    names = [k for k in trajectory.extras if k.startswith(f"{FORCES}_") and k.endswith("_x")]
     found = []
     for name in names:
-        if name == f"F_{root}_x" or name == "Fx":
+        if name in (root_x, GROUND_REACTION[0]):
             continue
         force = trajectory.extras[name][0] + 1j * trajectory.extras[name[:-1] + "y"][0]
         found.append((link, offset, np.asarray(force)))
     return found
-
-
-def _root_contact(linkage: Linkage) -> str:
-    """The stance foot's contact name in files: the root link's start, ``<root>_start``."""
-    return f"{linkage.names[0]}_start"
 
 
 def _torque_scale(kin: _Kinematics, settings) -> float:
