@@ -440,6 +440,15 @@ def _format_interval(lower, upper) -> str:
     return f"[{lo.size} rows]"
 
 
+def _numeric_bound(label: str, side: str, value) -> np.ndarray:
+    """``value`` as a float array, or DefinitionTypeError naming the bound's side."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        message = f"`{label}`: {side} bound must be numeric, got {value!r}"
+        raise DefinitionTypeError(message) from exc
+
+
 def _as_bounds(label: str, lower, upper, size: int) -> tuple[np.ndarray, np.ndarray]:
     """Validate and broadcast bounds to (size,) arrays; None means unbounded."""
     out = []
@@ -447,12 +456,7 @@ def _as_bounds(label: str, lower, upper, size: int) -> tuple[np.ndarray, np.ndar
         if value is None:
             out.append(np.full(size, default))
             continue
-        try:
-            array = np.asarray(value, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise DefinitionTypeError(
-                f"`{label}`: {side} bound must be numeric, got {value!r}"
-            ) from exc
+        array = _numeric_bound(label, side, value)
         if array.ndim == 0:
             array = np.full(size, float(array))
         array = array.reshape(-1) if array.ndim == 2 and 1 in array.shape else array
@@ -521,12 +525,7 @@ def _instant_bounds(
         if value is None:
             out.append(None)
             continue
-        try:
-            array = np.asarray(value, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise DefinitionTypeError(
-                f"`{label}`: {side} bound must be numeric, got {value!r}"
-            ) from exc
+        array = _numeric_bound(label, side, value)
         if array.ndim == 0 or array.shape == (rows,):
             array = np.broadcast_to(array, (count, rows))
         elif rows == 1 and array.shape == (count,):

@@ -2,6 +2,7 @@
 the plan to a robot.
 
 * :mod:`step`: the walking step as an optimal control problem (``walking_step``), its gait;
+* :mod:`feet`: the walker's feet as contacts (stance H0, the swing leg's end), for both;
 * :mod:`simulation`: the hybrid plant (single and double support, strikes, falls, pushes);
 * :mod:`linearisation`: the return map, its exact Jacobian, fixed points, Floquet multipliers;
 * :mod:`lqr`: linearisation along the step and the periodic LQR through the impact;

@@ -37,6 +37,7 @@ from model.dynamics import Dynamics
 from model.linkage import Linkage
 from planner.errors import DefinitionError, check_integer, check_positive, check_real
 from problems.gait.biped import Biped
+from problems.walking.feet import WalkerFeet
 from problems.walking.step import UNLOADED, WorldMotion, world_motion
 
 #: the swing foot must be this far ahead of the stance foot, as a fraction of the planned step
@@ -178,7 +179,7 @@ class WalkingRun:
         )
 
 
-class Plant:
+class Plant(WalkerFeet):
     """The simulated body: a linkage's pinned-foot dynamics, its heel strike and leg swap, as
     generated functions (the plan's linkage, or one with changed masses).
 
@@ -198,25 +199,6 @@ class Plant:
     @cached_property
     def biped(self) -> Biped:
         return Biped.of(self.dynamics.linkage)
-
-    @cached_property
-    def feet(self) -> tuple[Contact, Contact]:
-        """(stance foot, swing foot): the biped's feet (``Biped.feet``) with the ground's
-        friction ``mu``: H0 pinned, and the end of the swing leg, which lands (and is held
-        through a double support)."""
-        return self.biped.feet(self.mu)
-
-    @property
-    def stance_contact(self) -> Contact:
-        return self.feet[0]
-
-    @property
-    def swing_contact(self) -> Contact:
-        return self.feet[1]
-
-    @cached_property
-    def foot(self):
-        return self.dynamics.point(self.swing_contact.point)
 
     @cached_property
     def impact(self):

@@ -57,7 +57,6 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from model.contact import Contact
 from model.dynamics import Dynamics
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
@@ -86,6 +85,7 @@ from problems.gait.problem import (
     solve_and_hold,
     torque_limits,
 )
+from problems.walking.feet import WalkerFeet
 
 #: The largest part of the weight on the rear foot when a double support ends.
 UNLOADED = 0.05
@@ -131,7 +131,7 @@ DEFAULT = "default"
 
 
 @dataclass(frozen=True, eq=False)
-class WalkingStep:
+class WalkingStep(WalkerFeet):
     """A walking step as a problem: the :class:`planner.OCP` (``ocp``, a value the user can
     still change with ``.bound``, ``.constrain``, ``.refine``, ...) and what a gait needs
     around it (the biped, its model, the foot, the impact and step maps, the fitted law).
@@ -166,26 +166,6 @@ class WalkingStep:
     @property
     def linkage(self) -> Linkage:
         return self.biped.linkage
-
-    @cached_property
-    def feet(self) -> tuple[Contact, Contact]:
-        """(stance foot, swing foot): the biped's feet (``Biped.feet``) with the ground's
-        friction ``mu``: H0 pinned, and the end of the swing leg, which lands (and is held
-        through a double support)."""
-        return self.biped.feet(self.mu)
-
-    @property
-    def stance_contact(self) -> Contact:
-        return self.feet[0]
-
-    @property
-    def swing_contact(self) -> Contact:
-        return self.feet[1]
-
-    @cached_property
-    def foot(self):
-        """The swing foot's kinematics (``model.PointKinematics`` of :attr:`swing_contact`)."""
-        return self.dynamics.point(self.swing_contact.point)
 
     @cached_property
     def impact(self):
