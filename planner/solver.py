@@ -35,11 +35,13 @@ import logging
 import math
 import time
 from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
+from planner import native_nlp
 from planner.accuracy_check import ACCURACY_WARNING, check_accuracy_of
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.native_output import captured
@@ -313,6 +315,9 @@ def nlp_solver(
     options: Mapping[str, Any] | None = None,
     report: Callable[[dict], None] | None = None,
     expand: bool = False,
+    *,
+    library: Path | None = None,
+    progress: bool = True,
 ) -> ca.Function:
     """A new ``casadi.nlpsol`` IPOPT solver of a transcription (planner defaults + ``options``).
 
@@ -320,8 +325,11 @@ def nlp_solver(
     the bounds. Its oracle functions (``solver.get_function("nlp_jac_g")``,
     ``"nlp_hess_l"``) are the derivatives IPOPT uses, functions of (w, p). ``report``
     receives a dict per iteration (see :func:`solve`). ``expand``: expand an MX NLP to SX
-    before the derivatives are generated (CasADi's ``expand`` option; ~8x the build, ~0.7x
-    the evaluation time). :func:`solve` keeps the solvers it builds here in
+    before the derivatives are generated (CasADi's ``expand`` option; ~4x the build, ~0.6x
+    the evaluation time). ``library``: the NLP's functions compiled (:mod:`planner.native_nlp`,
+    made from :func:`nlp_oracle`) instead of generated here. ``progress``: attach the
+    per-iteration callback that reports progress (False: no Python runs per iteration, and
+    ``report`` must be None). :func:`solve` keeps the solvers it builds here in
     :data:`planner.solver_cache.SOLVERS`.
     """
     ipopt = dict(DEFAULT_IPOPT)
@@ -331,8 +339,6 @@ def nlp_solver(
                 f"`options`: must be a dict of IPOPT options, got {options!r}"
             )
         ipopt.update(options)
-    callback = _Progress(transcription.n_w, transcription.n_g)
-    callback.start(report, transcription.lbg, transcription.ubg)
     solver_options: dict[str, Any] = {
         "ipopt": ipopt,
         "print_time": False,
@@ -341,20 +347,21 @@ def nlp_solver(
         # The multipliers of the parameters (scales, T) mean nothing here; CasADi would
         # generate a gradient function for them and evaluate it after every solve.
         "calc_lam_p": False,
-        "iteration_callback": callback,
     }
-    problem = transcription.parametric_nlp
-    if isinstance(problem["x"], ca.MX) and expand:
+    callback = None
+    if progress:
+        callback = _Progress(transcription.n_w, transcription.n_g)
+        callback.start(report, transcription.lbg, transcription.ubg)
+        solver_options["iteration_callback"] = callback
+    elif report is not None:
+        raise DefinitionError("`report`: needs a solver with progress=True")
+    problem: Any = transcription.parametric_nlp
+    if library is not None:
+        problem = str(library)
+    elif isinstance(problem["x"], ca.MX) and expand:
         solver_options["expand"] = True
     elif isinstance(problem["x"], ca.MX):
-        problem = ca.Function(
-            "nlp",
-            [problem["x"], problem["p"]],
-            [problem["f"], problem["g"]],
-            ["x", "p"],
-            ["f", "g"],
-            {"ad_weight": jacobian_mode(problem["g"], problem["x"])},
-        )
+        problem = nlp_oracle(transcription)
     try:
         with captured() as output:
             solver = ca.nlpsol("planner", "ipopt", problem, solver_options)
@@ -373,6 +380,21 @@ def nlp_solver(
     # the solver object keeps it, and solve() reads the callback's error from there.
     solver._planner_progress = callback
     return solver
+
+
+def nlp_oracle(transcription: Transcription) -> ca.Function:
+    """The MX NLP (x, p) -> (f, g) that IPOPT's solver is built from, named ``nlp``, with the
+    constraint Jacobian's AD mode chosen by :func:`jacobian_mode` (the compiled library of
+    :mod:`planner.native_nlp` is generated from this very Function)."""
+    problem = transcription.parametric_nlp
+    return ca.Function(
+        "nlp",
+        [problem["x"], problem["p"]],
+        [problem["f"], problem["g"]],
+        ["x", "p"],
+        ["f", "g"],
+        {"ad_weight": jacobian_mode(problem["g"], problem["x"])},
+    )
 
 
 def jacobian_mode(g: ca.MX, w: ca.MX) -> float:
@@ -405,14 +427,19 @@ def _first_line(exc: BaseException) -> str:
 
 
 def _cache_key(
-    transcription: Transcription, options: Mapping[str, Any] | None, expand: bool
+    transcription: Transcription,
+    options: Mapping[str, Any] | None,
+    expand: bool,
+    progress: bool = True,
 ) -> tuple:
-    """The cache key of a solver: the NLP structure, the expansion and the IPOPT options it
-    was built with."""
+    """The cache key of a solver: the NLP structure, the expansion, the IPOPT options it was
+    built with and whether it reports progress (a solver without the callback runs no Python
+    per iteration)."""
     return (
         transcription.structure_key,
         bool(expand),
         json.dumps(dict(options or {}), sort_keys=True, default=repr),
+        bool(progress),
     )
 
 
@@ -489,6 +516,7 @@ def solve(
     guess: np.ndarray | None = None,
     warm_start: bool = True,
     cache: bool = True,
+    compiled: bool | None = None,
     accuracy_warning: float | None = ACCURACY_WARNING,
 ) -> Solution:
     """Solve an OCP (or an already built Transcription) with IPOPT.
@@ -524,6 +552,14 @@ def solve(
     cache : take the IPOPT solver from :data:`planner.solver_cache.SOLVERS` when one was
         built for the same NLP structure and options, and keep a new one there (default);
         False builds a private solver.
+    compiled : the NLP's functions compiled to native code (:mod:`planner.native_nlp`, a
+        disk cache per structure): True compiles now when the cache lacks them (seconds:
+        about 11 s for the six-link walking step) and solves with them (~0.6x the time per
+        iteration); False never; None (default) follows ``$ANTHROPOID_COMPILE``: ``auto``
+        uses compiled functions the cache holds and, when a C compiler is there, compiles a
+        structure in the background once this process has spent about as long solving it
+        as the compilation will take (:func:`planner.native_nlp.worth_compiling`); ``never``.
+        ``stats["compiled"]`` says whether this solve ran compiled.
     accuracy_warning : after a successful solve, the largest per-interval re-integration
         error per nominal state scale is measured (``stats["accuracy"]``) and an
         :class:`planner.AccuracyWarning` raised above this (default 1e-2,
@@ -564,6 +600,11 @@ def solve(
         raise DefinitionTypeError(f"`cache`: must be True or False, got {cache!r}")
     if options is not None and not isinstance(options, Mapping):
         raise DefinitionTypeError(f"`options`: must be a dict of IPOPT options, got {options!r}")
+    if compiled is not None and not isinstance(compiled, bool):
+        raise DefinitionTypeError(
+            f"`compiled`: must be True, False or None (automatic), got {compiled!r}"
+        )
+    native = "never" if compiled is False else "now" if compiled else native_nlp.mode()
 
     warm = False
     solver_options = options
@@ -591,27 +632,49 @@ def solve(
     start = time.perf_counter()
 
     expand = bool(expand)
+    # No Python per IPOPT iteration unless someone reads the progress.
+    with_progress = report is not None
+    library_key = transcription.structure_key if native != "never" else None
+    library = native_nlp.ready(library_key) if library_key is not None else None
 
-    def build() -> CachedSolver:
+    def build(library: Path | None = None) -> CachedSolver:
         begin = time.perf_counter()
-        solver = nlp_solver(transcription, solver_options, expand=expand)
-        return CachedSolver(solver, solver._planner_progress, time.perf_counter() - begin)
+        solver = nlp_solver(
+            transcription, solver_options, expand=expand, library=library, progress=with_progress
+        )
+        seconds = time.perf_counter() - begin
+        return CachedSolver(solver, solver._planner_progress, seconds, library=library)
 
     cached = False
+    key = (*_cache_key(transcription, solver_options, expand, with_progress), native == "never")
     if cache:
-        entry, cached = SOLVERS.get(_cache_key(transcription, solver_options, expand), build)
+        entry, cached = SOLVERS.get(key, lambda: build(library))
         if not entry.lock.acquire(blocking=False):  # busy in another thread: a private one
-            entry, cached = build(), False
+            entry, cached = build(library), False
             entry.lock.acquire()
     else:
-        entry = build()
+        entry = build(library)
         entry.lock.acquire()
     try:
+        if library_key is not None and entry.library is None:
+            # Compiled functions: now (asked), when they are ready (compiled in the
+            # background or by another process since), or start compiling them in the
+            # background from the second solve of this structure.
+            if library is None and native == "now":
+                oracle = nlp_oracle(transcription)
+                library = native_nlp.compile_library(oracle, library_key, wait=True)
+            elif library is None and native == "auto" and native_nlp.worth_compiling(entry):
+                if not native_nlp.pending(library_key):
+                    native_nlp.compile_library(nlp_oracle(transcription), library_key, wait=False)
+            if library is not None:
+                fresh = build(library)
+                entry.value, entry.extra, entry.library = fresh.value, fresh.extra, library
         solver, callback = entry.value, entry.extra
         entry.uses += 1
         f_scale = objective_scale(transcription, solver, w0)
         multipliers = warm_start_multipliers(transcription, f_scale) if warm else None
-        callback.start(report, transcription.lbg, transcription.ubg, f_scale)
+        if callback is not None:
+            callback.start(report, transcription.lbg, transcription.ubg, f_scale)
         parameters = transcription.parameter_values(f_scale)
         setup_seconds = time.perf_counter() - start
         arguments = {
@@ -627,8 +690,9 @@ def solve(
         start = time.perf_counter()
         result = solver(**arguments)
         solve_seconds = time.perf_counter() - start
+        entry.solve_seconds += solve_seconds
         stats = solver.stats()
-        if callback.error is not None:
+        if callback is not None and callback.error is not None:
             raise callback.error
     finally:
         entry.lock.release()
@@ -653,6 +717,7 @@ def solve(
         "function_seconds": function_seconds,
         "warm_start": multipliers is not None,
         "solver_cached": cached,
+        "compiled": entry.library is not None,
         "objective_scale": f_scale,
         "n_variables": transcription.n_w,
         "n_constraints": transcription.n_g,

@@ -42,6 +42,10 @@ class CachedSolver:
     extra: Any = None
     build_seconds: float = 0.0
     uses: int = 0
+    #: Wall seconds IPOPT has spent solving with this solver (all its uses).
+    solve_seconds: float = 0.0
+    #: The compiled library the solver evaluates the NLP with (planner.native_nlp), or None.
+    library: Any = None
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 

@@ -21,3 +21,20 @@ def check():
     yield checker
     # A test that asks for a checker and compares nothing is a broken test.
     assert checker.failed or checker.count > 0, "no comparison was made"
+
+
+# Compiled NLP functions (planner.native_nlp): the suite never compiles in the background
+# (tests/test_native_nlp.py turns it on where it tests it) and writes no user cache.
+os.environ.setdefault("ANTHROPOID_COMPILE", "never")
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _private_compile_cache(tmp_path_factory):
+    """A cache folder of the session's own for compiled NLPs (command-line tests' processes
+    inherit it), unless the caller named one."""
+    if "ANTHROPOID_CACHE" in os.environ:
+        yield
+        return
+    os.environ["ANTHROPOID_CACHE"] = str(tmp_path_factory.mktemp("compiled-nlp"))
+    yield
+    del os.environ["ANTHROPOID_CACHE"]

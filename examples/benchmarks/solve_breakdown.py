@@ -19,9 +19,13 @@ alone: what a study, a refinement or a continuation repeats), split by IPOPT's o
 * outside: the wall time of the solver call less IPOPT's ``OverallAlgorithm``: CasADi's own
   work around IPOPT (argument checks, copies) and anything else the product adds per call.
 
-A last row solves the six-link walking step again with its NLP expanded to SX (CasADi's
-``expand``; ``planner.solve(ocp, expand=True)``): what the expansion saves per iteration on a
-structure solved more than once.
+The last rows solve the six-link walking step again with its NLP expanded to SX (CasADi's
+``expand``; ``planner.solve(ocp, expand=True)``), and the walking step, the fixed-base gait
+and the planner headline with their NLP functions compiled to native code
+(``solve(compiled=True)``, :mod:`planner.native_nlp`; the disk cache is the user's, so a
+second run of this script compiles nothing): what a structure solved more than once can
+save per iteration. The solves report no progress, so no Python runs per iteration (the
+callback column is zero; before issue 21 every solver carried the product's callback).
 
 The columns are ms per iteration; ``/ floor`` is the solve's wall time over the linear
 solver's: how far the solve is from what the linear algebra alone would take. Medians of
@@ -42,7 +46,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from planner_bench import paper22_gait  # the benchmark's own headline problem
 
 from model import presets
-from planner import solve
+from planner import native_nlp, solve
 from planner.transcription import Transcription
 from problems import periodic_gait, walking_step
 
@@ -79,10 +83,13 @@ def _ipopt_timers(path: Path) -> dict[str, float]:
     return out
 
 
-def breakdown(ocp, repeat: int, expand: bool = False) -> dict:
-    """Medians of ``repeat`` solves of ``ocp`` (one solver, built before the first);
-    ``expand``: the NLP expanded to SX (``planner.solve(ocp, expand=True)``)."""
-    problem, extra = (ocp, {"expand": True}) if expand else (Transcription(ocp), {})
+def breakdown(ocp, repeat: int, how: str = "interpreted") -> dict:
+    """Medians of ``repeat`` solves of ``ocp`` (one solver, built before the first): "interpreted"
+    (the MX NLP in CasADi's virtual machine, no compilation: the default without a compiler),
+    "expanded" (the NLP expanded to SX, ``planner.solve(ocp, expand=True)``) or "compiled"
+    (``compiled=True``: native code from the disk cache, compiled first when it lacks it)."""
+    problem, extra = (ocp, {"expand": True}) if how == "expanded" else (Transcription(ocp), {})
+    extra["compiled"] = how == "compiled"
     rows = []
     with tempfile.TemporaryDirectory() as folder:
         log = Path(folder) / "ipopt.txt"
@@ -124,10 +131,19 @@ def main() -> None:
     head = f"{'problem':<44} {'iter':>4} " + " ".join(f"{h:>7}" for h in heads)
     print(head + f" {'/ floor':>8} {'functions':>9}")
     print("-" * (len(head) + 19))
-    cases = [(label, ocp, False) for label, ocp in problems().items()]
-    cases.append(("  the same six-link step, NLP expanded to SX", walking_step().ocp, True))
-    for label, ocp, expand in cases:
-        row = breakdown(ocp, args.repeat, expand)
+    cases = [(label, ocp, "interpreted") for label, ocp in problems().items()]
+    cases.append(("  the same six-link step, NLP expanded to SX", walking_step().ocp, "expanded"))
+    if native_nlp.compiler() is not None:
+        compiled = {
+            "  the same six-link step, compiled": walking_step().ocp,
+            "  the same fixed-base gait, compiled": periodic_gait().ocp,
+            "  the same planner headline, compiled": paper22_gait(50),
+        }
+        cases.extend((label, ocp, "compiled") for label, ocp in compiled.items())
+    else:
+        print("(no C compiler: the compiled rows are left out)")
+    for label, ocp, how in cases:
+        row = breakdown(ocp, args.repeat, how)
         functions = sum(row[name] for name in FUNCTIONS)
         cells = " ".join(f"{row[c]:7.3f}" for c in columns)
         print(f"{label:<44} {row['iterations']:4.0f} {cells} {row['wall'] / row['linear']:8.2f} "

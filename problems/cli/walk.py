@@ -212,6 +212,14 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         "plan runs along its own cone, --mu, right after heel strike, so the feedback needs a "
         "little more)",
     )
+    walk.add_argument(
+        "--compiled",
+        action="store_true",
+        help="compile the NLP's functions to native code with the system's C compiler (about "
+        "10 s per structure the first time; kept in a disk cache, so later runs of the same "
+        "step solve faster: see planner.native_nlp); without it a compiled structure is "
+        "used when the cache holds it",
+    )
     walk.add_argument("--no-plots", action="store_true", help="write no PNG or GIF")
     walk.add_argument("--no-gif", action="store_true", help="write the PNGs but no GIF")
     walk.add_argument(
@@ -321,6 +329,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
                 raise_on_failure=False,
                 accuracy=target,
                 rate_hz=args.rate_hz,
+                compiled=True if args.compiled else None,
             )
         except SampleLimitError as error:
             raise CommandFailed(

@@ -1,0 +1,227 @@
+"""Compiled NLP functions (planner.native_nlp): the compiled code against CasADi's own
+evaluation of the same functions, the same optimum, the disk cache (kept across processes,
+shared by processes compiling at once, never half-written), the automatic mode's rule, and
+everything working with the compiler hidden."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from planner import OCP, native_nlp, solve
+from planner.errors import DefinitionError, DefinitionTypeError
+from planner.solver import nlp_oracle, nlp_solver
+from planner.solver_cache import SOLVERS, CachedSolver
+from planner.transcription import Transcription
+
+needs_compiler = pytest.mark.skipif(native_nlp.compiler() is None, reason="no C compiler")
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    """An empty cache folder of the test's own, the automatic mode on, no solver kept."""
+    monkeypatch.setenv(native_nlp.CACHE_ENV, str(tmp_path))
+    monkeypatch.setenv(native_nlp.MODE_ENV, "auto")
+    SOLVERS.clear()
+    yield tmp_path
+    SOLVERS.clear()
+
+
+@pytest.fixture
+def no_compiler(monkeypatch, tmp_path):
+    """The compiler hidden: $CC unset and a PATH with nothing on it."""
+    empty = tmp_path / "empty-path"
+    empty.mkdir()
+    monkeypatch.delenv("CC", raising=False)
+    monkeypatch.setenv("PATH", str(empty))
+    assert native_nlp.compiler() is None
+
+
+def swing_up(N: int = 16, weight: float = 1.0) -> OCP:
+    """A pendulum swung up to the top with a bounded torque, its length a parameter: a
+    nonlinear NLP with a nonzero Hessian, bounds, a parameter and a free duration."""
+    x, u, length = ca.SX.sym("x", 2), ca.SX.sym("u"), ca.SX.sym("length")
+    rate = ca.vertcat(x[1], -9.81 / length * ca.sin(x[0]) + u / length**2)
+    f = ca.Function("f", [x, u, length], [rate], ["x", "u", "length"], ["xdot"])
+    return (
+        OCP(
+            f,
+            T=(1.0, 4.0),
+            N=N,
+            state_names=("q", "w"),
+            control_names=("M",),
+            dynamics_params=("length",),
+        )
+        .param("length", 0.8, 1.2, guess=1.0)
+        .bound("M", -6.0, 6.0)
+        .initial(q=0.0, w=0.0)
+        .final(q=np.pi, w=0.0)
+        .minimize(integral=lambda p: weight * p.M**2, terminal=lambda p: p.T)
+        .guess(lambda t: {"q": np.pi * t / 2.0}, T=2.0)
+    )
+
+
+def files(folder) -> list[str]:
+    return sorted(p.name for p in folder.rglob("*") if p.is_file())
+
+
+@needs_compiler
+def test_the_compiled_functions_are_casadis_own_to_round_off(cache):
+    transcription = Transcription(swing_up())
+    library = native_nlp.compile_library(
+        nlp_oracle(transcription), transcription.structure_key, wait=True
+    )
+    compiled = nlp_solver(transcription, library=library, progress=False)
+    interpreted = nlp_solver(transcription, progress=False)
+    rng = np.random.default_rng(3)
+    p = transcription.parameter_values()
+    for _ in range(3):
+        w = rng.normal(size=transcription.n_w)
+        lam_f, lam_g = rng.normal(), rng.normal(size=transcription.n_g)
+        for name, args in (
+            ("nlp_f", (w, p)),
+            ("nlp_g", (w, p)),
+            ("nlp_grad_f", (w, p)),
+            ("nlp_jac_g", (w, p)),
+            ("nlp_hess_l", (w, p, lam_f, lam_g)),
+        ):
+            ours = compiled.get_function(name)(*args)
+            theirs = interpreted.get_function(name)(*args)
+            ours = ours if isinstance(ours, tuple | list) else [ours]
+            theirs = theirs if isinstance(theirs, tuple | list) else [theirs]
+            for a, b in zip(ours, theirs, strict=True):
+                a, b = ca.DM(a), ca.DM(b)
+                assert a.sparsity() == b.sparsity(), name
+                scale = max(1.0, float(ca.norm_inf(b)))
+                assert float(ca.norm_inf(a - b)) <= 1e-12 * scale, name
+
+
+@needs_compiler
+def test_compiled_solves_reach_the_same_optimum_and_the_cache_outlives_the_solver(cache):
+    ocp = swing_up()
+    interpreted = solve(ocp, compiled=False, progress=False)
+    assert interpreted.stats["compiled"] is False
+    first = solve(ocp, compiled=True, progress=False)
+    assert first.stats["compiled"] is True
+    assert first.cost == pytest.approx(interpreted.cost, rel=1e-9)
+    assert first.iterations == interpreted.iterations
+    np.testing.assert_allclose(first.states, interpreted.states, atol=1e-8)
+    libraries = [name for name in files(cache) if name.endswith(".so")]
+    assert len(libraries) == 1 and libraries[0].startswith(Transcription(ocp).structure_key)
+    # A new process would have no solver in memory: the library on disk serves it, even
+    # in the automatic mode, without a compilation
+    SOLVERS.clear()
+    again = solve(ocp, progress=False)
+    assert again.stats["compiled"] is True and again.stats["solver_cached"] is False
+    assert again.cost == pytest.approx(interpreted.cost, rel=1e-9)
+    # compiled=False never uses it
+    assert solve(ocp, compiled=False, progress=False).stats["compiled"] is False
+    # another constant inside an expression is another structure: compiled anew
+    other = solve(swing_up(weight=2.0), compiled=True, progress=False)
+    assert other.stats["compiled"] is True
+    assert len([name for name in files(cache) if name.endswith(".so")]) == 2
+
+
+@needs_compiler
+def test_progress_is_reported_from_a_compiled_solver(cache):
+    seen = []
+    solution = solve(swing_up(), compiled=True, progress=seen.append)
+    assert solution.stats["compiled"] is True
+    assert [row["iteration"] for row in seen] == list(range(solution.iterations + 1))
+
+
+def test_everything_works_with_the_compiler_hidden(cache, no_compiler):
+    ocp = swing_up()
+    solutions = [solve(ocp, progress=False) for _ in range(3)]
+    assert all(s.success and not s.stats["compiled"] for s in solutions)
+    with pytest.raises(DefinitionError, match=r"`compiled`: no C compiler found \(set \$CC"):
+        solve(ocp, compiled=True, progress=False)
+    assert files(cache) == []
+
+
+@needs_compiler
+def test_a_library_compiled_before_serves_without_a_compiler(cache, monkeypatch, tmp_path):
+    ocp = swing_up()
+    reference = solve(ocp, compiled=True, progress=False)
+    SOLVERS.clear()
+    empty = tmp_path / "nothing"
+    empty.mkdir()
+    monkeypatch.delenv("CC", raising=False)
+    monkeypatch.setenv("PATH", str(empty))
+    again = solve(ocp, progress=False)
+    assert again.stats["compiled"] is True and again.cost == pytest.approx(reference.cost)
+
+
+@needs_compiler
+def test_the_automatic_mode_compiles_once_solving_has_cost_what_compiling_will(cache, monkeypatch):
+    ocp = swing_up()
+    entry = CachedSolver(value=None, build_seconds=0.01, uses=1, solve_seconds=0.0)
+    expected = max(native_nlp.MINIMUM_COMPILE_SECONDS, native_nlp.COMPILE_PER_BUILD * 0.01)
+    assert not native_nlp.worth_compiling(entry)
+    entry.solve_seconds = 0.99 * expected
+    assert not native_nlp.worth_compiling(entry)
+    entry.solve_seconds = expected
+    assert native_nlp.worth_compiling(entry)
+    entry.uses = 0  # never before the first solve
+    assert not native_nlp.worth_compiling(entry)
+    # In a process: interpreted solves until then, a compilation in the background, the
+    # solves after it compiled
+    monkeypatch.setattr(native_nlp, "COMPILE_PER_BUILD", 0.0)
+    monkeypatch.setattr(native_nlp, "MINIMUM_COMPILE_SECONDS", 1e-9)
+    first = solve(ocp, progress=False)
+    second = solve(ocp, progress=False)
+    assert not first.stats["compiled"] and not second.stats["compiled"]
+    key = Transcription(ocp).structure_key
+    deadline = time.monotonic() + 120
+    while native_nlp.pending(key) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert native_nlp.ready(key) is not None
+    third = solve(ocp, progress=False)
+    assert third.stats["compiled"] is True
+    assert third.cost == pytest.approx(first.cost, rel=1e-9)
+
+
+@needs_compiler
+def test_processes_compiling_one_structure_at_once_share_one_compilation(cache):
+    transcription = Transcription(swing_up(N=12))
+    oracle, key = nlp_oracle(transcription), transcription.structure_key
+    found, errors = [], []
+
+    def compile_it():
+        try:
+            found.append(native_nlp.compile_library(oracle, key, wait=True))
+        except Exception as error:  # pragma: no cover - reported below
+            errors.append(error)
+
+    threads = [threading.Thread(target=compile_it) for _ in range(3)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert not errors and len(set(found)) == 1
+    # one library, its lock, and nothing half-written or left over
+    assert files(cache) == sorted([found[0].name, found[0].with_suffix(".lock").name])
+    assert nlp_solver(transcription, library=found[0], progress=False) is not None
+
+
+def test_bad_settings_are_refused_naming_the_fix(cache, monkeypatch):
+    with pytest.raises(DefinitionTypeError, match=r"`compiled`: must be True, False or None"):
+        solve(swing_up(), compiled="yes", progress=False)
+    monkeypatch.setenv(native_nlp.MODE_ENV, "sometimes")
+    with pytest.raises(DefinitionError, match=r"`ANTHROPOID_COMPILE`: unknown value 'sometimes'"):
+        solve(swing_up(), progress=False)
+
+
+def test_the_cache_folder_follows_the_environment(monkeypatch, tmp_path):
+    monkeypatch.setenv(native_nlp.CACHE_ENV, str(tmp_path / "mine"))
+    assert native_nlp.cache_folder() == tmp_path / "mine" / f"nlp-casadi-{ca.__version__}"
+    monkeypatch.delenv(native_nlp.CACHE_ENV)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert native_nlp.cache_folder().parent == tmp_path / "xdg" / "anthropoid-planner"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert native_nlp.cache_folder().parent == tmp_path / "home" / ".cache" / "anthropoid-planner"
