@@ -1,13 +1,13 @@
 """The planner against the peers a user would pick today, on the same six-link periodic gait, timed
 in the same run.
 
-    pip install rockit-meco                                  # the peer (not a dependency)
+    pip install rockit-meco drake                            # the peers (not dependencies)
     python examples/benchmarks/peers_compare.py              # medians of 3
     python examples/benchmarks/peers_compare.py --quick      # once
 
 The problem is planner_bench's headline: the six-link anthropoid's periodic gait (T = 1 s,
 x(0) = x(T)), minimise the integral of sum M_i^2, every angle within +-0.1 rad of the paper's
-law (22), the law as the initial guess, N = 50 intervals, IPOPT with MUMPS at tol 1e-8. Each
+law (22), the law as the initial guess, N = 50 intervals, IPOPT at tol 1e-8. Each
 side writes it in its own terms, as a user would, in the function printed with its line
 count (``user lines``: the function's lines less blank lines, comments and its docstring):
 
@@ -24,21 +24,33 @@ Legendre(3) (its angles converge as N^-6, planner_bench): each cost's relative d
 from it says how far each mesh of 50 intervals is from the optimum both approximate.
 Build = everything from the model to a solver ready to run (for rockit its ``solve`` call
 less IPOPT's own time, which includes its evaluation of the guess); solve = IPOPT's wall time.
-Drake (``drake``: ``MathematicalProgram`` with IPOPT) is measured in the issue that asked for
-this comparison, not here yet: see the note in examples/README.md.
+* **Drake** (``drake``, ``MathematicalProgram``, IPOPT through Drake): the same NLP as ours
+  written by hand (Hermite-Simpson separated: states at the nodes and midpoints, the two
+  defects of each interval as linear constraints, since xdot = [dpsi; ddpsi] is linear in
+  the variables; implicit dynamics ID(psi, dpsi, ddpsi) = M at every point through the
+  model's CasADi function, its value and Jacobian handed to Drake's AutoDiff; Simpson's rule
+  for the cost). Drake's IPOPT gets no Hessian (its ``IpoptSolver`` asks for L-BFGS) and
+  factorises with SPRAL (Drake's IPOPT is built without MUMPS: ``linear_solver`` "mumps"
+  is refused).
+
+Each side runs alternately ``--repeat`` times; a peer that is not installed is left out.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import inspect
+import re
 import statistics
 import sys
+import tempfile
 import time
 import warnings
 from pathlib import Path
 
 import casadi as ca
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -99,6 +111,68 @@ def rockit_gait(N: int = N):
     return float(solution.value(ocp.objective)), int(stats["iter_count"]), total - solve, solve
 
 
+def drake_gait(N: int = N):
+    """Drake: MathematicalProgram of the same NLP as ours (Hermite-Simpson separated, implicit
+    dynamics), IPOPT through Drake: (cost, iterations, build s, solve s)."""
+    from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
+    from pydrake.solvers import IpoptSolver, MathematicalProgram, SolverOptions
+
+    start = time.perf_counter()
+    dynamics = Dynamics(presets.six_link_anthropoid())
+    residual = dynamics.function("dynamics_residual")  # ID(psi, dpsi, ddpsi) - M
+    v = ca.SX.sym("v", 24)  # [psi; dpsi; ddpsi; M] at one point
+    r = residual(v[:6], v[6:12], v[12:18], v[18:])
+    value, jacobian = ca.Function("r", [v], [r]), ca.Function("J", [v], [ca.jacobian(r, v)])
+
+    def at_point(w):
+        if w.dtype == float:
+            return np.asarray(value(w)).ravel()
+        w0, dw = ExtractValue(w).ravel(), ExtractGradient(w)
+        return InitializeAutoDiff(np.asarray(value(w0)).ravel(), np.asarray(jacobian(w0)) @ dw)
+
+    prog, h, K = MathematicalProgram(), PERIOD / N, 2 * N + 1  # nodes and midpoints
+    X, A, U = (
+        prog.NewContinuousVariables(n, K, name) for n, name in ((12, "x"), (6, "a"), (6, "M"))
+    )
+    times = np.linspace(0.0, PERIOD, K)
+    for j, t in enumerate(times):
+        prog.AddConstraint(
+            at_point, np.zeros(6), np.zeros(6), np.concatenate([X[:, j], A[:, j], U[:, j]])
+        )
+        prog.AddBoundingBoxConstraint(LAW.psi(t) - BAND, LAW.psi(t) + BAND, X[:6, j])
+        prog.SetInitialGuess(X[:, j], np.concatenate([LAW.psi(t), LAW.dpsi(t)]))
+        prog.SetInitialGuess(A[:, j], LAW.ddpsi(t))
+        prog.SetInitialGuess(
+            U[:, j], dynamics.inverse_dynamics(LAW.psi(t), LAW.dpsi(t), LAW.ddpsi(t))
+        )
+    F = np.vstack([X[6:], A])  # xdot = [dpsi; ddpsi], linear in the variables
+    for k in range(0, K - 1, 2):
+        a, m, b = k, k + 1, k + 2
+        prog.AddLinearEqualityConstraint(
+            X[:, b] - X[:, a] - h / 6 * (F[:, a] + 4 * F[:, m] + F[:, b]), np.zeros(12)
+        )
+        prog.AddLinearEqualityConstraint(
+            X[:, m] - (X[:, a] + X[:, b]) / 2 - h / 8 * (F[:, a] - F[:, b]), np.zeros(12)
+        )
+        for j, weight in ((a, 1.0), (m, 4.0), (b, 1.0)):
+            prog.AddQuadraticCost(
+                h / 6 * weight * np.eye(6) * 2, np.zeros(6), U[:, j], is_convex=True
+            )
+    prog.AddLinearEqualityConstraint(X[:, 0] - X[:, -1], np.zeros(12))
+    options, log = SolverOptions(), Path(tempfile.mkdtemp()) / "ipopt.txt"
+    for key, setting in ((("tol", TOLERANCE), ("max_iter", 3000), ("output_file", str(log)),
+                         ("file_print_level", 3))):  # fmt: skip
+        options.SetOption(IpoptSolver.id(), key, setting)
+    built = time.perf_counter() - start
+    begin = time.perf_counter()
+    result = IpoptSolver().Solve(prog, None, options)
+    solve = time.perf_counter() - begin
+    if not result.is_success():
+        raise RuntimeError(f"Drake/IPOPT: {result.get_solution_result()}")
+    iterations = int(re.findall(r"Number of Iterations\.*:\s*(\d+)", log.read_text())[-1])
+    return float(result.get_optimal_cost()), iterations, built, solve
+
+
 def user_lines(function) -> int:
     """Lines of ``function`` a user writes: no blank line, comment or docstring, no timing."""
     source = inspect.getsource(function).splitlines()
@@ -123,17 +197,19 @@ def main() -> int:
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
     repeat = 1 if args.quick else args.repeat
-    try:
-        import rockit  # noqa: F401
-    except ImportError:
-        print("rockit is not installed (pip install rockit-meco): nothing to compare")
+    sides = {"ours (planner.OCP), Hermite-Simpson": ours}
+    for module, label, side, install in (
+        ("rockit", "rockit, Legendre(2) collocation", rockit_gait, "pip install rockit-meco"),
+        ("pydrake", "Drake MathematicalProgram, the same NLP", drake_gait, "pip install drake"),
+    ):
+        if importlib.util.find_spec(module) is None:
+            print(f"{module} is not installed ({install}): left out")
+        else:
+            sides[label] = side
+    if len(sides) == 1:
         return 0
     warnings.simplefilter("ignore")
     reference, *_ = ours(160, "legendre", 3)
-    sides = {
-        "ours (planner.OCP), Hermite-Simpson": ours,
-        "rockit, Legendre(2) collocation": rockit_gait,
-    }
     rows = []
     for _ in range(repeat):  # alternating, so that the machine's noise falls on both
         for label, run in sides.items():
