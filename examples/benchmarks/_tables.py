@@ -44,7 +44,13 @@ def run(main: Callable[[], int | None], script: str) -> int:
         status = int(main() or 0)
     if status == 0:
         path = Path(script).with_suffix(".tables.md")
-        command = " ".join(["python", f"examples/benchmarks/{Path(script).name}", *sys.argv[1:]])
+        # The product's own environment settings (compilation, its cache) are part of the run.
+        settings = [
+            f"{k}={v}" for k, v in sorted(os.environ.items()) if k.startswith("ANTHROPOID_")
+        ]
+        command = " ".join(
+            [*settings, "python", f"examples/benchmarks/{Path(script).name}", *sys.argv[1:]]
+        )
         when = datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
         text = (
             f"# {Path(script).stem}\n\nWritten by `{command} --write` on {when} (a shared "
