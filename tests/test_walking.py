@@ -641,3 +641,18 @@ def test_rows_that_read_the_same_reaction_share_its_evaluation(monkeypatch):
     for apart, merged in zip(functions[False](*inputs), functions[True](*inputs), strict=True):
         np.testing.assert_allclose(np.asarray(merged), np.asarray(apart), rtol=1e-12, atol=1e-12)
     assert functions[True].n_instructions() < 0.8 * functions[False].n_instructions()
+
+
+def test_steps_of_other_lengths_and_times_share_one_nlp_structure():
+    """The step's length and duration enter its NLP as bounds and parameters only, so that a
+    study over lengths and speeds solves one structure (one cached solver, one compiled
+    library): the clearance's approach term reads the OCP's duration symbol, not a number."""
+    keys = {
+        Transcription(walking_step(step_length=length, step_time=time).ocp).structure_key
+        for length, time in ((0.5, 0.5), (0.35, 0.5), (0.5, 0.65), (0.62, 0.42))
+    }
+    assert len(keys) == 1
+    # ... and the key does see what is structure: another clearance height is a constant
+    # inside an expression
+    other = Transcription(walking_step(clearance=0.08).ocp).structure_key
+    assert other not in keys

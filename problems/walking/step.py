@@ -209,13 +209,16 @@ class WalkingStep(WalkerFeet):
             return max(float(np.max(self.clearance_at(np.linspace(0.0, 1.0, 5)))), 0.0)
         return self.clearance
 
-    def clearance_at(self, s):
+    def clearance_at(self, s, T=None):
         """The clearance profile at normalised times s = t / T of the single support (numpy
-        or SX), m: the callable ``clearance``, or h sin^2(pi s) + v_td T (1 - s) s^8 (the
-        approach term: see the module docstring)."""
+        or SX), m: the callable ``clearance``, or h sin^2(pi s) + v_td (T - t)
+        exp(-((T - t) / w)^4) (the approach term: see the module docstring). ``T``: the
+        single support's duration, s (default ``single_support_time``); the OCP passes its
+        symbol, so that the NLP's structure does not depend on the duration (a study over
+        step times solves one structure)."""
         if callable(self.clearance):
             return self.clearance(s)
-        T = self.single_support_time
+        T = self.single_support_time if T is None else T
         if isinstance(s, ca.SX | ca.MX):
             swing, fade = ca.sin(math.pi * s) ** 2, ca.exp(-(((1 - s) * T / APPROACH_TIME) ** 4))
         else:
@@ -567,7 +570,7 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
         return stance.cone(*reaction(p.psi, p.dpsi, p.ddpsi))
 
     def clearance(p):
-        return position(p.psi)[1] - step.clearance_at(p.t / p.T)
+        return position(p.psi)[1] - step.clearance_at(p.t / p.T, p.T)
 
     def knees(p):
         return ca.vertcat(
