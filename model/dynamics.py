@@ -117,7 +117,7 @@ class Dynamics:
         self._tapes: dict[str, NumpyTape | None] = {}
         self._buffers: dict[str, tuple] = {}
         self._layouts: dict[str, list[_OutputLayout]] = {}
-        self._cache: dict[str, object] = {}
+        self._cache: dict[str | tuple, object] = {}
         self.generation_seconds: dict[str, float] = {}
         links = linkage.links
         # Constant geometry in each link's own frame (complex, m).
@@ -145,8 +145,15 @@ class Dynamics:
         the linkage adapter :func:`model.linkage_system.linkage_system`.
 
         ``contacts``: points held by the ground (link names for their end hinges, or
-        ``LinkPoint``), whose ground forces F_<point>_x, _y (N) become controls."""
-        return linkage_system(self, formulation, contacts)
+        ``LinkPoint``), whose ground forces F_<point>_x, _y (N) become controls.
+
+        Kept per (formulation, contacts): every builder of an OCP makes a new definition that
+        asks again (a walking step's OCP about 30 times), and a System is immutable."""
+        key = (formulation, tuple(contacts))
+        try:
+            return self._memo(("system", key), lambda: linkage_system(self, *key))
+        except TypeError:  # an unhashable contact description: built anew
+            return linkage_system(self, formulation, contacts)
 
     def subtree_moments(self) -> tuple[list[float], list[complex]]:
         """(mass of each link's subtree, kg; first moment K_m of each subtree about the link's
@@ -407,7 +414,7 @@ class Dynamics:
         return ca.mtimes(ops["flip"], ca.mtimes(ops["subtree_flipped"], ca.mtimes(ops["flip"], v)))
 
     # ---- shared symbolic building blocks (each built once) -----------------------------
-    def _memo(self, key: str, build: Callable[[], object]):
+    def _memo(self, key: str | tuple, build: Callable[[], object]):
         if key not in self._cache:
             self._cache[key] = build()
         return self._cache[key]

@@ -310,26 +310,28 @@ class Solution:
         Uses exactly the transcription's state polynomial of the interval containing t.
         """
         _, k, tau = self._locate(t)
-        scheme, mesh = self.scheme, self.mesh
-        out = np.zeros((k.size, self.system.nx))
-        for kk in np.unique(k):
-            sel = k == kk
-            h = self.T / self.N * mesh.relative[kk]
-            wx, wf = scheme.state_weights(tau[sel], derivative)
-            xk = self.state_values[mesh.state_cols[kk]]
-            fk = self.rate_values[mesh.dyn_cols[kk]]
-            out[sel] = (wx @ xk + h * (wf @ fk)) / h**derivative
-        return out
+        h = self._lengths(k)
+        wx, wf = self.scheme.state_weights(tau, derivative)
+        value = self._weighted(wx, self.state_values, self.mesh.state_cols[k])
+        value += h * self._weighted(wf, self.rate_values, self.mesh.dyn_cols[k])
+        return value / h**derivative
+
+    def _lengths(self, k: np.ndarray) -> np.ndarray:
+        """(K, 1) lengths h_k, s, of the intervals ``k`` (K,)."""
+        return (self.T / self.N * self.mesh.relative[k])[:, None]
+
+    @staticmethod
+    def _weighted(weights: np.ndarray, values: np.ndarray, columns: np.ndarray) -> np.ndarray:
+        """(K, n): sum_j weights[i, j] values[columns[i, j]] for every sample i: each sample's
+        interval polynomial at once (weights (K, J), values (points, n), columns (K, J))."""
+        return np.einsum("kj,kjn->kn", weights, values[columns])
 
     def _point_values(self, values: np.ndarray, t, derivative: int = 0) -> np.ndarray:
         _, k, tau = self._locate(t)
-        out = np.zeros((k.size, values.shape[1]))
-        for kk in np.unique(k):
-            sel = k == kk
-            weights = self.scheme.control_weights(tau[sel], derivative)
-            h = self.T / self.N * self.mesh.relative[kk]
-            out[sel] = weights @ values[self.mesh.dyn_cols[kk]] / h**derivative
-        return out
+        weights = self.scheme.control_weights(tau, derivative)
+        return (
+            self._weighted(weights, values, self.mesh.dyn_cols[k]) / self._lengths(k) ** derivative
+        )
 
     def control(self, t) -> np.ndarray:
         """Controls at times t, (K, nu): the transcription's control polynomial."""
@@ -407,26 +409,25 @@ class Solution:
         velocities = [s.state_names.index(name) for name in s.group(s.velocities)]
         mesh = self.mesh
         nodes = self.state_values[mesh.node_state_cols]
-        for kk in np.unique(k):
-            sel = k == kk
-            h = self.T / self.N * mesh.relative[kk]
-            v_k = self.state_values[mesh.state_cols[kk]][:, velocities]
-            a_k = self.rate_values[mesh.dyn_cols[kk]][:, velocities]
-            for derivative, target, columns, factor in (
-                (-1, x, positions, h),  # q = q_k + h (integral of v over [0, tau])
-                (0, x, velocities, 1.0),
-                (1, xdot, velocities, 1.0 / h),  # a = dv/dtau / h
-            ):
-                wx, wf = self.scheme.motion_weights(tau[sel], derivative)
-                value = factor * (wx @ v_k + h * (wf @ a_k))
-                if derivative == -1:
-                    value = value + nodes[kk, positions]
-                if derivative < 1:
-                    # The node's own value at the interval's end (the polynomials meet it to
-                    # the defect tolerance): node samples are the NLP's states bit for bit.
-                    end = tau[sel][:, None] == 1.0
-                    value = np.where(end, nodes[kk + 1, columns], value)
-                target[np.ix_(sel, columns)] = value
+        h = self._lengths(k)
+        v = self.state_values[:, velocities]
+        a = self.rate_values[:, velocities]
+        end = tau[:, None] == 1.0
+        for derivative, target, columns, factor in (
+            (-1, x, positions, h),  # q = q_k + h (integral of v over [0, tau])
+            (0, x, velocities, 1.0),
+            (1, xdot, velocities, 1.0 / h),  # a = dv/dtau / h
+        ):
+            wx, wf = self.scheme.motion_weights(tau, derivative)
+            value = self._weighted(wx, v, mesh.state_cols[k])
+            value = factor * (value + h * self._weighted(wf, a, mesh.dyn_cols[k]))
+            if derivative == -1:
+                value = value + nodes[k][:, positions]
+            if derivative < 1:
+                # The node's own value at the interval's end (the polynomials meet it to
+                # the defect tolerance): node samples are the NLP's states bit for bit.
+                value = np.where(end, nodes[k + 1][:, columns], value)
+            target[:, columns] = value
         xdot[:, positions] = x[:, velocities]
         drives = [s.control_names.index(name) for name in s.role_names("drives")]
         values = s.drives_for_motion.map(times.size)(x.T, xdot[:, velocities].T, u.T)

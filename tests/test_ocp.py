@@ -556,3 +556,16 @@ def test_bounds_by_output_name_errors():
     rows = chain().constrain("c", two, lower={"b": [0.0, 1.0]}).constraints[0]
     np.testing.assert_array_equal(rows.lower, [-np.inf, 0.0, 1.0])
     assert rows.row_names() == ("path[c][a]", "path[c][b][0]", "path[c][b][1]")
+
+
+def test_builders_reuse_the_models_system_instead_of_building_it_again():
+    """Each builder makes a new definition, which asks its model for its System again: the
+    model keeps one per formulation and contacts (a walking step's OCP asks about 30 times)."""
+    dynamics = Dynamics(presets.n_link_chain(2))
+    ocp = OCP(dynamics, T=1.0, N=4)
+    built = ocp.bound("M", -5, 5).constrain("tilt", lambda p: p.psi_link1, upper=1.0).scale(M=2)
+    assert built.system is ocp.system
+    assert OCP(dynamics, T=2.0, N=8).system is ocp.system
+    assert OCP(dynamics, T=1.0, N=4, formulation="explicit").system is not ocp.system
+    held = OCP(dynamics, T=1.0, N=4, contacts=("link2",))
+    assert held.system is not ocp.system and held.system.control_names[-1] == "F_link2_end_y"
