@@ -13,8 +13,8 @@ compilation takes seconds (the six-link walking step, Hermite-Simpson N = 30: ab
   Bounds, scales, durations and guesses are arguments of the NLP, not part of the code.
 * **Where**: :func:`cache_folder`: ``$ANTHROPOID_CACHE``, else
   ``$XDG_CACHE_HOME/anthropoid-planner``, else ``~/.cache/anthropoid-planner``; one
-  ``<key>.so`` per structure under ``nlp-casadi-<version>/``. Deleting the folder is always
-  safe.
+  ``<key>.so`` per structure under ``nlp-casadi-<version>-<platform>-<machine>/``. Deleting
+  the folder is always safe; a library that does not load is removed and solved without.
 * **How**: in a separate Python process (``python -m planner.native_nlp``), from the
   serialised NLP: CasADi generates the derivatives and the C code there, the compiler builds
   a shared library into a temporary file, and an atomic rename publishes it. A lock file
@@ -38,6 +38,7 @@ import contextlib
 import json
 import logging
 import os
+import platform
 import shutil
 import subprocess
 import sys
@@ -110,7 +111,17 @@ def cache_folder() -> Path:
     else:
         xdg = os.environ.get("XDG_CACHE_HOME")
         base = (Path(xdg) if xdg else Path.home() / ".cache") / "anthropoid-planner"
-    return base / f"nlp-casadi-{ca.__version__}"
+    # Compiled code belongs to its CasADi version, operating system and processor (a home
+    # folder shared by machines of other kinds keeps their libraries apart).
+    return base / f"nlp-casadi-{ca.__version__}-{sys.platform}-{platform.machine() or 'cpu'}"
+
+
+def discard(path: Path) -> None:
+    """Remove a library that does not load (damaged, or built elsewhere), saying so; the
+    automatic mode compiles the structure again when it pays."""
+    logger.warning("the compiled NLP %s does not load; removed, solving interpreted", path.name)
+    with contextlib.suppress(OSError):
+        path.unlink()
 
 
 def library_path(key: str) -> Path:

@@ -639,9 +639,17 @@ def solve(
 
     def build(library: Path | None = None) -> CachedSolver:
         begin = time.perf_counter()
-        solver = nlp_solver(
-            transcription, solver_options, expand=expand, library=library, progress=with_progress
-        )
+        options = {"expand": expand, "progress": with_progress}
+        try:
+            solver = nlp_solver(transcription, solver_options, library=library, **options)
+        except DefinitionError:
+            if library is None:
+                raise
+            # A library that does not load (another machine's, damaged): the interpreted
+            # solver, which raises the options' own error if they were the trouble.
+            solver = nlp_solver(transcription, solver_options, **options)
+            native_nlp.discard(library)
+            library = None
         seconds = time.perf_counter() - begin
         return CachedSolver(solver, solver._planner_progress, seconds, library=library)
 
@@ -668,7 +676,7 @@ def solve(
                     native_nlp.compile_library(nlp_oracle(transcription), library_key, wait=False)
             if library is not None:
                 fresh = build(library)
-                entry.value, entry.extra, entry.library = fresh.value, fresh.extra, library
+                entry.value, entry.extra, entry.library = fresh.value, fresh.extra, fresh.library
         solver, callback = entry.value, entry.extra
         entry.uses += 1
         f_scale = objective_scale(transcription, solver, w0)

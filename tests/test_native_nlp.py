@@ -5,6 +5,8 @@ everything working with the compiler hidden."""
 
 from __future__ import annotations
 
+import platform
+import sys
 import threading
 import time
 
@@ -218,10 +220,34 @@ def test_bad_settings_are_refused_naming_the_fix(cache, monkeypatch):
 
 def test_the_cache_folder_follows_the_environment(monkeypatch, tmp_path):
     monkeypatch.setenv(native_nlp.CACHE_ENV, str(tmp_path / "mine"))
-    assert native_nlp.cache_folder() == tmp_path / "mine" / f"nlp-casadi-{ca.__version__}"
+    folder = native_nlp.cache_folder()
+    assert folder.parent == tmp_path / "mine"
+    assert folder.name == f"nlp-casadi-{ca.__version__}-{sys.platform}-{platform.machine()}"
     monkeypatch.delenv(native_nlp.CACHE_ENV)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert native_nlp.cache_folder().parent == tmp_path / "xdg" / "anthropoid-planner"
     monkeypatch.delenv("XDG_CACHE_HOME")
     monkeypatch.setenv("HOME", str(tmp_path / "home"))
     assert native_nlp.cache_folder().parent == tmp_path / "home" / ".cache" / "anthropoid-planner"
+
+
+def test_a_library_that_does_not_load_is_removed_and_the_solve_runs_interpreted(cache, caplog):
+    """A damaged library (or one built on another kind of machine) is not an error of the
+    user's: the solve runs interpreted, says so and removes it, so that it is compiled again
+    when it pays; options IPOPT refuses still fail as such."""
+    ocp = swing_up()
+    reference = solve(ocp, compiled=False, progress=False)
+    key = Transcription(ocp).structure_key
+    damaged = native_nlp.library_path(key)
+    damaged.parent.mkdir(parents=True, exist_ok=True)
+    damaged.write_bytes(b"not a shared library")
+    SOLVERS.clear()
+    with caplog.at_level("WARNING", logger="planner.native_nlp"):
+        solution = solve(ocp, progress=False)
+    assert solution.success and not solution.stats["compiled"]
+    assert solution.cost == pytest.approx(reference.cost, rel=1e-12)
+    assert not damaged.exists()
+    assert "does not load; removed" in caplog.text
+    damaged.write_bytes(b"not a shared library")
+    with pytest.raises(DefinitionError, match=r"`options`: IPOPT refused the options"):
+        solve(ocp, progress=False, options={"no_such_option": 1})
