@@ -151,9 +151,10 @@ class Dynamics:
         asks again (a walking step's OCP about 30 times), and a System is immutable."""
         key = (formulation, tuple(contacts))
         try:
-            return self._memo(("system", key), lambda: linkage_system(self, *key))
+            hash(key)
         except TypeError:  # an unhashable contact description: built anew
             return linkage_system(self, formulation, contacts)
+        return self._memo(("system", key), lambda: linkage_system(self, *key))
 
     def subtree_moments(self) -> tuple[list[float], list[complex]]:
         """(mass of each link's subtree, kg; first moment K_m of each subtree about the link's

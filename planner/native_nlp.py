@@ -44,6 +44,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+from collections.abc import Callable
 from pathlib import Path
 
 import casadi as ca
@@ -148,6 +149,22 @@ def pending(key: str) -> bool:
             _failed.add(key)
             logger.warning("compiling the NLP %s failed (exit %s)", key, process.returncode)
         return False
+
+
+def library_for(key: str, how: str, entry, oracle: Callable[[], ca.Function]) -> Path | None:
+    """The library to solve ``key`` with now, for a solver ``entry`` that runs interpreted
+    (a :class:`planner.solver_cache.CachedSolver`): the cache's when it holds one; with
+    ``how`` "now", compiled first (waiting); with "auto", None, after starting a background
+    compilation when :func:`worth_compiling` says so; with "never", None. ``oracle`` makes
+    the NLP Function to compile (only when one is compiled)."""
+    found = ready(key)
+    if found is not None or how == "never":
+        return found
+    if how == "now":
+        return compile_library(oracle(), key, wait=True)
+    if worth_compiling(entry) and not pending(key):
+        compile_library(oracle(), key, wait=False)
+    return None
 
 
 def compile_library(oracle: ca.Function, key: str, *, wait: bool) -> Path | None:

@@ -431,15 +431,18 @@ def _cache_key(
     options: Mapping[str, Any] | None,
     expand: bool,
     progress: bool = True,
+    compiled: bool = True,
 ) -> tuple:
     """The cache key of a solver: the NLP structure, the expansion, the IPOPT options it was
-    built with and whether it reports progress (a solver without the callback runs no Python
-    per iteration)."""
+    built with, whether it reports progress (a solver without the callback runs no Python
+    per iteration) and whether it may run compiled functions (``solve(compiled=False)``
+    never takes the solver a compiled library was swapped into)."""
     return (
         transcription.structure_key,
         bool(expand),
         json.dumps(dict(options or {}), sort_keys=True, default=repr),
         bool(progress),
+        bool(compiled),
     )
 
 
@@ -654,7 +657,7 @@ def solve(
         return CachedSolver(solver, solver._planner_progress, seconds, library=library)
 
     cached = False
-    key = (*_cache_key(transcription, solver_options, expand, with_progress), native == "never")
+    key = _cache_key(transcription, solver_options, expand, with_progress, native != "never")
     if cache:
         entry, cached = SOLVERS.get(key, lambda: build(library))
         if not entry.lock.acquire(blocking=False):  # busy in another thread: a private one
@@ -665,15 +668,11 @@ def solve(
         entry.lock.acquire()
     try:
         if library_key is not None and entry.library is None:
-            # Compiled functions: now (asked), when they are ready (compiled in the
-            # background or by another process since), or start compiling them in the
-            # background from the second solve of this structure.
-            if library is None and native == "now":
-                oracle = nlp_oracle(transcription)
-                library = native_nlp.compile_library(oracle, library_key, wait=True)
-            elif library is None and native == "auto" and native_nlp.worth_compiling(entry):
-                if not native_nlp.pending(library_key):
-                    native_nlp.compile_library(nlp_oracle(transcription), library_key, wait=False)
+            # An interpreted solver: compiled functions ready since, asked for now, or worth
+            # starting in the background (native_nlp.library_for says which).
+            library = native_nlp.library_for(
+                library_key, native, entry, lambda: nlp_oracle(transcription)
+            )
             if library is not None:
                 fresh = build(library)
                 entry.value, entry.extra, entry.library = fresh.value, fresh.extra, fresh.library
