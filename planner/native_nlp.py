@@ -238,11 +238,15 @@ def _build(source: Path, cc: str) -> None:
     with _file_lock(target.with_suffix(".lock")):
         if target.is_file():  # another process compiled it while this one waited
             return
+        # Work folders of this key that a killed compilation left (the lock is ours, so
+        # none of them is in use).
+        for stale in target.parent.glob(f".{key}.work.*"):
+            shutil.rmtree(stale, ignore_errors=True)
         oracle = ca.Function.deserialize(spec["nlp"])
         # The same oracle (its AD options serialised with it) and the derivatives IPOPT asks
         # for (exact Hessian); the solver's own options play no part in the code.
         solver = ca.nlpsol(ORACLE, "ipopt", oracle, {"print_time": False, "calc_lam_p": False})
-        with tempfile.TemporaryDirectory(dir=target.parent, prefix=f".{key}.") as work:
+        with tempfile.TemporaryDirectory(dir=target.parent, prefix=f".{key}.work.") as work:
             generator = ca.CodeGenerator(f"{ORACLE}.c", {"with_header": False})
             generator.add(solver.oracle())
             for name in solver.get_function():

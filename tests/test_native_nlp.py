@@ -251,3 +251,23 @@ def test_a_library_that_does_not_load_is_removed_and_the_solve_runs_interpreted(
     damaged.write_bytes(b"not a shared library")
     with pytest.raises(DefinitionError, match=r"`options`: IPOPT refused the options"):
         solve(ocp, progress=False, options={"no_such_option": 1})
+
+
+@needs_compiler
+def test_a_compilation_killed_halfway_leaves_nothing_that_stays(cache):
+    """A compilation killed with kill -9 leaves its work folder (never a library: that
+    appears by a rename); the next compilation of the key, holding the lock, removes it."""
+    transcription = Transcription(swing_up(N=8))
+    key = transcription.structure_key
+    folder = native_nlp.cache_folder()
+    left = folder / f".{key}.work.killed"
+    left.mkdir(parents=True)
+    (left / "nlp.c").write_text("half a file")
+    library = native_nlp.compile_library(nlp_oracle(transcription), key, wait=True)
+    assert library.is_file() and not left.exists()
+    assert files(cache) == sorted([library.name, library.with_suffix(".lock").name])
+
+
+def test_a_progress_reporter_needs_a_solver_that_reports():
+    with pytest.raises(DefinitionError, match=r"`report`: needs a solver with progress=True"):
+        nlp_solver(Transcription(swing_up(N=4)), report=print, progress=False)
