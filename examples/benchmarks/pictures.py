@@ -9,12 +9,20 @@ writes them, and the same GIF through matplotlib's ``PillowWriter`` (the whole f
 for every frame, a palette per frame: what the product used before ``planner.gif``; here on a
 leaner figure, no legend or footholds, so if anything it flatters the old way). Ratios are to
 the solve's median in the same run.
+
+Then the main job as a user runs it, in fresh processes (imports, the solve, the export and
+its verification; matplotlib's import counted with the pictures): ``python -m problems walk``
+with ``--no-plots`` (the plan) and without (plan and pictures), alternating; the pictures'
+cost is the difference of the medians. The product's settings (``ANTHROPOID_COMPILE``, its
+cache) are the environment's, so the plan runs as a user's second run would.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -61,6 +69,22 @@ def _pillow_writer_gif(motion, path: Path, fps: float = 30.0, dpi: float = 80.0)
             writer.grab_frame()
 
 
+def _walk_seconds(arguments: list[str], repeat: int) -> list[float]:
+    """Wall seconds of ``python -m problems walk`` in a new process, each run."""
+    times = []
+    root = Path(__file__).resolve().parents[2]
+    environment = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(root), *filter(None, [os.environ.get("PYTHONPATH")])])}  # fmt: skip
+    for _ in range(repeat):
+        with tempfile.TemporaryDirectory() as folder:
+            start = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "problems", "walk", "-q", "--output-dir",
+                            str(Path(folder) / "out"), *arguments], check=True,
+                           stdout=subprocess.DEVNULL, env=environment)  # fmt: skip
+            times.append(time.perf_counter() - start)
+    return times
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3, help="runs per timing (median)")
@@ -92,6 +116,20 @@ def main() -> None:
     for what, seconds in rows:
         print(f"{what:<46} {seconds:9.3f} {seconds / solve:8.2f}")
     print(f"{'the three pictures walk writes':<46} {pictures:9.3f} {pictures / solve:8.2f}")
+    plan, whole = [], []
+    for _ in range(args.repeat):  # alternating: the machine's noise falls on both alike
+        plan += _walk_seconds(["--no-plots"], 1)
+        whole += _walk_seconds([], 1)
+    plan_s, whole_s = statistics.median(plan), statistics.median(whole)
+    print()
+    print(f"The main job in new processes, `python -m problems walk` (medians of {args.repeat})")
+    head = f"{'what':<46} {'median s':>9} {'/ plan':>8}"
+    print(head)
+    print("-" * len(head))
+    for what, seconds in (("plan (--no-plots): imports, solve, files, check", plan_s),
+                          ("plan and pictures (the default job)", whole_s),
+                          ("pictures (the difference)", whole_s - plan_s)):  # fmt: skip
+        print(f"{what:<46} {seconds:9.3f} {seconds / plan_s:8.2f}")
 
 
 if __name__ == "__main__":
