@@ -379,21 +379,31 @@ class Linkage:
         kept = [link for k, link in enumerate(self._links) if k not in removed]
         return Linkage(kept, gravity=self._gravity)
 
-    def lock(self, name: str, angle: float = 0.0) -> Linkage:
+    def lock(self, name: str, angle: float | None = None) -> Linkage:
         """A new Linkage with link ``name`` welded to its parent at a relative angle.
 
-        psi_name = psi_parent + angle (rad) for all time. Mass, centre of mass and inertia
-        merge exactly into the parent; the locked link's children stay on their true hinge
-        (their ``origin`` moves into the parent's frame), and their angles stay absolute.
+        psi_name = psi_parent + angle (rad, default 0) for all time. Mass, centre of mass and
+        inertia merge exactly into the parent; the locked link's children stay on their true
+        hinge (their ``origin`` moves into the parent's frame), and their angles stay absolute.
+
+        The root is welded to the ground instead, at the absolute angle ``angle``
+        (psi_root = angle): a foot held flat on the ground. Its one child becomes the root,
+        starting where its hinge then stands (its ``origin``, in the world frame); the root's
+        own mass leaves the model, as the ground carries it. A root with several children
+        would leave several trees and is refused; the angle must be given (there is no
+        natural default for an absolute angle).
         """
-        angle = check_real("angle", angle)
         c = self.index(name)
         p = self._parents[c]
         if p < 0:
-            raise DefinitionError(
-                f"`name`: {name!r} is the root; it has no parent link to lock to. "
-                "Lock one of its children instead"
-            )
+            if angle is None:
+                raise DefinitionError(
+                    f"`angle`: {name!r} is the root; locking it welds it to the ground at an "
+                    "absolute angle: give it (rad, from +x counter-clockwise), e.g. "
+                    f"lock({name!r}, angle=math.pi / 2)"
+                )
+            return self._weld_root(check_real("angle", angle))
+        angle = 0.0 if angle is None else check_real("angle", angle)
         parent, child = self._links[p], self._links[c]
         turn = cmath.exp(1j * angle)  # child frame -> parent frame
         start = self.origin_in_parent(c)
@@ -425,6 +435,26 @@ class Linkage:
                 hinge = start + self.origin_in_parent(k) * turn
                 new_links.append(replace(link, parent=parent.name, origin=hinge))
             else:
+                new_links.append(link)
+        return Linkage(new_links, gravity=self._gravity)
+
+    def _weld_root(self, angle: float) -> Linkage:
+        """:meth:`lock` of the root: welded to the ground at psi_root = ``angle`` rad."""
+        root = self._links[0]
+        children = self.children[0]
+        if len(children) != 1:
+            raise DefinitionError(
+                f"`name`: welding the root {root.name!r} to the ground leaves "
+                f"{len(children)} trees (its children {[self._links[k].name for k in children]}); "
+                "a root with exactly one child can be welded"
+            )
+        (child,) = children
+        start = (root.origin or 0j) + self.origin_in_parent(child) * cmath.exp(1j * angle)
+        new_links = []
+        for k, link in enumerate(self._links):
+            if k == child:
+                new_links.append(replace(link, parent=None, origin=start))
+            elif k != 0:
                 new_links.append(link)
         return Linkage(new_links, gravity=self._gravity)
 

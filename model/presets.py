@@ -7,7 +7,9 @@ thigh, 4 swing shank, 5 torso, 6 head, with J about each centre of mass.
 
 from __future__ import annotations
 
+from model.anthropometry import FOOT_COM, FootGeometry
 from model.linkage import Link, Linkage
+from model.points import LinkPoint
 from planner.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 
 #: The scene.md table: name, parent, l (m), m (kg), n, J (kg m^2).
@@ -51,6 +53,58 @@ def six_link_anthropoid(gravity: float = 9.81, **overrides) -> Linkage:
 def five_link_biped(gravity: float = 9.81) -> Linkage:
     """The six-link scene without the head: two legs and a torso meeting at the hip."""
     return six_link_anthropoid(gravity=gravity).drop("head")
+
+
+def anthropoid_with_feet(gravity: float = 9.81, foot: FootGeometry | None = None) -> Linkage:
+    """The six-link scene on feet: eight links, the stance foot the root.
+
+    The scene's six links unchanged (Winter's table for a person of 1.75 m and 70 kg, see
+    :mod:`model.anthropometry`) and a foot on each leg from the same table (``foot``, default
+    ``FootGeometry()``: 1.015 kg each, 0.16 m from the ankle to the ball, the ankle 0.068 m
+    above the sole). Order: stance_foot, stance_shank, stance_thigh, swing_thigh,
+    swing_shank, swing_foot, torso, head.
+
+    The root is the stance foot, described from the ball of the foot (H0, the toe contact:
+    where the foot pivots when the heel rises) to the ankle; the stance shank starts at the
+    ankle. The swing foot runs from its ankle to its ball (its end), so the legs are mirror
+    images and ``model.swap_legs`` re-roots at the swing foot's ball. The heel and toe
+    contacts of both feet: :func:`anthropoid_feet`.
+    """
+    foot = FootGeometry() if foot is None else foot
+    if not isinstance(foot, FootGeometry):
+        raise DefinitionTypeError(
+            f"`foot`: must be a model.anthropometry.FootGeometry, got {type(foot).__name__}"
+        )
+    legs = six_link_anthropoid(gravity=gravity).links
+    # Winter's centre of mass lies 0.50 of the way from the ankle to the ball: 1 - 0.50 from
+    # the ball, where the stance foot starts.
+    mass, inertia = foot.segment_mass, foot.inertia
+    feet = {
+        "stance_foot": Link("stance_foot", None, foot.segment, mass, 1.0 - FOOT_COM, inertia),
+        "swing_foot": Link("swing_foot", "swing_shank", foot.segment, mass, FOOT_COM, inertia),
+    }
+    links = [feet["stance_foot"]]
+    for link in legs:
+        links.append(Link(link.name, "stance_foot", link.length, link.mass, link.com,
+                          link.inertia) if link.parent is None else link)  # fmt: skip
+        if link.name == "swing_shank":
+            links.append(feet["swing_foot"])
+    return Linkage(links, gravity=gravity)
+
+
+def anthropoid_feet(foot: FootGeometry | None = None) -> dict[str, LinkPoint]:
+    """The contacts of :func:`anthropoid_with_feet`: ``stance_toe`` (H0, the ball),
+    ``stance_heel``, ``swing_heel``, ``swing_toe`` (the swing foot's end), as points of the
+    foot links named after them."""
+    foot = FootGeometry() if foot is None else foot
+    stance_heel = foot.point_on_link(foot.heel, from_ankle=False)
+    swing_heel = foot.point_on_link(foot.heel, from_ankle=True)
+    return {
+        "stance_toe": LinkPoint("stance_foot", 0.0, 0.0, name="stance_toe"),
+        "stance_heel": LinkPoint("stance_foot", *stance_heel, name="stance_heel"),
+        "swing_heel": LinkPoint("swing_foot", *swing_heel, name="swing_heel"),
+        "swing_toe": LinkPoint("swing_foot", 1.0, 0.0, name="swing_toe"),
+    }
 
 
 def n_link_chain(
@@ -106,4 +160,5 @@ PRESETS = {
     "six-link": six_link_anthropoid,
     "five-link": five_link_biped,
     "exoskeleton-leg": exoskeleton_leg,
+    "six-link-feet": anthropoid_with_feet,
 }

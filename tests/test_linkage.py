@@ -581,7 +581,7 @@ def test_lock_twice_records_every_merged_name():
 def test_lock_errors():
     six = presets.six_link_anthropoid()
     with pytest.raises(
-        DefinitionError, match="`name`: 'stance_shank' is the root; it has no parent"
+        DefinitionError, match="`angle`: 'stance_shank' is the root; locking it welds it to the"
     ):
         six.lock("stance_shank")
     with pytest.raises(DefinitionError, match="`name`: no link called 'tail'"):
