@@ -74,6 +74,10 @@ from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.trajectory import Trajectory
 
 HALF_PI = 0.5 * math.pi
+#: The gaits :func:`verify_gait` knows (``metadata["gait"]["problem"]``).
+GAITS = ("walking_step", "footed_step", "periodic_gait")
+#: The problems that are one step of walking (a leg swap at the end).
+STEPS = ("walking_step", "footed_step")
 
 
 class GaitVerificationError(AnthropoidError):
@@ -299,10 +303,11 @@ def verify_gait(
     merged = dict(trajectory.metadata.get("gait") or {})
     merged.update(settings or {})
     problem = merged.get("problem")
-    if problem not in ("walking_step", "periodic_gait"):
+    if problem not in GAITS:
         raise DefinitionError(
-            "`settings`: say which gait this is: settings={'problem': 'walking_step' or "
-            f"'periodic_gait', ...}} (the trajectory's metadata has none), got {problem!r}"
+            "`settings`: say which gait this is: settings={'problem': 'walking_step', "
+            "'footed_step' or 'periodic_gait', ...} (the trajectory's metadata has none), got "
+            f"{problem!r}"
         )
     for name, value in (
         ("tolerance", tolerance),
@@ -329,9 +334,13 @@ def verify_gait(
 
     facts: dict[str, Any] = {"samples": int(times.size), "duration": float(times[-1] - times[0])}
     double = problem == "walking_step" and float(merged.get("double_support") or 0.0) > 0.0
-    contacts = _contacts(kin, merged, trajectory) if double else []
+    footed = problem == "footed_step"
+    contacts = _contacts(kin, merged, trajectory) if double or footed else []
     _verify_physics(add, kin, merged, trajectory, contacts, weight, passive_tolerance, facts)
-    if double:
+    if footed:
+        _verify_footed(add, kin, merged, trajectory, weight, hold_tolerance / tolerance,
+                       passive_tolerance)  # fmt: skip
+    elif double:
         _verify_double_support(add, kin, merged, trajectory, weight, hold_tolerance / tolerance)
     elif problem == "walking_step":
         _verify_walking(add, kin, merged, trajectory, weight)
@@ -354,17 +363,30 @@ def verify_gait(
 def _contacts(kin: _Kinematics, settings, trajectory) -> list[tuple[int, complex, np.ndarray]]:
     """The held feet's ground forces of a double support: (link, offset, force (K,)) from the
     extras ``F_<point>_x`` / ``_y`` of points other than the root's (its reaction is what
-    the dynamics leave), each the swing foot's (the front foot)."""
-    link, offset = _foot(kin, settings)
+    the dynamics leave): a contact named in ``settings["contacts"]`` at its point, any other
+    at the swing foot (the front foot)."""
+    named = _named_contacts(kin, settings)
     root_x, _ = contact_force_names(root_contact(kin.linkage.names))
     names = [k for k in trajectory.extras if k.startswith(f"{FORCES}_") and k.endswith("_x")]
     found = []
     for name in names:
         if name in (root_x, GROUND_REACTION[0]):
             continue
+        contact = name[len(FORCES) + 1 : -2]
+        link, offset = named[contact] if contact in named else _foot(kin, settings)
         force = trajectory.extras[name][0] + 1j * trajectory.extras[name[:-1] + "y"][0]
         found.append((link, offset, np.asarray(force)))
     return found
+
+
+def _named_contacts(kin: _Kinematics, settings) -> dict[str, tuple[int, complex]]:
+    """``settings["contacts"]`` ({name: [link, along, lateral]}) as {name: (link index,
+    offset in the link's frame, m)}."""
+    named = {}
+    for name, (link, along, lateral) in (settings.get("contacts") or {}).items():
+        i = kin.linkage.index(link)
+        named[name] = (i, kin.linkage.links[i].length * complex(float(along), float(lateral)))
+    return named
 
 
 def _torque_scale(kin: _Kinematics, settings) -> float:
@@ -395,7 +417,7 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
     )
     times = trajectory.time
     problem = settings.get("problem")
-    duration = settings.get("step_time") if problem == "walking_step" else settings.get("period")
+    duration = settings.get("step_time") if problem in STEPS else settings.get("period")
     if duration is not None:
         span = float(times[-1] - times[0])
         add(
@@ -450,7 +472,8 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
         allowed = passive * scale  # what the motion may need of a joint without a drive
         add("passive joints", allowed - np.abs(torques[:, passive_links]), "N m", scale)
     if limits:
-        limit = np.array([float(limits[name]) for name in linkage.names])
+        # a hinge without a limit (a footed walker's root: the ground's torque) is unbounded
+        limit = np.array([float(limits.get(name, np.inf)) for name in linkage.names])
         add("torque bounds", limit[None, :] - np.abs(torques), "N m", scale)
     # The ground: every point of the body that is not a contact stays above it.
     margin = float(settings.get("ground_margin") or 0.0)
@@ -483,11 +506,13 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
         pressure = moment[loaded] / reaction.imag[loaded]
         facts["centre of pressure"] = (float(pressure.min()), float(pressure.max()))
     foot = settings.get("foot")
+    # (a step on feet: the sole carries the root's torque only while it lies flat; see
+    # _verify_footed)
     if foot is not None and problem == "walking_step" and 0 not in passive_links:
         heel, toe = (float(v) for v in foot)
         rows = np.column_stack([moment + heel * reaction.imag, toe * reaction.imag - moment])
         add("centre of pressure", rows, "N m", weight * (heel + toe))
-    if settings.get("knee_range") and problem == "walking_step":
+    if settings.get("knee_range") and problem in STEPS:
         lower, upper = settings["knee_range"]
         flexion = _knees(linkage, settings, psi)
         add("knees", np.minimum(flexion - lower, upper - flexion), "rad")
@@ -537,23 +562,28 @@ def _foot(kin: _Kinematics, settings) -> tuple[int, complex]:
     return i, complex(kin.linkage.links[i].length)
 
 
+def _legs(linkage: Linkage) -> tuple[list[int], list[int]]:
+    """(stance leg from the root up, swing leg from the hip down), link indices: the links
+    the leg swap turns up (+pi) and down (-pi), by depth in the tree."""
+    offsets = swap_legs(linkage).angle_offsets
+    depth = [len(linkage.ancestors(i)) for i in range(linkage.n)]
+    stance = sorted((i for i in range(linkage.n) if offsets[i] > 0), key=depth.__getitem__)
+    swing = sorted((i for i in range(linkage.n) if offsets[i] < 0), key=depth.__getitem__)
+    return stance, swing
+
+
 def _knees(linkage: Linkage, settings, psi) -> np.ndarray:
-    biped_links = swap_legs(linkage)
-    stance_shank = linkage.names[0]
-    stance_thigh = linkage.names[linkage.children[0][0]]
-    swing_shank = biped_links.root_point.link
-    swing_thigh = linkage.names[linkage.parents[linkage.index(swing_shank)]]
-    i = linkage.index
+    """Knee flexion psi_thigh - psi_shank (K, 2) of both legs, rad: the stance leg's two
+    links below the hip, the swing leg's two below the hip (a leg may end in a foot)."""
+    stance, swing = _legs(linkage)
     return np.column_stack(
-        [
-            psi[:, i(stance_thigh)] - psi[:, i(stance_shank)],
-            psi[:, i(swing_thigh)] - psi[:, i(swing_shank)],
-        ]
+        [psi[:, stance[-1]] - psi[:, stance[-2]], psi[:, swing[0]] - psi[:, swing[1]]]
     )
 
 
-def _clearance_profile(settings, s: np.ndarray) -> np.ndarray | float:
-    """The swing foot's minimum height (m) at fractions ``s`` of the single support: a
+def _clearance_profile(settings, s: np.ndarray, single: float | None = None):
+    """The swing foot's minimum height (m) at fractions ``s`` of the single support (of
+    ``single`` s; default the step time less the double support): a
     sampled profile (``settings["clearance_profile"]``, {"s": [...], "height": [...]}: the
     values at the exported samples themselves, linear in between), else the default
     h sin^2(pi s) + v_td (T - t) exp(-((T - t) / w)^4) with h = ``settings["clearance"]``
@@ -564,8 +594,9 @@ def _clearance_profile(settings, s: np.ndarray) -> np.ndarray | float:
         clearance = settings.get("clearance")
         height = 0.0 if clearance is None else float(clearance) * np.sin(np.pi * s) ** 2
         speed, window = settings.get("touchdown_speed"), settings.get("approach_time")
-        if speed and window and settings.get("step_time"):
+        if single is None and settings.get("step_time"):
             single = float(settings["step_time"]) - float(settings.get("double_support") or 0)
+        if speed and window and single:
             left = (1.0 - s) * single
             height = height + float(speed) * left * np.exp(-((left / float(window)) ** 4))
         return height
@@ -670,6 +701,39 @@ def _verify_walking(add, kin: _Kinematics, settings, trajectory, weight) -> None
     add("clearance", height - _clearance_profile(settings, s), "m")
 
 
+def _held_impact(kin: _Kinematics, psi, dpsi_minus, dpsi_plus, landing: complex, link: int):
+    """An impact with the root's start (H0) held and a point of ``link`` at ``landing``
+    landing: (momentum residual (n + 2,), rear impulse, front impulse), the impulses (complex,
+    N s) at H0 and at the landing point found from the momentum balances by least squares
+    (linear momentum; angular momentum of the whole tree about H0 and of the part beyond
+    every hinge about it); a consistent impact leaves no residual."""
+    linkage = kin.linkage
+    n = linkage.n
+    _, v_minus, _ = kin.coms(psi[None], dpsi_minus[None])
+    _, v_plus, _ = kin.coms(psi[None], dpsi_plus[None])
+    starts, _, _ = kin.starts(psi[None])
+    momentum = complex((v_plus[0] - v_minus[0]) @ kin.mass)
+    lever = complex(landing - starts[0, 0])
+    rows = [[1.0, 0.0, 1.0, 0.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, -lever.imag, lever.real]]
+    right = [momentum.real, momentum.imag]
+    whole = kin.angular_momentum(psi, dpsi_plus, 0j, starts[0, 0], range(n)) - (
+        kin.angular_momentum(psi, dpsi_minus, 0j, starts[0, 0], range(n))
+    )
+    right.append(whole)
+    for c in range(1, n):
+        part = linkage.subtree(c)
+        about = complex(starts[0, c])
+        change = kin.angular_momentum(psi, dpsi_plus, 0j, about, part) - (
+            kin.angular_momentum(psi, dpsi_minus, 0j, about, part)
+        )
+        arm = complex(landing - about) if link in part else 0j
+        rows.append([0.0, 0.0, -arm.imag, arm.real])
+        right.append(change)
+    impulses, *_ = np.linalg.lstsq(np.array(rows), np.array(right), rcond=None)
+    residual = np.array(rows) @ impulses - np.array(right)
+    return residual, complex(*impulses[:2]), complex(*impulses[2:])
+
+
 def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, hold) -> None:
     """A step with a double support: single support until T_s = step_time - double_support,
     the impact with both feet held (its pre-impact state in ``before_events``), both feet on
@@ -701,34 +765,11 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     target = complex(step_length, 0.0)
     add("landing", -np.array([abs(landing[0] - target)]), "m", where=f"t = {strike_time:.4g} s")
     add("impact pose", -np.abs(psi[j] - pre[:n]), "rad", where=f"t = {strike_time:.4g} s")
-    # Through the impact both feet stay: impulses L0 at H0 and LP at the foot, found from the
-    # momentum balances by least squares; a consistent impact leaves no residual.
-    dpsi_minus, dpsi_plus = pre[n:], dpsi[j]
-    _, v_minus, _ = kin.coms(psi[j : j + 1], dpsi_minus[None])
-    _, v_plus, _ = kin.coms(psi[j : j + 1], dpsi_plus[None])
-    starts, _, _ = kin.starts(psi[j : j + 1])
-    momentum = complex((v_plus[0] - v_minus[0]) @ kin.mass)
-    lever = complex(landing[0] - starts[0, 0])
-    rows = [[1.0, 0.0, 1.0, 0.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, -lever.imag, lever.real]]
-    right = [momentum.real, momentum.imag]
-    whole = kin.angular_momentum(psi[j], dpsi_plus, 0j, starts[0, 0], range(n)) - (
-        kin.angular_momentum(psi[j], dpsi_minus, 0j, starts[0, 0], range(n))
-    )
-    right.append(whole)
-    for c in range(1, n):
-        part = linkage.subtree(c)
-        about = complex(starts[0, c])
-        change = kin.angular_momentum(psi[j], dpsi_plus, 0j, about, part) - (
-            kin.angular_momentum(psi[j], dpsi_minus, 0j, about, part)
-        )
-        arm = complex(landing[0] - about) if foot_link in part else 0j
-        rows.append([0.0, 0.0, -arm.imag, arm.real])
-        right.append(change)
-    impulses, *_ = np.linalg.lstsq(np.array(rows), np.array(right), rcond=None)
-    residual = np.array(rows) @ impulses - np.array(right)
     scale = float(np.sum(kin.mass)) * linkage.links[0].length
+    residual, rear, front = _held_impact(
+        kin, psi[j], pre[n:], dpsi[j], complex(landing[0]), foot_link
+    )
     add("impact momentum", -np.abs(residual), "kg m^2/s", scale, where="heel strike")
-    rear, front = complex(*impulses[:2]), complex(*impulses[2:])
     add(
         "impulse cones",
         np.array(
@@ -761,6 +802,101 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     margins = np.full(times.size, np.inf)
     margins[single] = height - _clearance_profile(settings, s)
     add("clearance", margins, "m")
+
+
+def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, passive) -> None:
+    """A step on feet (``problems.walking.footed``): the stance foot flat and still until the
+    heel rises, the centre of pressure of the ground's torque on it on the sole
+    (``foot``: the root's torque M_0 and the ground's force at the ball, -sole Fy <= M_0 <=
+    0), its heel above the ground after and the ball a pivot that carries no torque (at most
+    ``passive`` of the torque scale, as a passive joint); the swing foot's heel and ball over the
+    clearance profile until the heel strikes at (step_length - sole, 0); the impact with the
+    stance ball held; the front heel held at rest and its force in the cone through the
+    double support, the front ball above the ground, the front foot flat and at rest at the
+    end; ankles in their range; the legs swap at the end (periodic angles and rates)."""
+    linkage = kin.linkage
+    n = linkage.n
+    mu = float(settings["mu"])
+    named = _named_contacts(kin, settings)
+    psi, dpsi, times = trajectory.psi, trajectory.dpsi, trajectory.time
+    events = settings.get("before_events") or []
+    if len(events) != 2:
+        raise DefinitionError(
+            "`settings`: a step on feet needs the states before its two events (heel rise and "
+            "heel strike: metadata['gait']['before_events'], written by Gait.to_trajectory), "
+            f"got {len(events)}"
+        )
+    rise, strike = float(events[0]["t"]), float(events[1]["t"])
+    pre = np.asarray(events[1]["x"], dtype=float)
+    stance, swing = _legs(linkage)
+    flat_stance, flat_swing = (float(v) for v in settings["flat_angles"])
+    root, foot = stance[0], swing[-1]
+    swap = swap_legs(linkage)
+    swapped, swapped_rates = swap.map_state(psi[-1], dpsi[-1])
+    add("periodic angles", -np.abs(_wrap(psi[0] - swapped)), "rad", where="t = 0 vs swap(T)")
+    add("periodic rates", -np.abs(dpsi[0] - swapped_rates), "rad/s", where="t = 0 vs swap(T)")
+    edge = 1e-9 * max(1.0, float(times[-1]))
+    flat = times <= rise + edge
+    add("stance foot flat", np.where(flat, -np.abs(_wrap(psi[:, root] - flat_stance)), np.inf),
+        "rad")  # fmt: skip
+    add("stance foot still", np.where(flat, -np.abs(dpsi[:, root]), np.inf), "rad/s")
+
+    def height(name, rows=slice(None)):
+        link, offset = named[name]
+        return kin.point(link, offset, psi[rows])[0].imag
+
+    add("stance heel up", np.where(~flat, height("stance_heel"), np.inf), "m")
+    reaction = kin.ground_reaction(psi, trajectory.dpsi, trajectory.ddpsi)
+    for _, _, force in _contacts(kin, settings, trajectory):
+        reaction = reaction - force
+    moment = trajectory.torques[:, root]
+    heel, toe = (float(v) for v in settings["foot"])
+    rows = np.column_stack([moment + heel * reaction.imag, toe * reaction.imag - moment])
+    add("centre of pressure", np.where(flat[:, None], rows, np.inf), "N m", weight * (heel + toe))
+    scale = _torque_scale(kin, settings)
+    add("ball passive", np.where(flat, np.inf, passive * scale - np.abs(moment)), "N m", scale)
+    single = times < strike - edge
+    fraction = np.clip(times / strike, 0.0, 1.0)
+    floor = _clearance_profile(settings, fraction, single=strike)
+    swing_feet = np.column_stack([height("swing_heel") - floor, height("swing_toe") - floor])
+    add("clearance", np.where(single[:, None], swing_feet, np.inf), "m")
+    # Heel strike, from the state just before it.
+    heel_link, heel_offset = named["swing_heel"]
+    landing, approach, _ = kin.point(heel_link, heel_offset, pre[None, :n], pre[None, n:])
+    speed = float(settings.get("touchdown_speed") or 0.0)
+    add("heel strike", np.array([-approach[0].imag - speed]), "m/s",
+        where=f"t = {strike:.4g} s (the heel coming down at {speed:g} m/s or faster)")  # fmt: skip
+    target = complex(float(settings["step_length"]) - float(settings["sole"]), 0.0)
+    add("landing", -np.array([abs(landing[0] - target)]), "m", where=f"t = {strike:.4g} s")
+    j = int(np.argmin(np.abs(times - strike)))  # the double support's first sample
+    add("impact pose", -np.abs(psi[j] - pre[:n]), "rad", where=f"t = {strike:.4g} s")
+    residual, rear, front = _held_impact(
+        kin, psi[j], pre[n:], dpsi[j], complex(landing[0]), heel_link
+    )
+    scale = float(np.sum(kin.mass)) * linkage.links[1].length
+    add("impact momentum", -np.abs(residual), "kg m^2/s", scale, where="heel strike")
+    heel_contact = Contact(LinkPoint(linkage.names[heel_link]), friction=mu)
+    add("impulse cones", np.array([heel_contact.cone_margin(front.real, front.imag),
+                                   heel_contact.cone_margin(rear.real, rear.imag)]),
+        "N s", float(np.sum(kin.mass)), where="heel strike (front heel, rear ball)")  # fmt: skip
+    double = times >= times[j]
+    held, moving, _ = kin.point(heel_link, heel_offset, psi[double], dpsi[double])
+    add("heel held", -np.abs(held - target), "m", hold, where="double support")
+    add("heel at rest", -np.abs(moving), "m/s", hold, where="double support")
+    add("front ball up", np.where(double, height("swing_toe"), np.inf), "m")
+    front_force = np.zeros(times.size, dtype=complex)
+    for _, _, force in _contacts(kin, settings, trajectory):
+        front_force += force
+    cone = heel_contact.cone_margin(front_force.real, front_force.imag)
+    add("front heel cone", np.where(double, cone, np.inf), "N", weight)
+    add("front foot flat", -np.array([abs(_wrap(psi[-1, foot] - flat_swing)),
+                                      abs(dpsi[-1, foot])]),
+        "rad(/s)", where=f"t = {times[-1]:.4g} s")  # fmt: skip
+    low, high = (float(v) for v in settings["ankle_range"])
+    neutral = [float(v) for v in settings["neutral_ankles"]]
+    ankles = np.column_stack([psi[:, stance[1]] - psi[:, root] - neutral[0],
+                              psi[:, swing[1]] - psi[:, foot] - neutral[1]])  # fmt: skip
+    add("ankles", np.minimum(ankles - low, high - ankles), "rad")
 
 
 __all__ = ["Check", "GaitReport", "GaitVerificationError", "verify_gait"]

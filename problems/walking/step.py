@@ -130,6 +130,19 @@ FOOT = (0.05 / 0.86, 0.15 / 0.86)
 DEFAULT = "default"
 
 
+def clearance_profile(s, T, height: float, touchdown_speed: float):
+    """The swing foot's least height at normalised times s = t / T of a single support of
+    T s (numpy or SX), m: h sin^2(pi s) + v_td (T - t) exp(-((T - t) / w)^4), w =
+    :data:`APPROACH_TIME` (see the module docstring)."""
+    if isinstance(s, ca.SX | ca.MX) or isinstance(T, ca.SX | ca.MX):
+        swing, fade = ca.sin(math.pi * s) ** 2, ca.exp(-(((1 - s) * T / APPROACH_TIME) ** 4))
+    else:
+        s = np.asarray(s, dtype=float)
+        swing = np.sin(np.pi * s) ** 2
+        fade = np.exp(-(((1 - s) * T / APPROACH_TIME) ** 4))
+    return height * swing + touchdown_speed * (1 - s) * T * fade
+
+
 @dataclass(frozen=True, eq=False)
 class WalkingStep(WalkerFeet):
     """A walking step as a problem: the :class:`planner.OCP` (``ocp``, a value the user can
@@ -219,13 +232,7 @@ class WalkingStep(WalkerFeet):
         if callable(self.clearance):
             return self.clearance(s)
         T = self.single_support_time if T is None else T
-        if isinstance(s, ca.SX | ca.MX):
-            swing, fade = ca.sin(math.pi * s) ** 2, ca.exp(-(((1 - s) * T / APPROACH_TIME) ** 4))
-        else:
-            s = np.asarray(s, dtype=float)
-            swing = np.sin(np.pi * s) ** 2
-            fade = np.exp(-(((1 - s) * T / APPROACH_TIME) ** 4))
-        return self.clearance * swing + self.touchdown_speed * (1 - s) * T * fade
+        return clearance_profile(s, T, self.clearance, self.touchdown_speed)
 
     def _transcription(self, problem: OCP | Phases | None):
         problem = self.problem if problem is None else problem

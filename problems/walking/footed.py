@@ -1,0 +1,655 @@
+"""A periodic walking step on feet: heel strike, flat foot, heel rise and toe-off.
+
+The walker's legs end in a foot link with two contacts, the heel and the ball of the foot
+(the *toe*): ``model.presets.anthropoid_with_feet`` and ``anthropoid_feet``, or any biped
+whose legs are three links (foot, shank, thigh) with such points. The tree is rooted at the
+stance foot's ball (H0), which stays on the ground through the whole step; the step is three
+contact phases (``planner.Phases``), the human cycle from the opposite toe-off to the next:
+
+1. ``flat`` (mid stance): the stance foot flat on heel and ball: its angle held (bounds:
+   psi, dpsi and ddpsi of the foot), the ground's torque on the foot about the ball M_0 a
+   control whose centre of pressure -M_0 / Fy stays on the sole between heel and ball
+   (-sole Fy <= M_0 <= 0); the swing foot in the air.
+2. ``heel rise`` (terminal stance): the stance foot pivots on its ball (M_0 = 0, the heel
+   above the ground); the swing foot swings on, over a clearance profile, and its heel lands
+   at the end: at (step_length - sole, 0), coming down at the touchdown speed or faster.
+3. heel strike: an inelastic impact at the landing heel with the stance ball held
+   (``Dynamics.impact(heel, root_pinned=True)``), both impulses in their friction cones.
+4. ``double`` (loading response and pre-swing): the stance ball pinned (M_0 = 0), the front
+   heel a contact whose ground force F is a control, held at rest by its acceleration; the
+   front foot rolls down onto its ball and arrives flat and at rest at the end (no second
+   impact: the ball sets down softly), while the rear foot unloads.
+5. toe-off: the rear ball leaves the ground and the legs swap (``model.swap_legs``,
+   re-rooted at the front ball): the periodicity, x_flat(0) = swap(x_double(T)).
+
+Every contact's ground force pushes and stays in its friction cone; every foot point not in
+contact stays above the ground; knees, ankles and the upper body keep their ranges; drives
+|M| <= torque_limit (the ground's torque M_0 on the root foot is no drive: it is bounded by
+the sole, not counted in the objective).
+
+Phase durations are free by default within bounds (fractions of the step time), their sum
+the step time (a step of ``step_length`` in ``step_time``, the speed the user asked for):
+two static parameters ``T_flat`` and ``T_heel`` carry the first two and every phase ties its
+duration to them. ``durations=(flat, heel rise, double)`` in s fixes them.
+
+The guess is the gait law (22) fitted to a point-foot step of the same length and the
+single support's duration for the shared links (``Biped.step_law`` of the linkage without
+its feet), the feet held flat; the double support holds the strike pose, the feet sharing
+the weight. The law's cost on the same problem (its torques by inverse dynamics) is the
+benchmark, as for the point-foot step.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from functools import cached_property
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from model.contact import Contact
+from model.dynamics import Dynamics
+from model.linkage import Linkage
+from model.points import LinkPoint
+from model.presets import anthropoid_feet, anthropoid_with_feet
+from planner.errors import DefinitionError, check_positive, check_real
+from planner.problem import OCP, Phases
+from planner.transcription import Transcription
+from problems.gait.biped import Biped
+from problems.gait.law import GaitLaw
+from problems.gait.problem import (
+    RATE_HZ,
+    Gait,
+    joint_rates,
+    keep_upright,
+    objective_at_guess,
+    solve_and_hold,
+)
+from problems.walking.step import (
+    APPROACH_TIME,
+    CLEARANCE_SCALE,
+    GUESS_LIFT,
+    SPEED_SCALE,
+    TOUCHDOWN_SPEED,
+    UNLOADED,
+    clearance_profile,
+)
+
+#: Rows that boundary conditions fix at the phases' ends (the swing ball leaves the ground
+#: at 0, the swing heel lands on it, the stance heel lifts off it, the front ball sets down
+#: on it): :func:`planner.hold_at_samples` does not back them off there.
+PINNED = ("clearance", "stance heel up", "feet above", "rear unloads", "friction")
+#: The phases of a step, in order.
+PHASES = ("flat", "heel rise", "double")
+#: Default shares of the step time (the guess, and the middle of the bounds): the human
+#: cycle (Perry's phases: opposite toe-off at 12 % of the stride, heel rise at 31 %, heel
+#: strike at 50 %, toe-off at 62 %) as shares of one step, half a stride.
+SHARES = (0.38, 0.38, 0.24)
+#: Each phase's duration bounds, as shares of the step time.
+SHARE_BOUNDS = ((0.10, 0.70), (0.10, 0.70), (0.06, 0.40))
+#: Ankle range, rad, from the neutral stance (shank perpendicular to the sole): dorsiflexion
+#: to -20 degrees, plantarflexion to +50 degrees (the American Academy of Orthopaedic
+#: Surgeons' average ranges of motion).
+ANKLE_RANGE = (-math.radians(20.0), math.radians(50.0))
+#: The default points of the feet: (stance heel, stance toe, swing heel, swing toe).
+FOOT_POINTS = ("stance_heel", "stance_toe", "swing_heel", "swing_toe")
+
+
+@dataclass(frozen=True, eq=False)
+class FootedStep:
+    """A walking step on feet as a problem (see the module): ``phases`` (a
+    :class:`planner.Phases` the user may change) and :meth:`solve`.
+
+    Attributes
+    ----------
+    linkage, dynamics, biped : the walker (three-link legs: foot, shank, thigh).
+    points : the four foot contacts by role (:data:`FOOT_POINTS`), ``model.LinkPoint``.
+    step_length : from one ball of the foot to the next on the ground, m.
+    step_time : s. ``mu``: the ground's friction coefficient.
+    law : the guess (a :class:`problems.gait.law.GaitLaw` of every link, on the single
+        support's time).
+    durations : (flat, heel rise, double) s when fixed, else None (free).
+    """
+
+    linkage: Linkage
+    dynamics: Dynamics
+    biped: Biped
+    points: Mapping[str, LinkPoint]
+    step_length: float
+    step_time: float
+    mu: float
+    torque_limit: float
+    clearance: float
+    touchdown_speed: float
+    knee_range: tuple[float, float]
+    ankle_range: tuple[float, float]
+    posture: float
+    law: GaitLaw
+    durations: tuple[float, float, float] | None
+    mesh: tuple[int, int, int]
+    phases: Phases | None = None
+
+    # ---- geometry ----------------------------------------------------------------------
+    def _offset(self, role: str) -> complex:
+        return self.points[role].offset(self.linkage)
+
+    @cached_property
+    def sole(self) -> float:
+        """Heel to ball, m (the stance foot's points)."""
+        return abs(self._offset("stance_heel") - self._offset("stance_toe"))
+
+    @cached_property
+    def flat_angles(self) -> tuple[float, float]:
+        """(stance foot, swing foot) link angles with the sole flat, heel behind, rad."""
+        stance = self._offset("stance_toe") - self._offset("stance_heel")  # heel -> ball
+        swing = self._offset("swing_toe") - self._offset("swing_heel")
+        return -math.atan2(stance.imag, stance.real), -math.atan2(swing.imag, swing.real)
+
+    @cached_property
+    def neutral_ankles(self) -> tuple[float, float]:
+        """(stance, swing) psi_shank - psi_foot with the shank perpendicular to the flat
+        sole (the neutral ankle), rad."""
+        flat_stance, flat_swing = self.flat_angles
+        return math.pi / 2 - flat_stance, -math.pi / 2 - flat_swing
+
+    @property
+    def speed(self) -> float:
+        return self.step_length / self.step_time
+
+    @cached_property
+    def contacts(self) -> dict[str, Contact]:
+        """Each foot point as a ``model.Contact`` with the ground's friction, by role."""
+        return {role: Contact(point, self.mu, name=role) for role, point in self.points.items()}
+
+    def point(self, role: str):
+        """The ``model.PointKinematics`` of a foot point."""
+        return self.dynamics.point(self.points[role])
+
+    @cached_property
+    def strike(self):
+        """The heel strike (``model.ImpactMap``): the swing heel lands, the stance ball held."""
+        return self.dynamics.impact(self.point("swing_heel"), root_pinned=True)
+
+    @cached_property
+    def strike_map(self) -> ca.Function:
+        """x before -> x after the heel strike (same angles, the impact's rates)."""
+        n = self.linkage.n
+        x = ca.SX.sym("x", 2 * n)
+        dpsi_plus, _, _ = self.strike.function().call([x[:n], x[n:]])
+        return ca.Function("strike", [x], [ca.vertcat(x[:n], dpsi_plus)], ["x"], ["x_plus"])
+
+    @property
+    def weight(self) -> float:
+        return self.biped.total_mass * self.linkage.gravity
+
+    @property
+    def drives(self) -> tuple[str, ...]:
+        """The links whose hinge has a drive: all but the root (the ground's torque on the
+        stance foot is a contact's, not a motor's)."""
+        return self.linkage.names[1:]
+
+    # ---- solving -------------------------------------------------------------------------
+    def solve(
+        self, *, rate_hz: float | None = RATE_HZ, hold_limits: bool = True, **options
+    ) -> FootedGait:
+        """Solve with IPOPT (``options`` go to :func:`planner.solve`; raises
+        :class:`planner.SolverError` on failure unless ``raise_on_failure=False``), the limits
+        held on the exported motion at ``rate_hz`` as :meth:`WalkingStep.solve` does
+        (``hold_limits``); the law's cost on the same mesh is measured too."""
+        transcription = Transcription(self.phases)
+        law_cost = objective_at_guess(transcription)
+        options.setdefault("progress", False)
+        solution = solve_and_hold(transcription, options, hold_limits, rate_hz, PINNED)
+        return FootedGait(self, solution, law_cost)
+
+    def settings(self, times=None) -> dict[str, Any]:
+        """The step's parameters as plain data, exported with the gait's files and read by
+        :func:`problems.verify_gait` (``times`` is accepted for the interface of
+        :meth:`Gait.to_trajectory`). ``foot``: the root's sole, (sole, 0) m behind and ahead
+        of the ball, where the ground's torque on the flat foot puts its pressure; ``drives``:
+        the hinges with a motor (the root's torque M_<stance foot> is the ground's);
+        ``contacts``: every foot point as [link, along, lateral]."""
+        upper = list(self.biped.upper_body)
+        names = self.linkage.names
+        return {
+            "problem": "footed_step",
+            "step_length": self.step_length,
+            "step_time": self.step_time,
+            "durations": None if self.durations is None else list(self.durations),
+            "mu": self.mu,
+            "clearance": self.clearance,
+            "touchdown_speed": self.touchdown_speed,
+            "approach_time": APPROACH_TIME,
+            "torque_limit": {name: self.torque_limit for name in self.drives},
+            "drives": list(self.drives),
+            "knee_range": list(self.knee_range),
+            "ankle_range": list(self.ankle_range),
+            "neutral_ankles": list(self.neutral_ankles),
+            "flat_angles": list(self.flat_angles),
+            "posture": self.posture,
+            "upright": upper,
+            "foot": [self.sole, 0.0],
+            "sole": self.sole,
+            "contacts": {role: [p.link, p.along, p.lateral] for role, p in self.points.items()},
+            # every hinge but the feet's points (the feet have their own checks)
+            "ground_points": [name for name in names if name != self.biped.swing_leg[-1]],
+            "ground_margin": 0.0,
+            "swing_foot": self.biped.swing_leg[-1],
+            "mesh": list(self.mesh),
+            "law": self.law.to_dict(),
+        }
+
+
+def footed_step(
+    linkage: Linkage | None = None,
+    step_length: float = 0.5,
+    step_time: float = 0.5,
+    *,
+    points: Mapping[str, LinkPoint] | None = None,
+    N: tuple[int, int, int] = (10, 10, 8),
+    transcription: str = "hermite-simpson",
+    mu: float = 0.8,
+    torque_limit: float = 150.0,
+    clearance: float = 0.05,
+    touchdown_speed: float | None = None,
+    knee_range: tuple[float, float] = (0.0, 2.5),
+    ankle_range: tuple[float, float] = ANKLE_RANGE,
+    posture: float = 0.2,
+    durations: tuple[float, float, float] | None = None,
+) -> FootedStep:
+    """A periodic walking step on feet (see the module docstring).
+
+    Parameters
+    ----------
+    linkage : a biped whose legs are (foot, shank, thigh); default
+        ``model.presets.anthropoid_with_feet()`` (the six-link scene on Winter's feet).
+    step_length : from one ball of the foot to the next, m (> 0).
+    step_time : s (> 0).
+    points : the feet's contacts by role (``stance_heel``, ``stance_toe`` = H0, ``swing_heel``,
+        ``swing_toe`` = the swing foot's end); default ``model.presets.anthropoid_feet()``.
+    N : intervals of the three phases (flat, heel rise, double).
+    mu, torque_limit, clearance, touchdown_speed, knee_range, posture : as for
+        :func:`problems.walking_step` (touchdown speed default 0.3 m/s per 0.86 m of leg).
+    ankle_range : (dorsiflexion, plantarflexion) limits from the neutral stance, rad.
+    durations : (flat, heel rise, double) s, summing to step_time, to fix them; None: free
+        within :data:`SHARE_BOUNDS` of the step time.
+    """
+    linkage = anthropoid_with_feet() if linkage is None else linkage
+    biped = Biped.of(linkage)
+    if len(biped.stance_leg) != 3:
+        raise DefinitionError(
+            f"`linkage`: a step on feet needs legs of three links (foot, shank, thigh); this "
+            f"biped's legs have {len(biped.stance_leg)} ({', '.join(biped.stance_leg)})"
+        )
+    points = dict(anthropoid_feet() if points is None else points)
+    missing = [role for role in FOOT_POINTS if role not in points]
+    if missing:
+        raise DefinitionError(f"`points`: give every foot contact {list(FOOT_POINTS)}; missing "
+                              f"{missing}")  # fmt: skip
+    step_length = check_positive("step_length", step_length, "m")
+    step_time = check_positive("step_time", step_time, "s")
+    mu = check_positive("mu", mu, "(friction coefficient)")
+    torque_limit = check_positive("torque_limit", torque_limit, "N m")
+    clearance = check_real("clearance", clearance)
+    if clearance < 0:
+        raise DefinitionError(f"`clearance`: must be >= 0 m, got {clearance!r}")
+    leg = math.fsum(biped.length(name) for name in biped.stance_leg[1:])
+    if touchdown_speed is None:
+        touchdown_speed = TOUCHDOWN_SPEED * leg
+    touchdown_speed = check_real("touchdown_speed", touchdown_speed)
+    if durations is not None:
+        durations = tuple(check_positive(f"durations[{k}]", d, "s")
+                          for k, d in enumerate(durations))  # fmt: skip
+        if len(durations) != 3 or not math.isclose(sum(durations), step_time, rel_tol=1e-9):
+            raise DefinitionError(
+                f"`durations`: (flat, heel rise, double) s summing to step_time = "
+                f"{step_time:g} s, got {durations!r}"
+            )
+    mesh = tuple(int(n) for n in N)
+    if len(mesh) != 3 or min(mesh) < 2:
+        raise DefinitionError(f"`N`: three interval counts >= 2 (flat, heel rise, double), "
+                              f"got {N!r}")  # fmt: skip
+    step = FootedStep(
+        linkage=linkage,
+        dynamics=Dynamics(linkage),
+        biped=biped,
+        points=points,
+        step_length=step_length,
+        step_time=step_time,
+        mu=mu,
+        torque_limit=torque_limit,
+        clearance=clearance,
+        touchdown_speed=touchdown_speed,
+        knee_range=(float(knee_range[0]), float(knee_range[1])),
+        ankle_range=(float(ankle_range[0]), float(ankle_range[1])),
+        posture=check_positive("posture", posture, "rad"),
+        law=GaitLaw(1.0, np.zeros(1), np.zeros(1), np.zeros(1)),  # replaced below
+        durations=durations,
+        mesh=mesh,
+    )
+    step = replace(step, law=_law(step))
+    return replace(step, phases=_phases(step, transcription))
+
+
+# ---- the guess ---------------------------------------------------------------------------------
+def _single_support_guess(step: FootedStep) -> float:
+    durations = step.durations or tuple(share * step.step_time for share in SHARES)
+    return durations[0] + durations[1]
+
+
+def _law(step: FootedStep) -> GaitLaw:
+    """The law (22) of the point-foot biped without the feet, fitted to a step of the same
+    length over the single support, with the feet's angles held flat (zeta = 0)."""
+    linkage = step.linkage
+    stance_foot, swing_foot = step.biped.stance_leg[0], step.biped.swing_leg[-1]
+    legs = linkage.drop(swing_foot)
+    # The point-foot biped: the stance shank on the ground (its foot welded flat).
+    welded = legs.lock(stance_foot, step.flat_angles[0])
+    # ... standing at H0: the law's postures put the stance foot at the origin
+    point_foot = Linkage([replace(welded.links[0], origin=None), *welded.links[1:]],
+                         gravity=welded.gravity)  # fmt: skip
+    leg = math.fsum(step.biped.length(name) for name in step.biped.stance_leg[1:])
+    lift = GUESS_LIFT * leg
+    law = Biped.of(point_foot).step_law(
+        step.step_length, _single_support_guess(step), clearance=max(step.clearance, lift) + lift
+    )
+    names = point_foot.names
+    zeta, varpi, center = (np.zeros(linkage.n) for _ in range(3))
+    swing_shank = names.index(step.biped.swing_leg[1])
+    for i, name in enumerate(linkage.names):
+        # the swing foot moves with its shank (the ankle neutral), the stance foot lies flat
+        k = names.index(name) if name in names else swing_shank
+        zeta[i], varpi[i], center[i] = law.zeta[k], law.varpi[k], law.center[k]
+        if name == stance_foot:
+            zeta[i], center[i] = 0.0, step.flat_angles[0]
+        elif name == swing_foot:
+            center[i] -= step.neutral_ankles[1]
+    return GaitLaw(law.period, zeta, varpi, center, name="footed step")
+
+
+# ---- the phases -------------------------------------------------------------------------------
+def _phases(step: FootedStep, transcription: str) -> Phases:
+    flat, heel, double = (
+        _flat_ocp(step, transcription),
+        _heel_rise_ocp(step, transcription),
+        _double_ocp(step, transcription),
+    )
+    phases = (
+        Phases.sequence(("flat", flat))
+        .then("heel rise", heel)
+        .then("double", double, mapping=step.strike_map)
+        .periodic(step.biped.swap.state_function())
+    )
+    return phases
+
+
+def _duration_bounds(step: FootedStep) -> list[tuple[float, float]]:
+    T = step.step_time
+    if step.durations is None:
+        return [(lo * T, hi * T) for lo, hi in SHARE_BOUNDS]
+    # fixed: a band of round-off around each (a free duration needs lower < upper)
+    return [(d * (1 - 1e-12), d * (1 + 1e-12)) for d in step.durations]
+
+
+def _base_ocp(step: FootedStep, phase: int, transcription: str, contacts=()):
+    """(a phase's OCP, its duration row): free duration tied to the step's parameters
+    T_flat and T_heel (static, shared by the phases: the double support takes the rest of
+    the step time), drives bounded, knees, ankles and posture in range, the objective and
+    scales."""
+    T = step.step_time
+    guesses = step.durations or tuple(share * T for share in SHARES)
+    bounds = _duration_bounds(step)
+    ocp = OCP(step.dynamics, T=bounds[phase], N=step.mesh[phase], transcription=transcription,
+              contacts=contacts).guess(T=guesses[phase])  # fmt: skip
+    ocp = ocp.param("T_flat", *bounds[0], guess=guesses[0], scale=T)
+    ocp = ocp.param("T_heel", *bounds[1], guess=guesses[1], scale=T)
+    for name in step.drives:
+        ocp = ocp.bound(f"M_{name}", -step.torque_limit, step.torque_limit)
+    biped = step.biped
+    stance_foot, stance_shank, stance_thigh = biped.stance_leg
+    swing_thigh, swing_shank, swing_foot = biped.swing_leg
+
+    def knees(p):
+        return ca.vertcat(p[f"psi_{stance_thigh}"] - p[f"psi_{stance_shank}"],
+                          p[f"psi_{swing_thigh}"] - p[f"psi_{swing_shank}"])  # fmt: skip
+
+    neutral_stance, neutral_swing = step.neutral_ankles
+
+    def ankles(p):
+        """Plantarflexion from the neutral stance, rad (> 0: the toes down)."""
+        return ca.vertcat(
+            p[f"psi_{stance_shank}"] - p[f"psi_{stance_foot}"] - neutral_stance,
+            p[f"psi_{swing_shank}"] - p[f"psi_{swing_foot}"] - neutral_swing,
+        )
+
+    def duration(p):
+        if phase == 0:
+            return p.T - p["T_flat"]
+        if phase == 1:
+            return p.T - p["T_heel"]
+        return p.T + p["T_flat"] + p["T_heel"] - step.step_time
+
+    ocp = ocp.constrain(
+        "knees", knees, lower=step.knee_range[0], upper=step.knee_range[1]
+    ).constrain("ankles", ankles, lower=step.ankle_range[0], upper=step.ankle_range[1])
+    ocp = keep_upright(ocp, biped.upper_body, step.posture)
+    limit = step.torque_limit
+    drives = [step.linkage.index(name) for name in step.drives]
+    ocp = ocp.minimize(integral=lambda p: ca.sumsqr(p.M[drives])).scale(
+        dpsi=3.0, M=limit / 3.0, ddpsi=30.0
+    )
+    return ocp, duration
+
+
+#: The guess's stance ankle bends at most this far (dorsiflexion, rad) before the heel rises
+#: with the shank.
+GUESS_DORSIFLEXION = math.radians(10.0)
+
+
+def _guess_law(step: FootedStep, offset: float, heel_rises: bool = False):
+    """The law from ``offset`` s on; with ``heel_rises`` the stance foot turns with its shank
+    (the heel up) once the ankle has bent by :data:`GUESS_DORSIFLEXION`."""
+    law = step.law
+    foot, shank = (step.linkage.index(name) for name in step.biped.stance_leg[:2])
+    flat, neutral = step.flat_angles[0], step.neutral_ankles[0]
+
+    def guess(t):
+        psi, dpsi, ddpsi = law.psi(t + offset), law.dpsi(t + offset), law.ddpsi(t + offset)
+        if heel_rises:
+            turned = psi[:, shank] - neutral + GUESS_DORSIFLEXION
+            rising = turned < flat
+            psi[:, foot] = np.where(rising, turned, flat)
+            dpsi[:, foot] = np.where(rising, dpsi[:, shank], 0.0)
+            ddpsi[:, foot] = np.where(rising, ddpsi[:, shank], 0.0)
+        return psi, dpsi, ddpsi
+
+    return guess
+
+
+def _heights(step: FootedStep, roles) -> ca.Function:
+    psi = ca.SX.sym("psi", step.linkage.n)
+    heights = [step.point(role).function("position")(psi)[1] for role in roles]
+    return ca.Function("heights", [psi], [ca.vertcat(*heights)], ["psi"], ["y"])
+
+
+def _stance_cone(step: FootedStep):
+    reaction = step.dynamics.function("ground_reaction")
+    toe = step.contacts["stance_toe"]
+    return reaction, lambda p: toe.cone(*reaction(p.psi, p.dpsi, p.ddpsi))
+
+
+def _swing_clearance(step: FootedStep, p, offset):
+    """Swing heel and ball above the clearance profile of the single support."""
+    single = p["T_flat"] + p["T_heel"]
+    s = (p.t + offset) / single
+    floor = clearance_profile(s, single, step.clearance, step.touchdown_speed)
+    heights = _heights(step, ("swing_heel", "swing_toe"))(p.psi)
+    return heights - ca.vertcat(floor, floor)
+
+
+def _flat_ocp(step: FootedStep, transcription: str) -> OCP:
+    ocp, duration = _base_ocp(step, 0, transcription)
+    root = step.biped.stance_leg[0]
+    flat = step.flat_angles[0]
+    # The foot welded to the ground: no angular acceleration at any point, flat and at rest
+    # at the start (the collocation then keeps it there exactly). Bounding its angle and
+    # rate at every point as well would leave the defect rows of those two states without
+    # a free variable (empty rows: a degenerate NLP), and the periodicity already brings
+    # the front foot of the step before flat and at rest.
+    ocp = ocp.bound(f"ddpsi_{root}", 0.0, 0.0)
+    ocp = ocp.boundary("foot flat", lambda p: ca.vertcat(p[f"psi_{root}"] - flat,
+                                                         p[f"dpsi_{root}"]),
+                       at="start", lower=0.0, upper=0.0)  # fmt: skip
+    reaction, cone = _stance_cone(step)
+    sole = step.sole
+
+    def pressure(p):
+        """-sole Fy <= M_0 <= 0: the centre of pressure between heel and ball."""
+        _, fy = reaction(p.psi, p.dpsi, p.ddpsi)
+        moment = p[f"M_{root}"]
+        return ca.vertcat(-moment, moment + sole * fy)
+
+    scale = max(step.clearance, CLEARANCE_SCALE * step.biped.leg_length)
+    ocp = (
+        ocp.constrain("friction", cone, lower=0.0, scale=step.weight)
+        .constrain("centre of pressure", pressure, lower=0.0, scale=step.weight * sole)
+        .constrain("clearance", lambda p: _swing_clearance(step, p, 0.0), lower=0.0, scale=scale)
+        .boundary("duration", duration, at="start", lower=0.0, upper=0.0, scale=step.step_time)
+    )
+    return ocp.guess(_guess_law(step, 0.0))
+
+
+def _heel_rise_ocp(step: FootedStep, transcription: str) -> OCP:
+    ocp, duration = _base_ocp(step, 1, transcription)
+    root = step.biped.stance_leg[0]
+    ocp = ocp.bound(f"M_{root}", 0.0, 0.0)
+    _, cone = _stance_cone(step)
+    heel_height = _heights(step, ("stance_heel",))
+    heel = step.point("swing_heel")
+    position, velocity = heel.function("position"), heel.function("velocity")
+    n = step.linkage.n
+    speed = max(step.step_length, SPEED_SCALE * step.biped.leg_length) / step.step_time
+    landing = step.step_length - step.sole
+    impact = step.strike.function()
+    momentum = step.dynamics.floating.function("linear_momentum")
+    front, rear = step.contacts["swing_heel"], step.contacts["stance_toe"]
+
+    def impulses(p):
+        dpsi_plus, impulse, _ = impact(p.x[:n], p.x[n:])
+        before = ca.vertcat(*momentum(p.x[:n], ca.vertcat(0, 0, p.x[n:])))
+        after = ca.vertcat(*momentum(p.x[:n], ca.vertcat(0, 0, dpsi_plus)))
+        behind = after - before - impulse  # what the held ball's impulse must be
+        return ca.vertcat(front.cone(impulse[0], impulse[1]), rear.cone(behind[0], behind[1]))
+
+    scale = max(step.clearance, CLEARANCE_SCALE * step.biped.leg_length)
+    ocp = (
+        ocp.constrain("friction", cone, lower=0.0, scale=step.weight)
+        .constrain("stance heel up", lambda p: heel_height(p.psi), lower=0.0, scale=scale)
+        .constrain(
+            "clearance", lambda p: _swing_clearance(step, p, p["T_flat"]), lower=0.0, scale=scale
+        )
+        .boundary("duration", duration, at="start", lower=0.0, upper=0.0, scale=step.step_time)
+        .boundary("landing", lambda p: ca.vertcat(*position(p.x[:n])), at="end",
+                  lower=[landing, 0.0], upper=[landing, 0.0], scale=step.step_length)
+        .boundary("heel strike", lambda p: velocity(p.x[:n], p.x[n:])[1], at="end",
+                  upper=-step.touchdown_speed, scale=speed)
+        .boundary("impulse", impulses, at="end", lower=0.0, scale=step.biped.total_mass * speed)
+    )  # fmt: skip
+    return ocp.guess(_guess_law(step, _guess_offset(step), heel_rises=True))
+
+
+def _guess_offset(step: FootedStep) -> float:
+    return (step.durations or tuple(share * step.step_time for share in SHARES))[0]
+
+
+def _double_ocp(step: FootedStep, transcription: str) -> OCP:
+    front = step.contacts["swing_heel"]
+    ocp, duration = _base_ocp(step, 2, transcription, contacts=(front,))
+    root = step.biped.stance_leg[0]
+    ocp = ocp.bound(f"M_{root}", 0.0, 0.0)
+    reaction = step.dynamics.function("ground_reaction")
+    acceleration = step.point("swing_heel").function("acceleration")
+    rear = step.contacts["stance_toe"]
+    weight = step.weight
+    heights = _heights(step, ("stance_heel", "swing_toe"))
+
+    def rear_force(p):
+        fx, fy = reaction(p.psi, p.dpsi, p.ddpsi)
+        return fx - p.F[0], fy - p.F[1]
+
+    def cones(p):
+        return ca.vertcat(rear.cone(*rear_force(p)), front.cone(p.F[0], p.F[1]))
+
+    scale = max(step.clearance, CLEARANCE_SCALE * step.biped.leg_length)
+    ocp = (
+        ocp.constrain("heel held", lambda p: ca.vertcat(*acceleration(p.psi, p.dpsi, p.ddpsi)),
+                      lower=0.0, upper=0.0, scale=step.linkage.gravity)
+        .constrain("friction", cones, lower=0.0, scale=weight)
+        .constrain("rear unloads",
+                   lambda p: rear_force(p)[1] - weight * (2.0 - (2.0 - UNLOADED) * p.t / p.T),
+                   upper=0.0, scale=weight)
+        .constrain("feet above", lambda p: heights(p.psi), lower=0.0, scale=scale)
+        .boundary("duration", duration, at="start", lower=0.0, upper=0.0, scale=step.step_time)
+        .scale(F=weight / 2)
+    )  # fmt: skip
+    strike = step.law.psi(np.array([_single_support_guess(step)]))[0]
+    return ocp.guess(psi=strike, dpsi=0.0, ddpsi=0.0, F=[0.0, weight / 2])
+
+
+# ---- the solved step ---------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class FootedGait(Gait):
+    """A solved step on feet: :class:`problems.gait.problem.Gait` (cost, law_cost,
+    positive_work, summary, to_trajectory) and what the feet change: the vertical ground
+    reaction over the step, the centre of pressure, the ankles' power."""
+
+    @property
+    def speed(self) -> float:
+        return self.problem.speed
+
+    @property
+    def cost_of_transport(self) -> float:
+        """Positive work per weight and distance: W+ / (m g s)."""
+        return self.positive_work / (self.problem.weight * self.problem.step_length)
+
+    def _sampled(self, count: int):
+        """Per phase: (times on the common axis (K,), psi, dpsi, ddpsi (K, n), controls (K, nu))
+        of the consistent motion (``Solution.motion``) on a uniform grid."""
+        n = self.problem.linkage.n
+        for solution, start in self.segments():
+            grid = np.linspace(0.0, solution.T, max(2, round(count * solution.T / self.duration)))
+            x, xdot, u = solution.motion(grid)
+            yield start + grid, x[:, :n], x[:, n:], xdot[:, n:], u
+
+    def ground_reaction(self, count: int = 401) -> dict[str, np.ndarray]:
+        """On a uniform grid over each phase: ``time`` (K,) s, ``rear`` and ``front`` (K,)
+        complex Fx + j Fy, N: the stance foot's (the root's) and the front heel's (zero but in
+        the double support)."""
+        step = self.problem
+        n = step.linkage.n
+        times, rear, front = [], [], []
+        for t, psi, dpsi, ddpsi, u in self._sampled(count):
+            total = step.dynamics.ground_reaction(psi, dpsi, ddpsi)
+            force = u[:, n] + 1j * u[:, n + 1] if u.shape[1] > n else np.zeros(t.size, complex)
+            times.append(t)
+            rear.append(total - force)
+            front.append(force)
+        return {"time": np.concatenate(times), "rear": np.concatenate(rear),
+                "front": np.concatenate(front)}  # fmt: skip
+
+    def ankle_power(self, count: int = 401) -> tuple[np.ndarray, np.ndarray]:
+        """(time (K,) s, the stance ankle's power M_ankle (dpsi_shank - dpsi_foot) (K,) W)."""
+        step = self.problem
+        ankle = step.linkage.index(step.biped.stance_leg[1])
+        times, power = [], []
+        for t, _, dpsi, _, u in self._sampled(count):
+            rates = joint_rates(step.linkage, dpsi)
+            times.append(t)
+            power.append(u[:, ankle] * rates[:, ankle])
+        return np.concatenate(times), np.concatenate(power)
+
+    def durations(self) -> tuple[float, ...]:
+        return tuple(float(solution.T) for solution, _ in self.segments())
