@@ -883,7 +883,11 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
     held, moving, _ = kin.point(heel_link, heel_offset, psi[double], dpsi[double])
     add("heel held", -np.abs(held - target), "m", hold, where="double support")
     add("heel at rest", -np.abs(moving), "m/s", hold, where="double support")
-    add("front ball up", np.where(double, height("swing_toe"), np.inf), "m")
+    # The ball above the ground, up to the held heel's own drift (checked above with the
+    # hold tolerance): the foot turning down about its heel lays the ball on the ground
+    # where the heel is.
+    ball = height("swing_toe") - np.minimum(height("swing_heel"), 0.0)
+    add("front ball up", np.where(double, ball, np.inf), "m")
     front_force = np.zeros(times.size, dtype=complex)
     for _, _, force in _contacts(kin, settings, trajectory):
         front_force += force

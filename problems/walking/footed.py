@@ -249,7 +249,7 @@ def footed_step(
     step_time: float = 0.5,
     *,
     points: Mapping[str, LinkPoint] | None = None,
-    N: tuple[int, int, int] = (10, 10, 8),
+    N: tuple[int, int, int] = (10, 16, 18),
     transcription: str = "hermite-simpson",
     mu: float = 0.8,
     torque_limit: float = 150.0,
@@ -574,7 +574,7 @@ def _double_ocp(step: FootedStep, transcription: str) -> OCP:
     acceleration = step.point("swing_heel").function("acceleration")
     rear = step.contacts["stance_toe"]
     weight = step.weight
-    heights = _heights(step, ("stance_heel", "swing_toe"))
+    heel_height = _heights(step, ("stance_heel",))
 
     def rear_force(p):
         fx, fy = reaction(p.psi, p.dpsi, p.ddpsi)
@@ -591,10 +591,16 @@ def _double_ocp(step: FootedStep, transcription: str) -> OCP:
         .constrain("rear unloads",
                    lambda p: rear_force(p)[1] - weight * (2.0 - (2.0 - UNLOADED) * p.t / p.T),
                    upper=0.0, scale=weight)
-        .constrain("feet above", lambda p: heights(p.psi), lower=0.0, scale=scale)
         .boundary("duration", duration, at="start", lower=0.0, upper=0.0, scale=step.step_time)
+        .constrain("stance heel up", lambda p: heel_height(p.psi), lower=0.0, scale=scale)
         .scale(F=weight / 2)
     )  # fmt: skip
+    # The front ball above the ground while the foot turns down about its held heel: the
+    # foot at or above its flat angle, a bound (a row of the ball's height would be active
+    # and implied at the end, where the periodicity lays the foot flat: a degenerate row
+    # that cost IPOPT hundreds of iterations in the re-solves).
+    swing_foot = step.biped.swing_leg[-1]
+    ocp = ocp.bound(f"psi_{swing_foot}", step.flat_angles[1], None)
     strike = step.law.psi(np.array([_single_support_guess(step)]))[0]
     return ocp.guess(psi=strike, dpsi=0.0, ddpsi=0.0, F=[0.0, weight / 2])
 
@@ -650,6 +656,34 @@ class FootedGait(Gait):
             times.append(t)
             power.append(u[:, ankle] * rates[:, ankle])
         return np.concatenate(times), np.concatenate(power)
+
+    def stance(self, count: int = 801) -> dict[str, np.ndarray]:
+        """One leg through its stance, from its heel strike to its toe-off (the front foot
+        of the double support, then the stance foot of the next step: the gait is periodic,
+        so the front foot's double support is this step's, shifted): ``time`` (K,) s from
+        heel strike, ``force`` (K,) complex, N, the ground's force on that foot,
+        ``ankle_power`` (K,) W, the ankle drive's power M (dpsi_shank - dpsi_foot)."""
+        step = self.problem
+        linkage = step.linkage
+        # joint_rates: each hinge's rate relative to its parent, so the stance shank's is the
+        # stance ankle's and the swing foot's the swing ankle's
+        stance_shank = linkage.index(step.biped.stance_leg[1])
+        swing_foot = linkage.index(step.biped.swing_leg[-1])
+        times, force, power = [], [], []
+        for (t, psi, dpsi, ddpsi, u), name in zip(self._sampled(count), PHASES, strict=True):
+            total = step.dynamics.ground_reaction(psi, dpsi, ddpsi)
+            front = u[:, linkage.n] + 1j * u[:, linkage.n + 1] if name == "double" else 0.0
+            rates = joint_rates(linkage, dpsi)
+            if name == "double":  # as the front foot, before this leg's stance
+                times.insert(0, t - self.duration)
+                force.insert(0, np.asarray(front))
+                power.insert(0, u[:, swing_foot] * rates[:, swing_foot])
+            times.append(t)
+            force.append(total - front)
+            power.append(u[:, stance_shank] * rates[:, stance_shank])
+        start = times[0][0]
+        return {"time": np.concatenate(times) - start, "force": np.concatenate(force),
+                "ankle_power": np.concatenate(power)}  # fmt: skip
 
     def durations(self) -> tuple[float, ...]:
         return tuple(float(solution.T) for solution, _ in self.segments())

@@ -1,0 +1,161 @@
+"""What feet change: the walking step on feet against the point-foot step, at three speeds.
+
+    python examples/benchmarks/feet_compare.py           # 0.6, 1.0, 1.4 m/s
+    python examples/benchmarks/feet_compare.py --quick   # 1.0 m/s only
+
+The same body (the six-link scene; with feet, Winter's feet added: +2.0 kg) at the same
+speeds: step length 0.5 (v / 1 m/s)^(1/2) m and step time length / v (both grow with
+speed, as in human walking), the same ground (mu 0.8), drives |M| <= 150 N m, the same
+objective (the integral of the drives' sum M^2; seven drives with feet, both ankles, against
+six), each plan verified at every sample of its 1 kHz file (``verify_gait``).
+
+* **point foot**: ``walking_step(L, T)``: single support on a pinned foot whose ankle torque
+  keeps its centre of pressure on a 0.20 m sole (the foot stays flat: no heel rise), heel
+  strike and leg swap in one instant;
+* **feet**: ``footed_step(L, T)`` (``problems.walking.footed``): flat foot, heel rise on the
+  ball, heel strike, a double support rolling the front foot down, toe-off; phase durations
+  free.
+
+Per plan: cost, cost of transport (positive drive work / (m g L)), positive work per step,
+peak |M| of ankle, knee and hip (stance leg; the largest over both legs), and one leg's
+vertical ground reaction through its stance, from its heel strike to its toe-off: its peaks
+in the first and last halves and the valley between them, in body weights (a double hump:
+two peaks above the valley), and the ankle's push-off: the largest positive power of the
+stance ankle (W), when (% of the stance) and its positive work (J).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+
+import numpy as np
+
+from planner import AccuracyWarning
+from problems import walking_step
+from problems.gait.problem import joint_rates
+from problems.walking.footed import footed_step
+
+SPEEDS = (0.6, 1.0, 1.4)
+
+
+def step_of(speed: float) -> tuple[float, float]:
+    """(step length m, step time s) at ``speed`` m/s."""
+    length = 0.5 * (speed / 1.0) ** 0.5
+    return length, length / speed
+
+
+def point_foot_stance(gait) -> dict[str, np.ndarray]:
+    """The stance leg of a point-foot step (single support only): time from heel strike,
+    ground force on the stance foot, ankle power M_0 dpsi_0."""
+    step = gait.problem
+    n = step.linkage.n
+    times = np.linspace(0.0, gait.duration, 801)
+    x, xdot, u = gait.solution.motion(times)
+    force = step.dynamics.ground_reaction(x[:, :n], x[:, n:], xdot[:, n:])
+    rates = joint_rates(step.linkage, x[:, n:])
+    return {"time": times, "force": force, "ankle_power": u[:, 0] * rates[:, 0]}
+
+
+def humps(time: np.ndarray, fy: np.ndarray) -> tuple[float, float, float]:
+    """(first-half peak, valley between the peaks, second-half peak) of fy (K,)."""
+    middle = 0.5 * (time[0] + time[-1])
+    first, second = (
+        np.argmax(np.where(time <= middle, fy, -np.inf)),
+        np.argmax(np.where(time > middle, fy, -np.inf)),
+    )
+    valley = float(np.min(fy[first : second + 1]))
+    return float(fy[first]), valley, float(fy[second])
+
+
+def measure(gait, stance, label: str) -> dict:
+    step = gait.problem
+    weight = step.biped.total_mass * step.linkage.gravity
+    peaks = gait.summary()["peak_torque"]
+    names = step.biped.legs
+    leg = step.biped.stance_leg
+    ankle = peaks[leg[1] if len(leg) == 3 else leg[0]]
+    if len(leg) == 3:
+        ankle = max(ankle, peaks[step.biped.swing_leg[-1]])
+    knee = max(peaks[leg[-2]], peaks[step.biped.swing_leg[1]])
+    hip = max(peaks[leg[-1]], peaks[step.biped.swing_leg[0]])
+    fy = stance["force"].imag / weight
+    first, valley, second = humps(stance["time"], fy)
+    power = stance["ankle_power"]
+    k = int(np.argmax(power))
+    positive = float(np.trapezoid(np.maximum(power, 0.0), stance["time"]))
+    report = gait.verify()
+    del names
+    return {
+        "label": label,
+        "cost": gait.cost,
+        "cot": gait.cost_of_transport,
+        "work": gait.positive_work,
+        "ankle": ankle,
+        "knee": knee,
+        "hip": hip,
+        "humps": (first, valley, second),
+        "push": (float(power[k]), 100.0 * stance["time"][k] / stance["time"][-1], positive),
+        "verified": report.ok,
+        "failures": [c.name for c in report.failures],
+    }
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="1.0 m/s only")
+    args = parser.parse_args()
+    speeds = (1.0,) if args.quick else SPEEDS
+    rows = []
+    for speed in speeds:
+        length, duration = step_of(speed)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", AccuracyWarning)
+            start = time.perf_counter()
+            point = walking_step(step_length=length, step_time=duration).solve()
+            point_seconds = time.perf_counter() - start
+            start = time.perf_counter()
+            feet = footed_step(step_length=length, step_time=duration).solve()
+            feet_seconds = time.perf_counter() - start
+        for gait, stance, label, seconds in (
+            (point, point_foot_stance(point), "point foot", point_seconds),
+            (feet, feet.stance(), "feet", feet_seconds),
+        ):
+            row = measure(gait, stance, label)
+            row.update(speed=speed, length=length, duration=duration, seconds=seconds)
+            if label == "feet":
+                row["phases"] = feet.durations()
+            rows.append(row)
+    print("What feet change (six-link scene, the same speeds, objective and limits; medians: "
+          "one solve each)")  # fmt: skip
+    head = (
+        f"{'v m/s':>5} {'L m':>5} {'T s':>5} {'model':<10} {'cost':>8} {'CoT':>6} {'W+ J':>6} "
+        f"{'ankle':>6} {'knee':>6} {'hip':>6} {'Fy hump1':>8} {'valley':>6} {'hump2':>6} "
+        f"{'push W':>7} {'at %':>5} {'W J':>5} {'solve s':>7} verified"
+    )
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        first, valley, second = r["humps"]
+        peak, when, work = r["push"]
+        print(
+            f"{r['speed']:5.1f} {r['length']:5.3f} {r['duration']:5.3f} {r['label']:<10} "
+            f"{r['cost']:8.1f} {r['cot']:6.3f} {r['work']:6.1f} {r['ankle']:6.1f} "
+            f"{r['knee']:6.1f} {r['hip']:6.1f} {first:8.2f} {valley:6.2f} {second:6.2f} "
+            f"{peak:7.0f} {when:5.0f} {work:5.1f} {r['seconds']:7.2f} "
+            + ("yes" if r["verified"] else "NO: " + ", ".join(r["failures"]))
+        )
+    print()
+    print("feet: phase durations (flat, heel rise, double support), s")
+    for r in rows:
+        if "phases" in r:
+            print(f"  {r['speed']:.1f} m/s: " + ", ".join(f"{d:.3f}" for d in r["phases"]))
+    return 0 if all(r["verified"] for r in rows) else 1
+
+
+if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
+    sys.exit(_tables.run(main, __file__))

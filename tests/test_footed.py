@@ -1,0 +1,187 @@
+"""The walking step on feet (problems.walking.footed): heel strike, flat foot, heel rise, toe-off.
+
+Oracles: the Newton-Euler recursion of tests/reference (the file's torques against the inverse
+dynamics of its motion, the front heel's force added by hand in the double support), the
+conservation of momentum over a periodic step (the ground's impulses, continuous and at heel
+strike, sum to the weight times the step time and to no horizontal push), the independent
+numpy verification (``verify_gait``) and files tampered with by hand, which it must refuse.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from reference import newton_euler as ne
+
+from model import DefinitionError, LinkageTrajectory, presets
+from planner import Trajectory
+from problems import verify_gait, walking_step
+from problems.walking.footed import PHASES, footed_step
+
+FEET = presets.anthropoid_with_feet()
+
+
+@pytest.fixture(scope="module")
+def step():
+    return footed_step()
+
+
+@pytest.fixture(scope="module")
+def gait(step):
+    return step.solve()
+
+
+@pytest.fixture(scope="module")
+def profile(gait):
+    return gait.to_trajectory(1000.0)
+
+
+def test_the_step_on_feet_solves_beats_its_law_and_verifies_at_every_sample(step, gait, profile):
+    assert gait.success
+    assert gait.cost < gait.law_cost / 100  # the law with flat feet is no gait on feet
+    durations = gait.durations()
+    assert math.isclose(sum(durations), step.step_time, rel_tol=1e-9)
+    assert [p for p, _ in step.phases.phases] == list(PHASES)
+    report = verify_gait(profile, FEET)
+    assert report.ok, str(report)
+    names = {c.name for c in report.checks}
+    assert {"stance foot flat", "centre of pressure", "ball passive", "stance heel up",
+            "clearance", "heel strike", "landing", "impact momentum", "impulse cones",
+            "heel held", "front ball up", "front heel cone", "ankles", "periodic angles",
+            "friction cone", "dynamics"} <= names  # fmt: skip
+    # the file names each foot's force after its contact; the root's sole pressure
+    assert {"F_swing_heel_x", "F_swing_heel_y", "F_stance_foot_start_x",
+            "CoP_stance_foot_start_x"} <= set(profile.extras)  # fmt: skip
+
+
+def test_the_files_torques_are_newton_eulers_with_the_front_heels_force(gait, profile):
+    """Every sample's torques are the inverse dynamics of its motion (the reference
+    recursion), less the moments of the front heel's ground force where it holds."""
+    psi, dpsi, ddpsi = profile.psi, profile.dpsi, profile.ddpsi
+    expected = ne.inverse_dynamics(FEET, psi, dpsi, ddpsi)
+    force = profile.extras["F_swing_heel_x"][0] + 1j * profile.extras["F_swing_heel_y"][0]
+    heel = gait.problem.point("swing_heel").position(psi)
+    hinges = ne.hinge_positions(FEET, psi)  # H0 .. Hn: link i starts at its parent's end
+    path = (*FEET.ancestors(FEET.index("swing_foot")), FEET.index("swing_foot"))
+    for i in path:
+        start = hinges[:, 0] if i == 0 else hinges[:, FEET.parents[i] + 1]
+        expected[:, i] -= (np.conj(heel - start) * force).imag
+    scale = np.abs(expected).max()
+    assert np.abs(profile.torques - expected).max() < 1e-8 * scale
+
+
+def test_momentum_over_the_periodic_step(gait):
+    """Over a periodic step the body's momentum comes back: the ground's vertical impulse
+    (both feet's forces and the heel strike's impulses) is m g T, its horizontal one 0."""
+    step = gait.problem
+    n = step.linkage.n
+    mass = step.biped.total_mass
+    impulse = 0j
+    for solution, _ in gait.segments():
+        times = np.linspace(0.0, solution.T, 4001)
+        x, xdot, _ = solution.motion(times)
+        total = step.dynamics.ground_reaction(x[:, :n], x[:, n:], xdot[:, n:])
+        impulse += np.trapezoid(total, times)
+    before = gait.segments()[1][0].states[-1]  # heel rise's end: the strike's pre-state
+    _, strike, _ = step.strike.function()(before[:n], before[n:])
+    # both feet's impulses at heel strike: the momentum change (the ball's is what the
+    # heel's leaves)
+    momentum = step.dynamics.floating.function("linear_momentum")
+    after = np.asarray(step.strike_map(before)).ravel()
+    change = (
+        np.asarray(momentum(before[:n], np.r_[0, 0, after[n:]])).ravel()
+        - np.asarray(momentum(before[:n], np.r_[0, 0, before[n:]])).ravel()
+    )
+    impulse += complex(*change)
+    assert float(np.asarray(strike).ravel()[1]) > 0  # the heel is pushed up
+    weight_time = mass * step.linkage.gravity * step.step_time
+    assert impulse.imag == pytest.approx(weight_time, rel=2e-5)
+    assert abs(impulse.real) < 2e-5 * weight_time
+
+
+def test_the_stance_has_a_push_off_and_carries_the_weight(gait):
+    stance = gait.stance()
+    weight = gait.problem.weight
+    fy = stance["force"].imag / weight
+    assert fy.min() > -1e-6  # the ground pushes, never pulls
+    # the ankle pushes off in the second half of the stance, positive power
+    power = stance["ankle_power"]
+    k = int(np.argmax(power))
+    assert stance["time"][k] > 0.5 * stance["time"][-1] and power[k] > 50.0
+    # a stance longer than a step by the double support
+    assert stance["time"][-1] == pytest.approx(gait.duration + gait.durations()[-1], rel=1e-9)
+
+
+TAMPERED = {
+    "the stance foot tilted 1 mrad while flat": (
+        lambda p: {"states": p.states - 1e-3 * (np.arange(16) == 0) * (p.time < 0.2)[:, None]},
+        {"stance foot flat"},
+    ),
+    "the ball given a torque after heel rise": (
+        lambda p: {"controls": p.controls + 5.0 * (np.arange(8) == 0) * (p.time > 0.4)[:, None]},
+        {"dynamics", "ball passive"},
+    ),
+    "the front heel's force halved": (
+        lambda p: {
+            "extras": {
+                k: (v * (0.5 if k.startswith("F_swing_heel") else 1.0), u)
+                for k, (v, u) in p.extras.items()
+            }
+        },
+        {"dynamics"},
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(TAMPERED))
+def test_tampered_footed_files_fail(profile, tmp_path, name):
+    change, failing = TAMPERED[name]
+    values = change(profile)
+    tampered = Trajectory(
+        profile.time,
+        values.get("states", profile.states),
+        values.get("controls", profile.controls),
+        profile.state_names,
+        profile.state_units,
+        profile.control_names,
+        profile.control_units,
+        values.get("extras", dict(profile.extras)),
+        profile.metadata,
+    )
+    tampered = LinkageTrajectory.load(tampered.save(tmp_path / "tampered.csv"))
+    failed = {c.name for c in verify_gait(tampered, FEET).failures}
+    assert failing <= failed, (name, failed)
+
+
+def test_fixed_durations_are_kept():
+    step = footed_step(N=(6, 6, 8), durations=(0.2, 0.15, 0.15))
+    assert step.durations == (0.2, 0.15, 0.15)
+    bounds = [ocp.T for _, ocp in step.phases.phases]
+    for (low, high), d in zip(bounds, (0.2, 0.15, 0.15), strict=True):
+        assert low <= d <= high and high - low < 1e-9
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"linkage": presets.six_link_anthropoid()}, "legs of three links"),
+        ({"durations": (0.2, 0.2, 0.2)}, "summing to step_time"),
+        ({"points": {"stance_heel": None}}, "missing"),
+        ({"N": (6, 6)}, "three interval counts"),
+        ({"step_length": -0.5}, "step_length"),
+    ],
+)
+def test_bad_settings_are_refused_naming_the_field(kwargs, match):
+    with pytest.raises(DefinitionError, match=match):
+        footed_step(**kwargs)
+
+
+def test_the_point_foot_step_still_verifies_its_double_support_impact():
+    """The impact balance shared with the footed step (``_held_impact``) still checks the
+    point-foot double support."""
+    gait = walking_step(double_support=0.05, mu=1.5).solve()
+    report = gait.verify()
+    assert report.ok, str(report)
+    assert "impact momentum" in {c.name for c in report.checks}
