@@ -62,7 +62,6 @@ from problems.gait.biped import Biped
 from problems.gait.law import GaitLaw
 from problems.gait.problem import (
     RATE_HZ,
-    Gait,
     joint_rates,
     keep_upright,
     objective_at_guess,
@@ -75,6 +74,7 @@ from problems.walking.step import (
     SPEED_SCALE,
     TOUCHDOWN_SPEED,
     UNLOADED,
+    SteppingGait,
     clearance_profile,
 )
 
@@ -158,6 +158,14 @@ class FootedStep:
     @property
     def speed(self) -> float:
         return self.step_length / self.step_time
+
+    @cached_property
+    def corners(self) -> dict[str, tuple[LinkPoint, ...]]:
+        """Each foot drawn as its outline ball, heel, ankle (:func:`world_motion`)."""
+        return {
+            self.biped.stance_leg[0]: (self.points["stance_heel"],),
+            self.biped.swing_leg[-1]: (self.points["swing_heel"],),
+        }
 
     @cached_property
     def contacts(self) -> dict[str, Contact]:
@@ -249,7 +257,7 @@ def footed_step(
     step_time: float = 0.5,
     *,
     points: Mapping[str, LinkPoint] | None = None,
-    N: tuple[int, int, int] = (10, 16, 18),
+    N: tuple[int, int, int] = (20, 10, 30),
     transcription: str = "hermite-simpson",
     mu: float = 0.8,
     torque_limit: float = 150.0,
@@ -379,7 +387,10 @@ def _phases(step: FootedStep, transcription: str) -> Phases:
     )
     phases = (
         Phases.sequence(("flat", flat))
-        .then("heel rise", heel)
+        # The heel rises when the centre of pressure reaches the ball: the torques pass the
+        # join continuously (the ground's torque on the foot reaches 0 at the flat phase's
+        # end), as across an interior node.
+        .then("heel rise", heel, controls="continuous")
         .then("double", double, mapping=step.strike_map)
         .periodic(step.biped.swap.state_function())
     )
@@ -607,19 +618,10 @@ def _double_ocp(step: FootedStep, transcription: str) -> OCP:
 
 # ---- the solved step ---------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
-class FootedGait(Gait):
-    """A solved step on feet: :class:`problems.gait.problem.Gait` (cost, law_cost,
-    positive_work, summary, to_trajectory) and what the feet change: the vertical ground
-    reaction over the step, the centre of pressure, the ankles' power."""
-
-    @property
-    def speed(self) -> float:
-        return self.problem.speed
-
-    @property
-    def cost_of_transport(self) -> float:
-        """Positive work per weight and distance: W+ / (m g s)."""
-        return self.positive_work / (self.problem.weight * self.problem.step_length)
+class FootedGait(SteppingGait):
+    """A solved step on feet: :class:`problems.walking.step.SteppingGait` (cost, law_cost,
+    positive_work, cost_of_transport, summary, to_trajectory, world) and what the feet
+    change: each contact's ground reaction, one leg's stance, the ankles' power."""
 
     def _sampled(self, count: int):
         """Per phase: (times on the common axis (K,), psi, dpsi, ddpsi (K, n), controls (K, nu))

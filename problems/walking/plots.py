@@ -105,6 +105,86 @@ def gait_figure(gait: WalkingGait, samples: int = 501) -> Figure:
     return figure
 
 
+def footed_figure(gait, samples: int = 801) -> Figure:
+    """A step on feet (:class:`problems.walking.footed.FootedGait`) in six panels: link
+    angles; the drives' torques; one leg's ground reaction through its stance, heel strike
+    to toe-off, in body weights, the phases shaded (the double hump, or not); where the
+    ground pushes under that foot (the centre of pressure from the ball: on the heel while
+    the foot rolls down, along the sole while it lies flat, at the ball after the heel
+    rises); the stance ankle's power (push-off); the swing foot's heel and ball over the
+    clearance profile."""
+    problem = gait.problem
+    names = problem.linkage.names
+    n = len(names)
+    weight = problem.weight
+    figure = Figure(figsize=(13.0, 7.5))
+    figure.subplots_adjust(left=0.055, right=0.985, bottom=0.07, top=0.91, wspace=0.3, hspace=0.32)
+    axes = figure.subplots(2, 3)
+    times, states, torques = gait.fine(samples)
+    ax = axes[0, 0]
+    for i, name in enumerate(names):
+        ax.plot(times, states[:, i], color=COLOURS[i % len(COLOURS)], label=name)
+    ax.set(xlabel="t [s]", ylabel="psi [rad]", title="link angles (absolute, from +x)")
+    ax.legend(fontsize="x-small", ncol=2)
+    ax = axes[0, 1]
+    for i, name in enumerate(names):
+        if name in problem.drives:
+            ax.plot(times, torques[:, i], color=COLOURS[i % len(COLOURS)], label=f"M_{name}")
+    ax.set(xlabel="t [s]", ylabel="M [N m]", title="drive torques")
+    ax.legend(fontsize="x-small", ncol=2)
+    stance = gait.stance(samples)
+    t, force = stance["time"], stance["force"]
+    durations = gait.durations()
+    # the stance: as the front foot (the double support), flat, heel rise, as the rear foot
+    edges = np.cumsum([0.0, durations[2], durations[0], durations[1], durations[2]])
+    shades = ("loading (front foot)", "flat foot", "heel rise", "push-off (rear foot)")
+    ax = axes[0, 2]
+    for k, label in enumerate(shades):
+        ax.axvspan(edges[k], edges[k + 1], color=str(0.95 - 0.05 * (k % 2)), zorder=0)
+        ax.text(0.5 * (edges[k] + edges[k + 1]), 0.02, label, rotation=90, fontsize="x-small",
+                ha="center", va="bottom", transform=ax.get_xaxis_transform())  # fmt: skip
+    ax.plot(t, force.imag / weight, label="Fy / m g")
+    ax.plot(t, force.real / weight, label="Fx / m g")
+    ax.set(xlabel="t from heel strike [s]", ylabel="ground force [body weights]",
+           title="one foot through its stance")  # fmt: skip
+    ax.legend(fontsize="x-small", loc="upper right")
+    ax = axes[1, 0]
+    trajectory = gait.to_trajectory(1000.0)
+    cop_name = next(k for k in trajectory.extras if k.startswith("CoP_"))
+    cop = trajectory.extras[cop_name][0]
+    flat = trajectory.time < durations[0] - 1e-12
+    ax.plot(trajectory.time[flat], 100 * cop[flat], label="flat foot: M_0 / Fy")
+    ax.axhline(0.0, color="0.4", linestyle=":", label="ball")
+    ax.axhline(-100 * problem.sole, color="0.4", linestyle="--", label="heel")
+    ax.set(xlabel="t [s]", ylabel="centre of pressure from the ball [cm]",
+           title="where the ground pushes under the stance foot")  # fmt: skip
+    ax.legend(fontsize="x-small")
+    ax = axes[1, 1]
+    ax.plot(t, stance["ankle_power"], color="C3")
+    ax.axhline(0.0, color="0.5", linewidth=0.8)
+    for k in range(4):
+        ax.axvspan(edges[k], edges[k + 1], color=str(0.95 - 0.05 * (k % 2)), zorder=0)
+    ax.set(xlabel="t from heel strike [s]", ylabel="P [W]",
+           title="the ankle's power through the stance (> 0: push-off)")  # fmt: skip
+    ax = axes[1, 2]
+    single = times <= durations[0] + durations[1] + 1e-12
+    psi = states[single][:, :n]
+    for role, style in (("swing_heel", "-"), ("swing_toe", "--")):
+        where = problem.point(role).position(psi)
+        ax.plot(where.real, where.imag, style, label=role.replace("_", " ").replace("toe", "ball"))
+    ax.axhline(0.0, color="0.5", linewidth=0.8)
+    ax.plot([0.0, -problem.sole], [0.0, 0.0], "k-", linewidth=3, label="stance foot's sole")
+    ax.set(xlabel="x [m]", ylabel="y [m]", title="the swing foot (single support)")
+    ax.legend(fontsize="x-small")
+    figure.suptitle(
+        f"walking step on feet: {problem.step_length:g} m in {problem.step_time:g} s (flat "
+        f"{durations[0]:.3f} s, heel rise {durations[1]:.3f} s, double support "
+        f"{durations[2]:.3f} s), cost {gait.cost:.4g} (law {gait.law_cost:.4g}), cost of "
+        f"transport {gait.cost_of_transport:.3f}"
+    )
+    return figure
+
+
 def _limits(motion: WorldMotion) -> tuple[float, float, float, float]:
     points = np.concatenate([v.reshape(-1) for v in motion.segments.values()])
     x0, x1 = points.real.min(), points.real.max()
@@ -213,7 +293,14 @@ def save_figure(figure: Figure, path: str | os.PathLike, dpi: float = 100.0) -> 
     return path
 
 
-__all__ = ["animate_walk", "draw_world", "gait_figure", "save_figure", "world_strip"]
+__all__ = [
+    "animate_walk",
+    "draw_world",
+    "footed_figure",
+    "gait_figure",
+    "save_figure",
+    "world_strip",
+]
 
 
 def closed_loop_figure(check) -> Figure:

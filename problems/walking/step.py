@@ -52,7 +52,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
 from types import MappingProxyType
-from typing import Any
+from typing import Any, ClassVar
 
 import casadi as ca
 import numpy as np
@@ -208,6 +208,9 @@ class WalkingStep(WalkerFeet):
         """What :meth:`solve` solves: the single-support OCP, or the phases with a double
         support."""
         return self.ocp if self.phases is None else self.phases
+
+    #: Point feet: every link drawn as a line from its start to its end.
+    corners: ClassVar[Mapping[str, tuple]] = MappingProxyType({})
 
     @property
     def speed(self) -> float:
@@ -765,7 +768,9 @@ class WorldMotion:
     footholds: np.ndarray
 
 
-def world_motion(biped: Biped, dynamics: Dynamics, time, states, step, footholds) -> WorldMotion:
+def world_motion(
+    biped: Biped, dynamics: Dynamics, time, states, step, footholds, corners=None
+) -> WorldMotion:
     """Steps given in their own labels, placed in the world.
 
     time (K,) s; states (K, >= n) each in its step's labels (the stance foot at H0);
@@ -773,18 +778,41 @@ def world_motion(biped: Biped, dynamics: Dynamics, time, states, step, footholds
     each step's stance foot stands. The legs swap at every heel strike: after an odd number
     of swaps link i is the body that was link ``swap.source[i]``, described from its other
     end if it is a leg, so each body keeps its first step's name.
+
+    ``corners``: {link name: points (``model.LinkPoint``) of that link in the linkage's
+    labels}: the link is drawn as the closed outline start, corners..., end, start (a foot:
+    ball, heel, ankle) instead of the line from its start to its end.
     """
     linkage = dynamics.linkage
     n = linkage.n
     step = np.asarray(step, dtype=int)
     footholds = np.asarray(footholds, dtype=complex)
-    hinges = dynamics.hinge_positions(np.asarray(states)[:, :n]) + footholds[step][:, None]
+    psi = np.asarray(states)[:, :n]
+    hinges = dynamics.hinge_positions(psi) + footholds[step][:, None]
     starts = np.asarray(linkage.parents) + 1
     swap = biped.swap
     odd = step % 2 == 1
-    segments = {name: np.empty((len(step), 2), dtype=complex) for name in linkage.names}
+    corners = dict(corners or {})
+    outlines = {}
+    for i, name in enumerate(linkage.names):
+        extra = [
+            np.asarray(dynamics.point(point).position(psi)).reshape(-1) + footholds[step]
+            for point in corners.get(name, ())
+        ]
+        ends = [hinges[:, starts[i]], *extra, hinges[:, i + 1]]
+        outlines[i] = np.stack(ends + ([hinges[:, starts[i]]] if extra else []), axis=1)
     for i in range(n):
-        ends = np.stack([hinges[:, starts[i]], hinges[:, i + 1]], axis=1)
+        if outlines[i].shape[1] != outlines[swap.source[i]].shape[1]:
+            raise DefinitionError(
+                f"`corners`: {linkage.names[i]!r} and {linkage.names[swap.source[i]]!r} are one "
+                "body in alternate steps: give both the same number of corners"
+            )
+    segments = {
+        name: np.empty((len(step), outlines[i].shape[1]), dtype=complex)
+        for i, name in enumerate(linkage.names)
+    }
+    for i in range(n):
+        ends = outlines[i]
         segments[linkage.names[i]][~odd] = ends[~odd]
         if swap.angle_offsets[i] != 0.0:
             ends = ends[:, ::-1]
@@ -793,11 +821,10 @@ def world_motion(biped: Biped, dynamics: Dynamics, time, states, step, footholds
 
 
 @dataclass(frozen=True, eq=False)
-class WalkingGait(Gait):
-    """A solved walking step (:class:`problems.gait.problem.Gait`: cost, ``law_cost``,
-    ``positive_work``, ``summary()``, ``to_trajectory(rate_hz)``, ``verify()``) and what a
-    walking study reads from it: ``speed`` m/s, ``cost_of_transport``, ``impact`` and
-    ``world(steps)``."""
+class SteppingGait(Gait):
+    """A solved periodic step of a biped, on point feet or on feet: ``speed`` m/s,
+    ``cost_of_transport`` and ``world(steps)``. Its problem has ``biped``, ``dynamics``,
+    ``step_length``, ``speed`` and ``corners`` (the points outlining a link in pictures)."""
 
     @property
     def speed(self) -> float:
@@ -809,24 +836,6 @@ class WalkingGait(Gait):
         biped = self.problem.biped
         weight = biped.total_mass * biped.linkage.gravity
         return self.positive_work / (weight * self.problem.step_length)
-
-    @property
-    def impact(self) -> dict[str, np.ndarray]:
-        """At heel strike: ``impulse`` (2,) N s on the landing foot, ``lift_off`` (2,) m/s the
-        old stance foot's velocity (zero when a double support follows: it stays),
-        ``dpsi_plus`` (n,) rad/s (before the leg swap)."""
-        n = self.problem.linkage.n
-        x = self.segments()[0][0].states[-1]  # the single support's end
-        dpsi_plus, impulse, base = self.problem.impact(x[:n], x[n:])
-        return {"impulse": impulse, "lift_off": base, "dpsi_plus": dpsi_plus}
-
-    @property
-    def touchdown_velocity(self) -> complex:
-        """The landing foot's velocity at heel strike, m/s (complex vx + j vy; vy <= -the
-        touchdown speed)."""
-        n = self.problem.linkage.n
-        x = self.segments()[0][0].states[-1]  # the single support's end
-        return complex(np.asarray(self.problem.foot.velocity(x[:n], x[n:])).reshape(-1)[0])
 
     def world(self, steps: int = 2, rate_hz: float = 100.0) -> WorldMotion:
         """``steps`` consecutive steps in world coordinates: step k stands on the foothold
@@ -850,7 +859,34 @@ class WalkingGait(Gait):
             np.vstack([states[part] for part in keep]),
             np.concatenate([np.full(len(times[part]), k) for k, part in enumerate(keep)]),
             problem.step_length * np.arange(steps + 1) + 0j,
+            problem.corners,
         )
+
+
+@dataclass(frozen=True, eq=False)
+class WalkingGait(SteppingGait):
+    """A solved walking step (:class:`problems.gait.problem.Gait`: cost, ``law_cost``,
+    ``positive_work``, ``summary()``, ``to_trajectory(rate_hz)``, ``verify()``) and what a
+    walking study reads from it: ``speed`` m/s, ``cost_of_transport``, ``impact`` and
+    ``world(steps)`` (:class:`SteppingGait`)."""
+
+    @property
+    def impact(self) -> dict[str, np.ndarray]:
+        """At heel strike: ``impulse`` (2,) N s on the landing foot, ``lift_off`` (2,) m/s the
+        old stance foot's velocity (zero when a double support follows: it stays),
+        ``dpsi_plus`` (n,) rad/s (before the leg swap)."""
+        n = self.problem.linkage.n
+        x = self.segments()[0][0].states[-1]  # the single support's end
+        dpsi_plus, impulse, base = self.problem.impact(x[:n], x[n:])
+        return {"impulse": impulse, "lift_off": base, "dpsi_plus": dpsi_plus}
+
+    @property
+    def touchdown_velocity(self) -> complex:
+        """The landing foot's velocity at heel strike, m/s (complex vx + j vy; vy <= -the
+        touchdown speed)."""
+        n = self.problem.linkage.n
+        x = self.segments()[0][0].states[-1]  # the single support's end
+        return complex(np.asarray(self.problem.foot.velocity(x[:n], x[n:])).reshape(-1)[0])
 
     def summary(self) -> dict[str, Any]:
         """:meth:`Gait.summary` plus speed, cost of transport, impulse and lift-off speed."""
