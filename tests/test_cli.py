@@ -993,6 +993,43 @@ def footholds_and_advance(first, last):
     return footholds, float(after - before)
 
 
+def test_walk_on_feet_writes_verified_files_and_pictures(tmp_path):
+    """`walk --preset six-link-feet --quick`: the step on feet planned, written, read back and
+    verified phase by phase, drawn (the GIF's feet are outlines: two steps, three footholds)."""
+    import contextlib
+    import io
+
+    folder = tmp_path / "feet"
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["walk", "--preset", "six-link-feet", "--quick", "--output-dir", str(folder)])
+    out, err = out.getvalue(), err.getvalue()
+    assert code == 0, err
+    assert re.search(r"flat foot [\d.]+ s, heel rise [\d.]+ s, double support [\d.]+ s", out)
+    assert re.search(r"verification of torques.csv \(\d+ samples.*\): all \d+ checks passed", out)
+    for check in ("stance foot flat", "ball passive", "heel held", "front ball up", "ankles"):
+        assert re.search(rf"\n  ok   {check} +[-+]\d", out), check
+    assert re.search(r"ankle push-off up to \d+ W", out)
+    profile = LinkageTrajectory.load(folder / "torques.csv")
+    assert profile.metadata["gait"]["problem"] == "footed_step"
+    assert {"F_swing_heel_x", "F_swing_heel_y", "CoP_stance_foot_start_x"} <= set(profile.extras)
+    for name in ("gait.png", "walk.png", "walk.gif", "solution.npz", "manifest.json"):
+        assert (folder / name).stat().st_size > 0, name
+    count, (first, last) = gif_end_frames(folder / "walk.gif")
+    assert count - 1 >= 2 * 0.5 * 15  # two steps of 0.5 s at 15 frames per second
+    footholds, advance = footholds_and_advance(first, last)
+    assert len(footholds) == 3, footholds
+    assert advance / np.diff(footholds).mean() == pytest.approx(2.0, abs=0.1)
+
+
+def test_walk_on_feet_refuses_the_point_foot_options_by_name(capsys):
+    for option in (["-N", "12"], ["--double-support-s", "0.05"], ["--passive-ankle"]):
+        assert_one_line_error(
+            capsys, rf"{option[0]}: not for --preset six-link-feet", "walk", "--preset",
+            "six-link-feet", *option,
+        )  # fmt: skip
+
+
 def test_walk_refuses_a_tree_that_is_not_a_biped(capsys):
     assert_one_line_error(
         capsys, r"--preset: 'exoskeleton-leg' is not a biped", "walk", "--preset", "exoskeleton-leg"

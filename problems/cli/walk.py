@@ -30,6 +30,7 @@ from problems.cli.common import (
     save_trajectory,
 )
 from problems.cli.study import DEFAULT_DEGREES, DEGREES, count_at_most, positive_count
+from problems.cli.walk_feet import run_feet
 from problems.gait.accuracy import ACCURACY_PRESETS
 from problems.gait.problem import WORK_REGULARISATION
 from problems.gait.verification import verify_gait
@@ -59,7 +60,9 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         ),
     )
     walk.add_argument("--preset", default="six-link", metavar="NAME",
-                      help="biped preset: six-link or five-link (default: six-link)")  # fmt: skip
+                      help="biped preset: six-link or five-link (point feet), or six-link-feet "
+                      "(feet with heel and ball: flat foot, heel rise, heel strike, double "
+                      "support; its own mesh and phases) (default: six-link)")  # fmt: skip
     walk.add_argument(
         "--step-length-m",
         type=positive("m", 2.0),
@@ -230,8 +233,12 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
 
 
 def run(args, out: TextIO, report: Reporter) -> int:
+    if args.preset == "six-link-feet":
+        return run_feet(args, out, report, _check_lines)
     if args.preset not in ("six-link", "five-link"):
-        raise UsageError(f"--preset: {args.preset!r} is not a biped; use six-link or five-link")
+        raise UsageError(
+            f"--preset: {args.preset!r} is not a biped; use six-link, five-link or six-link-feet"
+        )
     if not math.isfinite(args.clearance_m) or args.clearance_m < 0:
         raise UsageError(f"--clearance-m: must be a finite number >= 0 m, got {args.clearance_m}")
     if not math.isfinite(args.double_support_s) or not 0 <= args.double_support_s:

@@ -1,0 +1,183 @@
+"""``walk --preset six-link-feet``: the walking step on feet (``problems.walking.footed``).
+
+The same job as the point-foot ``walk`` (plan, files, their verification read back from disk,
+pictures), for a biped whose legs end in a foot with heel and ball: the human cycle of flat
+foot, heel rise, heel strike and a double support rolling the front foot down, with free
+phase durations. The options of the point-foot step that have no meaning here (its mesh,
+sole, passive ankle, double support, objective, feedback) are refused by name.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+import warnings
+from typing import TextIO
+
+import numpy as np
+
+from model import LinkageTrajectory
+from planner.accuracy_check import AccuracyWarning
+from planner.sampled_limits import SampleLimitError
+from problems.cli.common import (
+    CommandFailed,
+    Reporter,
+    UsageError,
+    new_folder,
+    output_set,
+    save_trajectory,
+)
+from problems.gait.verification import verify_gait
+from problems.walking.footed import footed_step
+from problems.walking.step import WALKING_DEFAULTS
+
+#: Options of ``walk`` that the step on feet does not take: (attribute, option, its default).
+NOT_WITH_FEET = (
+    ("transcription", "--transcription", None),
+    ("intervals", "-N", None),
+    ("degree", "--degree", None),
+    ("accuracy", "--accuracy", None),
+    ("formulation", "--formulation", WALKING_DEFAULTS["formulation"]),
+    ("passive_ankle", "--passive-ankle", False),
+    ("foot_heel_m", "--foot-heel-m", None),
+    ("foot_toe_m", "--foot-toe-m", None),
+    ("ground_margin_m", "--ground-margin-m", WALKING_DEFAULTS["ground_margin"]),
+    ("double_support_s", "--double-support-s", WALKING_DEFAULTS["double_support"]),
+    ("objective", "--objective", WALKING_DEFAULTS["objective"]),
+    ("feedback", "--feedback", False),
+)
+
+#: The mesh of ``--quick`` (flat, heel rise, double support).
+QUICK_MESH = (10, 6, 14)
+
+
+def run_feet(args, out: TextIO, report: Reporter, check_lines) -> int:
+    """Plan, write, verify and draw a step on feet (``check_lines``: the verification's
+    lines, as the point-foot ``walk`` prints them)."""
+    given = [option for name, option, default in NOT_WITH_FEET if getattr(args, name) != default]
+    if given:
+        raise UsageError(
+            f"{', '.join(given)}: not for --preset six-link-feet (the step on feet has its own "
+            "mesh, feet, phases and objective); drop them"
+        )
+    if not math.isfinite(args.clearance_m) or args.clearance_m < 0:
+        raise UsageError(f"--clearance-m: must be a finite number >= 0 m, got {args.clearance_m}")
+    output = output_set(str(args.output_dir or new_folder("walk")), "walk")
+    report.step("defining the walking step on feet of six-link-feet (8 links)")
+    extra = {}
+    if args.touchdown_speed_mps is not None:
+        extra["touchdown_speed"] = args.touchdown_speed_mps
+    if args.quick:
+        extra["N"] = QUICK_MESH
+    step = footed_step(
+        step_length=args.step_length_m,
+        step_time=args.step_time_s,
+        mu=args.mu,
+        torque_limit=args.torque_limit_nm,
+        clearance=args.clearance_m,
+        **extra,
+    )
+    start = time.perf_counter()
+    with report.working(f"solving with IPOPT (three phases, N = {step.mesh})"), \
+            warnings.catch_warnings(record=True) as caught:  # fmt: skip
+        warnings.simplefilter("always", AccuracyWarning)
+        try:
+            gait = step.solve(rate_hz=args.rate_hz, raise_on_failure=False,
+                              compiled=True if args.compiled else None)  # fmt: skip
+        except SampleLimitError as error:
+            raise CommandFailed(
+                f"the plan's limits could not be held at every sample: {error}; nothing written"
+            ) from None
+    seconds = time.perf_counter() - start
+    solution = gait.solution
+    if not solution.success:
+        raise CommandFailed(f"IPOPT did not converge: {solution.status}; nothing written")
+    rounds = solution.stats.get("sampled_limits", {}).get("rounds", [])
+    flat, heel, double = gait.durations()
+    print(
+        f"walking step on feet of six-link-feet: {step.step_length:g} m (ball to ball) in "
+        f"{step.step_time:g} s ({step.speed:.3g} m/s); flat foot {flat:.3f} s, heel rise "
+        f"{heel:.3f} s, double support {double:.3f} s (free within their bounds)",
+        file=out,
+    )
+    iterations = sum(r["iterations"] for r in rounds) or solution.iterations
+    print(
+        f"IPOPT: {solution.status}; {iterations} iterations in {len(rounds) or 1} solves (the "
+        f"limits held at the samples), {seconds:.2f} s",
+        file=out,
+    )
+    print(
+        f"cost (integral of the drives' sum M_i^2, N^2 m^2 s): {gait.cost:.6g}; the gait law "
+        f"(22) with flat feet, same mesh: {gait.law_cost:.6g}",
+        file=out,
+    )
+    peaks = gait.summary()["peak_torque"]
+    drives = ", ".join(f"{name} {peaks[name]:.1f}" for name in step.drives)
+    print(
+        f"cost of transport {gait.cost_of_transport:.4f} (positive work "
+        f"{gait.positive_work:.2f} J per step); peak |M| (N m): {drives}",
+        file=out,
+    )
+    stance = gait.stance()
+    fy = stance["force"].imag / step.weight
+    power = stance["ankle_power"]
+    k = int(np.argmax(power))
+    print(
+        f"one foot through its stance ({stance['time'][-1]:.3f} s, heel strike to toe-off): "
+        f"vertical ground force up to {fy.max():.2f} body weights; ankle push-off up to "
+        f"{power[k]:.0f} W at {100 * stance['time'][k] / stance['time'][-1]:.0f} % of the stance",
+        file=out,
+    )
+    for warning in caught:
+        if issubclass(warning.category, AccuracyWarning):
+            # the planner's advice names -N and --accuracy, which the step on feet does not
+            # take: the fix here is its default mesh
+            what = str(warning.message).split("; refine")[0]
+            report.warn(what + ("; drop --quick for the default mesh" if args.quick else ""))
+    with output:
+        with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
+            profile = gait.to_trajectory(args.rate_hz)
+            written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
+            save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
+        with report.working("verifying torques.csv (numpy, independent of the planner)"):
+            check = verify_gait(LinkageTrajectory.load(written[0]), step.linkage)
+        failed = "" if check.ok else " - FAILED: " + "; ".join(c.name for c in check.failures)
+        root = step.linkage.names[0]
+        print(
+            f"torques.csv: {profile.n_samples} samples at {args.rate_hz:g} Hz; M_{root} is the "
+            "ground's torque on the stance foot (no drive: its centre of pressure is "
+            f"CoP_{root}_start_x, m from the ball), F_swing_heel_x/_y the front heel's force in "
+            "the double support",
+            file=out,
+        )
+        print(
+            f"verification of torques.csv ({profile.n_samples} samples, numpy, independent of "
+            f"the planner): {'all' if check.ok else 'NOT all'} {len(check.checks)} checks "
+            f"passed{failed}; worst margins (> 0 inside):",
+            file=out,
+        )
+        for line in check_lines(check):
+            print(f"  {line}", file=out)
+        if not check.ok:
+            raise CommandFailed(
+                f"torques.csv failed its verification: {check.failures[0]}; nothing written"
+            )
+        if not args.no_plots:
+            from problems.walking import plots as walking_plots
+
+            with report.working("plotting gait.png"):
+                walking_plots.save_figure(walking_plots.footed_figure(gait),
+                                          output.path("gait.png"))  # fmt: skip
+            motion = gait.world(steps=args.steps, rate_hz=30.0 if args.quick else 60.0)
+            with report.working("plotting walk.png"):
+                walking_plots.save_figure(walking_plots.world_strip(motion),
+                                          output.path("walk.png"))  # fmt: skip
+            if not args.no_gif:
+                with report.working(f"writing walk.gif ({args.steps} steps)"):
+                    fps = 15.0 if args.quick else 30.0
+                    walking_plots.animate_walk(motion, output.path("walk.gif"), fps=fps)
+        paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
+    for path in paths:
+        print(f"wrote {path}", file=out)
+    return 0
