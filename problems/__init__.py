@@ -38,6 +38,7 @@ from problems.gait.verification import Check, GaitReport, GaitVerificationError,
 from problems.pinned.gait import KEYPOINTS, PeriodicGait, PeriodicGaitProblem, periodic_gait
 from problems.study.result import StudyProgress, StudyResult
 from problems.study.study import Study, run_study
+from problems.walking.footed import FootedGait, FootedStep, footed_step, footed_step_at
 from problems.walking.step import WalkingGait, WalkingStep, WorldMotion, walking_step
 
 __all__ = [
@@ -52,6 +53,8 @@ __all__ = [
     "AccuracyPreset",
     "Biped",
     "Check",
+    "FootedGait",
+    "FootedStep",
     "Gait",
     "GaitLaw",
     "GaitReport",
@@ -67,6 +70,8 @@ __all__ = [
     "WalkingStep",
     "WorldMotion",
     "fit_growth_rate",
+    "footed_step",
+    "footed_step_at",
     "law_torque_function",
     "periodic_gait",
     "replay_law",

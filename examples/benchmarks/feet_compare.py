@@ -36,15 +36,9 @@ import numpy as np
 from planner import AccuracyWarning
 from problems import walking_step
 from problems.gait.problem import joint_rates
-from problems.walking.footed import footed_step
+from problems.walking.footed import footed_step, step_at_speed
 
 SPEEDS = (0.6, 1.0, 1.4)
-
-
-def step_of(speed: float) -> tuple[float, float]:
-    """(step length m, step time s) at ``speed`` m/s."""
-    length = 0.5 * (speed / 1.0) ** 0.5
-    return length, length / speed
 
 
 def point_foot_stance(gait) -> dict[str, np.ndarray]:
@@ -110,7 +104,7 @@ def main() -> int:
     speeds = (1.0,) if args.quick else SPEEDS
     rows = []
     for speed in speeds:
-        length, duration = step_of(speed)
+        length, duration = step_at_speed(speed)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", AccuracyWarning)
             start = time.perf_counter()

@@ -45,6 +45,7 @@ from planner import (
 from planner.accuracy_check import ACCURACY_WARNING, AccuracyWarning, check_accuracy_of
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from problems.gait.problem import total_iterations
+from problems.walking.footed import FootedStep
 from problems.walking.step import WalkingGait, WalkingStep, walking_step
 
 #: The status recorded for a point whose problem could not be defined (walking_step or the
@@ -198,13 +199,13 @@ class PointSpec:
         if self.problem is None:
             return walking_step(**arguments)
         made = self.problem(**arguments)
-        if isinstance(made, WalkingStep):
+        if isinstance(made, WalkingStep | FootedStep):
             return made
         if isinstance(made, Mapping):
             return walking_step(**made)
         raise DefinitionTypeError(
-            f"`problem`: must return a WalkingStep or a dict of walking_step arguments, got "
-            f"{type(made).__name__} for {dict(values)}"
+            f"`problem`: must return a WalkingStep, a FootedStep (problems.footed_step) or a "
+            f"dict of walking_step arguments, got {type(made).__name__} for {dict(values)}"
         )
 
 

@@ -200,14 +200,30 @@ class FootedStep:
         return self.linkage.names[1:]
 
     # ---- solving -------------------------------------------------------------------------
+    @property
+    def problem(self) -> Phases:
+        """What :meth:`solve` solves: the three phases."""
+        return self.phases
+
+    def law_cost(self, problem: Phases | None = None) -> float:
+        """The objective of the law (22) with flat feet (the guess) on the problem's mesh
+        (default this step's), torques by inverse dynamics: the benchmark."""
+        return objective_at_guess(Transcription(self.phases if problem is None else problem))
+
     def solve(
-        self, *, rate_hz: float | None = RATE_HZ, hold_limits: bool = True, **options
+        self,
+        problem: Phases | None = None,
+        *,
+        rate_hz: float | None = RATE_HZ,
+        hold_limits: bool = True,
+        **options,
     ) -> FootedGait:
-        """Solve with IPOPT (``options`` go to :func:`planner.solve`; raises
-        :class:`planner.SolverError` on failure unless ``raise_on_failure=False``), the limits
-        held on the exported motion at ``rate_hz`` as :meth:`WalkingStep.solve` does
-        (``hold_limits``); the law's cost on the same mesh is measured too."""
-        transcription = Transcription(self.phases)
+        """Solve this step's phases, or ``problem`` (a changed copy of :attr:`phases`, e.g.
+        guessed from another solution) with IPOPT (``options`` go to :func:`planner.solve`;
+        raises :class:`planner.SolverError` on failure unless ``raise_on_failure=False``),
+        the limits held on the exported motion at ``rate_hz`` as :meth:`WalkingStep.solve`
+        does (``hold_limits``); the law's cost on the same mesh is measured too."""
+        transcription = Transcription(self.phases if problem is None else problem)
         law_cost = objective_at_guess(transcription)
         options.setdefault("progress", False)
         solution = solve_and_hold(transcription, options, hold_limits, rate_hz, PINNED)
@@ -340,6 +356,26 @@ def footed_step(
     )
     step = replace(step, law=_law(step))
     return replace(step, phases=_phases(step, transcription))
+
+
+#: Step length at 1 m/s, m, of :func:`step_at_speed`.
+STEP_LENGTH_AT_1 = 0.5
+
+
+def step_at_speed(speed: float) -> tuple[float, float]:
+    """(step length m, step time s) of a walk at ``speed`` m/s: the length 0.5 (v / 1 m/s)^(1/2)
+    m and the time length / v, so that both the step and the cadence grow with speed, as in
+    human walking (0.387 m in 0.645 s at 0.6 m/s, 0.5 m in 0.5 s at 1 m/s, 0.592 m in
+    0.423 s at 1.4 m/s)."""
+    speed = check_positive("speed", speed, "m/s")
+    length = STEP_LENGTH_AT_1 * math.sqrt(speed)
+    return length, length / speed
+
+
+def footed_step_at(speed: float, **options) -> FootedStep:
+    """:func:`footed_step` at ``speed`` m/s (:func:`step_at_speed`): a study's axis."""
+    length, duration = step_at_speed(speed)
+    return footed_step(step_length=length, step_time=duration, **options)
 
 
 # ---- the guess ---------------------------------------------------------------------------------
@@ -686,6 +722,27 @@ class FootedGait(SteppingGait):
         start = times[0][0]
         return {"time": np.concatenate(times) - start, "force": np.concatenate(force),
                 "ankle_power": np.concatenate(power)}  # fmt: skip
+
+    def summary(self) -> dict[str, Any]:
+        """:meth:`Gait.summary` plus speed, cost of transport, the phases' durations (s), and
+        one leg's stance: the largest vertical ground force (body weights) and the ankle's
+        push-off (its largest power, W; when, as a fraction of the stance; its positive work,
+        J)."""
+        stance = self.stance()
+        power = stance["ankle_power"]
+        k = int(np.argmax(power))
+        return {
+            **super().summary(),
+            "speed": self.speed,
+            "cost_of_transport": self.cost_of_transport,
+            "durations": dict(zip(PHASES, self.durations(), strict=True)),
+            "peak_vertical_force": float(stance["force"].imag.max() / self.problem.weight),
+            "push_off": {
+                "power": float(power[k]),
+                "at": float(stance["time"][k] / stance["time"][-1]),
+                "work": float(np.trapezoid(np.maximum(power, 0.0), stance["time"])),
+            },
+        }
 
     def durations(self) -> tuple[float, ...]:
         return tuple(float(solution.T) for solution, _ in self.segments())
