@@ -185,3 +185,27 @@ def test_the_point_foot_step_still_verifies_its_double_support_impact():
     report = gait.verify()
     assert report.ok, str(report)
     assert "impact momentum" in {c.name for c in report.checks}
+
+
+def test_a_study_takes_the_step_on_feet_as_its_problem():
+    """Study(problem=footed_step_at) over speed: each point is a FootedStep at its speed (the
+    definition describes them: settings, linkage, phases)."""
+    from problems import Study, footed_step_at
+    from problems.walking.footed import step_at_speed
+
+    study = Study({"speed": [0.6, 1.4]}, problem=footed_step_at)
+    slow, fast = (study.step(k) for k in range(2))
+    assert (slow.step_length, slow.step_time) == pytest.approx(step_at_speed(0.6))
+    assert fast.speed == pytest.approx(1.4)
+    described = study.definition["problems"]
+    assert [d["settings"]["problem"] for d in described] == ["footed_step", "footed_step"]
+    assert described[0]["linkage"] == FEET.parameters()
+
+
+@pytest.mark.slow
+def test_a_study_over_speed_on_feet_solves_and_verifies_every_point(tmp_path):
+    from problems import Study, footed_step_at
+
+    result = Study({"speed": [0.8, 1.2]}, problem=footed_step_at).run(tmp_path / "s", workers=2)
+    assert list(result.grid("verified")) == [True, True]
+    assert all(0.1 < c < 0.5 for c in result.grid("cost_of_transport"))
