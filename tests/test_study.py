@@ -514,9 +514,13 @@ def test_bad_run_options_are_refused(tmp_path):
         study.run(tmp_path / "a", progress=3)
     with pytest.raises(DefinitionTypeError, match="`scheduler`: give a scheduler address"):
         study.run(tmp_path / "a", scheduler=5)
-    with pytest.raises(DefinitionTypeError, match="must return a WalkingStep or a dict"):
+    with pytest.raises(
+        DefinitionTypeError, match=r"must return a WalkingStep, a FootedStep .* or a dict"
+    ):
         Study({"step_length": [0.5]}, lambda step_length: 1.0).run(tmp_path / "b")
-    with pytest.raises(DefinitionTypeError, match="must return a WalkingStep or a dict"):
+    with pytest.raises(
+        DefinitionTypeError, match=r"must return a WalkingStep, a FootedStep .* or a dict"
+    ):
         PointSpec(problem=lambda step_length: 1.0).step({"step_length": 0.5})
 
 
