@@ -405,3 +405,20 @@ def new_folder(stem: str) -> Path:
         counter += 1
         candidate = Path(f"{base}_{counter}")
     return candidate
+
+
+def write_walk_pictures(figure, gait, output, args, report) -> None:
+    """The walk command's pictures into ``output``: gait.png (``figure``, the gait's figure),
+    walk.png and walk.gif (``args.steps`` steps in world coordinates; coarser with
+    ``args.quick``; no GIF with ``args.no_gif``)."""
+    from problems.walking import plots as walking_plots
+
+    with report.working("plotting gait.png"):
+        walking_plots.save_figure(figure, output.path("gait.png"))
+    motion = gait.world(steps=args.steps, rate_hz=30.0 if args.quick else 60.0)
+    with report.working("plotting walk.png"):
+        walking_plots.save_figure(walking_plots.world_strip(motion), output.path("walk.png"))
+    if not args.no_gif:
+        with report.working(f"writing walk.gif ({args.steps} steps)"):
+            fps = 15.0 if args.quick else 30.0
+            walking_plots.animate_walk(motion, output.path("walk.gif"), fps=fps)

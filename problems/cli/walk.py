@@ -28,6 +28,7 @@ from problems.cli.common import (
     positive,
     preset_linkage,
     save_trajectory,
+    write_walk_pictures,
 )
 from problems.cli.study import DEFAULT_DEGREES, DEGREES, count_at_most, positive_count
 from problems.cli.walk_feet import run_feet
@@ -517,16 +518,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
         if not args.no_plots:
             from problems.walking import plots as walking_plots
 
-            with report.working("plotting gait.png"):
-                walking_plots.save_figure(walking_plots.gait_figure(gait), output.path("gait.png"))
-            motion = gait.world(steps=args.steps, rate_hz=30.0 if args.quick else 60.0)
-            with report.working("plotting walk.png"):
-                walking_plots.save_figure(walking_plots.world_strip(motion),
-                                          output.path("walk.png"))  # fmt: skip
-            if not args.no_gif:
-                with report.working(f"writing walk.gif ({args.steps} steps)"):
-                    fps = 15.0 if args.quick else 30.0
-                    walking_plots.animate_walk(motion, output.path("walk.gif"), fps=fps)
+            write_walk_pictures(walking_plots.gait_figure(gait), gait, output, args, report)
             if closed is not None:
                 with report.working("plotting closed_loop.png"):
                     walking_plots.save_figure(walking_plots.closed_loop_figure(closed),

@@ -27,6 +27,7 @@ from problems.cli.common import (
     new_folder,
     output_set,
     save_trajectory,
+    write_walk_pictures,
 )
 from problems.gait.verification import verify_gait
 from problems.walking.footed import footed_step
@@ -164,19 +165,9 @@ def run_feet(args, out: TextIO, report: Reporter, check_lines) -> int:
                 f"torques.csv failed its verification: {check.failures[0]}; nothing written"
             )
         if not args.no_plots:
-            from problems.walking import plots as walking_plots
+            from problems.walking.plots import footed_figure
 
-            with report.working("plotting gait.png"):
-                walking_plots.save_figure(walking_plots.footed_figure(gait),
-                                          output.path("gait.png"))  # fmt: skip
-            motion = gait.world(steps=args.steps, rate_hz=30.0 if args.quick else 60.0)
-            with report.working("plotting walk.png"):
-                walking_plots.save_figure(walking_plots.world_strip(motion),
-                                          output.path("walk.png"))  # fmt: skip
-            if not args.no_gif:
-                with report.working(f"writing walk.gif ({args.steps} steps)"):
-                    fps = 15.0 if args.quick else 30.0
-                    walking_plots.animate_walk(motion, output.path("walk.gif"), fps=fps)
+            write_walk_pictures(footed_figure(gait), gait, output, args, report)
         paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
     for path in paths:
         print(f"wrote {path}", file=out)

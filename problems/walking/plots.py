@@ -47,6 +47,21 @@ def _sampled(gait: WalkingGait, samples: int):
     return tuple(np.concatenate(column) for column in zip(*parts, strict=True))
 
 
+def _angles_and_torques(angles, moments, t, states, torques, names, drives, size) -> None:
+    """Every link's angle on the axes ``angles``, the torques of the hinges ``drives`` (link
+    names) on ``moments``, over times t (K,); legends in font size ``size``."""
+    for i, name in enumerate(names):
+        colour = COLOURS[i % len(COLOURS)]
+        angles.plot(t, states[:, i], color=colour, label=name)
+        if name in drives:
+            moments.plot(t, torques[:, i], color=colour, label=f"M_{name}")
+    angles.set(xlabel="t [s]", ylabel="psi [rad]", title="link angles (absolute, from +x)")
+    title = "hinge torques" if len(drives) == len(names) else "drive torques"
+    moments.set(xlabel="t [s]", ylabel="M [N m]", title=title)
+    for ax in (angles, moments):
+        ax.legend(fontsize=size, ncol=2)
+
+
 def gait_figure(gait: WalkingGait, samples: int = 501) -> Figure:
     """Four panels over one step: angles psi (rad), hinge torques M (N m), the feet's ground
     reactions (N) with the friction use |Fx| / (mu Fy), and the swing foot's path (m) with
@@ -62,16 +77,7 @@ def gait_figure(gait: WalkingGait, samples: int = 501) -> Figure:
     # of the figure's 0.93 s to draw (examples/benchmarks/pictures.py).
     figure.subplots_adjust(left=0.065, right=0.975, bottom=0.07, top=0.91, wspace=0.3, hspace=0.3)
     axes = figure.subplots(2, 2)
-    ax = axes[0, 0]
-    for i, name in enumerate(names):
-        ax.plot(t, states[:, i], color=COLOURS[i % len(COLOURS)], label=name)
-    ax.set(xlabel="t [s]", ylabel="psi [rad]", title="link angles (absolute, from +x)")
-    ax.legend(fontsize="small", ncol=2)
-    ax = axes[0, 1]
-    for i, name in enumerate(names):
-        ax.plot(t, torques[:, i], color=COLOURS[i % len(COLOURS)], label=f"M_{name}")
-    ax.set(xlabel="t [s]", ylabel="M [N m]", title="hinge torques")
-    ax.legend(fontsize="small", ncol=2)
+    _angles_and_torques(axes[0, 0], axes[0, 1], t, states, torques, names, names, "small")
     ax = axes[1, 0]
     ax.plot(t, force.real, label="Fx stance foot")
     ax.plot(t, force.imag, label="Fy stance foot")
@@ -121,17 +127,8 @@ def footed_figure(gait, samples: int = 801) -> Figure:
     figure.subplots_adjust(left=0.055, right=0.985, bottom=0.07, top=0.91, wspace=0.3, hspace=0.32)
     axes = figure.subplots(2, 3)
     times, states, torques = gait.fine(samples)
-    ax = axes[0, 0]
-    for i, name in enumerate(names):
-        ax.plot(times, states[:, i], color=COLOURS[i % len(COLOURS)], label=name)
-    ax.set(xlabel="t [s]", ylabel="psi [rad]", title="link angles (absolute, from +x)")
-    ax.legend(fontsize="x-small", ncol=2)
-    ax = axes[0, 1]
-    for i, name in enumerate(names):
-        if name in problem.drives:
-            ax.plot(times, torques[:, i], color=COLOURS[i % len(COLOURS)], label=f"M_{name}")
-    ax.set(xlabel="t [s]", ylabel="M [N m]", title="drive torques")
-    ax.legend(fontsize="x-small", ncol=2)
+    _angles_and_torques(axes[0, 0], axes[0, 1], times, states, torques, names, problem.drives,
+                        "x-small")  # fmt: skip
     stance = gait.stance(samples)
     t, force = stance["time"], stance["force"]
     durations = gait.durations()
