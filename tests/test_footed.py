@@ -171,6 +171,8 @@ def test_fixed_durations_are_kept():
         ({"points": {"stance_heel": None}}, "missing"),
         ({"N": (6, 6)}, "three interval counts"),
         ({"step_length": -0.5}, "step_length"),
+        ({"ankle_range": (0.5, -0.3)}, "ankle_range"),
+        ({"knee_range": (0.0,)}, "knee_range"),
     ],
 )
 def test_bad_settings_are_refused_naming_the_field(kwargs, match):

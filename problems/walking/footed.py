@@ -332,6 +332,11 @@ def footed_step(
                 f"`durations`: (flat, heel rise, double) s summing to step_time = "
                 f"{step_time:g} s, got {durations!r}"
             )
+    for name, pair in (("knee_range", knee_range), ("ankle_range", ankle_range)):
+        ordered = len(pair) == 2 and check_real(name, pair[0]) < check_real(name, pair[1])
+        if not ordered:
+            raise DefinitionError(f"`{name}`: give (lower, upper) in rad, lower < upper, got "
+                                  f"{pair!r}")  # fmt: skip
     mesh = tuple(int(n) for n in N)
     if len(mesh) != 3 or min(mesh) < 2:
         raise DefinitionError(f"`N`: three interval counts >= 2 (flat, heel rise, double), "
@@ -379,14 +384,22 @@ def footed_step_at(speed: float, **options) -> FootedStep:
 
 
 # ---- the guess ---------------------------------------------------------------------------------
+def _guessed_durations(step: FootedStep) -> tuple[float, float, float]:
+    """(flat, heel rise, double) s: the fixed durations, or the guess of free ones
+    (:data:`SHARES` of the step time)."""
+    return step.durations or tuple(share * step.step_time for share in SHARES)
+
+
 def _single_support_guess(step: FootedStep) -> float:
-    durations = step.durations or tuple(share * step.step_time for share in SHARES)
+    durations = _guessed_durations(step)
     return durations[0] + durations[1]
 
 
 def _law(step: FootedStep) -> GaitLaw:
-    """The law (22) of the point-foot biped without the feet, fitted to a step of the same
-    length over the single support, with the feet's angles held flat (zeta = 0)."""
+    """The law (22) of the point-foot biped without the feet (the stance foot welded flat,
+    the swing foot dropped), fitted to a step of the same length over the single support;
+    the stance foot held flat (zeta = 0), the swing foot turning with its shank (the ankle
+    neutral)."""
     linkage = step.linkage
     stance_foot, swing_foot = step.biped.stance_leg[0], step.biped.swing_leg[-1]
     legs = linkage.drop(swing_foot)
@@ -447,7 +460,7 @@ def _base_ocp(step: FootedStep, phase: int, transcription: str, contacts=()):
     the step time), drives bounded, knees, ankles and posture in range, the objective and
     scales."""
     T = step.step_time
-    guesses = step.durations or tuple(share * T for share in SHARES)
+    guesses = _guessed_durations(step)
     bounds = _duration_bounds(step)
     ocp = OCP(step.dynamics, T=bounds[phase], N=step.mesh[phase], transcription=transcription,
               contacts=contacts).guess(T=guesses[phase])  # fmt: skip
@@ -605,11 +618,7 @@ def _heel_rise_ocp(step: FootedStep, transcription: str) -> OCP:
                   upper=-step.touchdown_speed, scale=speed)
         .boundary("impulse", impulses, at="end", lower=0.0, scale=step.biped.total_mass * speed)
     )  # fmt: skip
-    return ocp.guess(_guess_law(step, _guess_offset(step), heel_rises=True))
-
-
-def _guess_offset(step: FootedStep) -> float:
-    return (step.durations or tuple(share * step.step_time for share in SHARES))[0]
+    return ocp.guess(_guess_law(step, _guessed_durations(step)[0], heel_rises=True))
 
 
 def _double_ocp(step: FootedStep, transcription: str) -> OCP:
