@@ -221,6 +221,33 @@ class ImpactMap:
             found = "its result is NaN or inf"
         raise DefinitionError(f"`{self._name}`: the impact is singular{where}: {found}; {cause}")
 
+    def state_function(self, name: str = "strike") -> ca.Function:
+        """x- = (psi, dpsi) (2n,) before impact -> x+ = (psi, dpsi+) (2n,) after, in the same
+        labels (a double support begins: the legs swap later): an SX Function ``name``, the
+        mapping of a phase join (``Phases.then(..., mapping=...)``)."""
+        n = self._dynamics.n
+        x = ca.SX.sym("x", 2 * n)
+        dpsi_plus, _, _ = self.function().call([x[:n], x[n:]])
+        return ca.Function(name, [x], [ca.vertcat(x[:n], dpsi_plus)], ["x"], ["x_plus"])
+
+    def held_impulses(self, psi, dpsi) -> tuple:
+        """(dpsi+ (n,), the impulses on the landing points (2k,), the impulse on the held root
+        H0 (2,)), N s, as CasADi expressions of psi, dpsi (n,), for an impact with the root
+        pinned: the root's impulse is what the change of the tree's linear momentum leaves
+        after the landing points' (the base rows of the floating-base impact equations)."""
+        if not self.root_pinned:
+            raise DefinitionError(
+                "`held_impulses`: the root is free in this impact (it lifts off and takes no "
+                "impulse); build it with Dynamics.impact(point, root_pinned=True)"
+            )
+        dpsi_plus, impulse, _ = self.function()(psi, dpsi)
+        momentum = self._dynamics.floating.function("linear_momentum")
+        before = ca.vertcat(*momentum(psi, ca.vertcat(0, 0, dpsi)))
+        after = ca.vertcat(*momentum(psi, ca.vertcat(0, 0, dpsi_plus)))
+        # several points: their impulses (x, y of each in turn) summed
+        landing = impulse if len(self.points) == 1 else ca.sum2(ca.reshape(impulse, 2, -1))
+        return dpsi_plus, impulse, after - before - landing
+
     def step_function(self, rerooting: Rerooting) -> ca.Function:
         """Delta: x- = (psi, dpsi) (2n,) before impact -> x+ (2n,) after impact, relabelled by
         ``rerooting`` (which must re-root this model's tree at the impact point, e.g.

@@ -7,6 +7,8 @@ thigh, 4 swing shank, 5 torso, 6 head, with J about each centre of mass.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from model.anthropometry import FOOT_COM, FootGeometry
 from model.linkage import Link, Linkage
 from model.points import LinkPoint
@@ -85,8 +87,8 @@ def anthropoid_with_feet(gravity: float = 9.81, foot: FootGeometry | None = None
     }
     links = [feet["stance_foot"]]
     for link in legs:
-        links.append(Link(link.name, "stance_foot", link.length, link.mass, link.com,
-                          link.inertia) if link.parent is None else link)  # fmt: skip
+        # the scene's root, the stance shank, stands on the stance foot's end (the ankle)
+        links.append(replace(link, parent="stance_foot") if link.parent is None else link)
         if link.name == "swing_shank":
             links.append(feet["swing_foot"])
     return Linkage(links, gravity=gravity)

@@ -1028,6 +1028,10 @@ def test_walk_on_feet_refuses_the_point_foot_options_by_name(capsys):
             capsys, rf"{option[0]}: not for --preset six-link-feet", "walk", "--preset",
             "six-link-feet", *option,
         )  # fmt: skip
+    assert_one_line_error(
+        capsys, r"--clearance-m: must be a finite number >= 0 m, got -1.0", "walk", "--preset",
+        "six-link-feet", "--clearance-m", "-1",
+    )  # fmt: skip
 
 
 def test_walk_refuses_a_tree_that_is_not_a_biped(capsys):

@@ -89,7 +89,7 @@ def test_momentum_over_the_periodic_step(gait):
     # both feet's impulses at heel strike: the momentum change (the ball's is what the
     # heel's leaves)
     momentum = step.dynamics.floating.function("linear_momentum")
-    after = np.asarray(step.strike_map(before)).ravel()
+    after = np.asarray(step.strike.state_function()(before)).ravel()
     change = (
         np.asarray(momentum(before[:n], np.r_[0, 0, after[n:]])).ravel()
         - np.asarray(momentum(before[:n], np.r_[0, 0, before[n:]])).ravel()
@@ -172,6 +172,9 @@ def test_fixed_durations_are_kept():
         ({"N": (6, 6)}, "three interval counts"),
         ({"step_length": -0.5}, "step_length"),
         ({"ankle_range": (0.5, -0.3)}, "ankle_range"),
+        ({"touchdown_speed": -0.1}, "touchdown_speed.*>= 0 m/s"),
+        ({"clearance": -0.01}, "clearance.*>= 0 m"),
+        ({"mu": 0.0}, "mu"),
         ({"knee_range": (0.0,)}, "knee_range"),
     ],
 )
@@ -211,3 +214,14 @@ def test_a_study_over_speed_on_feet_solves_and_verifies_every_point(tmp_path):
     result = Study({"speed": [0.8, 1.2]}, problem=footed_step_at).run(tmp_path / "s", workers=2)
     assert list(result.grid("verified")) == [True, True]
     assert all(0.1 < c < 0.5 for c in result.grid("cost_of_transport"))
+
+
+def test_feet_outlines_must_match_between_the_legs(step):
+    """world_motion draws a body with the same outline in alternate steps: corners on one
+    foot only are refused, naming both."""
+    from problems.walking.step import world_motion
+
+    states = np.zeros((2, 2 * FEET.n))
+    with pytest.raises(DefinitionError, match="'stance_foot' and 'swing_foot' are one body"):
+        world_motion(step.biped, step.dynamics, [0.0, 0.1], states, [0, 1], [0j, 0.5, 1.0],
+                     {"stance_foot": (step.points["stance_heel"],)})  # fmt: skip

@@ -421,3 +421,38 @@ def test_bad_sets_of_landing_points_are_refused():
     with pytest.raises(DefinitionError, match=r"`impact_swing_shank_end_swing_shank_at_0_5_0`: "
                        r"the impact is singular"):  # fmt: skip
         two(psi[0], dpsi[0])
+
+
+def test_held_impulses_solve_the_floating_base_impact_with_the_root_held():
+    """``ImpactMap.held_impulses``: rates after, the landing foot's impulse and the held root's,
+    against the floating-base impact equations solved here as one linear system:
+    M_e (dq+ - dq-) = J_P^T L_P + [I; 0] L_0, the base at rest before and after, J_P dq+ = 0."""
+    dyn = Dynamics(SIX)
+    impact = dyn.impact("swing_shank", root_pinned=True)
+    n = SIX.n
+    psi_s, dpsi_s = ca.SX.sym("psi", n), ca.SX.sym("dpsi", n)
+    held = ca.Function("held", [psi_s, dpsi_s], list(impact.held_impulses(psi_s, dpsi_s)))
+    mapped = impact.state_function()
+    rng = np.random.default_rng(3)
+    point = dyn.point("swing_shank")
+    for _ in range(5):
+        psi, dpsi = rng.uniform(-3, 3, n), rng.normal(size=n)
+        mass = dyn.floating.mass_matrix(psi)
+        jacobian = point.jacobian(psi)  # (2, n + 2)
+        base = np.vstack([np.eye(2), np.zeros((n, 2))])
+        # unknowns: dpsi+ (n), L_P (2), L_0 (2)
+        system = np.zeros((n + 4, n + 4))
+        system[: n + 2, :n] = mass[:, 2:]
+        system[: n + 2, n : n + 2] = -jacobian.T
+        system[: n + 2, n + 2 :] = -base
+        system[n + 2 :, :n] = jacobian[:, 2:]
+        right = np.concatenate([mass[:, 2:] @ dpsi, np.zeros(2)])
+        solution = np.linalg.solve(system, right)
+        dpsi_plus, landing, root = (np.asarray(v).ravel() for v in held(psi, dpsi))
+        np.testing.assert_allclose(dpsi_plus, solution[:n], atol=1e-9)
+        np.testing.assert_allclose(landing, solution[n : n + 2], atol=1e-9)
+        np.testing.assert_allclose(root, solution[n + 2 :], atol=1e-9)
+        after = np.asarray(mapped(np.concatenate([psi, dpsi]))).ravel()
+        np.testing.assert_allclose(after, np.concatenate([psi, solution[:n]]), atol=1e-9)
+    with pytest.raises(DefinitionError, match="`held_impulses`: the root is free"):
+        dyn.impact("swing_shank").held_impulses(psi_s, dpsi_s)

@@ -17,7 +17,8 @@ six), each plan verified at every sample of its 1 kHz file (``verify_gait``).
   free.
 
 Per plan: cost, cost of transport (positive drive work / (m g L)), positive work per step,
-peak |M| of ankle, knee and hip (stance leg; the largest over both legs), and one leg's
+peak |M| at the ankles, the knees and the hip (the largest over both legs; at the hip the
+swing thigh's and the torso's torques), and one leg's
 vertical ground reaction through its stance, from its heel strike to its toe-off: its peaks
 in the first and last halves and the valley between them, in body weights (a double hump:
 two peaks above the valley), and the ankle's push-off: the largest positive power of the
@@ -36,7 +37,7 @@ import numpy as np
 from planner import AccuracyWarning
 from problems import walking_step
 from problems.gait.problem import joint_rates
-from problems.walking.footed import footed_step, step_at_speed
+from problems.walking.footed import footed_step, push_off, step_at_speed
 
 SPEEDS = (0.6, 1.0, 1.4)
 
@@ -66,22 +67,22 @@ def humps(time: np.ndarray, fy: np.ndarray) -> tuple[float, float, float]:
 
 def measure(gait, stance, label: str) -> dict:
     step = gait.problem
-    weight = step.biped.total_mass * step.linkage.gravity
-    peaks = gait.summary()["peak_torque"]
-    names = step.biped.legs
-    leg = step.biped.stance_leg
-    ankle = peaks[leg[1] if len(leg) == 3 else leg[0]]
-    if len(leg) == 3:
-        ankle = max(ankle, peaks[step.biped.swing_leg[-1]])
-    knee = max(peaks[leg[-2]], peaks[step.biped.swing_leg[1]])
-    hip = max(peaks[leg[-1]], peaks[step.biped.swing_leg[0]])
+    linkage, biped = step.linkage, step.biped
+    weight = biped.total_mass * linkage.gravity
+    peaks = gait.summary()["peak_torque"]  # M_i acts at the start hinge of link i
+
+    def peak(links) -> float:
+        return max(peaks[name] for name in links)
+
+    stance_leg, swing_leg = biped.stance_leg, biped.swing_leg
+    # ankles: the shanks' starts on the stance side, the swing foot's start with feet
+    ankle = peak([stance_leg[-2], *swing_leg[2:]])
+    knee = peak([stance_leg[-1], swing_leg[1]])  # the thigh and the swing shank start there
+    hip = peak([linkage.names[c] for c in linkage.children[linkage.index(stance_leg[-1])]])
     fy = stance["force"].imag / weight
     first, valley, second = humps(stance["time"], fy)
-    power = stance["ankle_power"]
-    k = int(np.argmax(power))
-    positive = float(np.trapezoid(np.maximum(power, 0.0), stance["time"]))
+    push = push_off(stance)
     report = gait.verify()
-    del names
     return {
         "label": label,
         "cost": gait.cost,
@@ -91,7 +92,7 @@ def measure(gait, stance, label: str) -> dict:
         "knee": knee,
         "hip": hip,
         "humps": (first, valley, second),
-        "push": (float(power[k]), 100.0 * stance["time"][k] / stance["time"][-1], positive),
+        "push": (push["power"], 100.0 * push["at"], push["work"]),
         "verified": report.ok,
         "failures": [c.name for c in report.failures],
     }

@@ -422,3 +422,32 @@ def write_walk_pictures(figure, gait, output, args, report) -> None:
         with report.working(f"writing walk.gif ({args.steps} steps)"):
             fps = 15.0 if args.quick else 30.0
             walking_plots.animate_walk(motion, output.path("walk.gif"), fps=fps)
+
+
+def print_verification(check, samples: int, out) -> None:
+    """Print the verification of torques.csv (``check``: a ``problems.GaitReport`` of the
+    file read back, ``samples`` rows): a summary line, then one line per check (name, worst
+    margin with its unit, where, how many values, the tolerance) and the facts that say
+    what was not checked; raise :class:`CommandFailed` when a check failed (nothing is
+    written then)."""
+    failed = "" if check.ok else " - FAILED: " + "; ".join(c.name for c in check.failures)
+    print(
+        f"verification of torques.csv ({samples} samples, numpy, independent of the planner): "
+        f"{'all' if check.ok else 'NOT all'} {len(check.checks)} checks passed{failed}; worst "
+        "margins (> 0 inside):",
+        file=out,
+    )
+    for c in check.checks:
+        verdict = "ok  " if c.passed else "FAIL"
+        # + 0.0: a margin of -0.0 (an exact match) prints as +0.00e+00
+        print(
+            f"  {verdict} {c.name:<19} {c.margin + 0.0:+.2e} {c.unit:<9} at {c.where} "
+            f"({c.samples} values, tolerance {c.tolerance:.0e})",
+            file=out,
+        )
+    if "rates" in check.facts:
+        print(f"  rates: {check.facts['rates']}", file=out)
+    if not check.ok:
+        raise CommandFailed(
+            f"torques.csv failed its verification: {check.failures[0]}; nothing written"
+        )

@@ -27,6 +27,7 @@ from problems.cli.common import (
     output_set,
     positive,
     preset_linkage,
+    print_verification,
     save_trajectory,
     write_walk_pictures,
 )
@@ -235,7 +236,7 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
 
 def run(args, out: TextIO, report: Reporter) -> int:
     if args.preset == "six-link-feet":
-        return run_feet(args, out, report, _check_lines)
+        return run_feet(args, out, report)
     if args.preset not in ("six-link", "five-link"):
         raise UsageError(
             f"--preset: {args.preset!r} is not a biped; use six-link, five-link or six-link-feet"
@@ -496,22 +497,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
             f"torques are the inverse dynamics of its own motion to {dynamics:.1e} N m",
             file=out,
         )
-        failed = "" if check.ok else " - FAILED: " + "; ".join(c.name for c in check.failures)
-        print(
-            f"verification of torques.csv ({profile.n_samples} samples, numpy, independent of "
-            f"the planner): {'all' if check.ok else 'NOT all'} {len(check.checks)} checks "
-            f"passed{failed}; worst margins (> 0 inside):",
-            file=out,
-        )
-        for line in _check_lines(check):
-            print(f"  {line}", file=out)
-        for key in ("rates",):
-            if key in check.facts:
-                print(f"  {key}: {check.facts[key]}", file=out)
-        if not check.ok:
-            raise CommandFailed(
-                f"torques.csv failed its verification: {check.failures[0]}; nothing written"
-            )
+        print_verification(check, profile.n_samples, out)
         closed = None
         if feedback is not None:
             closed = _closed_loop(feedback, report, out)
@@ -655,17 +641,3 @@ def _print_runs(out, runs: dict, steps: int, columns) -> None:
             + (f"  fell: {run.fell}" if run.fell else ""),
             file=out,
         )
-
-
-def _check_lines(report) -> list[str]:
-    """One line per check of a verification: name, worst margin with its unit, where, how
-    many values, the tolerance."""
-    lines = []
-    for c in report.checks:
-        verdict = "ok  " if c.passed else "FAIL"
-        lines.append(
-            # + 0.0: a margin of -0.0 (an exact match) prints as +0.00e+00
-            f"{verdict} {c.name:<19} {c.margin + 0.0:+.2e} {c.unit:<9} at {c.where} "
-            f"({c.samples} values, tolerance {c.tolerance:.0e})"
-        )
-    return lines

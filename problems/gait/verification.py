@@ -72,6 +72,7 @@ from model.points import LinkPoint
 from model.rerooting import swap_legs
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.trajectory import Trajectory
+from problems.gait.biped import Biped
 
 HALF_PI = 0.5 * math.pi
 #: The gaits :func:`verify_gait` knows (``metadata["gait"]["problem"]``).
@@ -563,13 +564,10 @@ def _foot(kin: _Kinematics, settings) -> tuple[int, complex]:
 
 
 def _legs(linkage: Linkage) -> tuple[list[int], list[int]]:
-    """(stance leg from the root up, swing leg from the hip down), link indices: the links
-    the leg swap turns up (+pi) and down (-pi), by depth in the tree."""
-    offsets = swap_legs(linkage).angle_offsets
-    depth = [len(linkage.ancestors(i)) for i in range(linkage.n)]
-    stance = sorted((i for i in range(linkage.n) if offsets[i] > 0), key=depth.__getitem__)
-    swing = sorted((i for i in range(linkage.n) if offsets[i] < 0), key=depth.__getitem__)
-    return stance, swing
+    """(stance leg from the root up, swing leg from the hip down), link indices
+    (:meth:`problems.gait.biped.Biped.of`: the links the leg swap turns up and down)."""
+    biped = Biped.of(linkage)
+    return [linkage.index(k) for k in biped.stance_leg], [linkage.index(k) for k in biped.swing_leg]
 
 
 def _knees(linkage: Linkage, settings, psi) -> np.ndarray:

@@ -6,8 +6,9 @@ whose legs are three links (foot, shank, thigh) with such points. The tree is ro
 stance foot's ball (H0), which stays on the ground through the whole step; the step is three
 contact phases (``planner.Phases``), the human cycle from the opposite toe-off to the next:
 
-1. ``flat`` (mid stance): the stance foot flat on heel and ball: its angle held (bounds:
-   psi, dpsi and ddpsi of the foot), the ground's torque on the foot about the ball M_0 a
+1. ``flat`` (mid stance): the stance foot flat on heel and ball: welded (no angular
+   acceleration, flat and at rest at the phase's start), the ground's torque on the foot about
+   the ball M_0 a
    control whose centre of pressure -M_0 / Fy stays on the sole between heel and ball
    (-sole Fy <= M_0 <= 0); the swing foot in the air.
 2. ``heel rise`` (terminal stance): the stance foot pivots on its ball (M_0 = 0, the heel
@@ -34,8 +35,9 @@ duration to them. ``durations=(flat, heel rise, double)`` in s fixes them.
 
 The guess is the gait law (22) fitted to a point-foot step of the same length and the
 single support's duration for the shared links (``Biped.step_law`` of the linkage without
-its feet), the feet held flat; the double support holds the strike pose, the feet sharing
-the weight. The law's cost on the same problem (its torques by inverse dynamics) is the
+its feet), the stance foot flat (its heel rising with the shank in the heel rise), the
+swing foot at a neutral ankle; the double support holds the strike pose, the feet sharing the
+weight. The law's cost on the same problem (its torques by inverse dynamics) is the
 benchmark, as for the point-foot step.
 """
 
@@ -62,6 +64,7 @@ from problems.gait.biped import Biped
 from problems.gait.law import GaitLaw
 from problems.gait.problem import (
     RATE_HZ,
+    centre_of_pressure,
     joint_rates,
     keep_upright,
     objective_at_guess,
@@ -78,10 +81,11 @@ from problems.walking.step import (
     clearance_profile,
 )
 
-#: Rows that boundary conditions fix at the phases' ends (the swing ball leaves the ground
-#: at 0, the swing heel lands on it, the stance heel lifts off it, the front ball sets down
-#: on it): :func:`planner.hold_at_samples` does not back them off there.
-PINNED = ("clearance", "stance heel up", "feet above", "rear unloads", "friction")
+#: Rows that the phases' ends fix (the swing ball leaves the ground at 0 and the swing heel
+#: lands on it, the stance heel lifts off it; at toe-off the rear foot leaves on its cone's
+#: edge under the unloading cap): :func:`planner.hold_at_samples` does not back them off
+#: there.
+PINNED = ("clearance", "stance heel up", "rear unloads", "friction")
 #: The phases of a step, in order.
 PHASES = ("flat", "heel rise", "double")
 #: Default shares of the step time (the guess, and the middle of the bounds): the human
@@ -109,8 +113,6 @@ class FootedStep:
     points : the four foot contacts by role (:data:`FOOT_POINTS`), ``model.LinkPoint``.
     step_length : from one ball of the foot to the next on the ground, m.
     step_time : s. ``mu``: the ground's friction coefficient.
-    law : the guess (a :class:`problems.gait.law.GaitLaw` of every link, on the single
-        support's time).
     durations : (flat, heel rise, double) s when fixed, else None (free).
     """
 
@@ -127,7 +129,6 @@ class FootedStep:
     knee_range: tuple[float, float]
     ankle_range: tuple[float, float]
     posture: float
-    law: GaitLaw
     durations: tuple[float, float, float] | None
     mesh: tuple[int, int, int]
     phases: Phases | None = None
@@ -147,6 +148,31 @@ class FootedStep:
         stance = self._offset("stance_toe") - self._offset("stance_heel")  # heel -> ball
         swing = self._offset("swing_toe") - self._offset("swing_heel")
         return -math.atan2(stance.imag, stance.real), -math.atan2(swing.imag, swing.real)
+
+    @cached_property
+    def law(self) -> GaitLaw:
+        """The guess: the law (22) of every link on the single support's time (:func:`_law`)."""
+        return _law(self)
+
+    @cached_property
+    def clearance_scale(self) -> float:
+        """Nominal size of the rows of heights above the ground, m: the mid-swing clearance,
+        or the point-foot step's fraction of the leg length when that is smaller."""
+        return max(self.clearance, CLEARANCE_SCALE * self.biped.leg_length)
+
+    @cached_property
+    def _height_functions(self) -> dict[tuple[str, ...], ca.Function]:
+        return {}
+
+    def heights(self, *roles: str) -> ca.Function:
+        """psi (n,) -> the heights of the foot points ``roles`` (m), an SX Function built once
+        per set of roles."""
+        made = self._height_functions
+        if roles not in made:
+            psi = ca.SX.sym("psi", self.linkage.n)
+            rows = [self.point(role).function("position")(psi)[1] for role in roles]
+            made[roles] = ca.Function("heights", [psi], [ca.vertcat(*rows)], ["psi"], ["y"])
+        return made[roles]
 
     @cached_property
     def neutral_ankles(self) -> tuple[float, float]:
@@ -180,14 +206,6 @@ class FootedStep:
     def strike(self):
         """The heel strike (``model.ImpactMap``): the swing heel lands, the stance ball held."""
         return self.dynamics.impact(self.point("swing_heel"), root_pinned=True)
-
-    @cached_property
-    def strike_map(self) -> ca.Function:
-        """x before -> x after the heel strike (same angles, the impact's rates)."""
-        n = self.linkage.n
-        x = ca.SX.sym("x", 2 * n)
-        dpsi_plus, _, _ = self.strike.function().call([x[:n], x[n:]])
-        return ca.Function("strike", [x], [ca.vertcat(x[:n], dpsi_plus)], ["x"], ["x_plus"])
 
     @property
     def weight(self) -> float:
@@ -324,6 +342,11 @@ def footed_step(
     if touchdown_speed is None:
         touchdown_speed = TOUCHDOWN_SPEED * leg
     touchdown_speed = check_real("touchdown_speed", touchdown_speed)
+    if touchdown_speed < 0:
+        raise DefinitionError(
+            f"`touchdown_speed`: the landing heel's downward speed must be >= 0 m/s, got "
+            f"{touchdown_speed!r}"
+        )
     if durations is not None:
         durations = tuple(check_positive(f"durations[{k}]", d, "s")
                           for k, d in enumerate(durations))  # fmt: skip
@@ -355,11 +378,9 @@ def footed_step(
         knee_range=(float(knee_range[0]), float(knee_range[1])),
         ankle_range=(float(ankle_range[0]), float(ankle_range[1])),
         posture=check_positive("posture", posture, "rad"),
-        law=GaitLaw(1.0, np.zeros(1), np.zeros(1), np.zeros(1)),  # replaced below
         durations=durations,
         mesh=mesh,
     )
-    step = replace(step, law=_law(step))
     return replace(step, phases=_phases(step, transcription))
 
 
@@ -440,7 +461,7 @@ def _phases(step: FootedStep, transcription: str) -> Phases:
         # join continuously (the ground's torque on the foot reaches 0 at the flat phase's
         # end), as across an interior node.
         .then("heel rise", heel, controls="continuous")
-        .then("double", double, mapping=step.strike_map)
+        .then("double", double, mapping=step.strike.state_function())
         .periodic(step.biped.swap.state_function())
     )
     return phases
@@ -529,12 +550,6 @@ def _guess_law(step: FootedStep, offset: float, heel_rises: bool = False):
     return guess
 
 
-def _heights(step: FootedStep, roles) -> ca.Function:
-    psi = ca.SX.sym("psi", step.linkage.n)
-    heights = [step.point(role).function("position")(psi)[1] for role in roles]
-    return ca.Function("heights", [psi], [ca.vertcat(*heights)], ["psi"], ["y"])
-
-
 def _stance_cone(step: FootedStep):
     reaction = step.dynamics.function("ground_reaction")
     toe = step.contacts["stance_toe"]
@@ -546,7 +561,7 @@ def _swing_clearance(step: FootedStep, p, offset):
     single = p["T_flat"] + p["T_heel"]
     s = (p.t + offset) / single
     floor = clearance_profile(s, single, step.clearance, step.touchdown_speed)
-    heights = _heights(step, ("swing_heel", "swing_toe"))(p.psi)
+    heights = step.heights("swing_heel", "swing_toe")(p.psi)
     return heights - ca.vertcat(floor, floor)
 
 
@@ -572,7 +587,7 @@ def _flat_ocp(step: FootedStep, transcription: str) -> OCP:
         moment = p[f"M_{root}"]
         return ca.vertcat(-moment, moment + sole * fy)
 
-    scale = max(step.clearance, CLEARANCE_SCALE * step.biped.leg_length)
+    scale = step.clearance_scale
     ocp = (
         ocp.constrain("friction", cone, lower=0.0, scale=step.weight)
         .constrain("centre of pressure", pressure, lower=0.0, scale=step.weight * sole)
@@ -587,24 +602,19 @@ def _heel_rise_ocp(step: FootedStep, transcription: str) -> OCP:
     root = step.biped.stance_leg[0]
     ocp = ocp.bound(f"M_{root}", 0.0, 0.0)
     _, cone = _stance_cone(step)
-    heel_height = _heights(step, ("stance_heel",))
+    heel_height = step.heights("stance_heel")
     heel = step.point("swing_heel")
     position, velocity = heel.function("position"), heel.function("velocity")
     n = step.linkage.n
     speed = max(step.step_length, SPEED_SCALE * step.biped.leg_length) / step.step_time
     landing = step.step_length - step.sole
-    impact = step.strike.function()
-    momentum = step.dynamics.floating.function("linear_momentum")
     front, rear = step.contacts["swing_heel"], step.contacts["stance_toe"]
 
     def impulses(p):
-        dpsi_plus, impulse, _ = impact(p.x[:n], p.x[n:])
-        before = ca.vertcat(*momentum(p.x[:n], ca.vertcat(0, 0, p.x[n:])))
-        after = ca.vertcat(*momentum(p.x[:n], ca.vertcat(0, 0, dpsi_plus)))
-        behind = after - before - impulse  # what the held ball's impulse must be
+        _, impulse, behind = step.strike.held_impulses(p.x[:n], p.x[n:])
         return ca.vertcat(front.cone(impulse[0], impulse[1]), rear.cone(behind[0], behind[1]))
 
-    scale = max(step.clearance, CLEARANCE_SCALE * step.biped.leg_length)
+    scale = step.clearance_scale
     ocp = (
         ocp.constrain("friction", cone, lower=0.0, scale=step.weight)
         .constrain("stance heel up", lambda p: heel_height(p.psi), lower=0.0, scale=scale)
@@ -630,7 +640,7 @@ def _double_ocp(step: FootedStep, transcription: str) -> OCP:
     acceleration = step.point("swing_heel").function("acceleration")
     rear = step.contacts["stance_toe"]
     weight = step.weight
-    heel_height = _heights(step, ("stance_heel",))
+    heel_height = step.heights("stance_heel")
 
     def rear_force(p):
         fx, fy = reaction(p.psi, p.dpsi, p.ddpsi)
@@ -639,7 +649,7 @@ def _double_ocp(step: FootedStep, transcription: str) -> OCP:
     def cones(p):
         return ca.vertcat(rear.cone(*rear_force(p)), front.cone(p.F[0], p.F[1]))
 
-    scale = max(step.clearance, CLEARANCE_SCALE * step.biped.leg_length)
+    scale = step.clearance_scale
     ocp = (
         ocp.constrain("heel held", lambda p: ca.vertcat(*acceleration(p.psi, p.dpsi, p.ddpsi)),
                       lower=0.0, upper=0.0, scale=step.linkage.gravity)
@@ -677,46 +687,22 @@ class FootedGait(SteppingGait):
             x, xdot, u = solution.motion(grid)
             yield start + grid, x[:, :n], x[:, n:], xdot[:, n:], u
 
-    def ground_reaction(self, count: int = 401) -> dict[str, np.ndarray]:
-        """On a uniform grid over each phase: ``time`` (K,) s, ``rear`` and ``front`` (K,)
-        complex Fx + j Fy, N: the stance foot's (the root's) and the front heel's (zero but in
-        the double support)."""
-        step = self.problem
-        n = step.linkage.n
-        times, rear, front = [], [], []
-        for t, psi, dpsi, ddpsi, u in self._sampled(count):
-            total = step.dynamics.ground_reaction(psi, dpsi, ddpsi)
-            force = u[:, n] + 1j * u[:, n + 1] if u.shape[1] > n else np.zeros(t.size, complex)
-            times.append(t)
-            rear.append(total - force)
-            front.append(force)
-        return {"time": np.concatenate(times), "rear": np.concatenate(rear),
-                "front": np.concatenate(front)}  # fmt: skip
-
-    def ankle_power(self, count: int = 401) -> tuple[np.ndarray, np.ndarray]:
-        """(time (K,) s, the stance ankle's power M_ankle (dpsi_shank - dpsi_foot) (K,) W)."""
-        step = self.problem
-        ankle = step.linkage.index(step.biped.stance_leg[1])
-        times, power = [], []
-        for t, _, dpsi, _, u in self._sampled(count):
-            rates = joint_rates(step.linkage, dpsi)
-            times.append(t)
-            power.append(u[:, ankle] * rates[:, ankle])
-        return np.concatenate(times), np.concatenate(power)
-
     def stance(self, count: int = 801) -> dict[str, np.ndarray]:
         """One leg through its stance, from its heel strike to its toe-off (the front foot
         of the double support, then the stance foot of the next step: the gait is periodic,
         so the front foot's double support is this step's, shifted): ``time`` (K,) s from
         heel strike, ``force`` (K,) complex, N, the ground's force on that foot,
-        ``ankle_power`` (K,) W, the ankle drive's power M (dpsi_shank - dpsi_foot)."""
+        ``pressure`` (K,) m, where it pushes, along x from the ball (the heel, -sole, while
+        the foot rolls down onto it; the centre of pressure of the ground's torque while it
+        lies flat; the ball after), ``ankle_power`` (K,) W, the ankle drive's power
+        M (dpsi_shank - dpsi_foot)."""
         step = self.problem
         linkage = step.linkage
         # joint_rates: each hinge's rate relative to its parent, so the stance shank's is the
         # stance ankle's and the swing foot's the swing ankle's
         stance_shank = linkage.index(step.biped.stance_leg[1])
         swing_foot = linkage.index(step.biped.swing_leg[-1])
-        times, force, power = [], [], []
+        times, force, pressure, power = [], [], [], []
         for (t, psi, dpsi, ddpsi, u), name in zip(self._sampled(count), PHASES, strict=True):
             total = step.dynamics.ground_reaction(psi, dpsi, ddpsi)
             front = u[:, linkage.n] + 1j * u[:, linkage.n + 1] if name == "double" else 0.0
@@ -724,12 +710,16 @@ class FootedGait(SteppingGait):
             if name == "double":  # as the front foot, before this leg's stance
                 times.insert(0, t - self.duration)
                 force.insert(0, np.asarray(front))
+                pressure.insert(0, np.full(t.size, -step.sole))
                 power.insert(0, u[:, swing_foot] * rates[:, swing_foot])
             times.append(t)
             force.append(total - front)
+            # the root's torque is the ground's: 0 once the foot stands on its ball
+            pressure.append(centre_of_pressure(u[:, 0], total - front))
             power.append(u[:, stance_shank] * rates[:, stance_shank])
         start = times[0][0]
         return {"time": np.concatenate(times) - start, "force": np.concatenate(force),
+                "pressure": np.concatenate(pressure),
                 "ankle_power": np.concatenate(power)}  # fmt: skip
 
     def summary(self) -> dict[str, Any]:
@@ -738,20 +728,27 @@ class FootedGait(SteppingGait):
         push-off (its largest power, W; when, as a fraction of the stance; its positive work,
         J)."""
         stance = self.stance()
-        power = stance["ankle_power"]
-        k = int(np.argmax(power))
         return {
             **super().summary(),
             "speed": self.speed,
             "cost_of_transport": self.cost_of_transport,
             "durations": dict(zip(PHASES, self.durations(), strict=True)),
             "peak_vertical_force": float(stance["force"].imag.max() / self.problem.weight),
-            "push_off": {
-                "power": float(power[k]),
-                "at": float(stance["time"][k] / stance["time"][-1]),
-                "work": float(np.trapezoid(np.maximum(power, 0.0), stance["time"])),
-            },
+            "push_off": push_off(stance),
         }
 
     def durations(self) -> tuple[float, ...]:
         return tuple(float(solution.T) for solution, _ in self.segments())
+
+
+def push_off(stance: Mapping[str, np.ndarray]) -> dict[str, float]:
+    """The ankle's push-off in a stance (``time`` (K,) s, ``ankle_power`` (K,) W, as
+    :meth:`FootedGait.stance` gives them): its largest power ``power`` (W), when (``at``, a
+    fraction of the stance) and its positive work ``work`` (J)."""
+    time, power = stance["time"], stance["ankle_power"]
+    k = int(np.argmax(power))
+    return {
+        "power": float(power[k]),
+        "at": float((time[k] - time[0]) / (time[-1] - time[0])),
+        "work": float(np.trapezoid(np.maximum(power, 0.0), time)),
+    }

@@ -117,8 +117,8 @@ def footed_figure(gait, samples: int = 801) -> Figure:
     to toe-off, in body weights, the phases shaded (the double hump, or not); where the
     ground pushes under that foot (the centre of pressure from the ball: on the heel while
     the foot rolls down, along the sole while it lies flat, at the ball after the heel
-    rises); the stance ankle's power (push-off); the swing foot's heel and ball over the
-    clearance profile."""
+    rises); the stance ankle's power (push-off); the swing foot's heel and ball through the
+    single support."""
     problem = gait.problem
     names = problem.linkage.names
     n = len(names)
@@ -135,9 +135,11 @@ def footed_figure(gait, samples: int = 801) -> Figure:
     # the stance: as the front foot (the double support), flat, heel rise, as the rear foot
     edges = np.cumsum([0.0, durations[2], durations[0], durations[1], durations[2]])
     shades = ("loading (front foot)", "flat foot", "heel rise", "push-off (rear foot)")
+    for ax in (axes[0, 2], axes[1, 0], axes[1, 1]):  # the stance's phases, shaded
+        for k in range(len(shades)):
+            ax.axvspan(edges[k], edges[k + 1], color=str(0.95 - 0.05 * (k % 2)), zorder=0)
     ax = axes[0, 2]
     for k, label in enumerate(shades):
-        ax.axvspan(edges[k], edges[k + 1], color=str(0.95 - 0.05 * (k % 2)), zorder=0)
         ax.text(0.5 * (edges[k] + edges[k + 1]), 0.02, label, rotation=90, fontsize="x-small",
                 ha="center", va="bottom", transform=ax.get_xaxis_transform())  # fmt: skip
     ax.plot(t, force.imag / weight, label="Fy / m g")
@@ -146,21 +148,15 @@ def footed_figure(gait, samples: int = 801) -> Figure:
            title="one foot through its stance")  # fmt: skip
     ax.legend(fontsize="x-small", loc="upper right")
     ax = axes[1, 0]
-    trajectory = gait.to_trajectory(1000.0)
-    cop_name = next(k for k in trajectory.extras if k.startswith("CoP_"))
-    cop = trajectory.extras[cop_name][0]
-    flat = trajectory.time < durations[0] - 1e-12
-    ax.plot(trajectory.time[flat], 100 * cop[flat], label="flat foot: M_0 / Fy")
+    ax.plot(t, 100 * stance["pressure"], label="centre of pressure")
     ax.axhline(0.0, color="0.4", linestyle=":", label="ball")
     ax.axhline(-100 * problem.sole, color="0.4", linestyle="--", label="heel")
-    ax.set(xlabel="t [s]", ylabel="centre of pressure from the ball [cm]",
-           title="where the ground pushes under the stance foot")  # fmt: skip
+    ax.set(xlabel="t from heel strike [s]", ylabel="from the ball [cm]",
+           title="where the ground pushes under the foot")  # fmt: skip
     ax.legend(fontsize="x-small")
     ax = axes[1, 1]
     ax.plot(t, stance["ankle_power"], color="C3")
     ax.axhline(0.0, color="0.5", linewidth=0.8)
-    for k in range(4):
-        ax.axvspan(edges[k], edges[k + 1], color=str(0.95 - 0.05 * (k % 2)), zorder=0)
     ax.set(xlabel="t from heel strike [s]", ylabel="P [W]",
            title="the ankle's power through the stance (> 0: push-off)")  # fmt: skip
     ax = axes[1, 2]

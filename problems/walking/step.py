@@ -192,10 +192,7 @@ class WalkingStep(WalkerFeet):
         with a double support, x(T_single) -> x of the double support at its start (the
         impact with both feet held; the legs swap when the double support ends)."""
         if self.double_support > 0:
-            n = self.linkage.n
-            x = ca.SX.sym("x", 2 * n)
-            dpsi_plus, _, _ = self.impact.function().call([x[:n], x[n:]])
-            return ca.Function("strike", [x], [ca.vertcat(x[:n], dpsi_plus)], ["x"], ["x_plus"])
+            return self.impact.state_function()
         return self.impact.step_function(self.biped.swap)
 
     @property
@@ -598,19 +595,14 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
         _, fy = reaction(p.psi, p.dpsi, p.ddpsi)
         return centre_of_pressure_rows(step, p, fy)
 
-    momentum = dynamics.floating.function("linear_momentum")
-
     def impulse(p):
-        dpsi_plus, lam, _ = impact(p.x[:n], p.x[n:])
-        rows = [swing.cone(lam[0], lam[1])]
         if step.double_support > 0:
-            # Both feet held through the impact: the rear foot's impulse is what the change
-            # of momentum leaves, and it must push too (inside its cone).
-            before = ca.vertcat(*momentum(p.x[:n], ca.vertcat(0, 0, p.x[n:])))
-            after = ca.vertcat(*momentum(p.x[:n], ca.vertcat(0, 0, dpsi_plus)))
-            rear = after - before - lam
-            rows.append(stance.cone(rear[0], rear[1]))
-        return ca.vertcat(*rows)
+            # Both feet held through the impact: the rear foot's impulse must push too
+            # (inside its cone).
+            _, lam, rear = step.impact.held_impulses(p.x[:n], p.x[n:])
+            return ca.vertcat(swing.cone(lam[0], lam[1]), stance.cone(rear[0], rear[1]))
+        _, lam, _ = impact(p.x[:n], p.x[n:])
+        return swing.cone(lam[0], lam[1])
 
     mesh = {"N": N, "transcription": transcription, "degree": degree, "formulation": formulation}
     ocp = gait_ocp(dynamics, step.single_support_time, mesh, step.torque_limit)
