@@ -46,6 +46,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from model.linkage import Linkage
+from model.points import LinkPoint
 from planner.errors import DefinitionError, DefinitionTypeError, check_positive
 
 #: MuJoCo's hinge axis for the model's counter-clockwise angle (a rotation about -y)
@@ -65,11 +66,19 @@ class Contact:
         link's length: its end hinge).
     name : str
         The geom's name in the MJCF.
+    lateral : float
+        Distance from the axis, m, positive to the link's left (a heel below a foot's axis).
     """
 
     link: str
     along: float
     name: str
+    lateral: float = 0.0
+
+    @property
+    def position(self) -> complex:
+        """The point in its link's frame, m (x along the axis, y to its left)."""
+        return complex(self.along, self.lateral)
 
 
 @dataclass(frozen=True)
@@ -92,17 +101,31 @@ class Foot:
         return f"ankle_{self.link}"
 
 
-def contacts_at(linkage: Linkage, points: Sequence[tuple[str, str]]) -> tuple[Contact, ...]:
-    """Contacts at link ends: ``points`` as (link name, "start" or "end") pairs.
+def contacts_at(
+    linkage: Linkage, points: Sequence[tuple[str, str] | LinkPoint]
+) -> tuple[Contact, ...]:
+    """Contacts at link ends, ``points`` as (link name, "start" or "end") pairs, or anywhere
+    on a link, as :class:`model.LinkPoint` (a heel and a ball on a foot link).
 
     The geom of ("stance_shank", "start") is named ``stance_shank_start``, as the model's
-    contact-force columns are (``F_stance_shank_start_x``).
+    contact-force columns are (``F_stance_shank_start_x``); a LinkPoint's is its name (or
+    its label).
     """
     contacts = []
     for i, point in enumerate(points):
+        if isinstance(point, LinkPoint):
+            if point.link not in linkage.names:
+                raise DefinitionError(
+                    f"`contacts[{i}]`: no link named {point.link!r}; the links are "
+                    f"{list(linkage.names)}"
+                )
+            offset = point.offset(linkage)
+            contacts.append(Contact(point.link, offset.real, point.label, offset.imag))
+            continue
         if not isinstance(point, tuple) or len(point) != 2:
             raise DefinitionTypeError(
-                f"`contacts[{i}]`: must be a (link name, 'start' or 'end') pair, got {point!r}"
+                f"`contacts[{i}]`: must be a (link name, 'start' or 'end') pair or a "
+                f"model.LinkPoint, got {point!r}"
             )
         link, end = point
         if link not in linkage.names:
@@ -378,7 +401,7 @@ def to_mjcf(
         for contact in by_link.get(link.name, ()):
             lines.append(
                 f'{pad}  <geom name={quoteattr(contact.name)} type="sphere" '
-                f'pos={_xz(complex(contact.along))} size="{radius!r}" contype="1" '
+                f'pos={_xz(contact.position)} size="{radius!r}" contype="1" '
                 f'conaffinity="0" condim="3" friction="{mu!r} 0.005 0.0001" group="0"/>'
             )
         foot = feet_by_link.get(link.name)

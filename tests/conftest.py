@@ -23,6 +23,15 @@ def check():
     assert checker.failed or checker.count > 0, "no comparison was made"
 
 
+@pytest.fixture(scope="session")
+def footed_gait():
+    """The default step on feet, solved once for the session (~8 s): its tests, its law's
+    and its MuJoCo walks read it, none changes it."""
+    from problems import footed_step
+
+    return footed_step().solve()
+
+
 # Compiled NLP functions (planner.native_nlp): the suite never compiles in the background
 # (tests/test_native_nlp.py turns it on where it tests it) and writes no user cache.
 os.environ.setdefault("ANTHROPOID_COMPILE", "never")

@@ -1022,8 +1022,33 @@ def test_walk_on_feet_writes_verified_files_and_pictures(tmp_path):
     assert advance / np.diff(footholds).mean() == pytest.approx(2.0, abs=0.1)
 
 
+@pytest.mark.slow
+def test_walk_on_feet_with_feedback_writes_its_law_and_walks_it_in_mujoco(tmp_path):
+    """`walk --preset six-link-feet --feedback`: the joint PD law in torques.csv (the gains'
+    columns, the branch of each row, the law in the sidecar) and its walks in MuJoCo."""
+    pytest.importorskip("mujoco")
+    import contextlib
+    import io
+
+    folder = tmp_path / "feet"
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["walk", "--preset", "six-link-feet", "--feedback", "--no-plots",
+                     "--output-dir", str(folder)])  # fmt: skip
+    out, err = out.getvalue(), err.getvalue()
+    assert code == 0, err
+    assert re.search(r"feedback: joint PD around the plan at 1000 Hz", out)
+    assert re.search(r"\n  closed loop +20/20 ", out), out
+    assert re.search(r"\n  open loop +[01]/20 .*fell: step", out), out
+    assert re.search(r"largest push survived in MuJoCo: forward [\d.]+ N s", out)
+    profile = LinkageTrajectory.load(folder / "torques.csv")
+    assert {"phase", "double_support", "K_stance_shank__psi_stance_foot"} <= set(profile.extras)
+    assert profile.metadata["feedback"]["kp"]["double"][1] == 1000.0
+
+
 def test_walk_on_feet_refuses_the_point_foot_options_by_name(capsys):
-    for option in (["-N", "12"], ["--double-support-s", "0.05"], ["--passive-ankle"]):
+    for option in (["-N", "12"], ["--double-support-s", "0.05"], ["--passive-ankle"],
+                   ["--ground-friction", "1.5"]):  # fmt: skip
         assert_one_line_error(
             capsys, rf"{option[0]}: not for --preset six-link-feet", "walk", "--preset",
             "six-link-feet", *option,

@@ -24,13 +24,13 @@ FEET = presets.anthropoid_with_feet()
 
 
 @pytest.fixture(scope="module")
-def step():
-    return footed_step()
+def gait(footed_gait):
+    return footed_gait
 
 
 @pytest.fixture(scope="module")
-def gait(step):
-    return step.solve()
+def step(gait):
+    return gait.problem
 
 
 @pytest.fixture(scope="module")

@@ -451,3 +451,27 @@ def print_verification(check, samples: int, out) -> None:
         raise CommandFailed(
             f"torques.csv failed its verification: {check.failures[0]}; nothing written"
         )
+
+
+def print_runs(out, runs: dict, steps: int, columns) -> None:
+    """A table of simulated walks: case, steps walked, the ranges of step time and length,
+    then ``columns`` ((header, width, steps -> text)); a fall's reason after the row."""
+    print(
+        f"  {'case':<14} {'steps':>7} {'step time s':>15} {'step length m':>15} "
+        + " ".join(f"{header:>{width}}" for header, width, _ in columns),
+        file=out,
+    )
+    for label, run in runs.items():
+        walked = f"{run.walked}/{steps}"
+        if not run.steps:
+            print(f"  {label:<14} {walked:>7}  fell: {run.fell}", file=out)
+            continue
+        times = [r.duration for r in run.steps]
+        lengths = [r.length for r in run.steps]
+        cells = " ".join(f"{cell(run.steps):>{width}}" for _, width, cell in columns)
+        print(
+            f"  {label:<14} {walked:>7} {min(times):7.4f}..{max(times):6.4f} "
+            f"{min(lengths):7.4f}..{max(lengths):6.4f} {cells}"
+            + (f"  fell: {run.fell}" if run.fell else ""),
+            file=out,
+        )

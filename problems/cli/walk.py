@@ -27,6 +27,7 @@ from problems.cli.common import (
     output_set,
     positive,
     preset_linkage,
+    print_runs,
     print_verification,
     save_trajectory,
     write_walk_pictures,
@@ -206,7 +207,9 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         "torques.csv.meta.json) and check the closed loop in the product's hybrid simulation "
         "and in MuJoCo: multipliers, open loop, 50 steps, mass +-10 %%, ground +-5 mm and "
         "+-1 cm, a start error, weaker drives, largest pushes (about two minutes; draws "
-        "closed_loop.png and the pushed walk, closed_loop_walk.png and .gif)",
+        "closed_loop.png and the pushed walk, closed_loop_walk.png and .gif). With "
+        "--preset six-link-feet: joint PD gains around the plan in the same columns, checked "
+        "in MuJoCo only (20 steps a case; about a minute)",
     )
     walk.add_argument(
         "--ground-friction",
@@ -546,7 +549,7 @@ def _closed_loop(feedback, report, out):
         f"{check.open_loop.fell or 'walked'}",
         file=out,
     )
-    _print_runs(out, check.runs, check.steps, [
+    print_runs(out, check.runs, check.steps, [
         ("peak |M| N m", 12, lambda steps: f"{max(r.peak_torque for r in steps):.1f}"),
         ("tracking rad", 12, lambda steps: f"{max(r.tracking for r in steps):.2e}"),
     ])  # fmt: skip
@@ -579,7 +582,7 @@ def _closed_loop(feedback, report, out):
         f"{engine.planned_normal:.0f} N):",
         file=out,
     )
-    _print_runs(out, engine.runs, engine.steps, [
+    print_runs(out, engine.runs, engine.steps, [
         ("peak |M| N m", 12, lambda steps: f"{max(r.peak_torque for r in steps):.1f}"),
         ("slip mm", 8, lambda steps: f"{1000 * max(r.slip for r in steps):.1f}"),
         ("peak Fy N", 9, lambda steps: f"{max(r.peak_normal for r in steps):.0f}"),
@@ -617,27 +620,3 @@ def _draw_pushed_walk(closed, dynamics, output, no_gif: bool, report) -> None:
                 caption=f"push {closed.pushes[0]:.1f} N s in step 2; ",
                 window=2.5,
             )
-
-
-def _print_runs(out, runs: dict, steps: int, columns) -> None:
-    """A table of simulated walks: case, steps walked, the ranges of step time and length,
-    then ``columns`` ((header, width, steps -> text)); a fall's reason after the row."""
-    print(
-        f"  {'case':<14} {'steps':>7} {'step time s':>15} {'step length m':>15} "
-        + " ".join(f"{header:>{width}}" for header, width, _ in columns),
-        file=out,
-    )
-    for label, run in runs.items():
-        walked = f"{run.walked}/{steps}"
-        if not run.steps:
-            print(f"  {label:<14} {walked:>7}  fell: {run.fell}", file=out)
-            continue
-        times = [r.duration for r in run.steps]
-        lengths = [r.length for r in run.steps]
-        cells = " ".join(f"{cell(run.steps):>{width}}" for _, width, cell in columns)
-        print(
-            f"  {label:<14} {walked:>7} {min(times):7.4f}..{max(times):6.4f} "
-            f"{min(lengths):7.4f}..{max(lengths):6.4f} {cells}"
-            + (f"  fell: {run.fell}" if run.fell else ""),
-            file=out,
-        )

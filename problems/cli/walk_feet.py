@@ -4,7 +4,9 @@ The same job as the point-foot ``walk`` (plan, files, their verification read ba
 pictures), for a biped whose legs end in a foot with heel and ball: the human cycle of flat
 foot, heel rise, heel strike and a double support rolling the front foot down, with free
 phase durations. The options of the point-foot step that have no meaning here (its mesh,
-sole, passive ankle, double support, objective, feedback) are refused by name.
+sole, passive ankle, double support, objective, the LQR's simulated ground) are refused by
+name. ``--feedback`` writes the drives' joint PD law around the plan into torques.csv
+(:class:`problems.walking.feet_control.FeetLaw`) and walks it in MuJoCo.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from problems.cli.common import (
     UsageError,
     new_folder,
     output_set,
+    print_runs,
     print_verification,
     save_trajectory,
     write_walk_pictures,
@@ -45,7 +48,7 @@ NOT_WITH_FEET = (
     ("ground_margin_m", "--ground-margin-m", WALKING_DEFAULTS["ground_margin"]),
     ("double_support_s", "--double-support-s", WALKING_DEFAULTS["double_support"]),
     ("objective", "--objective", WALKING_DEFAULTS["objective"]),
-    ("feedback", "--feedback", False),
+    ("ground_friction", "--ground-friction", 1.0),
 )
 
 #: The mesh of ``--quick`` (flat, heel rise, double support).
@@ -132,9 +135,16 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
             # take: the fix here is its default mesh
             what = str(warning.message).split("; refine")[0]
             report.warn(what + ("; drop --quick for the default mesh" if args.quick else ""))
+    law = None
+    if args.feedback:
+        from problems.walking.feet_control import FeetLaw
+
+        law = FeetLaw(gait, rate_hz=args.rate_hz)
     with output:
         with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
             profile = gait.to_trajectory(args.rate_hz)
+            if law is not None:
+                profile = law.channels(profile)
             written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
             save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
         with report.working("verifying torques.csv (numpy, independent of the planner)"):
@@ -155,4 +165,47 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
     for path in paths:
         print(f"wrote {path}", file=out)
+    if law is not None:
+        _feet_in_mujoco(gait, law, report, out)
     return 0
+
+
+def _feet_in_mujoco(gait, law, report, out) -> None:
+    """Print the law written in torques.csv and its walks in MuJoCo (``--feedback``)."""
+    n = gait.problem.linkage.n
+    print(
+        f"feedback: joint PD around the plan at {law.rate_hz:g} Hz (kp {law.gains[1][0][1]:g} "
+        f"N m/rad, kd {law.gains[1][1][1]:g} N m s/rad, capped on light links in the single "
+        f"support at {law.bandwidth:g} rad/s), indexed by the hip's progress; torques.csv "
+        f"carries it ({n * 2 * n} columns K_<hinge>__<state>, phase, double_support; the law "
+        "in torques.csv.meta.json)",
+        file=out,
+    )
+    try:
+        import mujoco  # noqa: F401 - only whether the extra is there
+    except ImportError:
+        print('MuJoCo: not installed (pip install ".[mujoco]"): no run in MuJoCo', file=out)
+        return
+    from problems.walking.mujoco_feet import feet_mujoco_check
+
+    with report.working("walking in MuJoCo (heel and ball spheres, soft contacts)"):
+        engine = feet_mujoco_check(gait, law=law)
+    print(
+        f"MuJoCo (the same eight links, heel and ball spheres, soft contacts, friction "
+        f"{gait.problem.mu:g}; the file's law):",
+        file=out,
+    )
+    print_runs(out, engine.runs, engine.steps, [
+        ("peak |M| N m", 12, lambda steps: f"{max(r.peak_torque for r in steps):.1f}"),
+        ("slip mm", 8, lambda steps: f"{1000 * max(r.slip for r in steps):.1f}"),
+        ("peak Fy N", 9, lambda steps: f"{max(r.peak_normal for r in steps):.0f}"),
+        ("tracking rad", 12, lambda steps: f"{max(r.tracking for r in steps):.2e}"),
+    ])  # fmt: skip
+    if engine.pushes is None:
+        print("  no push margin: the undisturbed closed loop fell", file=out)
+        return
+    forward, back = engine.pushes
+    print(
+        f"  largest push survived in MuJoCo: forward {forward:.1f} N s, back {back:.1f} N s",
+        file=out,
+    )

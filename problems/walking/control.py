@@ -208,6 +208,11 @@ class PhasePD:
     def start_step(self, index: int, x: np.ndarray) -> None:
         pass
 
+    @property
+    def relative_matrix(self) -> np.ndarray:
+        """R (n, n): the hinges' relative angles of the absolute ones, q = R psi."""
+        return self._relative_matrix.copy()
+
     def relative(self, angles: np.ndarray) -> np.ndarray:
         out = angles.copy()
         out[self._has_parent] -= angles[self._parents[self._has_parent]]

@@ -36,6 +36,7 @@ from problems.walking.simulation import (
     Disturbances,
     Plant,
     WalkingRun,
+    disturbances_for,
     largest_push,
     simulate_walking,
 )
@@ -252,23 +253,9 @@ class ClosedLoopCheck:
 
 
 def disturbance_cases(feedback: Feedback) -> dict[str, Disturbances]:
-    """The disturbances both checks run (the product's and MuJoCo's), by label: the plan, a
-    body 10 % heavier and lighter, the ground 5 mm and 1 cm higher and lower from the first
-    new foothold on, a start 0.02 rad off on every angle, drives limited to 2/3 of the plan's
-    limit."""
-    n = len(feedback.names)
-    limit = min(feedback.step.torque_limit.values())
-    return {
-        "plan": Disturbances(),
-        "mass +10 %": Disturbances(mass_scale=1.1),
-        "mass -10 %": Disturbances(mass_scale=0.9),
-        "ground +5 mm": Disturbances(ground_rise=0.005),
-        "ground -5 mm": Disturbances(ground_rise=-0.005),
-        "ground +1 cm": Disturbances(ground_rise=0.01),
-        "ground -1 cm": Disturbances(ground_rise=-0.01),
-        "start 0.02 rad": Disturbances(initial=np.r_[np.full(n, 0.02), np.zeros(n)]),
-        f"|M| <= {2 * limit / 3:g}": Disturbances(torque_limit=2.0 * limit / 3.0),
-    }
+    """The disturbances both checks run (the product's and MuJoCo's), by label
+    (:func:`problems.walking.simulation.disturbances_for` of the feedback's step)."""
+    return disturbances_for(len(feedback.names), min(feedback.step.torque_limit.values()))
 
 
 def closed_loop_check(feedback: Feedback, steps: int = 50) -> ClosedLoopCheck:

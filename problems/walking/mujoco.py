@@ -49,7 +49,8 @@ FOOT_KD = 0.2
 PRELOAD = 3e-4
 
 
-def _mujoco():
+def import_mujoco():
+    """The mujoco module, or a DefinitionError saying how to install it."""
     try:
         import mujoco
     except ImportError as error:  # pragma: no cover - the extra is installed in CI
@@ -57,6 +58,20 @@ def _mujoco():
             'MuJoCo is not installed: pip install ".[mujoco]" (or pip install mujoco)'
         ) from error
     return mujoco
+
+
+def contact_normal_force(mujoco, model, data, grounds, geoms) -> float:
+    """The ground's normal force on the geoms (ids) now, N: the sum over MuJoCo's contacts
+    between one of ``geoms`` and one of ``grounds``."""
+    total = 0.0
+    force = np.zeros(6)
+    for c in range(data.ncon):
+        contact = data.contact[c]
+        touching = contact.geom[0] in grounds or contact.geom[1] in grounds
+        if touching and (contact.geom[0] in geoms or contact.geom[1] in geoms):
+            mujoco.mj_contactForce(model, data, c, force)
+            total += force[0]
+    return total
 
 
 @dataclass(frozen=True)
@@ -90,7 +105,7 @@ class MujocoRun:
         return len(self.steps)
 
 
-def _terrain(xml: str, edge: float, rise: float) -> str:
+def with_terrain(xml: str, edge: float, rise: float) -> str:
     """The walker's MJCF with its ground plane replaced by two boxes: the ground as planned up
     to x = edge, ``rise`` m higher (or lower) after it."""
     line = next(row for row in xml.splitlines() if 'name="ground" type="plane"' in row)
@@ -158,7 +173,7 @@ def run_in_mujoco(
             "on a foot that is not held); run it in the product's simulation "
             "(problems.walking.simulation.simulate_walking)"
         )
-    mujoco = _mujoco()
+    mujoco = import_mujoco()
     steps = check_integer("steps", steps, 1)
     check_positive("contact_time_constant", contact_time_constant, "s")
     disturbances = disturbances or Disturbances()
@@ -168,7 +183,7 @@ def run_in_mujoco(
     xml = mjcf.xml
     if disturbances.ground_rise != 0.0:
         edge = (disturbances.ground_from - 0.5) * step.step_length
-        xml = _terrain(xml, edge, disturbances.ground_rise)
+        xml = with_terrain(xml, edge, disturbances.ground_rise)
     model = mujoco.MjModel.from_xml_string(xml)
     model.geom_solref[:, 0] = contact_time_constant
     if disturbances.mass_scale != 1.0:
@@ -233,15 +248,7 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
     torso = model.body(biped.upper_body[0] if biped.upper_body else biped.stance_thigh).id
 
     def normal_force(geoms) -> float:
-        total = 0.0
-        force = np.zeros(6)
-        for c in range(data.ncon):
-            contact = data.contact[c]
-            touching = contact.geom[0] in grounds or contact.geom[1] in grounds
-            if touching and (contact.geom[0] in geoms or contact.geom[1] in geoms):
-                mujoco.mj_contactForce(model, data, c, force)
-                total += force[0]
-        return total
+        return contact_normal_force(mujoco, model, data, grounds, geoms)
 
     def ankle_position(label) -> complex:
         if feet:

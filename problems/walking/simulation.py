@@ -109,6 +109,25 @@ class Disturbances:
             check_positive("torque_limit", self.torque_limit, "N m")
 
 
+def disturbances_for(n: int, torque_limit: float) -> dict[str, Disturbances]:
+    """The disturbances every closed-loop check runs (the product's simulation and MuJoCo's,
+    on point feet and on feet), by label, for a biped of ``n`` links whose drives are limited
+    to ``torque_limit`` N m: the plan, a body 10 % heavier and lighter, the ground 5 mm and
+    1 cm higher and lower from the first new foothold on, a start 0.02 rad off on every
+    angle, drives limited to 2/3 of the plan's limit."""
+    return {
+        "plan": Disturbances(),
+        "mass +10 %": Disturbances(mass_scale=1.1),
+        "mass -10 %": Disturbances(mass_scale=0.9),
+        "ground +5 mm": Disturbances(ground_rise=0.005),
+        "ground -5 mm": Disturbances(ground_rise=-0.005),
+        "ground +1 cm": Disturbances(ground_rise=0.01),
+        "ground -1 cm": Disturbances(ground_rise=-0.01),
+        "start 0.02 rad": Disturbances(initial=np.r_[np.full(n, 0.02), np.zeros(n)]),
+        f"|M| <= {2 * torque_limit / 3:g}": Disturbances(torque_limit=2.0 * torque_limit / 3.0),
+    }
+
+
 @dataclass(frozen=True)
 class StepRecord:
     """One simulated step.
@@ -729,6 +748,7 @@ __all__: Sequence[str] = (
     "Plant",
     "StepRecord",
     "WalkingRun",
+    "disturbances_for",
     "largest_push",
     "locate_event",
     "locate_strike",

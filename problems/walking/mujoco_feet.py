@@ -1,0 +1,250 @@
+"""The step on feet (:class:`problems.walking.footed.FootedGait`) walked in MuJoCo
+(``pip install ".[mujoco]"``): the plan's own eight links with a floating base, each foot
+touching the ground at two spheres, its heel and its ball (:func:`model.to_mjcf` with the
+step's contact points), on a plane with the plan's friction. MuJoCo decides every contact:
+the foot lies flat, its heel rises, the swing heel strikes, both feet stand, the rear foot
+leaves; nothing of the plan's phase sequence is imposed on it. The drives run the file's law
+(:class:`problems.walking.feet_control.FeetLaw`) at 1 kHz: the plan's torques and joint
+feedback around it, indexed by the hip's progress, switching to the double support's branch
+when the swing heel's normal force passes ``TOUCHDOWN_FORCE`` past half the step, the legs
+swapped (torques mapped by :meth:`model.Rerooting.map_torques`) at s = 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from model.mjcf import MjcfModel, to_mjcf
+from planner.errors import DefinitionTypeError, check_integer, check_positive
+from problems.walking.feedback import PUSH_STEPS
+from problems.walking.feet_control import CONTROL_RATE_HZ, FeetLaw
+from problems.walking.mujoco import (
+    CONTACT_TIME_CONSTANT,
+    PRELOAD,
+    TIMESTEP,
+    TOUCHDOWN_FORCE,
+    MujocoRun,
+    MujocoStep,
+    contact_normal_force,
+    import_mujoco,
+    with_terrain,
+)
+from problems.walking.simulation import Disturbances, disturbances_for, largest_push
+
+
+def feet_walker_mjcf(step, *, ground_mu: float | None = None) -> MjcfModel:
+    """The MJCF of a step on feet: its linkage floating, spheres at its four contact points
+    (heel and ball of each foot), its seven drives limited to the plan's torque limit."""
+    return to_mjcf(
+        step.linkage,
+        base="floating",
+        contacts=list(step.points.values()),
+        friction=step.mu if ground_mu is None else ground_mu,
+        torque_limits=dict.fromkeys(step.drives, step.torque_limit),
+        timestep=TIMESTEP,
+        name="walker_on_feet",
+    )
+
+
+def run_feet_in_mujoco(
+    gait,
+    *,
+    steps: int = 20,
+    disturbances: Disturbances | None = None,
+    open_loop: bool = False,
+    contact_time_constant: float = CONTACT_TIME_CONSTANT,
+    preload: float = PRELOAD,
+    law: FeetLaw | None = None,
+) -> MujocoRun:
+    """Walk ``steps`` steps of a solved step on feet in MuJoCo from the plan's start under
+    :class:`FeetLaw` (``law``; default ``FeetLaw(gait)``); ``open_loop``: the
+    plan's torques by the time since the step began, no feedback. Disturbances: a push on
+    the torso, a mass scale (MuJoCo's body changes, the law keeps the plan's), the ground
+    higher or lower from a step on, the start off the plan, the drives saturated lower.
+
+    Returns the steps walked (duration, length between the stance balls, the stance ball's
+    slip, its foot's peak normal force, the largest tracking error, the largest command) and
+    why it fell, if it did.
+    """
+    from problems.walking.footed import FootedGait
+
+    if not isinstance(gait, FootedGait):
+        raise DefinitionTypeError(
+            f"`gait`: a solved step on feet (footed_step(...).solve()), got {type(gait).__name__}"
+        )
+    mujoco = import_mujoco()
+    steps = check_integer("steps", steps, 1)
+    check_positive("contact_time_constant", contact_time_constant, "s")
+    check_positive("preload", preload, "m")
+    disturbances = disturbances or Disturbances()
+    law = FeetLaw(gait) if law is None else law
+    step = gait.problem
+    mjcf = feet_walker_mjcf(step)
+    xml = mjcf.xml
+    if disturbances.ground_rise != 0.0:
+        xml = with_terrain(xml, (disturbances.ground_from - 0.5) * step.step_length,
+                           disturbances.ground_rise)  # fmt: skip
+    model = mujoco.MjModel.from_xml_string(xml)
+    model.geom_solref[:, 0] = contact_time_constant
+    if disturbances.mass_scale != 1.0:
+        bodies = [model.body(name).id for name in step.linkage.names]
+        model.body_mass[bodies] *= disturbances.mass_scale
+        model.body_inertia[bodies] *= disturbances.mass_scale
+    data = mujoco.MjData(model)
+    unstable: list[str] = []  # MuJoCo reports an unstable simulation and resets it: a fall
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(unstable.append)
+    try:
+        return _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preload,
+                     unstable)  # fmt: skip
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preload, unstable):
+    """The control loop of :func:`run_feet_in_mujoco`."""
+    step = law.step
+    linkage = step.linkage
+    n = linkage.n
+    swap = step.biped.swap
+    single = law.references[0]
+    # the contact geoms of each label: "A" when MuJoCo's root foot is the plan's stance foot
+    feet = {"A": ("stance", "swing"), "B": ("swing", "stance")}
+    geom = {c.name: model.geom(c.name).id for c in mjcf.contacts}
+    grounds = {g for g in range(model.ngeom) if model.geom(g).name.startswith("ground")}
+    motors = [model.actuator(f"M_{name}").id for name in linkage.names[1:]]
+    limit = step.torque_limit
+    if disturbances.torque_limit is not None:
+        limit = min(limit, disturbances.torque_limit)
+    torso = model.body(step.biped.upper_body[0]).id
+    start = single.states[0].copy()
+    if disturbances.initial is not None:
+        start = start + np.asarray(disturbances.initial, dtype=float)
+    data.qpos[:] = mjcf.qpos(start[:n], (0.0, -preload))
+    data.qvel[:] = mjcf.qvel(start[n:], (0.0, 0.0))
+    mujoco.mj_forward(model, data)
+    period = 1.0 / CONTROL_RATE_HZ
+    substeps = max(1, round(period / model.opt.timestep))
+
+    def foot(label: str, which: int) -> set[int]:
+        side = feet[label][which]  # 0: the plan's stance foot, 1: its swing foot
+        return {geom[f"{side}_heel"], geom[f"{side}_toe"]}
+
+    def ball(label: str, which: int) -> float:
+        return float(data.geom_xpos[geom[f"{feet[label][which]}_toe"]][0])
+
+    records: list[MujocoStep] = []
+    times, states = [], []
+    label, branch = "A", 0
+    t_step = clock = 0.0
+    fell = None
+    stance_ball = ball(label, 0)
+    peak_normal = tracking = peak_torque = slip = 0.0
+    pushed = disturbances.push == 0.0
+    lowest = min(0.0, disturbances.ground_rise) - 0.02
+    while len(records) < steps:
+        coordinates = mjcf.model_coordinates(data.qpos)
+        rates = mjcf.model_coordinates(data.qvel)
+        psi, dpsi = coordinates[2:], rates[2:]
+        if label == "B":
+            psi, dpsi = swap.map_state(psi, dpsi)
+        x = np.r_[psi, dpsi]
+        reference = law.references[branch]
+        if open_loop:
+            since = t_step - (single.duration if branch else 0.0)
+            torques = reference.at_time(since)[1].copy()
+        else:
+            torques = law.torques(branch, x)
+        torques[0] = 0.0  # the ground's torque on the stance foot: no drive gives it
+        tracking = max(tracking, reference.tracking(x))
+        hinge = torques if label == "A" else swap.map_torques(torques)
+        data.ctrl[motors] = np.clip(hinge[1:], -limit, limit)
+        peak_torque = max(peak_torque, float(np.abs(data.ctrl[motors]).max()))
+        push_now = (not pushed and len(records) == disturbances.push_step
+                    and t_step >= disturbances.push_at * step.step_time)  # fmt: skip
+        if push_now:
+            force = np.array([disturbances.push / period, 0.0, 0.0])
+            mujoco.mj_applyFT(model, data, force, np.zeros(3), data.xipos[torso], torso,
+                              data.qfrc_applied)  # fmt: skip
+            pushed = True
+        for _ in range(substeps):
+            mujoco.mj_step(model, data)
+        if push_now:
+            data.qfrc_applied[:] = 0.0
+        if unstable:
+            fell = f"step {len(records)}, t = {t_step:.3f} s: MuJoCo: {unstable[0].strip()}"
+            break
+        t_step += period
+        clock += period
+        times.append(clock)
+        states.append(data.qpos.copy())
+        peak_normal = max(peak_normal, contact_normal_force(mujoco, model, data, grounds,
+                                                            foot(label, 0)))  # fmt: skip
+        slip = max(slip, abs(ball(label, 0) - stance_ball))
+        here = mjcf.model_coordinates(data.qpos)
+        hinges = step.dynamics.hinge_positions(here[2:]) + complex(here[0], here[1])
+        # 2 cm under the lowest ground there is: a knee, hip or head that low has fallen
+        if np.min(hinges.imag[1:]) < lowest or not np.all(np.isfinite(data.qpos)):
+            fell = f"step {len(records)}, t = {t_step:.3f} s: a body point went under the ground"
+            break
+        if t_step > 2.0 * step.step_time:
+            fell = f"step {len(records)}: the step did not end within twice the step time"
+            break
+        s = law.phase(psi)
+        swing_load = contact_normal_force(mujoco, model, data, grounds, {geom[
+            f"{feet[label][1]}_heel"]})  # fmt: skip
+        if branch == 0 and s > 0.5 and swing_load > TOUCHDOWN_FORCE:
+            branch = 1  # the swing heel struck: the double support's branch
+        elif branch == 1 and s >= 1.0:
+            landing = ball(label, 1)
+            records.append(MujocoStep(len(records), t_step, landing - stance_ball, slip,
+                                      peak_normal, tracking, peak_torque))  # fmt: skip
+            label, branch = ("B" if label == "A" else "A"), 0
+            stance_ball = ball(label, 0)
+            t_step = 0.0
+            peak_normal = tracking = peak_torque = slip = 0.0
+    return MujocoRun(tuple(records), fell, np.asarray(times), np.asarray(states), mjcf)
+
+
+@dataclass(frozen=True)
+class FeetMujocoCheck:
+    """What :func:`feet_mujoco_check` measured: runs by label (open loop, closed loop and
+    the disturbances of :func:`problems.walking.simulation.disturbances_for`), the largest
+    pushes survived (forward, back) N s (None when the undisturbed closed loop falls), the
+    steps asked for, the law's gains per branch."""
+
+    runs: dict
+    pushes: tuple[float, float] | None
+    steps: int
+    gains: tuple
+
+
+def feet_mujoco_check(gait, steps: int = 20, law: FeetLaw | None = None) -> FeetMujocoCheck:
+    """The step on feet in MuJoCo under ``law`` (default ``FeetLaw(gait)``): open loop, closed
+    loop, the product's disturbances, and the largest pushes (``PUSH_STEPS`` steps, the push
+    at mid-step of the second; none when the undisturbed closed loop falls)."""
+    law = FeetLaw(gait) if law is None else law
+    step = gait.problem
+    runs = {"open loop": run_feet_in_mujoco(gait, steps=steps, open_loop=True, law=law)}
+    for label, disturbances in disturbances_for(step.linkage.n, step.torque_limit).items():
+        name = "closed loop" if label == "plan" else label
+        runs[name] = run_feet_in_mujoco(gait, steps=steps, disturbances=disturbances, law=law)
+    if runs["closed loop"].walked < steps:  # no margin to measure
+        return FeetMujocoCheck(runs, None, steps, law.gains)
+
+    def walk(disturbances):
+        return run_feet_in_mujoco(gait, steps=PUSH_STEPS, disturbances=disturbances, law=law)
+
+    forward, _ = largest_push(walk, direction=1.0, steps=PUSH_STEPS)
+    back, _ = largest_push(walk, direction=-1.0, steps=PUSH_STEPS)
+    return FeetMujocoCheck(runs, (forward, back), steps, law.gains)
+
+
+__all__ = [
+    "FeetMujocoCheck",
+    "feet_mujoco_check",
+    "feet_walker_mjcf",
+    "run_feet_in_mujoco",
+]

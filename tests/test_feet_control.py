@@ -1,0 +1,77 @@
+"""The drives' law of the step on feet (problems.walking.feet_control) and its gains in the
+torque file: the file's rows, read back from disk as a drive reads them, give the law's
+torques (a matrix K (x_ref - x) against the law's joint PD on relative angles)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from model import LinkageTrajectory
+from planner.errors import DefinitionError
+from problems.walking.feedback import LAW
+from problems.walking.feet_control import FEET_KD, FEET_KP, FeetLaw, feet_references
+
+
+@pytest.fixture(scope="module")
+def law(footed_gait):
+    return FeetLaw(footed_gait)
+
+
+@pytest.fixture(scope="module")
+def file(footed_gait, law, tmp_path_factory):
+    profile = law.channels(footed_gait.to_trajectory(1000.0))
+    path = profile.save(tmp_path_factory.mktemp("feet") / "torques.csv")
+    return LinkageTrajectory.load(path)
+
+
+def test_the_references_split_at_the_heel_strike_and_share_one_phase(footed_gait):
+    single, double = feet_references(footed_gait, 1000.0)
+    flat, heel, _ = footed_gait.durations()
+    assert single.duration == pytest.approx(flat + heel, abs=1e-12)
+    assert single.phases[0] == pytest.approx(0.0, abs=1e-12)
+    assert double.phases[-1] == pytest.approx(1.0, abs=1e-12)
+    # the impact changes the rates, not the angles: the phase is continuous through it
+    assert double.phases[0] == pytest.approx(single.phases[-1], abs=1e-12)
+    assert np.all(np.diff(single.phases) > 0) and np.all(np.diff(double.phases) > 0)
+
+
+def test_the_files_gains_give_the_laws_torques(footed_gait, law, file):
+    """At samples of both branches, the state off the plan on the angles the phase does not
+    read (swing leg, torso, head: the hip's place is the stance leg's) and on every rate: the
+    file's M_ff + K (x_ref - x), K read from its columns, against FeetLaw.torques."""
+    step = footed_gait.problem
+    names = step.linkage.names
+    n = len(names)
+    states = [f"psi_{name}" for name in names] + [f"dpsi_{name}" for name in names]
+    double = file.column("double_support")
+    assert set(np.unique(double)) == {0.0, 1.0}
+    assert np.all(np.diff(double) >= 0)  # one switch, at the heel strike
+    rng = np.random.default_rng(11)
+    samples = np.r_[rng.choice(np.flatnonzero(double == 0), 4),
+                    rng.choice(np.flatnonzero(double == 1), 4)]  # fmt: skip
+    for k in samples:
+        reference = np.r_[file.psi[k], file.dpsi[k]]
+        x = reference.copy()
+        x[3:n] += rng.normal(scale=0.05, size=n - 3)
+        x[n:] += rng.normal(scale=0.5, size=n)
+        gains = np.array([[file.column(f"K_{h}__{s}")[k] for s in states] for h in names])
+        from_file = file.torques[k] + gains @ (reference - x)
+        from_file[0] = 0.0  # the ground's torque: no drive
+        expected = law.torques(int(double[k]), x)
+        np.testing.assert_allclose(from_file, expected, rtol=1e-9, atol=1e-6)
+    feedback = file.metadata["feedback"]
+    assert feedback["law"] == LAW
+    assert feedback["kp"]["double"] == [FEET_KP] * n and feedback["kd"]["double"] == [FEET_KD] * n
+    light = names.index(step.biped.swing_leg[-1])  # the swing foot: capped in single support
+    assert feedback["kp"]["single"][light] < FEET_KP and feedback["kd"]["single"][light] < FEET_KD
+    phase = file.column("phase")
+    assert phase[0] == pytest.approx(0.0, abs=1e-9) and phase[-1] == pytest.approx(1.0, abs=1e-9)
+
+
+def test_channels_refuse_a_trajectory_of_another_linkage(law):
+    from problems import walking_step
+
+    other = walking_step().solve().to_trajectory()
+    with pytest.raises(DefinitionError, match="`trajectory`: 6 angles, the step on feet has 8"):
+        law.channels(other)
