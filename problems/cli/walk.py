@@ -27,6 +27,7 @@ from problems.cli.common import (
     output_set,
     positive,
     preset_linkage,
+    print_mujoco_runs,
     print_runs,
     print_verification,
     save_trajectory,
@@ -582,17 +583,7 @@ def _closed_loop(feedback, report, out):
         f"{engine.planned_normal:.0f} N):",
         file=out,
     )
-    print_runs(out, engine.runs, engine.steps, [
-        ("peak |M| N m", 12, lambda steps: f"{max(r.peak_torque for r in steps):.1f}"),
-        ("slip mm", 8, lambda steps: f"{1000 * max(r.slip for r in steps):.1f}"),
-        ("peak Fy N", 9, lambda steps: f"{max(r.peak_normal for r in steps):.0f}"),
-        ("tracking rad", 12, lambda steps: f"{max(r.tracking for r in steps):.2e}"),
-    ])  # fmt: skip
-    forward, back = engine.pushes
-    print(
-        f"  largest push survived in MuJoCo: forward {forward:.1f} N s, back {back:.1f} N s",
-        file=out,
-    )
+    print_mujoco_runs(out, engine.runs, engine.steps, engine.pushes)
     return check
 
 

@@ -26,7 +26,7 @@ from problems.cli.common import (
     UsageError,
     new_folder,
     output_set,
-    print_runs,
+    print_mujoco_runs,
     print_verification,
     save_trajectory,
     write_walk_pictures,
@@ -195,17 +195,4 @@ def _feet_in_mujoco(gait, law, report, out) -> None:
         f"{gait.problem.mu:g}; the file's law):",
         file=out,
     )
-    print_runs(out, engine.runs, engine.steps, [
-        ("peak |M| N m", 12, lambda steps: f"{max(r.peak_torque for r in steps):.1f}"),
-        ("slip mm", 8, lambda steps: f"{1000 * max(r.slip for r in steps):.1f}"),
-        ("peak Fy N", 9, lambda steps: f"{max(r.peak_normal for r in steps):.0f}"),
-        ("tracking rad", 12, lambda steps: f"{max(r.tracking for r in steps):.2e}"),
-    ])  # fmt: skip
-    if engine.pushes is None:
-        print("  no push margin: the undisturbed closed loop fell", file=out)
-        return
-    forward, back = engine.pushes
-    print(
-        f"  largest push survived in MuJoCo: forward {forward:.1f} N s, back {back:.1f} N s",
-        file=out,
-    )
+    print_mujoco_runs(out, engine.runs, engine.steps, engine.pushes)

@@ -199,6 +199,10 @@ def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preloa
             branch = 1  # the swing heel struck: the double support's branch
         elif branch == 1 and s >= 1.0:
             landing = ball(label, 1)
+            if landing - stance_ball < 0.25 * step.step_length:
+                fell = (f"step {len(records)}, t = {t_step:.3f} s: the front ball came down "
+                        f"{landing - stance_ball:+.3f} m from the stance ball")  # fmt: skip
+                break
             records.append(MujocoStep(len(records), t_step, landing - stance_ball, slip,
                                       peak_normal, tracking, peak_torque))  # fmt: skip
             label, branch = ("B" if label == "A" else "A"), 0
