@@ -1033,7 +1033,7 @@ def test_walk_on_feet_with_feedback_writes_its_law_and_walks_it_in_mujoco(tmp_pa
     folder = tmp_path / "feet"
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(["walk", "--preset", "six-link-feet", "--feedback", "--no-plots",
+        code = main(["walk", "--preset", "six-link-feet", "--feedback", "--no-gif",
                      "--output-dir", str(folder)])  # fmt: skip
     out, err = out.getvalue(), err.getvalue()
     assert code == 0, err
@@ -1044,6 +1044,7 @@ def test_walk_on_feet_with_feedback_writes_its_law_and_walks_it_in_mujoco(tmp_pa
     profile = LinkageTrajectory.load(folder / "torques.csv")
     assert {"phase", "double_support", "K_stance_shank__psi_stance_foot"} <= set(profile.extras)
     assert profile.metadata["feedback"]["kp"]["double"][1] == 1000.0
+    assert (folder / "mujoco_walk.png").stat().st_size > 0
 
 
 def test_walk_on_feet_refuses_the_point_foot_options_by_name(capsys):

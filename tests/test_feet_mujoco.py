@@ -107,6 +107,25 @@ def test_the_step_on_feet_walks_in_mujoco_closed_loop_and_falls_open_loop(gait):
     assert opened.walked <= 2 and opened.fell is not None
 
 
+def test_the_walk_in_mujoco_drawn_where_mujoco_put_its_bodies(gait):
+    """MujocoRun.world against MuJoCo's own kinematics of the recorded qpos: each body's
+    frame (its link's start hinge) at the drawn segment's start, for every drawn instant."""
+    step = gait.problem
+    run = run_feet_in_mujoco(gait, steps=2)
+    motion = run.world(step.dynamics, rate_hz=60.0, corners=step.corners)
+    model = mujoco.MjModel.from_xml_string(run.mjcf.xml)
+    data = mujoco.MjData(model)
+    for k, t in enumerate(motion.time):
+        data.qpos[:] = run.qpos[int(np.searchsorted(run.time, t))]
+        mujoco.mj_kinematics(model, data)
+        for name in step.linkage.names:
+            x, _, y = data.xpos[model.body(name).id]
+            assert motion.segments[name][k, 0] == pytest.approx(complex(x, y), abs=1e-12), name
+    assert motion.step[0] == 0 and motion.step[-1] == 1  # steps counted from 0
+    lengths = np.diff(motion.footholds.real)
+    np.testing.assert_allclose(lengths, [r.length for r in run.steps], rtol=1e-12)
+
+
 def test_a_push_too_hard_is_a_fall_with_its_reason(gait):
     run = run_feet_in_mujoco(gait, steps=4, disturbances=Disturbances(push=150.0, push_step=1))
     # 2 m/s on 70 kg at mid-step of the second step: down before the third ends

@@ -210,7 +210,7 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         "+-1 cm, a start error, weaker drives, largest pushes (about two minutes; draws "
         "closed_loop.png and the pushed walk, closed_loop_walk.png and .gif). With "
         "--preset six-link-feet: joint PD gains around the plan in the same columns, checked "
-        "in MuJoCo only (20 steps a case; about a minute)",
+        "in MuJoCo only (20 steps a case; about a minute; draws mujoco_walk.png)",
     )
     walk.add_argument(
         "--ground-friction",

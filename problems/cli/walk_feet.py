@@ -162,16 +162,32 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
             from problems.walking.plots import footed_figure
 
             write_walk_pictures(footed_figure(gait), gait, output, args, report)
+        if law is not None:
+            engine = _feet_in_mujoco(gait, law, report, out)
+            if engine is not None and not args.no_plots:
+                _draw_mujoco_walk(engine.runs["closed loop"], gait, output, report)
         paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
     for path in paths:
         print(f"wrote {path}", file=out)
-    if law is not None:
-        _feet_in_mujoco(gait, law, report, out)
     return 0
 
 
-def _feet_in_mujoco(gait, law, report, out) -> None:
-    """Print the law written in torques.csv and its walks in MuJoCo (``--feedback``)."""
+def _draw_mujoco_walk(run, gait, output, report) -> None:
+    """mujoco_walk.png: the closed loop's walk in MuJoCo, its bodies in world coordinates."""
+    from problems.walking import plots as walking_plots
+
+    step = gait.problem
+    motion = run.world(step.dynamics, rate_hz=60.0, corners=step.corners)
+    title = (f"MuJoCo, the file's law: {run.walked} steps on heel and ball spheres "
+             "(later poses darker)")  # fmt: skip
+    with report.working("plotting mujoco_walk.png"):
+        figure = walking_plots.world_strip(motion, frames_per_step=3, title=title)
+        walking_plots.save_figure(figure, output.path("mujoco_walk.png"))
+
+
+def _feet_in_mujoco(gait, law, report, out):
+    """Print the law written in torques.csv and its walks in MuJoCo (``--feedback``);
+    returns the MuJoCo check, or None without MuJoCo."""
     n = gait.problem.linkage.n
     print(
         f"feedback: joint PD around the plan at {law.rate_hz:g} Hz (kp {law.gains[1][0][1]:g} "
@@ -185,7 +201,7 @@ def _feet_in_mujoco(gait, law, report, out) -> None:
         import mujoco  # noqa: F401 - only whether the extra is there
     except ImportError:
         print('MuJoCo: not installed (pip install ".[mujoco]"): no run in MuJoCo', file=out)
-        return
+        return None
     from problems.walking.mujoco_feet import feet_mujoco_check
 
     with report.working("walking in MuJoCo (heel and ball spheres, soft contacts)"):
@@ -196,3 +212,4 @@ def _feet_in_mujoco(gait, law, report, out) -> None:
         file=out,
     )
     print_mujoco_runs(out, engine.runs, engine.steps, engine.pushes)
+    return engine

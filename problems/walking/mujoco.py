@@ -29,8 +29,10 @@ import numpy as np
 
 from model.mjcf import MjcfModel, to_mjcf
 from planner.errors import DefinitionError, check_integer, check_positive
+from problems.gait.biped import Biped
 from problems.walking.feedback import PUSH_STEPS, disturbance_cases
 from problems.walking.simulation import Disturbances, largest_push
+from problems.walking.step import WorldMotion, world_motion
 
 #: a swing foot touches down when its contact's normal force passes this, N
 TOUCHDOWN_FORCE = 5.0
@@ -103,6 +105,30 @@ class MujocoRun:
     @property
     def walked(self) -> int:
         return len(self.steps)
+
+    def world(self, dynamics, rate_hz: float = 60.0, corners=None) -> WorldMotion:
+        """MuJoCo's bodies in world coordinates (``dynamics``: the plan's model, whose links
+        MuJoCo's bodies are), sampled at about ``rate_hz`` and at the last instant, for
+        :func:`problems.walking.plots.world_strip`: each body keeps its name in the MJCF
+        (MuJoCo does not swap legs), the footholds are the start's stance foot then each
+        step's length further; ``corners`` as for :func:`problems.walking.step.world_motion`."""
+        rate = check_positive("rate_hz", rate_hz, "Hz")
+        if self.time.size == 0:
+            raise DefinitionError("`run`: it has no recorded instant to draw")
+        marks = np.arange(self.time[0], self.time[-1], 1.0 / rate)
+        picks = np.unique(np.r_[np.searchsorted(self.time, marks), self.time.size - 1])
+        coordinates = self.mjcf.model_coordinates(self.qpos[picks])
+        time = self.time[picks]
+        zeros = np.zeros(time.size, dtype=int)
+        # one description (MuJoCo's labels) at H0 = 0, then moved by the floating base
+        placed = world_motion(Biped.of(dynamics.linkage), dynamics, time, coordinates[:, 2:],
+                              zeros, np.zeros(1, dtype=complex), corners)  # fmt: skip
+        base = coordinates[:, 0] + 1j * coordinates[:, 1]
+        segments = {name: ends + base[:, None] for name, ends in placed.segments.items()}
+        ends = np.cumsum([record.duration for record in self.steps])
+        step = np.searchsorted(ends, time - self.time[0] + 1e-12, side="right")
+        footholds = complex(base[0]) + np.r_[0.0, np.cumsum([r.length for r in self.steps])]
+        return WorldMotion(time, segments, step, footholds.astype(complex))
 
 
 def with_terrain(xml: str, edge: float, rise: float) -> str:
