@@ -22,6 +22,8 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from planner.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 
 
@@ -299,6 +301,15 @@ class Linkage:
             chain.append(p)
             p = self._parents[p]
         return tuple(reversed(chain))
+
+    def ancestry(self) -> np.ndarray:
+        """A (n, n): A[i, k] = 1 when link k is link i or one of its ancestors. The absolute
+        angles of the hinges' relative ones (psi = A q); its transpose sums a quantity of each
+        link over the subtree of every link (a hinge's torque of the generalised forces)."""
+        matrix = np.eye(self.n)
+        for i in range(self.n):
+            matrix[i, list(self.ancestors(i))] = 1.0
+        return matrix
 
     def subtree(self, i: int) -> tuple[int, ...]:
         """Link i and all its descendants, in link order."""

@@ -176,11 +176,7 @@ class MjcfModel:
     @property
     def ancestry(self) -> np.ndarray:
         """A (n, n): psi = A q, A[i, k] = 1 when link k is link i or one of its ancestors."""
-        n = self.linkage.n
-        matrix = np.zeros((n, n))
-        for i in range(n):
-            matrix[i, [*self.linkage.ancestors(i), i]] = 1.0
-        return matrix
+        return self.linkage.ancestry()
 
     @property
     def coordinates(self) -> np.ndarray:

@@ -624,3 +624,18 @@ def test_the_same_body_in_millimetres_and_grams_moves_with_the_same_physics():
         six.in_units(length=0.0)
     with pytest.raises(DefinitionError, match=r"`mass`: must be > 0"):
         six.in_units(mass=-1.0)
+
+
+def test_ancestry_turns_relative_angles_into_absolute_ones():
+    """psi = A q on the anthropoid on feet (a tree with two branches at the hip): q_i the
+    hinge's angle relative to its parent, summed down the path from the root by hand."""
+    from model import presets
+
+    linkage = presets.anthropoid_with_feet()
+    relative = np.random.default_rng(5).uniform(-1.0, 1.0, linkage.n)
+    absolute = np.array([relative[i] + sum(relative[k] for k in linkage.ancestors(i))
+                         for i in range(linkage.n)])  # fmt: skip
+    np.testing.assert_allclose(linkage.ancestry() @ relative, absolute, rtol=0, atol=1e-15)
+    # each column k: link k and its subtree
+    for k in range(linkage.n):
+        assert tuple(np.flatnonzero(linkage.ancestry()[:, k])) == linkage.subtree(k)

@@ -189,9 +189,10 @@ def _feet_in_mujoco(gait, law, report, out):
     """Print the law written in torques.csv and its walks in MuJoCo (``--feedback``);
     returns the MuJoCo check, or None without MuJoCo."""
     n = gait.problem.linkage.n
+    kp, kd = law.gains[1]  # the double support's: uncapped, the same on every hinge
     print(
-        f"feedback: joint PD around the plan at {law.rate_hz:g} Hz (kp {law.gains[1][0][1]:g} "
-        f"N m/rad, kd {law.gains[1][1][1]:g} N m s/rad, capped on light links in the single "
+        f"feedback: joint PD around the plan at {law.rate_hz:g} Hz (kp {kp.max():g} "
+        f"N m/rad, kd {kd.max():g} N m s/rad, capped on light links in the single "
         f"support at {law.bandwidth:g} rad/s), indexed by the hip's progress; torques.csv "
         f"carries it ({n * 2 * n} columns K_<hinge>__<state>, phase, double_support; the law "
         "in torques.csv.meta.json)",

@@ -33,6 +33,7 @@ from planner.errors import DefinitionError, check_positive
 from planner.trajectory import Trajectory
 from problems.walking.control import GaitReference, PhasePD
 from problems.walking.feedback import LAW, limit_metadata, with_gains
+from problems.walking.mujoco import TOUCHDOWN_FORCE
 
 #: the hinge drives' PD gains, N m/rad and N m s/rad, and the bandwidth, rad/s, that caps them
 #: on light links (:func:`hinge_gains`): chosen from the sweep of
@@ -75,11 +76,7 @@ def hinge_inertias(dynamics, psi) -> np.ndarray:
     the hinges' relative angles (A^T M(psi) A, psi = A q), averaged over the postures psi
     (K, n) of a plan. The stance ankle's is the whole body's about it (~70 kg m^2 on the
     scene), the swing foot's its own about the ankle (~0.013 kg m^2)."""
-    linkage = dynamics.linkage
-    n = linkage.n
-    ancestry = np.eye(n)
-    for i in range(n):
-        ancestry[i, list(linkage.ancestors(i))] = 1.0
+    ancestry = dynamics.linkage.ancestry()
     diagonals = [np.diag(ancestry.T @ dynamics.mass_matrix(angles) @ ancestry)
                  for angles in np.atleast_2d(psi)]  # fmt: skip
     return np.mean(diagonals, axis=0)
@@ -207,8 +204,8 @@ FEET_PHASE = (
 FEET_BRANCHES = (
     "rows with double_support = 0: the single support (flat foot, heel rise) up to the heel "
     "strike; 1: the double support after it. The law takes the double support's rows when "
-    "the swing heel's normal force passes 5 N past s = 0.5, and swaps the legs at s = 1; past "
-    "a branch's last row x_ref goes on along its last slope dx/ds"
+    f"the swing heel's normal force passes {TOUCHDOWN_FORCE:g} N past s = 0.5, and swaps the "
+    "legs at s = 1; past a branch's last row x_ref goes on along its last slope dx/ds"
 )
 
 

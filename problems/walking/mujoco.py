@@ -23,6 +23,7 @@ What differs from the product's own simulation, and how the controller copes:
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -131,6 +132,47 @@ class MujocoRun:
         return WorldMotion(time, segments, step, footholds.astype(complex))
 
 
+def disturbed_model(mujoco, mjcf: MjcfModel, disturbances, step_length: float,
+                    contact_time_constant: float):  # fmt: skip
+    """(MjModel, MjData) of a walker's MJCF under ``disturbances``: the ground ``ground_rise``
+    higher from half a step before foothold ``ground_from`` on (:func:`with_terrain`), the
+    links' masses and inertias scaled by ``mass_scale`` (the controller keeps the plan's),
+    every contact's time constant ``contact_time_constant`` s."""
+    xml = mjcf.xml
+    if disturbances.ground_rise != 0.0:
+        edge = (disturbances.ground_from - 0.5) * step_length
+        xml = with_terrain(xml, edge, disturbances.ground_rise)
+    model = mujoco.MjModel.from_xml_string(xml)
+    model.geom_solref[:, 0] = contact_time_constant
+    if disturbances.mass_scale != 1.0:
+        bodies = [model.body(name).id for name in mjcf.linkage.names]
+        model.body_mass[bodies] *= disturbances.mass_scale
+        model.body_inertia[bodies] *= disturbances.mass_scale
+    return model, mujoco.MjData(model)
+
+
+@contextlib.contextmanager
+def instability_reports(mujoco):
+    """A list that collects MuJoCo's warnings while the block runs: MuJoCo reports an unstable
+    simulation on stdout and resets it; a walk reads any report as a fall."""
+    reports: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(reports.append)
+    try:
+        yield reports
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
+def push_torso(mujoco, model, data, torso: int, impulse: float, period: float) -> None:
+    """Apply a horizontal ``impulse`` N s on body ``torso``'s centre of mass over one control
+    ``period`` s (the caller clears ``data.qfrc_applied`` after the period)."""
+    data.qfrc_applied[:] = 0.0
+    force = np.array([impulse / period, 0.0, 0.0])
+    mujoco.mj_applyFT(model, data, force, np.zeros(3), data.xipos[torso], torso,
+                      data.qfrc_applied)  # fmt: skip
+
+
 def with_terrain(xml: str, edge: float, rise: float) -> str:
     """The walker's MJCF with its ground plane replaced by two boxes: the ground as planned up
     to x = edge, ``rise`` m higher (or lower) after it."""
@@ -204,28 +246,12 @@ def run_in_mujoco(
     check_positive("contact_time_constant", contact_time_constant, "s")
     disturbances = disturbances or Disturbances()
     step = feedback.step
-    linkage = step.linkage
     mjcf = walker_mjcf(step, ground_mu=feedback.plant.mu, foot_mass=foot_mass)
-    xml = mjcf.xml
-    if disturbances.ground_rise != 0.0:
-        edge = (disturbances.ground_from - 0.5) * step.step_length
-        xml = with_terrain(xml, edge, disturbances.ground_rise)
-    model = mujoco.MjModel.from_xml_string(xml)
-    model.geom_solref[:, 0] = contact_time_constant
-    if disturbances.mass_scale != 1.0:
-        bodies = [model.body(name).id for name in linkage.names]
-        model.body_mass[bodies] *= disturbances.mass_scale
-        model.body_inertia[bodies] *= disturbances.mass_scale
-    data = mujoco.MjData(model)
-    # MuJoCo reports an unstable simulation on stdout and resets it; here it is a fall
-    unstable: list[str] = []
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(unstable.append)
-    try:
+    model, data = disturbed_model(mujoco, mjcf, disturbances, step.step_length,
+                                  contact_time_constant)  # fmt: skip
+    with instability_reports(mujoco) as unstable:
         return _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop,
                      foot_kp, foot_kd, preload, unstable)  # fmt: skip
-    finally:
-        mujoco.set_mju_user_warning(previous)
 
 
 def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, foot_kp,
@@ -242,9 +268,7 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
     for child, parent in enumerate(linkage.parents):
         if parent >= 0:
             children[parent, child] = 1.0
-    subtree = np.zeros((n, n))
-    for k in range(n):
-        subtree[k, list(linkage.subtree(k))] = 1.0
+    subtree = np.ascontiguousarray(linkage.ancestry().T)
     swing_index = linkage.index(biped.swing_shank)
     actuators = {model.actuator(a).name: a for a in range(model.nu)}
     motor_ids = [actuators[f"M_{name}"] for name in linkage.names[1:]]
@@ -350,10 +374,7 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
             and len(records) == disturbances.push_step
             and (t_step >= disturbances.push_at * step.step_time)
         ):
-            data.qfrc_applied[:] = 0.0
-            force = np.array([disturbances.push / period, 0.0, 0.0])
-            mujoco.mj_applyFT(model, data, force, np.zeros(3), data.xipos[torso], torso,
-                              data.qfrc_applied)  # fmt: skip
+            push_torso(mujoco, model, data, torso, disturbances.push, period)
             pushed = True
             push_active = True
         else:

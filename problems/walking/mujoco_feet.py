@@ -28,8 +28,10 @@ from problems.walking.mujoco import (
     MujocoRun,
     MujocoStep,
     contact_normal_force,
+    disturbed_model,
     import_mujoco,
-    with_terrain,
+    instability_reports,
+    push_torso,
 )
 from problems.walking.simulation import Disturbances, disturbances_for, largest_push
 
@@ -82,25 +84,11 @@ def run_feet_in_mujoco(
     law = FeetLaw(gait) if law is None else law
     step = gait.problem
     mjcf = feet_walker_mjcf(step)
-    xml = mjcf.xml
-    if disturbances.ground_rise != 0.0:
-        xml = with_terrain(xml, (disturbances.ground_from - 0.5) * step.step_length,
-                           disturbances.ground_rise)  # fmt: skip
-    model = mujoco.MjModel.from_xml_string(xml)
-    model.geom_solref[:, 0] = contact_time_constant
-    if disturbances.mass_scale != 1.0:
-        bodies = [model.body(name).id for name in step.linkage.names]
-        model.body_mass[bodies] *= disturbances.mass_scale
-        model.body_inertia[bodies] *= disturbances.mass_scale
-    data = mujoco.MjData(model)
-    unstable: list[str] = []  # MuJoCo reports an unstable simulation and resets it: a fall
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(unstable.append)
-    try:
+    model, data = disturbed_model(mujoco, mjcf, disturbances, step.step_length,
+                                  contact_time_constant)  # fmt: skip
+    with instability_reports(mujoco) as unstable:
         return _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preload,
                      unstable)  # fmt: skip
-    finally:
-        mujoco.set_mju_user_warning(previous)
 
 
 def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preload, unstable):
@@ -165,9 +153,7 @@ def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preloa
         push_now = (not pushed and len(records) == disturbances.push_step
                     and t_step >= disturbances.push_at * step.step_time)  # fmt: skip
         if push_now:
-            force = np.array([disturbances.push / period, 0.0, 0.0])
-            mujoco.mj_applyFT(model, data, force, np.zeros(3), data.xipos[torso], torso,
-                              data.qfrc_applied)  # fmt: skip
+            push_torso(mujoco, model, data, torso, disturbances.push, period)
             pushed = True
         for _ in range(substeps):
             mujoco.mj_step(model, data)
