@@ -8,13 +8,17 @@ fill-reducing ordering, the barrier parameter's oracle and strategy, the inertia
 with the durations fixed at the optimum's (free durations couple every defect row of a phase
 to its duration, a dense column of the KKT system). Per row: IPOPT iterations, wall time,
 MUMPS per iteration (its factorisations, several per iteration when the Hessian is
-regularised), the optimum (a different one is a different local minimum).
+regularised), the optimum (a different one is a different local minimum). Then the whole
+solve (limits held at the samples, interpreted) on coarser meshes: time, IPOPT iterations
+(all solves, and each: the re-solves after a mesh cut restart IPOPT's multipliers cold),
+cost, and whether the accuracy check warned.
 """
 
 from __future__ import annotations
 
 import sys
 import tempfile
+import time
 import warnings
 from pathlib import Path
 
@@ -35,7 +39,10 @@ LEVERS = {
     "mu oracle probing": {"mu_oracle": "probing"},
     "monotone mu, mu_init 0.01": {"mu_strategy": "monotone", "mu_init": 0.01},
     "no inertia test of the regularisation": {"neg_curv_test_reg": "no"},
+    "linear solver SPRAL": {"linear_solver": "spral"},
 }
+#: meshes (flat, heel rise, double support) of the whole solve against the default
+MESHES = [(20, 10, 30), (16, 8, 24), (14, 7, 21), (12, 6, 18)]
 
 
 def first_solve(step, options: dict) -> dict:
@@ -49,8 +56,12 @@ def first_solve(step, options: dict) -> dict:
                          compiled=True, warm_start=False)  # fmt: skip
         timers = _ipopt_timers(log)
     iterations = max(solution.stats["iterations"], 1)
+    # the iterations whose Hessian IPOPT regularised (its inertia correction: a
+    # factorisation or more besides the iteration's own)
+    sizes = solution.stats["ipopt"]["iterations"]["regularization_size"]
     return {"iterations": iterations, "wall": solution.stats["solve_seconds"],
-            "linear": 1000.0 * timers["linear"] / iterations, "cost": solution.cost}  # fmt: skip
+            "linear": 1000.0 * timers["linear"] / iterations, "cost": solution.cost,
+            "regularised": sum(1 for size in sizes if size > 0)}  # fmt: skip
 
 
 def main() -> int:
@@ -67,12 +78,33 @@ def main() -> int:
     first_solve(fixed, {})
     rows["durations fixed at the optimum's"] = first_solve(fixed, {})
     print("The first solve of the default step on feet under other options (compiled)")
-    head = f"{'options':<40} {'iter':>5} {'wall s':>7} {'MUMPS ms/iter':>13} {'cost':>10}"
+    head = (f"{'options':<40} {'iter':>5} {'regularised':>11} {'wall s':>7} "
+            f"{'MUMPS ms/iter':>13} {'cost':>10}")  # fmt: skip
     print(head)
     print("-" * len(head))
     for label, row in rows.items():
-        print(f"{label:<40} {row['iterations']:5d} {row['wall']:7.2f} {row['linear']:13.1f} "
-              f"{row['cost']:10.4f}")  # fmt: skip
+        print(f"{label:<40} {row['iterations']:5d} {row['regularised']:11d} {row['wall']:7.2f} "
+              f"{row['linear']:13.1f} {row['cost']:10.4f}")  # fmt: skip
+    print()
+    print("The whole solve (limits held at the samples) on coarser meshes, interpreted")
+    head = (f"{'mesh':<14} {'solve s':>8} {'iterations':>10} {'cost':>10}  {'accuracy':<8}  "
+            "iterations per solve (* after a mesh cut)")  # fmt: skip
+    print(head)
+    print("-" * len(head))
+    for mesh in MESHES:
+        start = time.perf_counter()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", AccuracyWarning)
+            gait = footed_step(N=mesh).solve(compiled=False)
+        seconds = time.perf_counter() - start
+        rounds = gait.solution.stats["sampled_limits"]["rounds"]
+        warned = any(issubclass(w.category, AccuracyWarning) for w in caught)
+        # a round's "split" cuts intervals for the next solve, whose multipliers start cold
+        per_solve = [f"{r['iterations']}{'*' if k and rounds[k - 1]['split'] else ''}"
+                     for k, r in enumerate(rounds)]  # fmt: skip
+        print(f"{'/'.join(map(str, mesh)):<14} {seconds:8.2f} "
+              f"{sum(r['iterations'] for r in rounds):10d} {gait.cost:10.4f}  "
+              f"{'warned' if warned else 'passed':<8}  {' '.join(per_solve)}")  # fmt: skip
     return 0
 
 

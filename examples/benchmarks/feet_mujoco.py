@@ -10,8 +10,8 @@ Three tables, each from one run:
    kp, kd and the bandwidth that caps them on light links in the single support (``inf``:
    uniform gains, no cap):
    steps walked, why it fell, the largest tracking error (rad), the stance ball's largest
-   slip (mm), the largest drive command (N m) and the stance foot's largest normal force
-   (body weights).
+   slip (mm), the largest drive command (N m), the share of control periods with a drive held
+   at its limit (%) and the stance foot's largest normal force (body weights).
 2. The check at the default gains (:func:`problems.walking.mujoco_feet.feet_mujoco_check`):
    open loop, closed loop and the product's disturbances, 20 steps each, and the largest
    pushes survived.
@@ -66,13 +66,15 @@ def _row(label: str, run, weight: float) -> str:
     slip = 1000.0 * max((s.slip for s in steps), default=float("nan"))
     torque = max((s.peak_torque for s in steps), default=float("nan"))
     normal = max((s.peak_normal for s in steps), default=float("nan")) / weight
+    periods = sum(s.duration for s in steps) * 1000.0  # control periods at 1 kHz
+    held = 100.0 * sum(s.saturated for s in steps) / periods if steps else float("nan")
     why = "" if run.fell is None else run.fell.split(":")[-1].strip()[:38]
     return (f"{label:<22} {run.walked:>6d} {tracking:>9.3f} {slip:>8.1f} {torque:>8.1f} "
-            f"{normal:>8.2f}  {why}")  # fmt: skip
+            f"{held:>7.2f} {normal:>8.2f}  {why}")  # fmt: skip
 
 
 HEAD = (f"{'':<22} {'walked':>6} {'track rad':>9} {'slip mm':>8} {'|M| N m':>8} "
-        f"{'Fy / mg':>8}  fell")  # fmt: skip
+        f"{'at |M|%':>7} {'Fy / mg':>8}  fell")  # fmt: skip
 
 
 def main() -> int:

@@ -82,7 +82,8 @@ class MujocoStep:
     """One step in MuJoCo: duration s, length m (between the stance ankles), slip m (how far
     the stance foot's ankle moved along the ground), peak_normal N (the stance foot's largest
     normal force), tracking rad (the largest angle error at the same phase), peak_torque N m
-    (the largest motor command, ankles included)."""
+    (the largest motor command, ankles included), saturated: control periods in which a drive
+    was held at its limit (counted by the walk on feet; None where not counted)."""
 
     index: int
     duration: float
@@ -91,6 +92,7 @@ class MujocoStep:
     peak_normal: float
     tracking: float
     peak_torque: float
+    saturated: int | None = None
 
 
 @dataclass(frozen=True)

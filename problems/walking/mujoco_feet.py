@@ -67,8 +67,8 @@ def run_feet_in_mujoco(
     higher or lower from a step on, the start off the plan, the drives saturated lower.
 
     Returns the steps walked (duration, length between the stance balls, the stance ball's
-    slip, its foot's peak normal force, the largest tracking error, the largest command) and
-    why it fell, if it did.
+    slip, its foot's peak normal force, the largest tracking error, the largest command, the
+    control periods with a drive at its limit) and why it fell, if it did.
     """
     from problems.walking.footed import FootedGait
 
@@ -130,6 +130,7 @@ def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preloa
     fell = None
     stance_ball = ball(label, 0)
     peak_normal = tracking = peak_torque = slip = 0.0
+    saturated = 0
     pushed = disturbances.push == 0.0
     lowest = min(0.0, disturbances.ground_rise) - 0.02
     while len(records) < steps:
@@ -149,7 +150,9 @@ def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preloa
         tracking = max(tracking, reference.tracking(x))
         hinge = torques if label == "A" else swap.map_torques(torques)
         data.ctrl[motors] = np.clip(hinge[1:], -limit, limit)
-        peak_torque = max(peak_torque, float(np.abs(data.ctrl[motors]).max()))
+        command = float(np.abs(data.ctrl[motors]).max())
+        peak_torque = max(peak_torque, command)
+        saturated += command >= limit
         push_now = (not pushed and len(records) == disturbances.push_step
                     and t_step >= disturbances.push_at * step.step_time)  # fmt: skip
         if push_now:
@@ -190,11 +193,12 @@ def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preloa
                         f"{landing - stance_ball:+.3f} m from the stance ball")  # fmt: skip
                 break
             records.append(MujocoStep(len(records), t_step, landing - stance_ball, slip,
-                                      peak_normal, tracking, peak_torque))  # fmt: skip
+                                      peak_normal, tracking, peak_torque, saturated))  # fmt: skip
             label, branch = ("B" if label == "A" else "A"), 0
             stance_ball = ball(label, 0)
             t_step = 0.0
             peak_normal = tracking = peak_torque = slip = 0.0
+            saturated = 0
     return MujocoRun(tuple(records), fell, np.asarray(times), np.asarray(states), mjcf)
 
 
