@@ -14,7 +14,7 @@ from model.mjcf import contacts_at
 from model.points import LinkPoint
 from planner.errors import DefinitionError, DefinitionTypeError
 from problems import footed_step, walking_step
-from problems.walking.feet_control import hinge_gains, hinge_inertias
+from problems.walking.feet_control import FeetLaw, hinge_gains, hinge_inertias
 from problems.walking.mujoco_feet import feet_walker_mjcf, run_feet_in_mujoco
 from problems.walking.simulation import Disturbances
 
@@ -134,6 +134,24 @@ def test_a_push_too_hard_is_a_fall_with_its_reason(gait):
     # 2 m/s on 70 kg at mid-step of the second step: down before the third ends
     assert run.walked in (1, 2)
     assert run.fell.startswith(f"step {run.walked}")
+
+
+def test_bad_settings_of_the_law_and_the_walk_are_named(gait):
+    with pytest.raises(DefinitionError, match="`kp`"):
+        hinge_gains(np.ones(3), 0.0, 30.0, 50.0)
+    with pytest.raises(DefinitionError, match="`kd`"):
+        hinge_gains(np.ones(3), 1000.0, -1.0, 50.0)
+    with pytest.raises(DefinitionError, match="`rate_hz`"):
+        FeetLaw(gait, rate_hz=0.0)
+    with pytest.raises(DefinitionError, match="`steps`"):
+        run_feet_in_mujoco(gait, steps=0)
+    with pytest.raises(DefinitionError, match="`contact_time_constant`"):
+        run_feet_in_mujoco(gait, contact_time_constant=0.0)
+    with pytest.raises(DefinitionError, match="`preload`"):
+        run_feet_in_mujoco(gait, preload=-1e-3)
+    run = run_feet_in_mujoco(gait, steps=1)
+    with pytest.raises(DefinitionError, match="`rate_hz`"):
+        run.world(gait.problem.dynamics, rate_hz=0.0)
 
 
 def test_mujoco_on_feet_refuses_a_point_foot_step():
