@@ -345,12 +345,16 @@ class Dynamics:
         self,
         point: str | LinkPoint | PointKinematics | Contact | Sequence,
         root_pinned: bool = False,
+        *,
+        root_welded: bool = False,
     ) -> ImpactMap:
         """The inelastic, non-sliding impact of ``point`` with the ground while the root hinge
         H0 (the old contact) is at rest (:mod:`model.impact`). A link name means its end; a
         :class:`model.Contact` its point; a sequence of them lands every point at once (a
         heel and a toe). ``root_pinned``: H0 stays held through the impact (a double
-        support begins) instead of being free to lift off."""
+        support begins) instead of being free to lift off; ``root_welded``: the root link is
+        held in rotation too (a foot flat on the ground: its angular impulse about H0 ends the
+        impulses)."""
         many = isinstance(point, Sequence) and not isinstance(point, str)
         points = tuple(self._own_point(p) for p in (point if many else (point,)))
         if not points:
@@ -359,9 +363,9 @@ class Dynamics:
         if len(set(labels)) != len(labels):
             raise DefinitionError(f"`point`: a point lands twice: {labels}")
         impacts = self._memo("impacts", dict)
-        key = (tuple(labels), bool(root_pinned))
+        key = (tuple(labels), bool(root_pinned) or bool(root_welded), bool(root_welded))
         if key not in impacts:
-            impacts[key] = ImpactMap(points, root_pinned)
+            impacts[key] = ImpactMap(points, root_pinned, root_welded)
         return impacts[key]
 
     def _own_point(self, point) -> PointKinematics:

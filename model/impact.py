@@ -22,6 +22,9 @@ leaves first has no fill-in; then
 With ``root_pinned`` the old contact holds too (a double support begins): the same solve on
 the fixed-base mass matrix M(psi) and the psi columns of J, M (dpsi+ - dpsi-) = J^T Lambda,
 J dpsi+ = 0; the pin takes what impulse it must and the base velocity after impact is zero.
+With ``root_welded`` the root link is held in rotation as well (a flat foot on heel and ball
+when the other foot strikes): one more constraint row e_0^T dpsi+ = 0 and one more impulse,
+the ground's angular impulse on the root about H0, appended last to Lambda.
 
 Several points may land at once (a foot's heel and toe slapping down together, two feet):
 J stacks their Jacobians (2k, n + 2), Lambda their impulses (2k,), and G (2k, 2k) is solved
@@ -59,7 +62,8 @@ IMPACT_FUNCTIONS: dict[str, tuple[tuple[str, ...], tuple[str, ...], str]] = {
         ("psi", "dpsi"),
         ("dpsi_plus", "impulse", "base_velocity_plus"),
         "post-impact rates (n,) rad/s, ground impulses on the points (2k,) N s (x, y of each "
-        "point in turn), velocity of the old contact H0 after impact (2,) m/s",
+        "point in turn; a welded root's angular impulse about H0, N m s, last), velocity of "
+        "the old contact H0 after impact (2,) m/s",
     ),
 }
 
@@ -75,7 +79,10 @@ class ImpactMap:
     """
 
     def __init__(
-        self, points: PointKinematics | Sequence[PointKinematics], root_pinned: bool = False
+        self,
+        points: PointKinematics | Sequence[PointKinematics],
+        root_pinned: bool = False,
+        root_welded: bool = False,
     ) -> None:
         #: The landing points, in the order of the impulses.
         self.points: tuple[PointKinematics, ...] = (
@@ -87,8 +94,15 @@ class ImpactMap:
         #: True: the root hinge H0 stays pinned through the impact (both contacts hold: a
         #: double support begins); the fixed-base equations M (dpsi+ - dpsi-) = J^T Lambda,
         #: J dpsi+ = 0 apply and the base velocity after impact is zero.
-        self.root_pinned = bool(root_pinned)
-        prefix = "impact_pinned" if self.root_pinned else "impact"
+        self.root_pinned = bool(root_pinned) or bool(root_welded)
+        #: True: the root link is held in rotation too (a flat foot): the impulse (2k + 1,)
+        #: ends with the ground's angular impulse on the root about H0, N m s.
+        self.root_welded = bool(root_welded)
+        prefix = (
+            "impact_welded"
+            if self.root_welded
+            else ("impact_pinned" if self.root_pinned else "impact")
+        )
         self._name = "_".join([prefix, *(p.identifier for p in self.points)])
 
     @property
@@ -109,7 +123,10 @@ class ImpactMap:
         jacobian = ca.vertcat(*(p.expression("jacobian", dyn.symbols["psi"]) for p in self.points))
         if self.root_pinned:
             # H0 held: the fixed-base mass matrix and the psi columns of J (no base rows).
-            return self._solve(dyn.mass_matrix_expression(), jacobian[:, 2:], dpsi, 0)
+            rows = jacobian[:, 2:]
+            if self.root_welded:  # the root's rotation held too: dpsi_0+ = 0
+                rows = ca.vertcat(rows, ca.DM.eye(dyn.n)[0, :])
+            return self._solve(dyn.mass_matrix_expression(), rows, dpsi, 0)
         return self._solve(dyn.floating.mass_matrix_expression(), jacobian, dpsi, 2)
 
     def _solve(self, mass_matrix, jacobian, dpsi, base: int) -> list[ca.SX]:
@@ -118,7 +135,7 @@ class ImpactMap:
         n = dpsi.size1()
         diagonal, upper, order = ca.ldl(mass_matrix, True)
         lever = ca.ldl_solve(jacobian.T, diagonal, upper, order)  # X = M_e^{-1} J^T
-        gram = ca.mtimes(jacobian, lever)  # G = J M_e^{-1} J^T, 2k x 2k SPD
+        gram = ca.mtimes(jacobian, lever)  # G = J M_e^{-1} J^T, 2k (+1 welded) square, SPD
         # Velocity of the landing points before impact (H0 at rest: the fixed-base rows).
         approach = ca.mtimes(jacobian[:, base:], dpsi)
         if gram.size1() == 2:  # one point: Cramer's rule, the shortest expression
@@ -170,6 +187,10 @@ class ImpactMap:
             jacobian = np.concatenate(
                 [p.jacobian(psi2, floating=False) for p in self.points], axis=1
             )
+            if self.root_welded:  # the row of the root's rotation, held
+                held = np.zeros((jacobian.shape[0], 1, jacobian.shape[2]))
+                held[:, 0, 0] = 1.0
+                jacobian = np.concatenate([jacobian, held], axis=1)
             before, after = dpsi2, plus
         else:
             mass = dyn.floating.mass_matrix(psi2)
@@ -234,19 +255,33 @@ class ImpactMap:
         """(dpsi+ (n,), the impulses on the landing points (2k,), the impulse on the held root
         H0 (2,)), N s, as CasADi expressions of psi, dpsi (n,), for an impact with the root
         pinned: the root's impulse is what the change of the tree's linear momentum leaves
-        after the landing points' (the base rows of the floating-base impact equations)."""
+        after the landing points' (the base rows of the floating-base impact equations).
+        Welded, the root's angular impulse about H0 is :meth:`root_angular_impulse`."""
         if not self.root_pinned:
             raise DefinitionError(
                 "`held_impulses`: the root is free in this impact (it lifts off and takes no "
                 "impulse); build it with Dynamics.impact(point, root_pinned=True)"
             )
         dpsi_plus, impulse, _ = self.function()(psi, dpsi)
+        if self.root_welded:  # the angular impulse on the root is not a landing point's
+            impulse = impulse[: 2 * len(self.points)]
         momentum = self._dynamics.floating.function("linear_momentum")
         before = ca.vertcat(*momentum(psi, ca.vertcat(0, 0, dpsi)))
         after = ca.vertcat(*momentum(psi, ca.vertcat(0, 0, dpsi_plus)))
         # several points: their impulses (x, y of each in turn) summed
         landing = impulse if len(self.points) == 1 else ca.sum2(ca.reshape(impulse, 2, -1))
         return dpsi_plus, impulse, after - before - landing
+
+    def root_angular_impulse(self, psi, dpsi):
+        """The ground's angular impulse on the welded root about H0, N m s (a CasADi
+        expression of psi, dpsi (n,)): where the impulse on a flat foot acts, as the root's
+        torque M_0 says where its force acts."""
+        if not self.root_welded:
+            raise DefinitionError(
+                "`root_angular_impulse`: the root turns freely in this impact; build it with "
+                "Dynamics.impact(point, root_welded=True)"
+            )
+        return self.function()(psi, dpsi)[1][-1]
 
     def step_function(self, rerooting: Rerooting) -> ca.Function:
         """Delta: x- = (psi, dpsi) (2n,) before impact -> x+ (2n,) after impact, relabelled by

@@ -1005,7 +1005,7 @@ def test_walk_on_feet_writes_verified_files_and_pictures(tmp_path):
         code = main(["walk", "--preset", "six-link-feet", "--quick", "--output-dir", str(folder)])
     out, err = out.getvalue(), err.getvalue()
     assert code == 0, err
-    assert re.search(r"flat foot [\d.]+ s, heel rise [\d.]+ s, double support [\d.]+ s", out)
+    assert re.search(r"\(human\): .* flat [\d.]+ s, heel rise [\d.]+ s, double [\d.]+ s", out)
     assert re.search(r"verification of torques.csv \(\d+ samples.*\): all \d+ checks passed", out)
     for check in ("stance foot flat", "ball passive", "heel held", "front ball up", "ankles"):
         assert re.search(rf"\n  ok   {check} +[-+]\d", out), check
@@ -1047,6 +1047,29 @@ def test_walk_on_feet_with_feedback_writes_its_law_and_walks_it_in_mujoco(tmp_pa
     assert (folder / "mujoco_walk.png").stat().st_size > 0
 
 
+@pytest.mark.slow
+def test_walk_on_feet_toe_walking_writes_verified_files(tmp_path):
+    """`walk --preset six-link-feet --feet-phases toe-walking --quick`: on the balls of the
+    feet, planned, written, read back and verified with the front ball's checks."""
+    import contextlib
+    import io
+
+    folder = tmp_path / "toes"
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["walk", "--preset", "six-link-feet", "--feet-phases", "toe-walking",
+                     "--quick", "--no-gif", "--output-dir", str(folder)])  # fmt: skip
+    out, err = out.getvalue(), err.getvalue()
+    assert code == 0, err
+    assert re.search(r"\(toe-walking\): .* heel rise [\d.]+ s, double [\d.]+ s", out)
+    assert re.search(r"verification of torques.csv \(\d+ samples.*\): all \d+ checks passed", out)
+    for check in ("ball held", "front heel up", "ball passive", "stance heel up"):
+        assert re.search(rf"\n  ok   {check} +[-+]\d", out), check
+    profile = LinkageTrajectory.load(folder / "torques.csv")
+    assert profile.metadata["gait"]["phases"] == ["heel rise", "double"]
+    assert {"F_swing_toe_x", "F_swing_toe_y"} <= set(profile.extras)
+
+
 def test_walk_on_feet_refuses_the_point_foot_options_by_name(capsys):
     for option in (["-N", "12"], ["--double-support-s", "0.05"], ["--passive-ankle"],
                    ["--ground-friction", "1.5"]):  # fmt: skip
@@ -1057,6 +1080,10 @@ def test_walk_on_feet_refuses_the_point_foot_options_by_name(capsys):
     assert_one_line_error(
         capsys, r"--clearance-m: must be a finite number >= 0 m, got -1.0", "walk", "--preset",
         "six-link-feet", "--clearance-m", "-1",
+    )  # fmt: skip
+    assert_one_line_error(
+        capsys, r"--feet-phases flat-footed: only with --preset six-link-feet", "walk",
+        "--feet-phases", "flat-footed",
     )  # fmt: skip
 
 

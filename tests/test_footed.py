@@ -169,7 +169,7 @@ def test_fixed_durations_are_kept():
         ({"linkage": presets.six_link_anthropoid()}, "legs of three links"),
         ({"durations": (0.2, 0.2, 0.2)}, "summing to step_time"),
         ({"points": {"stance_heel": None}}, "missing"),
-        ({"N": (6, 6)}, "three interval counts"),
+        ({"N": (6, 6)}, r"`N`: 3 interval counts >= 2 \(flat, heel rise, double\)"),
         ({"step_length": -0.5}, "step_length"),
         ({"ankle_range": (0.5, -0.3)}, "ankle_range"),
         ({"touchdown_speed": -0.1}, "touchdown_speed.*>= 0 m/s"),

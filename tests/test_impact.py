@@ -456,3 +456,49 @@ def test_held_impulses_solve_the_floating_base_impact_with_the_root_held():
         np.testing.assert_allclose(after, np.concatenate([psi, solution[:n]]), atol=1e-9)
     with pytest.raises(DefinitionError, match="`held_impulses`: the root is free"):
         dyn.impact("swing_shank").held_impulses(psi_s, dpsi_s)
+
+
+# ---- the root welded: a flat foot on the ground when the other foot strikes -------------------
+def test_welded_root_impact_is_the_locked_linkage_impact_and_a_dense_kkt_solve(check):
+    """``root_welded``: the root held in rotation as well (a flat rear foot when the front
+    heel strikes). Oracles: (1) the model's lock (``Linkage.lock(root, angle)``: the root
+    welded to the ground, its child the root) has the same rates after impact with its root
+    pinned, and the root's rate stays 0; (2) a dense KKT solve with the Newton-Euler
+    fixed-base mass matrix, the heel's rigid-body Jacobian and the row e_0 of the root's
+    rotation gives the same rates and impulses (the heel's, then the root's angular one)."""
+    linkage, points = presets.anthropoid_with_feet(), presets.anthropoid_feet()
+    dynamics = Dynamics(linkage)
+    heel = points["swing_heel"]
+    welded = dynamics.impact(heel, root_welded=True)
+    assert welded.function().name().startswith("impact_welded_") and welded.root_pinned
+    psi, dpsi = states(linkage, COUNT, 21)
+    psi[:, 0], dpsi[:, 0] = -0.05, 0.0  # the root foot at rest, at some angle
+    dpsi_plus, impulse, base = welded(psi, dpsi)
+    assert impulse.shape == (COUNT, 3)
+    np.testing.assert_array_equal(base, 0.0)
+    np.testing.assert_allclose(dpsi_plus[:, 0], 0.0, atol=1e-12)
+    # (1) the lock: one linkage per root angle (the same for every state here)
+    locked = linkage.lock(linkage.names[0], -0.05)
+    lock_impact = Dynamics(locked).impact(heel, root_pinned=True)
+    lock_plus, lock_impulse, _ = lock_impact(psi[:, 1:], dpsi[:, 1:])
+    scale = np.abs(dpsi_plus).max()
+    np.testing.assert_allclose(dpsi_plus[:, 1:], lock_plus, rtol=0, atol=1e-10 * scale)
+    np.testing.assert_allclose(impulse[:, :2], lock_impulse, rtol=0,
+                               atol=1e-10 * np.abs(lock_impulse).max())  # fmt: skip
+    # (2) the dense KKT system
+    i, offset = offset_of(linkage, heel)
+    mass = ne.mass_matrix(linkage, psi)
+    jacobian = ne.point_jacobian(linkage, i, offset, psi)[:, :, 2:]
+    held = np.zeros((1, linkage.n))
+    held[0, 0] = 1.0
+    for k in range(COUNT):
+        rows = np.vstack([jacobian[k], held])
+        kkt = np.block([[mass[k], -rows.T], [rows, np.zeros((3, 3))]])
+        x = np.linalg.solve(kkt, np.r_[mass[k] @ dpsi[k], 0.0, 0.0, 0.0])
+        check.close(np.r_[dpsi_plus[k], impulse[k]][None], x[None], f"welded state {k}")
+    # the angular impulse as the NLP reads it, and the pinned impact's refusal
+    psi_s, dpsi_s = ca.SX.sym("psi", linkage.n), ca.SX.sym("dpsi", linkage.n)
+    angular = ca.Function("a", [psi_s, dpsi_s], [welded.root_angular_impulse(psi_s, dpsi_s)])
+    assert float(angular(psi[0], dpsi[0])) == pytest.approx(impulse[0, 2], abs=1e-12)
+    with pytest.raises(DefinitionError, match=r"`root_angular_impulse`: the root turns freely"):
+        dynamics.impact(heel, root_pinned=True).root_angular_impulse(psi_s, dpsi_s)

@@ -14,7 +14,11 @@ six), each plan verified at every sample of its 1 kHz file (``verify_gait``).
   strike and leg swap in one instant;
 * **feet**: ``footed_step(L, T)`` (``problems.walking.footed``): flat foot, heel rise on the
   ball, heel strike, a double support rolling the front foot down, toe-off; phase durations
-  free.
+  free;
+* **flat-footed** and **toe-walking**: ``footed_step(L, T, phases=...)``, the same feet
+  walking other contact sequences: no heel rise (the stance foot flat until toe-off, flat
+  under the rear leg in the double support), or on the balls of the feet (the swing ball
+  strikes and holds).
 
 Per plan: cost, cost of transport (positive drive work / (m g L)), positive work per step,
 peak |M| at the ankles, the knees and the hip (the largest over both legs; at the hip the
@@ -40,6 +44,8 @@ from problems.gait.problem import joint_rates
 from problems.walking.footed import footed_step, push_off, step_at_speed
 
 SPEEDS = (0.6, 1.0, 1.4)
+#: The feet's other contact sequences, planned beside the human cycle.
+OTHER_SEQUENCES = ("flat-footed", "toe-walking")
 
 
 def point_foot_stance(gait) -> dict[str, np.ndarray]:
@@ -114,19 +120,25 @@ def main() -> int:
             start = time.perf_counter()
             feet = footed_step(step_length=length, step_time=duration).solve()
             feet_seconds = time.perf_counter() - start
+            others = []
+            for name in OTHER_SEQUENCES:
+                start = time.perf_counter()
+                other = footed_step(step_length=length, step_time=duration, phases=name).solve()
+                others.append((other, other.stance(), name, time.perf_counter() - start))
         for gait, stance, label, seconds in (
             (point, point_foot_stance(point), "point foot", point_seconds),
             (feet, feet.stance(), "feet", feet_seconds),
+            *others,
         ):
             row = measure(gait, stance, label)
             row.update(speed=speed, length=length, duration=duration, seconds=seconds)
-            if label == "feet":
-                row["phases"] = feet.durations()
+            if label != "point foot":
+                row["phases"] = dict(zip(gait.problem.sequence, gait.durations(), strict=True))
             rows.append(row)
     print("What feet change (six-link scene, the same speeds, objective and limits; medians: "
           "one solve each)")  # fmt: skip
     head = (
-        f"{'v m/s':>5} {'L m':>5} {'T s':>5} {'model':<10} {'cost':>8} {'CoT':>6} {'W+ J':>6} "
+        f"{'v m/s':>5} {'L m':>5} {'T s':>5} {'model':<11} {'cost':>8} {'CoT':>6} {'W+ J':>6} "
         f"{'ankle':>6} {'knee':>6} {'hip':>6} {'Fy hump1':>8} {'valley':>6} {'hump2':>6} "
         f"{'push W':>7} {'at %':>5} {'W J':>5} {'solve s':>7} verified"
     )
@@ -136,17 +148,18 @@ def main() -> int:
         first, valley, second = r["humps"]
         peak, when, work = r["push"]
         print(
-            f"{r['speed']:5.1f} {r['length']:5.3f} {r['duration']:5.3f} {r['label']:<10} "
+            f"{r['speed']:5.1f} {r['length']:5.3f} {r['duration']:5.3f} {r['label']:<11} "
             f"{r['cost']:8.1f} {r['cot']:6.3f} {r['work']:6.1f} {r['ankle']:6.1f} "
             f"{r['knee']:6.1f} {r['hip']:6.1f} {first:8.2f} {valley:6.2f} {second:6.2f} "
             f"{peak:7.0f} {when:5.0f} {work:5.1f} {r['seconds']:7.2f} "
             + ("yes" if r["verified"] else "NO: " + ", ".join(r["failures"]))
         )
     print()
-    print("feet: phase durations (flat, heel rise, double support), s")
+    print("feet: phase durations, s")
     for r in rows:
         if "phases" in r:
-            print(f"  {r['speed']:.1f} m/s: " + ", ".join(f"{d:.3f}" for d in r["phases"]))
+            print(f"  {r['speed']:.1f} m/s {r['label']:<11}: "
+                  + ", ".join(f"{name} {d:.3f}" for name, d in r["phases"].items()))  # fmt: skip
     return 0 if all(r["verified"] for r in rows) else 1
 
 

@@ -38,6 +38,7 @@ from problems.cli.walk_feet import run_feet
 from problems.gait.accuracy import ACCURACY_PRESETS
 from problems.gait.problem import WORK_REGULARISATION
 from problems.gait.verification import verify_gait
+from problems.walking.footed import SEQUENCES
 from problems.walking.step import WALKING_DEFAULTS, walking_step
 
 
@@ -67,6 +68,11 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
                       help="biped preset: six-link or five-link (point feet), or six-link-feet "
                       "(feet with heel and ball: flat foot, heel rise, heel strike, double "
                       "support; its own mesh and phases) (default: six-link)")  # fmt: skip
+    walk.add_argument("--feet-phases", default="human", choices=sorted(SEQUENCES),
+                      help="with --preset six-link-feet, the contact phases of the step: "
+                      "human (flat foot, heel rise, double support), flat-footed (no heel "
+                      "rise: the stance foot flat until toe-off), toe-walking (on the balls of "
+                      "the feet, the swing ball striking) (default: human)")  # fmt: skip
     walk.add_argument(
         "--step-length-m",
         type=positive("m", 2.0),
@@ -241,6 +247,11 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
 def run(args, out: TextIO, report: Reporter) -> int:
     if args.preset == "six-link-feet":
         return run_feet(args, out, report)
+    if args.feet_phases != "human":
+        raise UsageError(
+            f"--feet-phases {args.feet_phases}: only with --preset six-link-feet (point feet "
+            "have no heel or ball); drop it or plan on feet"
+        )
     if args.preset not in ("six-link", "five-link"):
         raise UsageError(
             f"--preset: {args.preset!r} is not a biped; use six-link, five-link or six-link-feet"

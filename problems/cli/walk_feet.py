@@ -51,8 +51,8 @@ NOT_WITH_FEET = (
     ("ground_friction", "--ground-friction", 1.0),
 )
 
-#: The mesh of ``--quick`` (flat, heel rise, double support).
-QUICK_MESH = (10, 6, 14)
+#: The mesh of ``--quick`` per ``--feet-phases`` (intervals of each phase).
+QUICK_MESH = {"human": (10, 6, 14), "flat-footed": (20, 20), "toe-walking": (20, 8)}
 
 
 def run_feet(args, out: TextIO, report: Reporter) -> int:
@@ -71,17 +71,18 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
     if args.touchdown_speed_mps is not None:
         extra["touchdown_speed"] = args.touchdown_speed_mps
     if args.quick:
-        extra["N"] = QUICK_MESH
+        extra["N"] = QUICK_MESH[args.feet_phases]
     step = footed_step(
         step_length=args.step_length_m,
         step_time=args.step_time_s,
         mu=args.mu,
         torque_limit=args.torque_limit_nm,
         clearance=args.clearance_m,
+        phases=args.feet_phases,
         **extra,
     )
     start = time.perf_counter()
-    with report.working(f"solving with IPOPT (three phases, N = {step.mesh})"), \
+    with report.working(f"solving with IPOPT ({len(step.sequence)} phases, N = {step.mesh})"), \
             warnings.catch_warnings(record=True) as caught:  # fmt: skip
         warnings.simplefilter("always", AccuracyWarning)
         try:
@@ -96,11 +97,12 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
     if not solution.success:
         raise CommandFailed(f"IPOPT did not converge: {solution.status}; nothing written")
     rounds = solution.stats.get("sampled_limits", {}).get("rounds", [])
-    flat, heel, double = gait.durations()
+    phases = ", ".join(f"{name} {d:.3f} s" for name, d in zip(step.sequence, gait.durations(),
+                                                              strict=True))  # fmt: skip
     print(
-        f"walking step on feet of six-link-feet: {step.step_length:g} m (ball to ball) in "
-        f"{step.step_time:g} s ({step.speed:.3g} m/s); flat foot {flat:.3f} s, heel rise "
-        f"{heel:.3f} s, double support {double:.3f} s (free within their bounds)",
+        f"walking step on feet of six-link-feet ({args.feet_phases}): {step.step_length:g} m "
+        f"(ball to ball) in {step.step_time:g} s ({step.speed:.3g} m/s); {phases} (free "
+        "within their bounds)",
         file=out,
     )
     iterations = sum(r["iterations"] for r in rounds) or solution.iterations
@@ -123,7 +125,7 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
     )
     push = summary["push_off"]
     print(
-        f"one foot through its stance ({flat + heel + 2 * double:.3f} s, heel strike to "
+        f"one foot through its stance ({gait.duration + gait.durations()[-1]:.3f} s, strike to "
         f"toe-off): vertical ground force up to {summary['peak_vertical_force']:.2f} body "
         f"weights; ankle push-off up to {push['power']:.0f} W at {100 * push['at']:.0f} % of "
         "the stance",

@@ -452,7 +452,17 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
     margins = np.full(residual.shape, np.inf)
     margins[keep] = (2.5 * h**3 * near - np.abs(residual))[keep]
     intervals = _mesh_intervals(trajectory.metadata)
-    if intervals is None or times.size - 1 >= RATES_DENSITY * intervals:
+    sparse, thin = _sparse_phases(trajectory.metadata, times)
+    if thin and not np.all(sparse):
+        # A phase sampled too thinly for its mesh (a short double support on a fine mesh):
+        # the rates are checked in the other phases only.
+        margins[sparse] = np.inf
+        facts["rates"] = (
+            f"not checked in {', '.join(thin)} (fewer than {RATES_DENSITY} samples per mesh "
+            "interval)"
+        )
+        add("rates", _per_sample(margins), "rad/s")
+    elif intervals is None or times.size - 1 >= RATES_DENSITY * intervals:
         add("rates", _per_sample(margins), "rad/s")
     else:
         # An acceleration polynomial bulges inside a mesh interval: samples at the nodes
@@ -539,6 +549,25 @@ def _mesh_intervals(metadata) -> int | None:
         return None
     count = metadata.get("N")
     return count if isinstance(count, int) and not isinstance(count, bool) else None
+
+
+def _sparse_phases(metadata, times: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """(a mask of the sample pairs (K-1,) inside phases with fewer than
+    :data:`RATES_DENSITY` samples per mesh interval, those phases' names), from the
+    metadata's phases (start, T, N); nothing when it lists none."""
+    sparse = np.zeros(times.size - 1, dtype=bool)
+    thin = []
+    for phase in metadata.get("phases") or ():
+        try:
+            start, span, count = float(phase["start"]), float(phase["T"]), int(phase["N"])
+        except (KeyError, TypeError, ValueError):
+            return np.zeros(times.size - 1, dtype=bool), []
+        edge = 1e-9 * max(1.0, span)
+        inside = (times[:-1] >= start - edge) & (times[1:] <= start + span + edge)
+        if np.count_nonzero(inside) < RATES_DENSITY * count:
+            sparse |= inside
+            thin.append(str(phase.get("name", "?")))
+    return sparse, thin
 
 
 def _per_sample(margins: np.ndarray) -> np.ndarray:
@@ -699,12 +728,16 @@ def _verify_walking(add, kin: _Kinematics, settings, trajectory, weight) -> None
     add("clearance", height - _clearance_profile(settings, s), "m")
 
 
-def _held_impact(kin: _Kinematics, psi, dpsi_minus, dpsi_plus, landing: complex, link: int):
+def _held_impact(
+    kin: _Kinematics, psi, dpsi_minus, dpsi_plus, landing: complex, link: int, welded=False
+):
     """An impact with the root's start (H0) held and a point of ``link`` at ``landing``
-    landing: (momentum residual (n + 2,), rear impulse, front impulse), the impulses (complex,
-    N s) at H0 and at the landing point found from the momentum balances by least squares
-    (linear momentum; angular momentum of the whole tree about H0 and of the part beyond
-    every hinge about it); a consistent impact leaves no residual."""
+    landing: (momentum residual (n + 2,), rear impulse, front impulse, angular impulse), the
+    impulses (complex, N s) at H0 and at the landing point found from the momentum balances
+    by least squares (linear momentum; angular momentum of the whole tree about H0 and of
+    the part beyond every hinge about it); with ``welded`` the root link is held in rotation
+    too and takes an angular impulse about H0 (N m s; else 0); a consistent impact leaves no
+    residual."""
     linkage = kin.linkage
     n = linkage.n
     _, v_minus, _ = kin.coms(psi[None], dpsi_minus[None])
@@ -712,7 +745,8 @@ def _held_impact(kin: _Kinematics, psi, dpsi_minus, dpsi_plus, landing: complex,
     starts, _, _ = kin.starts(psi[None])
     momentum = complex((v_plus[0] - v_minus[0]) @ kin.mass)
     lever = complex(landing - starts[0, 0])
-    rows = [[1.0, 0.0, 1.0, 0.0], [0.0, 1.0, 0.0, 1.0], [0.0, 0.0, -lever.imag, lever.real]]
+    rows = [[1.0, 0.0, 1.0, 0.0, 0.0], [0.0, 1.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, -lever.imag, lever.real, 1.0]]  # fmt: skip
     right = [momentum.real, momentum.imag]
     whole = kin.angular_momentum(psi, dpsi_plus, 0j, starts[0, 0], range(n)) - (
         kin.angular_momentum(psi, dpsi_minus, 0j, starts[0, 0], range(n))
@@ -725,11 +759,13 @@ def _held_impact(kin: _Kinematics, psi, dpsi_minus, dpsi_plus, landing: complex,
             kin.angular_momentum(psi, dpsi_minus, 0j, about, part)
         )
         arm = complex(landing - about) if link in part else 0j
-        rows.append([0.0, 0.0, -arm.imag, arm.real])
+        rows.append([0.0, 0.0, -arm.imag, arm.real, 0.0])
         right.append(change)
-    impulses, *_ = np.linalg.lstsq(np.array(rows), np.array(right), rcond=None)
-    residual = np.array(rows) @ impulses - np.array(right)
-    return residual, complex(*impulses[:2]), complex(*impulses[2:])
+    matrix = np.array(rows) if welded else np.array(rows)[:, :4]
+    impulses, *_ = np.linalg.lstsq(matrix, np.array(right), rcond=None)
+    residual = matrix @ impulses - np.array(right)
+    angular = float(impulses[4]) if welded else 0.0
+    return residual, complex(*impulses[:2]), complex(*impulses[2:4]), angular
 
 
 def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, hold) -> None:
@@ -764,7 +800,7 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     add("landing", -np.array([abs(landing[0] - target)]), "m", where=f"t = {strike_time:.4g} s")
     add("impact pose", -np.abs(psi[j] - pre[:n]), "rad", where=f"t = {strike_time:.4g} s")
     scale = float(np.sum(kin.mass)) * linkage.links[0].length
-    residual, rear, front = _held_impact(
+    residual, rear, front, _ = _held_impact(
         kin, psi[j], pre[n:], dpsi[j], complex(landing[0]), foot_link
     )
     add("impact momentum", -np.abs(residual), "kg m^2/s", scale, where="heel strike")
@@ -802,30 +838,42 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     add("clearance", margins, "m")
 
 
+#: The contact phases of a step on feet when its settings name none (the human cycle).
+FOOTED_PHASES = ("flat", "heel rise", "double")
+
+
 def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, passive) -> None:
-    """A step on feet (``problems.walking.footed``): the stance foot flat and still until the
-    heel rises, the centre of pressure of the ground's torque on it on the sole
-    (``foot``: the root's torque M_0 and the ground's force at the ball, -sole Fy <= M_0 <=
-    0), its heel above the ground after and the ball a pivot that carries no torque (at most
-    ``passive`` of the torque scale, as a passive joint); the swing foot's heel and ball over the
-    clearance profile until the heel strikes at (step_length - sole, 0); the impact with the
-    stance ball held; the front heel held at rest and its force in the cone through the
-    double support, the front ball above the ground, the front foot flat and at rest at the
-    end; ankles in their range; the legs swap at the end (periodic angles and rates)."""
+    """A step on feet (``problems.walking.footed``), its contact phases as listed in
+    ``settings["phases"]`` (default the human cycle: flat, heel rise, double): the stance foot
+    flat and still while it lies flat (until the heel rises; through the whole step when it
+    never rises), the centre of pressure of the ground's torque on it on the sole
+    (``foot``: the root's torque M_0 and the ground's force at the ball less the front
+    foot's, -sole Fy <= M_0 <= 0), its heel above the ground after and the ball a pivot
+    that carries no torque (at most ``passive`` of the torque scale, as a passive joint); the
+    swing foot's heel and ball over the clearance profile until its striking point
+    (``settings["strike"]``: its heel, or its ball in toe walking) lands at
+    (step_length - sole, 0) (the ball: (step_length, 0)); the impact with the stance ball
+    held (and the stance foot held flat, its angular impulse on the sole, when it lies
+    flat); the striking point held at rest and its force in the cone through the double
+    support, the front foot's other point above the ground, the front foot flat and at rest
+    at the end after a heel strike; ankles in their range; the legs swap at the end
+    (periodic angles and rates)."""
     linkage = kin.linkage
     n = linkage.n
     mu = float(settings["mu"])
     named = _named_contacts(kin, settings)
     psi, dpsi, times = trajectory.psi, trajectory.dpsi, trajectory.time
+    sequence = tuple(settings.get("phases") or FOOTED_PHASES)
+    strike_role = str(settings.get("strike") or "swing_heel")
     events = settings.get("before_events") or []
-    if len(events) != 2:
+    if len(events) != len(sequence) - 1:
         raise DefinitionError(
-            "`settings`: a step on feet needs the states before its two events (heel rise and "
-            "heel strike: metadata['gait']['before_events'], written by Gait.to_trajectory), "
-            f"got {len(events)}"
+            f"`settings`: a step on feet of phases {sequence} needs the states before its "
+            f"{len(sequence) - 1} events (metadata['gait']['before_events'], written by "
+            f"Gait.to_trajectory), got {len(events)}"
         )
-    rise, strike = float(events[0]["t"]), float(events[1]["t"])
-    pre = np.asarray(events[1]["x"], dtype=float)
+    strike = float(events[-1]["t"])
+    pre = np.asarray(events[-1]["x"], dtype=float)
     stance, swing = _legs(linkage)
     flat_stance, flat_swing = (float(v) for v in settings["flat_angles"])
     root, foot = stance[0], swing[-1]
@@ -834,7 +882,13 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
     add("periodic angles", -np.abs(_wrap(psi[0] - swapped)), "rad", where="t = 0 vs swap(T)")
     add("periodic rates", -np.abs(dpsi[0] - swapped_rates), "rad/s", where="t = 0 vs swap(T)")
     edge = 1e-9 * max(1.0, float(times[-1]))
-    flat = times <= rise + edge
+    rear_flat = "heel rise" not in sequence
+    if "flat" not in sequence:  # on the ball from the start
+        flat = np.zeros(times.size, dtype=bool)
+    elif rear_flat:  # flat until toe-off
+        flat = np.ones(times.size, dtype=bool)
+    else:  # flat until the heel rises
+        flat = times <= float(events[0]["t"]) + edge
     add("stance foot flat", np.where(flat, -np.abs(_wrap(psi[:, root] - flat_stance)), np.inf),
         "rad")  # fmt: skip
     add("stance foot still", np.where(flat, -np.abs(dpsi[:, root]), np.inf), "rad/s")
@@ -858,42 +912,52 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
     floor = _clearance_profile(settings, fraction, single=strike)
     swing_feet = np.column_stack([height("swing_heel") - floor, height("swing_toe") - floor])
     add("clearance", np.where(single[:, None], swing_feet, np.inf), "m")
-    # Heel strike, from the state just before it.
-    heel_link, heel_offset = named["swing_heel"]
-    landing, approach, _ = kin.point(heel_link, heel_offset, pre[None, :n], pre[None, n:])
+    # The strike, from the state just before it.
+    by_heel = strike_role == "swing_heel"
+    point = "heel" if by_heel else "ball"
+    strike_link, strike_offset = named[strike_role]
+    landing, approach, _ = kin.point(strike_link, strike_offset, pre[None, :n], pre[None, n:])
     speed = float(settings.get("touchdown_speed") or 0.0)
+    coming = f"the {point} coming down at {speed:g} m/s or faster"
     add("heel strike", np.array([-approach[0].imag - speed]), "m/s",
-        where=f"t = {strike:.4g} s (the heel coming down at {speed:g} m/s or faster)")  # fmt: skip
-    target = complex(float(settings["step_length"]) - float(settings["sole"]), 0.0)
+        where=f"t = {strike:.4g} s ({coming})")  # fmt: skip
+    behind = float(settings["sole"]) if by_heel else 0.0
+    target = complex(float(settings["step_length"]) - behind, 0.0)
     add("landing", -np.array([abs(landing[0] - target)]), "m", where=f"t = {strike:.4g} s")
     j = int(np.argmin(np.abs(times - strike)))  # the double support's first sample
     add("impact pose", -np.abs(psi[j] - pre[:n]), "rad", where=f"t = {strike:.4g} s")
-    residual, rear, front = _held_impact(
-        kin, psi[j], pre[n:], dpsi[j], complex(landing[0]), heel_link
+    residual, rear, front, angular = _held_impact(
+        kin, psi[j], pre[n:], dpsi[j], complex(landing[0]), strike_link, welded=rear_flat
     )
-    scale = float(np.sum(kin.mass)) * linkage.links[1].length
-    add("impact momentum", -np.abs(residual), "kg m^2/s", scale, where="heel strike")
-    heel_contact = Contact(LinkPoint(linkage.names[heel_link]), friction=mu)
-    add("impulse cones", np.array([heel_contact.cone_margin(front.real, front.imag),
-                                   heel_contact.cone_margin(rear.real, rear.imag)]),
-        "N s", float(np.sum(kin.mass)), where="heel strike (front heel, rear ball)")  # fmt: skip
+    mass = float(np.sum(kin.mass))
+    scale = mass * linkage.links[1].length
+    add("impact momentum", -np.abs(residual), "kg m^2/s", scale, where=f"{point} strike")
+    strike_contact = Contact(LinkPoint(linkage.names[strike_link]), friction=mu)
+    add("impulse cones", np.array([strike_contact.cone_margin(front.real, front.imag),
+                                   strike_contact.cone_margin(rear.real, rear.imag)]),
+        "N s", mass, where=f"{point} strike (front {point}, rear ball)")  # fmt: skip
+    if rear_flat:  # the rear foot's angular impulse about its ball: the impulse on its sole
+        add("impulse pressure", np.array([angular + heel * rear.imag, toe * rear.imag - angular]),
+            "N m s", mass * (heel + toe), where=f"{point} strike (rear foot flat)")  # fmt: skip
     double = times >= times[j]
-    held, moving, _ = kin.point(heel_link, heel_offset, psi[double], dpsi[double])
-    add("heel held", -np.abs(held - target), "m", hold, where="double support")
-    add("heel at rest", -np.abs(moving), "m/s", hold, where="double support")
-    # The ball above the ground, up to the held heel's own drift (checked above with the
-    # hold tolerance): the foot turning down about its heel lays the ball on the ground
-    # where the heel is.
-    ball = height("swing_toe") - np.minimum(height("swing_heel"), 0.0)
-    add("front ball up", np.where(double, ball, np.inf), "m")
+    held, moving, _ = kin.point(strike_link, strike_offset, psi[double], dpsi[double])
+    add(f"{point} held", -np.abs(held - target), "m", hold, where="double support")
+    add(f"{point} at rest", -np.abs(moving), "m/s", hold, where="double support")
+    # The front foot's other point above the ground, up to the held point's own drift
+    # (checked above with the hold tolerance): the foot turning down about its held heel
+    # lays the ball on the ground where the heel is.
+    other = "swing_toe" if by_heel else "swing_heel"
+    up = height(other) - np.minimum(height(strike_role), 0.0)
+    add(f"front {'ball' if by_heel else 'heel'} up", np.where(double, up, np.inf), "m")
     front_force = np.zeros(times.size, dtype=complex)
     for _, _, force in _contacts(kin, settings, trajectory):
         front_force += force
-    cone = heel_contact.cone_margin(front_force.real, front_force.imag)
-    add("front heel cone", np.where(double, cone, np.inf), "N", weight)
-    add("front foot flat", -np.array([abs(_wrap(psi[-1, foot] - flat_swing)),
-                                      abs(dpsi[-1, foot])]),
-        "rad(/s)", where=f"t = {times[-1]:.4g} s")  # fmt: skip
+    cone = strike_contact.cone_margin(front_force.real, front_force.imag)
+    add(f"front {point} cone", np.where(double, cone, np.inf), "N", weight)
+    if by_heel:
+        add("front foot flat", -np.array([abs(_wrap(psi[-1, foot] - flat_swing)),
+                                          abs(dpsi[-1, foot])]),
+            "rad(/s)", where=f"t = {times[-1]:.4g} s")  # fmt: skip
     low, high = (float(v) for v in settings["ankle_range"])
     neutral = [float(v) for v in settings["neutral_ankles"]]
     ankles = np.column_stack([psi[:, stance[1]] - psi[:, root] - neutral[0],

@@ -52,17 +52,16 @@ def feet_references(gait, rate_hz: float = CONTROL_RATE_HZ) -> tuple[GaitReferen
     state before the heel strike), both indexed by the whole step's phase: s = 0 at the
     step's start, 1 where the rear foot leaves."""
     step = gait.problem
-    (flat, _), (heel_rise, _), (double, _) = gait.segments()
-    first, second, last = (part.to_trajectory(rate_hz) for part in (flat, heel_rise, double))
-    # the heel rise's first sample is the flat foot's last (the same instant): kept once
-    single = dataclasses.replace(
-        first,
-        time=np.r_[first.time, second.time[1:] - second.time[0] + first.time[-1]],
-        states=np.vstack([first.states, second.states[1:]]),
-        controls=np.vstack([first.controls, second.controls[1:]]),
-        extras={},
-        metadata={},
-    )
+    *singles, last = (part.to_trajectory(rate_hz) for part, _ in gait.segments())
+    single = dataclasses.replace(singles[0], extras={}, metadata={})
+    for second in singles[1:]:
+        # the heel rise's first sample is the flat foot's last (the same instant): kept once
+        single = dataclasses.replace(
+            single,
+            time=np.r_[single.time, second.time[1:] - second.time[0] + single.time[-1]],
+            states=np.vstack([single.states, second.states[1:]]),
+            controls=np.vstack([single.controls, second.controls[1:]]),
+        )
     hip = step.dynamics.point(step.biped.stance_thigh)
     ends = (complex(hip.position(single.psi[0])).real, complex(hip.position(last.psi[-1])).real)
     return tuple(

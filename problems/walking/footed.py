@@ -86,14 +86,36 @@ from problems.walking.step import (
 #: edge under the unloading cap): :func:`planner.hold_at_samples` does not back them off
 #: there.
 PINNED = ("clearance", "stance heel up", "rear unloads", "friction")
-#: The phases of a step, in order.
+#: The phases of the default step (the human cycle), in order.
 PHASES = ("flat", "heel rise", "double")
-#: Default shares of the step time (the guess, and the middle of the bounds): the human
-#: cycle (Perry's phases: opposite toe-off at 12 % of the stride, heel rise at 31 %, heel
-#: strike at 50 %, toe-off at 62 %) as shares of one step, half a stride.
-SHARES = (0.38, 0.38, 0.24)
-#: Each phase's duration bounds, as shares of the step time.
-SHARE_BOUNDS = ((0.10, 0.70), (0.10, 0.70), (0.06, 0.40))
+#: The sequences of contact phases a step may list (``footed_step(phases=...)``), by name:
+#: the human cycle; a flat-footed gait (no heel rise: the stance foot flat until toe-off, flat
+#: under the rear leg through the double support, the heel strike with the rear foot
+#: welded); toe walking (on the balls of the feet: the stance heel never down, the swing
+#: ball strikes and holds through the double support).
+SEQUENCES = {
+    "human": PHASES,
+    "flat-footed": ("flat", "double"),
+    "toe-walking": ("heel rise", "double"),
+}
+#: Default shares of the step time per sequence (the guess, and inside the bounds): the
+#: human cycle (Perry's phases: opposite toe-off at 12 % of the stride, heel rise at 31 %,
+#: heel strike at 50 %, toe-off at 62 %) as shares of one step, half a stride; the other
+#: sequences keep its double support.
+SHARES = {
+    PHASES: (0.38, 0.38, 0.24),
+    SEQUENCES["flat-footed"]: (0.76, 0.24),
+    SEQUENCES["toe-walking"]: (0.76, 0.24),
+}
+#: Each phase's duration bounds per sequence, as shares of the step time.
+SHARE_BOUNDS = {
+    PHASES: ((0.10, 0.70), (0.10, 0.70), (0.06, 0.40)),
+    SEQUENCES["flat-footed"]: ((0.40, 0.94), (0.06, 0.40)),
+    SEQUENCES["toe-walking"]: ((0.40, 0.94), (0.06, 0.40)),
+}
+#: The static parameter that carries a phase's duration (the last phase, the double
+#: support, takes the rest of the step time).
+DURATION_PARAMETERS = {"flat": "T_flat", "heel rise": "T_heel"}
 #: Ankle range, rad, from the neutral stance (shank perpendicular to the sole): dorsiflexion
 #: to -20 degrees, plantarflexion to +50 degrees (the American Academy of Orthopaedic
 #: Surgeons' average ranges of motion).
@@ -113,7 +135,8 @@ class FootedStep:
     points : the four foot contacts by role (:data:`FOOT_POINTS`), ``model.LinkPoint``.
     step_length : from one ball of the foot to the next on the ground, m.
     step_time : s. ``mu``: the ground's friction coefficient.
-    durations : (flat, heel rise, double) s when fixed, else None (free).
+    durations : each phase's duration, s, when fixed, else None (free).
+    sequence : the contact phases in order, one of :data:`SEQUENCES`.
     """
 
     linkage: Linkage
@@ -129,8 +152,9 @@ class FootedStep:
     knee_range: tuple[float, float]
     ankle_range: tuple[float, float]
     posture: float
-    durations: tuple[float, float, float] | None
-    mesh: tuple[int, int, int]
+    durations: tuple[float, ...] | None
+    mesh: tuple[int, ...]
+    sequence: tuple[str, ...] = PHASES
     phases: Phases | None = None
 
     # ---- geometry ----------------------------------------------------------------------
@@ -202,10 +226,29 @@ class FootedStep:
         """The ``model.PointKinematics`` of a foot point."""
         return self.dynamics.point(self.points[role])
 
+    @property
+    def strike_role(self) -> str:
+        """The swing foot's point that strikes the ground: its heel when the next stance
+        begins flat, its ball (toe walking) otherwise."""
+        return "swing_heel" if self.sequence[0] == "flat" else "swing_toe"
+
+    @property
+    def rear_flat(self) -> bool:
+        """True when the stance foot stays flat until toe-off (no heel rise): the strike and
+        the double support hold it welded, its centre of pressure on the sole."""
+        return "heel rise" not in self.sequence
+
+    @cached_property
+    def landing(self) -> float:
+        """Where the striking point lands, m along the ground from the stance ball."""
+        return self.step_length - (self.sole if self.strike_role == "swing_heel" else 0.0)
+
     @cached_property
     def strike(self):
-        """The heel strike (``model.ImpactMap``): the swing heel lands, the stance ball held."""
-        return self.dynamics.impact(self.point("swing_heel"), root_pinned=True)
+        """The strike (``model.ImpactMap``): the swing heel (or ball) lands, the stance ball
+        held (the stance foot welded when it lies flat)."""
+        return self.dynamics.impact(self.point(self.strike_role), root_pinned=True,
+                                    root_welded=self.rear_flat)  # fmt: skip
 
     @property
     def weight(self) -> float:
@@ -261,6 +304,8 @@ class FootedStep:
             "step_length": self.step_length,
             "step_time": self.step_time,
             "durations": None if self.durations is None else list(self.durations),
+            "phases": list(self.sequence),
+            "strike": self.strike_role,
             "mu": self.mu,
             "clearance": self.clearance,
             "touchdown_speed": self.touchdown_speed,
@@ -291,7 +336,7 @@ def footed_step(
     step_time: float = 0.5,
     *,
     points: Mapping[str, LinkPoint] | None = None,
-    N: tuple[int, int, int] = (20, 10, 30),
+    N: tuple[int, ...] | None = None,
     transcription: str = "hermite-simpson",
     mu: float = 0.8,
     torque_limit: float = 150.0,
@@ -300,7 +345,8 @@ def footed_step(
     knee_range: tuple[float, float] = (0.0, 2.5),
     ankle_range: tuple[float, float] = ANKLE_RANGE,
     posture: float = 0.2,
-    durations: tuple[float, float, float] | None = None,
+    durations: tuple[float, ...] | None = None,
+    phases: str | tuple[str, ...] = "human",
 ) -> FootedStep:
     """A periodic walking step on feet (see the module docstring).
 
@@ -312,13 +358,17 @@ def footed_step(
     step_time : s (> 0).
     points : the feet's contacts by role (``stance_heel``, ``stance_toe`` = H0, ``swing_heel``,
         ``swing_toe`` = the swing foot's end); default ``model.presets.anthropoid_feet()``.
-    N : intervals of the three phases (flat, heel rise, double).
+    N : intervals of each phase; default :data:`MESHES` of the sequence.
     mu, torque_limit, clearance, touchdown_speed, knee_range, posture : as for
         :func:`problems.walking_step` (touchdown speed default 0.3 m/s per 0.86 m of leg).
     ankle_range : (dorsiflexion, plantarflexion) limits from the neutral stance, rad.
-    durations : (flat, heel rise, double) s, summing to step_time, to fix them; None: free
+    durations : each phase's duration, s, summing to step_time, to fix them; None: free
         within :data:`SHARE_BOUNDS` of the step time.
+    phases : the contact phases in order, by a name of :data:`SEQUENCES` ("human": flat,
+        heel rise, double; "flat-footed": flat, double; "toe-walking": heel rise, double) or
+        as that tuple of phase names.
     """
+    sequence = _sequence(phases)
     linkage = anthropoid_with_feet() if linkage is None else linkage
     biped = Biped.of(linkage)
     if len(biped.stance_leg) != 3:
@@ -350,9 +400,11 @@ def footed_step(
     if durations is not None:
         durations = tuple(check_positive(f"durations[{k}]", d, "s")
                           for k, d in enumerate(durations))  # fmt: skip
-        if len(durations) != 3 or not math.isclose(sum(durations), step_time, rel_tol=1e-9):
+        if len(durations) != len(sequence) or not math.isclose(
+            sum(durations), step_time, rel_tol=1e-9
+        ):
             raise DefinitionError(
-                f"`durations`: (flat, heel rise, double) s summing to step_time = "
+                f"`durations`: ({', '.join(sequence)}) s summing to step_time = "
                 f"{step_time:g} s, got {durations!r}"
             )
     for name, pair in (("knee_range", knee_range), ("ankle_range", ankle_range)):
@@ -360,10 +412,10 @@ def footed_step(
         if not ordered:
             raise DefinitionError(f"`{name}`: give (lower, upper) in rad, lower < upper, got "
                                   f"{pair!r}")  # fmt: skip
-    mesh = tuple(int(n) for n in N)
-    if len(mesh) != 3 or min(mesh) < 2:
-        raise DefinitionError(f"`N`: three interval counts >= 2 (flat, heel rise, double), "
-                              f"got {N!r}")  # fmt: skip
+    mesh = MESHES[sequence] if N is None else tuple(int(n) for n in N)
+    if len(mesh) != len(sequence) or min(mesh) < 2:
+        raise DefinitionError(f"`N`: {len(sequence)} interval counts >= 2 "
+                              f"({', '.join(sequence)}), got {N!r}")  # fmt: skip
     step = FootedStep(
         linkage=linkage,
         dynamics=Dynamics(linkage),
@@ -380,8 +432,35 @@ def footed_step(
         posture=check_positive("posture", posture, "rad"),
         durations=durations,
         mesh=mesh,
+        sequence=sequence,
     )
     return replace(step, phases=_phases(step, transcription))
+
+
+#: Default intervals per phase of each sequence.
+MESHES = {
+    PHASES: (20, 10, 30),
+    SEQUENCES["flat-footed"]: (30, 30),
+    SEQUENCES["toe-walking"]: (30, 10),
+}
+
+
+def _sequence(phases) -> tuple[str, ...]:
+    """``phases`` (a name of :data:`SEQUENCES` or a tuple of phase names) as the tuple."""
+    if isinstance(phases, str):
+        if phases not in SEQUENCES:
+            raise DefinitionError(
+                f"`phases`: one of {sorted(SEQUENCES)} or their phase tuples, got {phases!r}"
+            )
+        return SEQUENCES[phases]
+    sequence = tuple(phases) if isinstance(phases, tuple | list) else None
+    if sequence not in SEQUENCES.values():
+        listed = "; ".join(f"{name}: {seq}" for name, seq in SEQUENCES.items())
+        raise DefinitionError(
+            f"`phases`: a sequence of contact phases the step knows ({listed}), got "
+            f"{phases!r}; the double support must end the step (the legs swap at toe-off)"
+        )
+    return sequence
 
 
 #: Step length at 1 m/s, m, of :func:`step_at_speed`.
@@ -405,15 +484,14 @@ def footed_step_at(speed: float, **options) -> FootedStep:
 
 
 # ---- the guess ---------------------------------------------------------------------------------
-def _guessed_durations(step: FootedStep) -> tuple[float, float, float]:
-    """(flat, heel rise, double) s: the fixed durations, or the guess of free ones
+def _guessed_durations(step: FootedStep) -> tuple[float, ...]:
+    """Each phase's duration, s: the fixed durations, or the guess of free ones
     (:data:`SHARES` of the step time)."""
-    return step.durations or tuple(share * step.step_time for share in SHARES)
+    return step.durations or tuple(share * step.step_time for share in SHARES[step.sequence])
 
 
 def _single_support_guess(step: FootedStep) -> float:
-    durations = _guessed_durations(step)
-    return durations[0] + durations[1]
+    return math.fsum(_guessed_durations(step)[:-1])
 
 
 def _law(step: FootedStep) -> GaitLaw:
@@ -450,43 +528,49 @@ def _law(step: FootedStep) -> GaitLaw:
 
 # ---- the phases -------------------------------------------------------------------------------
 def _phases(step: FootedStep, transcription: str) -> Phases:
-    flat, heel, double = (
-        _flat_ocp(step, transcription),
-        _heel_rise_ocp(step, transcription),
-        _double_ocp(step, transcription),
-    )
-    phases = (
-        Phases.sequence(("flat", flat))
-        # The heel rises when the centre of pressure reaches the ball: the torques pass the
-        # join continuously (the ground's torque on the foot reaches 0 at the flat phase's
-        # end), as across an interior node.
-        .then("heel rise", heel, controls="continuous")
-        .then("double", double, mapping=step.strike.state_function())
-        .periodic(step.biped.swap.state_function())
-    )
-    return phases
+    """The listed phases joined: a flat foot's heel rises with the torques continuous, the
+    strike maps into the double support, the legs swap at toe-off (the periodicity)."""
+    builders = {"flat": _flat_ocp, "heel rise": _heel_rise_ocp, "double": _double_ocp}
+    ocps = [builders[name](step, k, transcription) for k, name in enumerate(step.sequence)]
+    phases = Phases.sequence((step.sequence[0], ocps[0]))
+    for name, ocp in zip(step.sequence[1:], ocps[1:], strict=True):
+        if name == "heel rise":
+            # The heel rises when the centre of pressure reaches the ball: the torques pass
+            # the join continuously (the ground's torque on the foot reaches 0 at the flat
+            # phase's end), as across an interior node.
+            phases = phases.then(name, ocp, controls="continuous")
+        else:
+            phases = phases.then(name, ocp, mapping=step.strike.state_function())
+    return phases.periodic(step.biped.swap.state_function())
 
 
 def _duration_bounds(step: FootedStep) -> list[tuple[float, float]]:
     T = step.step_time
     if step.durations is None:
-        return [(lo * T, hi * T) for lo, hi in SHARE_BOUNDS]
+        return [(lo * T, hi * T) for lo, hi in SHARE_BOUNDS[step.sequence]]
     # fixed: a band of round-off around each (a free duration needs lower < upper)
     return [(d * (1 - 1e-12), d * (1 + 1e-12)) for d in step.durations]
 
 
+def _parameters(step: FootedStep) -> list[str]:
+    """The static parameters of the durations of every phase but the last (the double
+    support takes the rest of the step time)."""
+    return [DURATION_PARAMETERS[name] for name in step.sequence[:-1]]
+
+
 def _base_ocp(step: FootedStep, phase: int, transcription: str, contacts=()):
-    """(a phase's OCP, its duration row): free duration tied to the step's parameters
-    T_flat and T_heel (static, shared by the phases: the double support takes the rest of
-    the step time), drives bounded, knees, ankles and posture in range, the objective and
-    scales."""
+    """(a phase's OCP, its duration row for :func:`_duration_row`): free duration tied to
+    the step's duration parameters (:func:`_parameters`: static, shared by the phases: the
+    double support takes the rest of the step time), drives bounded, knees, ankles and
+    posture in range, the objective and scales."""
     T = step.step_time
     guesses = _guessed_durations(step)
     bounds = _duration_bounds(step)
     ocp = OCP(step.dynamics, T=bounds[phase], N=step.mesh[phase], transcription=transcription,
               contacts=contacts).guess(T=guesses[phase])  # fmt: skip
-    ocp = ocp.param("T_flat", *bounds[0], guess=guesses[0], scale=T)
-    ocp = ocp.param("T_heel", *bounds[1], guess=guesses[1], scale=T)
+    parameters = _parameters(step)
+    for k, name in enumerate(parameters):
+        ocp = ocp.param(name, *bounds[k], guess=guesses[k], scale=T)
     for name in step.drives:
         ocp = ocp.bound(f"M_{name}", -step.torque_limit, step.torque_limit)
     biped = step.biped
@@ -507,11 +591,12 @@ def _base_ocp(step: FootedStep, phase: int, transcription: str, contacts=()):
         )
 
     def duration(p):
-        if phase == 0:
-            return p.T - p["T_flat"]
-        if phase == 1:
-            return p.T - p["T_heel"]
-        return p.T + p["T_flat"] + p["T_heel"] - step.step_time
+        if phase < len(parameters):
+            return p.T - p[parameters[phase]]
+        total = p.T  # summed in this order: the NLP's round-off as measured
+        for name in parameters:
+            total = total + p[name]
+        return total - step.step_time
 
     ocp = ocp.constrain(
         "knees", knees, lower=step.knee_range[0], upper=step.knee_range[1]
@@ -556,91 +641,142 @@ def _stance_cone(step: FootedStep):
     return reaction, lambda p: toe.cone(*reaction(p.psi, p.dpsi, p.ddpsi))
 
 
-def _swing_clearance(step: FootedStep, p, offset):
+def _offset(step: FootedStep, phase: int, p):
+    """The phase's start within the single support, s (a sum of duration parameters)."""
+    names = _parameters(step)[:phase]
+    if not names:
+        return 0.0
+    offset = p[names[0]]
+    for name in names[1:]:
+        offset = offset + p[name]
+    return offset
+
+
+def _swing_clearance(step: FootedStep, phase: int, p):
     """Swing heel and ball above the clearance profile of the single support."""
-    single = p["T_flat"] + p["T_heel"]
-    s = (p.t + offset) / single
+    first, *others = _parameters(step)
+    single = p[first]
+    for name in others:
+        single = single + p[name]
+    s = (p.t + _offset(step, phase, p)) / single
     floor = clearance_profile(s, single, step.clearance, step.touchdown_speed)
     heights = step.heights("swing_heel", "swing_toe")(p.psi)
     return heights - ca.vertcat(floor, floor)
 
 
-def _flat_ocp(step: FootedStep, transcription: str) -> OCP:
-    ocp, duration = _base_ocp(step, 0, transcription)
+def _duration_row(step: FootedStep, ocp: OCP, duration) -> OCP:
+    return ocp.boundary("duration", duration, at="start", lower=0.0, upper=0.0,
+                        scale=step.step_time)  # fmt: skip
+
+
+def _welded(step: FootedStep, ocp: OCP) -> OCP:
+    """The root foot welded flat on the ground: no angular acceleration at any point (flat
+    and at rest where it comes onto the ground, the collocation then keeps it there exactly).
+    Bounding its angle and rate at every point as well would leave the defect rows of those
+    two states without a free variable (empty rows: a degenerate NLP)."""
+    return ocp.bound(f"ddpsi_{step.biped.stance_leg[0]}", 0.0, 0.0)
+
+
+def _pressure_row(step: FootedStep, ocp: OCP, rear_force=None) -> OCP:
+    """The centre of pressure of the ground's torque on the flat root foot between heel and
+    ball: -sole Fy <= M_0 <= 0, Fy the vertical force on it (``rear_force(p)``, default the
+    whole ground reaction)."""
     root = step.biped.stance_leg[0]
-    flat = step.flat_angles[0]
-    # The foot welded to the ground: no angular acceleration at any point, flat and at rest
-    # at the start (the collocation then keeps it there exactly). Bounding its angle and
-    # rate at every point as well would leave the defect rows of those two states without
-    # a free variable (empty rows: a degenerate NLP), and the periodicity already brings
-    # the front foot of the step before flat and at rest.
-    ocp = ocp.bound(f"ddpsi_{root}", 0.0, 0.0)
-    ocp = ocp.boundary("foot flat", lambda p: ca.vertcat(p[f"psi_{root}"] - flat,
-                                                         p[f"dpsi_{root}"]),
-                       at="start", lower=0.0, upper=0.0)  # fmt: skip
-    reaction, cone = _stance_cone(step)
+    reaction = step.dynamics.function("ground_reaction")
     sole = step.sole
 
     def pressure(p):
         """-sole Fy <= M_0 <= 0: the centre of pressure between heel and ball."""
-        _, fy = reaction(p.psi, p.dpsi, p.ddpsi)
+        fy = (reaction(p.psi, p.dpsi, p.ddpsi) if rear_force is None else rear_force(p))[1]
         moment = p[f"M_{root}"]
         return ca.vertcat(-moment, moment + sole * fy)
 
-    scale = step.clearance_scale
-    ocp = (
-        ocp.constrain("friction", cone, lower=0.0, scale=step.weight)
-        .constrain("centre of pressure", pressure, lower=0.0, scale=step.weight * sole)
-        .constrain("clearance", lambda p: _swing_clearance(step, p, 0.0), lower=0.0, scale=scale)
-        .boundary("duration", duration, at="start", lower=0.0, upper=0.0, scale=step.step_time)
-    )
-    return ocp.guess(_guess_law(step, 0.0))
+    return ocp.constrain("centre of pressure", pressure, lower=0.0, scale=step.weight * sole)
 
 
-def _heel_rise_ocp(step: FootedStep, transcription: str) -> OCP:
-    ocp, duration = _base_ocp(step, 1, transcription)
-    root = step.biped.stance_leg[0]
-    ocp = ocp.bound(f"M_{root}", 0.0, 0.0)
-    _, cone = _stance_cone(step)
-    heel_height = step.heights("stance_heel")
-    heel = step.point("swing_heel")
-    position, velocity = heel.function("position"), heel.function("velocity")
+def _strike_rows(step: FootedStep, ocp: OCP) -> OCP:
+    """The single support's end: the striking point lands at :attr:`FootedStep.landing`
+    coming down at the touchdown speed or faster, its impulse and the held stance ball's in
+    their friction cones (and, the stance foot welded flat, the angular impulse on it
+    between heel and ball)."""
     n = step.linkage.n
+    point = step.point(step.strike_role)
+    position, velocity = point.function("position"), point.function("velocity")
     speed = max(step.step_length, SPEED_SCALE * step.biped.leg_length) / step.step_time
-    landing = step.step_length - step.sole
-    front, rear = step.contacts["swing_heel"], step.contacts["stance_toe"]
+    front, rear = step.contacts[step.strike_role], step.contacts["stance_toe"]
+    strike, sole = step.strike, step.sole
 
     def impulses(p):
-        _, impulse, behind = step.strike.held_impulses(p.x[:n], p.x[n:])
-        return ca.vertcat(front.cone(impulse[0], impulse[1]), rear.cone(behind[0], behind[1]))
+        psi, dpsi = p.x[:n], p.x[n:]
+        _, impulse, behind = strike.held_impulses(psi, dpsi)
+        rows = [front.cone(impulse[0], impulse[1]), rear.cone(behind[0], behind[1])]
+        if strike.root_welded:  # where the impulse on the flat foot acts: on the sole
+            angular = strike.root_angular_impulse(psi, dpsi)
+            rows.append(ca.vertcat(-angular / sole, angular / sole + behind[1]))
+        return ca.vertcat(*rows)
 
-    scale = step.clearance_scale
-    ocp = (
-        ocp.constrain("friction", cone, lower=0.0, scale=step.weight)
-        .constrain("stance heel up", lambda p: heel_height(p.psi), lower=0.0, scale=scale)
-        .constrain(
-            "clearance", lambda p: _swing_clearance(step, p, p["T_flat"]), lower=0.0, scale=scale
-        )
-        .boundary("duration", duration, at="start", lower=0.0, upper=0.0, scale=step.step_time)
-        .boundary("landing", lambda p: ca.vertcat(*position(p.x[:n])), at="end",
-                  lower=[landing, 0.0], upper=[landing, 0.0], scale=step.step_length)
+    return (
+        ocp.boundary("landing", lambda p: ca.vertcat(*position(p.x[:n])), at="end",
+                     lower=[step.landing, 0.0], upper=[step.landing, 0.0],
+                     scale=step.step_length)
         .boundary("heel strike", lambda p: velocity(p.x[:n], p.x[n:])[1], at="end",
                   upper=-step.touchdown_speed, scale=speed)
         .boundary("impulse", impulses, at="end", lower=0.0, scale=step.biped.total_mass * speed)
     )  # fmt: skip
-    return ocp.guess(_guess_law(step, _guessed_durations(step)[0], heel_rises=True))
 
 
-def _double_ocp(step: FootedStep, transcription: str) -> OCP:
-    front = step.contacts["swing_heel"]
-    ocp, duration = _base_ocp(step, 2, transcription, contacts=(front,))
+def _flat_ocp(step: FootedStep, phase: int, transcription: str) -> OCP:
+    ocp, duration = _base_ocp(step, phase, transcription)
+    ocp = _welded(step, ocp)
+    root = step.biped.stance_leg[0]
+    flat = step.flat_angles[0]
+    # Flat and at rest at the start: the periodicity brings the front foot of the step
+    # before flat and at rest too.
+    ocp = ocp.boundary("foot flat", lambda p: ca.vertcat(p[f"psi_{root}"] - flat,
+                                                         p[f"dpsi_{root}"]),
+                       at="start", lower=0.0, upper=0.0)  # fmt: skip
+    _, cone = _stance_cone(step)
+    ocp = _pressure_row(step, ocp.constrain("friction", cone, lower=0.0, scale=step.weight))
+    ocp = ocp.constrain("clearance", lambda p: _swing_clearance(step, phase, p), lower=0.0,
+                        scale=step.clearance_scale)  # fmt: skip
+    ocp = _duration_row(step, ocp, duration)
+    if step.sequence[phase + 1] == "double":  # flat-footed: the swing heel strikes now
+        ocp = _strike_rows(step, ocp)
+    return ocp.guess(_guess_law(step, 0.0))
+
+
+def _heel_rise_ocp(step: FootedStep, phase: int, transcription: str) -> OCP:
+    ocp, duration = _base_ocp(step, phase, transcription)
     root = step.biped.stance_leg[0]
     ocp = ocp.bound(f"M_{root}", 0.0, 0.0)
+    _, cone = _stance_cone(step)
+    heel_height = step.heights("stance_heel")
+    scale = step.clearance_scale
+    ocp = (
+        ocp.constrain("friction", cone, lower=0.0, scale=step.weight)
+        .constrain("stance heel up", lambda p: heel_height(p.psi), lower=0.0, scale=scale)
+        .constrain("clearance", lambda p: _swing_clearance(step, phase, p), lower=0.0,
+                   scale=scale)
+    )  # fmt: skip
+    offset = math.fsum(_guessed_durations(step)[:phase])
+    return _strike_rows(step, _duration_row(step, ocp, duration)).guess(
+        _guess_law(step, offset, heel_rises=True)
+    )
+
+
+def _double_ocp(step: FootedStep, phase: int, transcription: str) -> OCP:
+    """Both feet on the ground: the stance ball pinned, the front foot's striking point a
+    contact whose ground force F is a control, held at rest by its acceleration; the rear
+    foot flat (flat-footed) or on its ball, unloading; a front foot that struck with its
+    heel rolls down and arrives flat (the periodicity), one that struck with its ball keeps
+    its heel up."""
+    front = step.contacts[step.strike_role]
+    ocp, duration = _base_ocp(step, phase, transcription, contacts=(front,))
+    root = step.biped.stance_leg[0]
     reaction = step.dynamics.function("ground_reaction")
-    acceleration = step.point("swing_heel").function("acceleration")
+    acceleration = step.point(step.strike_role).function("acceleration")
     rear = step.contacts["stance_toe"]
     weight = step.weight
-    heel_height = step.heights("stance_heel")
 
     def rear_force(p):
         fx, fy = reaction(p.psi, p.dpsi, p.ddpsi)
@@ -650,6 +786,8 @@ def _double_ocp(step: FootedStep, transcription: str) -> OCP:
         return ca.vertcat(rear.cone(*rear_force(p)), front.cone(p.F[0], p.F[1]))
 
     scale = step.clearance_scale
+    if not step.rear_flat:
+        ocp = ocp.bound(f"M_{root}", 0.0, 0.0)
     ocp = (
         ocp.constrain("heel held", lambda p: ca.vertcat(*acceleration(p.psi, p.dpsi, p.ddpsi)),
                       lower=0.0, upper=0.0, scale=step.linkage.gravity)
@@ -657,16 +795,26 @@ def _double_ocp(step: FootedStep, transcription: str) -> OCP:
         .constrain("rear unloads",
                    lambda p: rear_force(p)[1] - weight * (2.0 - (2.0 - UNLOADED) * p.t / p.T),
                    upper=0.0, scale=weight)
-        .boundary("duration", duration, at="start", lower=0.0, upper=0.0, scale=step.step_time)
-        .constrain("stance heel up", lambda p: heel_height(p.psi), lower=0.0, scale=scale)
-        .scale(F=weight / 2)
     )  # fmt: skip
-    # The front ball above the ground while the foot turns down about its held heel: the
-    # foot at or above its flat angle, a bound (a row of the ball's height would be active
-    # and implied at the end, where the periodicity lays the foot flat: a degenerate row
-    # that cost IPOPT hundreds of iterations in the re-solves).
+    ocp = _duration_row(step, ocp, duration)
+    if step.rear_flat:  # the rear foot stays welded, its pressure on its sole
+        ocp = _pressure_row(step, _welded(step, ocp), rear_force)
+    else:
+        heel_height = step.heights("stance_heel")
+        ocp = ocp.constrain("stance heel up", lambda p: heel_height(p.psi), lower=0.0,
+                            scale=scale)  # fmt: skip
+    ocp = ocp.scale(F=weight / 2)
     swing_foot = step.biped.swing_leg[-1]
-    ocp = ocp.bound(f"psi_{swing_foot}", step.flat_angles[1], None)
+    if step.strike_role == "swing_heel":
+        # The front ball above the ground while the foot turns down about its held heel:
+        # the foot at or above its flat angle, a bound (a row of the ball's height would be
+        # active and implied at the end, where the periodicity lays the foot flat: a
+        # degenerate row that cost IPOPT hundreds of iterations in the re-solves).
+        ocp = ocp.bound(f"psi_{swing_foot}", step.flat_angles[1], None)
+    else:
+        front_heel = step.heights("swing_heel")
+        ocp = ocp.constrain("front heel up", lambda p: front_heel(p.psi), lower=0.0,
+                            scale=scale)  # fmt: skip
     strike = step.law.psi(np.array([_single_support_guess(step)]))[0]
     return ocp.guess(psi=strike, dpsi=0.0, ddpsi=0.0, F=[0.0, weight / 2])
 
@@ -691,10 +839,11 @@ class FootedGait(SteppingGait):
         """One leg through its stance, from its heel strike to its toe-off (the front foot
         of the double support, then the stance foot of the next step: the gait is periodic,
         so the front foot's double support is this step's, shifted): ``time`` (K,) s from
-        heel strike, ``force`` (K,) complex, N, the ground's force on that foot,
+        strike, ``force`` (K,) complex, N, the ground's force on that foot,
         ``pressure`` (K,) m, where it pushes, along x from the ball (the heel, -sole, while
         the foot rolls down onto it; the centre of pressure of the ground's torque while it
-        lies flat; the ball after), ``ankle_power`` (K,) W, the ankle drive's power
+        lies flat; the ball after; the ball throughout when it struck with its ball),
+        ``ankle_power`` (K,) W, the ankle drive's power
         M (dpsi_shank - dpsi_foot)."""
         step = self.problem
         linkage = step.linkage
@@ -703,14 +852,17 @@ class FootedGait(SteppingGait):
         stance_shank = linkage.index(step.biped.stance_leg[1])
         swing_foot = linkage.index(step.biped.swing_leg[-1])
         times, force, pressure, power = [], [], [], []
-        for (t, psi, dpsi, ddpsi, u), name in zip(self._sampled(count), PHASES, strict=True):
+        # where the front foot pushes in the double support: its heel, or its ball
+        strike = -step.sole if step.strike_role == "swing_heel" else 0.0
+        phases = zip(self._sampled(count), step.sequence, strict=True)
+        for (t, psi, dpsi, ddpsi, u), name in phases:
             total = step.dynamics.ground_reaction(psi, dpsi, ddpsi)
             front = u[:, linkage.n] + 1j * u[:, linkage.n + 1] if name == "double" else 0.0
             rates = joint_rates(linkage, dpsi)
             if name == "double":  # as the front foot, before this leg's stance
                 times.insert(0, t - self.duration)
                 force.insert(0, np.asarray(front))
-                pressure.insert(0, np.full(t.size, -step.sole))
+                pressure.insert(0, np.full(t.size, strike))
                 power.insert(0, u[:, swing_foot] * rates[:, swing_foot])
             times.append(t)
             force.append(total - front)
@@ -732,7 +884,7 @@ class FootedGait(SteppingGait):
             **super().summary(),
             "speed": self.speed,
             "cost_of_transport": self.cost_of_transport,
-            "durations": dict(zip(PHASES, self.durations(), strict=True)),
+            "durations": dict(zip(self.problem.sequence, self.durations(), strict=True)),
             "peak_vertical_force": float(stance["force"].imag.max() / self.problem.weight),
             "push_off": push_off(stance),
         }

@@ -182,8 +182,9 @@ def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preloa
             fell = f"step {len(records)}: the step did not end within twice the step time"
             break
         s = law.phase(psi)
+        striking = "heel" if step.strike_role == "swing_heel" else "toe"
         swing_load = contact_normal_force(mujoco, model, data, grounds, {geom[
-            f"{feet[label][1]}_heel"]})  # fmt: skip
+            f"{feet[label][1]}_{striking}"]})  # fmt: skip
         if branch == 0 and s > 0.5 and swing_load > TOUCHDOWN_FORCE:
             branch = 1  # the swing heel struck: the double support's branch
         elif branch == 1 and s >= 1.0:

@@ -132,9 +132,13 @@ def footed_figure(gait, samples: int = 801) -> Figure:
     stance = gait.stance(samples)
     t, force = stance["time"], stance["force"]
     durations = gait.durations()
-    # the stance: as the front foot (the double support), flat, heel rise, as the rear foot
-    edges = np.cumsum([0.0, durations[2], durations[0], durations[1], durations[2]])
-    shades = ("loading (front foot)", "flat foot", "heel rise", "push-off (rear foot)")
+    # the stance: as the front foot (the double support), its single support's phases, as
+    # the rear foot
+    edges = np.cumsum([0.0, durations[-1], *durations[:-1], durations[-1]])
+    labels = {"flat": "flat foot", "heel rise": "heel rise" if "flat" in problem.sequence
+              else "on the ball"}  # fmt: skip
+    shades = ("loading (front foot)", *(labels[name] for name in problem.sequence[:-1]),
+              "push-off (rear foot)")  # fmt: skip
     for ax in (axes[0, 2], axes[1, 0], axes[1, 1]):  # the stance's phases, shaded
         for k in range(len(shades)):
             ax.axvspan(edges[k], edges[k + 1], color=str(0.95 - 0.05 * (k % 2)), zorder=0)
@@ -160,7 +164,7 @@ def footed_figure(gait, samples: int = 801) -> Figure:
     ax.set(xlabel="t from heel strike [s]", ylabel="P [W]",
            title="the ankle's power through the stance (> 0: push-off)")  # fmt: skip
     ax = axes[1, 2]
-    single = times <= durations[0] + durations[1] + 1e-12
+    single = times <= sum(durations[:-1]) + 1e-12
     psi = states[single][:, :n]
     for role, style in (("swing_heel", "-"), ("swing_toe", "--")):
         where = problem.point(role).position(psi)
@@ -169,11 +173,12 @@ def footed_figure(gait, samples: int = 801) -> Figure:
     ax.plot([0.0, -problem.sole], [0.0, 0.0], "k-", linewidth=3, label="stance foot's sole")
     ax.set(xlabel="x [m]", ylabel="y [m]", title="the swing foot (single support)")
     ax.legend(fontsize="x-small")
+    phases = ", ".join(f"{name} {d:.3f} s" for name, d in zip(problem.sequence, durations,
+                                                              strict=True))  # fmt: skip
     figure.suptitle(
-        f"walking step on feet: {problem.step_length:g} m in {problem.step_time:g} s (flat "
-        f"{durations[0]:.3f} s, heel rise {durations[1]:.3f} s, double support "
-        f"{durations[2]:.3f} s), cost {gait.cost:.4g} (law {gait.law_cost:.4g}), cost of "
-        f"transport {gait.cost_of_transport:.3f}"
+        f"walking step on feet: {problem.step_length:g} m in {problem.step_time:g} s "
+        f"({phases}), cost {gait.cost:.4g} (law {gait.law_cost:.4g}), cost of transport "
+        f"{gait.cost_of_transport:.3f}"
     )
     return figure
 
