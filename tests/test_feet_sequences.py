@@ -132,3 +132,26 @@ def test_tampered_files_fail(gait, profile, tmp_path):
 def test_bad_sequences_are_refused_naming_the_field(kwargs, match):
     with pytest.raises(DefinitionError, match=match):
         footed_step(**kwargs)
+
+
+def test_the_drives_law_follows_each_sequence_and_flat_footed_walks_in_mujoco(gait):
+    """``FeetLaw``: the single support's reference runs through the sequence's single-support
+    phases (their durations summed, at 1 kHz), the double support's through its own; the
+    flat-footed plan walks 20 steps in MuJoCo under it, each step within 5 % of the plan's
+    length. (Toe walking falls in MuJoCo in its seventh step: examples/feet.md.)"""
+    from problems.walking.feet_control import FeetLaw
+
+    durations = gait.durations()
+    single, double = FeetLaw(gait).references
+    assert single.time[-1] - single.time[0] == pytest.approx(sum(durations[:-1]), abs=1e-9)
+    assert double.time[-1] - double.time[0] == pytest.approx(durations[-1], abs=1e-9)
+    assert np.all(np.diff(single.time) > 0)
+    if not gait.problem.rear_flat:
+        return
+    pytest.importorskip("mujoco")
+    from problems.walking.mujoco_feet import run_feet_in_mujoco
+
+    run = run_feet_in_mujoco(gait, steps=20)
+    assert run.fell is None and run.walked == 20, run.fell
+    lengths = np.array([s.length for s in run.steps])
+    assert np.all(np.abs(lengths / gait.problem.step_length - 1.0) < 0.05), lengths

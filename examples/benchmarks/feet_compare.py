@@ -38,7 +38,7 @@ import warnings
 
 import numpy as np
 
-from planner import AccuracyWarning
+from planner import AccuracyWarning, SampleLimitError, SolverError
 from problems import walking_step
 from problems.gait.problem import joint_rates
 from problems.walking.footed import footed_step, push_off, step_at_speed
@@ -109,7 +109,7 @@ def main() -> int:
     parser.add_argument("--quick", action="store_true", help="1.0 m/s only")
     args = parser.parse_args()
     speeds = (1.0,) if args.quick else SPEEDS
-    rows = []
+    rows, failed = [], []
     for speed in speeds:
         length, duration = step_at_speed(speed)
         with warnings.catch_warnings():
@@ -123,7 +123,13 @@ def main() -> int:
             others = []
             for name in OTHER_SEQUENCES:
                 start = time.perf_counter()
-                other = footed_step(step_length=length, step_time=duration, phases=name).solve()
+                try:
+                    other = footed_step(step_length=length, step_time=duration,
+                                        phases=name).solve()  # fmt: skip
+                except (SolverError, SampleLimitError) as error:
+                    # a sequence this body cannot walk at this speed is a result: printed
+                    failed.append((speed, name, str(error).split(";")[0]))
+                    continue
                 others.append((other, other.stance(), name, time.perf_counter() - start))
         for gait, stance, label, seconds in (
             (point, point_foot_stance(point), "point foot", point_seconds),
@@ -154,6 +160,9 @@ def main() -> int:
             f"{peak:7.0f} {when:5.0f} {work:5.1f} {r['seconds']:7.2f} "
             + ("yes" if r["verified"] else "NO: " + ", ".join(r["failures"]))
         )
+    print()
+    for speed, name, reason in failed:
+        print(f"{speed:5.1f} {name}: no plan ({reason})")
     print()
     print("feet: phase durations, s")
     for r in rows:

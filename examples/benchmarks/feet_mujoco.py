@@ -17,6 +17,8 @@ Three tables, each from one run:
    pushes survived.
 3. The three speeds of the README's table (0.6, 1.0, 1.4 m/s): 50 steps each at the default
    gains.
+4. The contact sequences at 1 m/s (``footed_step(phases=...)``: human, flat-footed,
+   toe-walking): open loop and 50 steps closed loop at the default gains.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from problems.walking.feet_control import (
     FeetLaw,
     hinge_inertias,
 )
+from problems.walking.footed import SEQUENCES
 from problems.walking.mujoco_feet import feet_mujoco_check, run_feet_in_mujoco
 
 #: (kp N m/rad, kd N m s/rad, bandwidth rad/s) of the sweep; inf: no cap
@@ -54,10 +57,10 @@ GAINS = [
 ]
 
 
-def _solve(speed: float):
+def _solve(speed: float, phases: str = "human"):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
-        return footed_step_at(speed).solve()
+        return footed_step_at(speed, phases=phases).solve()
 
 
 def _row(label: str, run, weight: float) -> str:
@@ -120,6 +123,16 @@ def main() -> int:
             run = run_feet_in_mujoco(gait if speed == 1.0 else _solve(speed), steps=50)
             lengths = np.mean([s.length for s in run.steps]) if run.steps else float("nan")
             print(_row(f"{speed:g} ({lengths:.3f})", run, weight), flush=True)
+        print()
+        print("4. Contact sequences at 1 m/s: open loop, then 50 steps at the default gains")
+        print(f"{'sequence':<22}" + HEAD[22:])
+        print("-" * (len(HEAD) + 20))
+        for name in SEQUENCES:
+            planned = gait if name == "human" else _solve(1.0, name)
+            for open_loop in (True, False):
+                run = run_feet_in_mujoco(planned, steps=50, open_loop=open_loop)
+                label = f"{name} {'open' if open_loop else 'closed'}"
+                print(_row(label, run, weight), flush=True)
     return 0
 
 

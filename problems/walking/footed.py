@@ -28,10 +28,19 @@ contact stays above the ground; knees, ankles and the upper body keep their rang
 |M| <= torque_limit (the ground's torque M_0 on the root foot is no drive: it is bounded by
 the sole, not counted in the objective).
 
+Other sequences are a matter of listing phases (``phases=``, :data:`SEQUENCES`):
+``"flat-footed"`` = (flat, double): no heel rise; the swing heel strikes at the flat phase's
+end with the stance foot still flat, an impact with the root welded (``Dynamics.impact(heel,
+root_welded=True)``: its angular impulse about the ball on the sole too), and the rear foot
+stays welded flat through the double support, its centre of pressure on its sole.
+``"toe-walking"`` = (heel rise, double): on the balls of the feet; the swing *ball* strikes
+at (step_length, 0) and is held through the double support, the front heel above the ground,
+the front foot not laid flat (the next step starts on its ball).
+
 Phase durations are free by default within bounds (fractions of the step time), their sum
 the step time (a step of ``step_length`` in ``step_time``, the speed the user asked for):
-two static parameters ``T_flat`` and ``T_heel`` carry the first two and every phase ties its
-duration to them. ``durations=(flat, heel rise, double)`` in s fixes them.
+static parameters (``T_flat``, ``T_heel``) carry every phase's but the last and every phase
+ties its duration to them. ``durations=(...)`` in s, one per phase, fixes them.
 
 The guess is the gait law (22) fitted to a point-foot step of the same length and the
 single support's duration for the shared links (``Biped.step_law`` of the linkage without
