@@ -7,9 +7,10 @@ torque is no drive: the ground gives it) applies
 with q each hinge's angle relative to its parent (what its encoder reads) and s the hip's
 progress over the stance ball (:class:`problems.walking.control.GaitReference`), so that an
 early or late heel strike re-indexes the plan instead of running out of step. The plan has
-two branches, the single support (flat foot and heel rise, up to the heel strike) and the
-double support, both indexed by the whole step's s: the law switches to the second when the
-swing heel touches the ground past half the step, and the legs swap (the plan's labels follow
+two branches, the single support (its phases joined: flat foot and heel rise in the human
+cycle, up to the strike) and the double support, both indexed by the whole step's s: the law
+switches to the second when the swing foot's striking point (its heel; its ball in toe
+walking) touches the ground past half the step, and the legs swap (the plan's labels follow
 the new stance foot) when s reaches 1, where the plan's rear foot leaves.
 
 In the file (:meth:`FeetLaw.channels`) the law is the point-foot feedback's form,
