@@ -62,7 +62,10 @@ def test_the_files_gains_give_the_laws_torques(footed_gait, law, file):
         np.testing.assert_allclose(from_file, expected, rtol=1e-9, atol=1e-6)
     feedback = file.metadata["feedback"]
     assert feedback["law"] == LAW
-    assert feedback["kp"]["double"] == [FEET_KP] * n and feedback["kd"]["double"] == [FEET_KD] * n
+    # the root's gains are 0 as its K row (the ground's torque, no drive)
+    assert feedback["kp"]["double"] == [0.0] + [FEET_KP] * (n - 1)
+    assert feedback["kd"]["double"] == [0.0] + [FEET_KD] * (n - 1)
+    assert "flat + heel rise" in feedback["branches"] and "swing heel's" in feedback["branches"]
     light = names.index(step.biped.swing_leg[-1])  # the swing foot: capped in single support
     assert feedback["kp"]["single"][light] < FEET_KP and feedback["kd"]["single"][light] < FEET_KD
     phase = file.column("phase")

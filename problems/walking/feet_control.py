@@ -174,6 +174,11 @@ class FeetLaw:
             rows.append(gain)
         gains = np.where(double[:, None, None], rows[1], rows[0])
         limits = [np.inf] + [step.torque_limit] * (n - 1)
+        # the gains as the file's K rows hold them: none for the ground's torque on the root
+        kp = [np.r_[0.0, gains[1:]].tolist() for gains, _ in self.gains]
+        kd = [np.r_[0.0, gains[1:]].tolist() for _, gains in self.gains]
+        single = " + ".join(step.sequence[:-1])
+        point = "heel" if step.strike_role == "swing_heel" else "ball"
         return with_gains(
             trajectory.with_extra("double_support", double.astype(float), "1"),
             step.linkage.names,
@@ -182,14 +187,18 @@ class FeetLaw:
             {
                 "law": LAW,
                 "phase": FEET_PHASE.format(hip=step.biped.stance_thigh),
-                "branches": FEET_BRANCHES,
+                "branches": FEET_BRANCHES.format(single=single, point=point),
                 "limit_N_m": limit_metadata(limits),
                 "control_rate_hz": self.rate_hz,
                 "design": "joint PD around the plan on the hinges' relative angles, K = "
                 "[kp R, kd R]; in the single support capped on light links at "
                 f"{self.bandwidth:g} rad/s (problems.walking.feet_control.hinge_gains)",
-                "kp": {"single": self.gains[0][0].tolist(), "double": self.gains[1][0].tolist()},
-                "kd": {"single": self.gains[0][1].tolist(), "double": self.gains[1][1].tolist()},
+                "kp": {
+                    "single": kp[0],
+                    "double": kp[1],
+                    "unit": "N m/rad, per hinge (the root's 0: the ground's torque, no drive)",
+                },
+                "kd": {"single": kd[0], "double": kd[1], "unit": "N m s/rad"},
             },
         )
 
@@ -202,10 +211,10 @@ FEET_PHASE = (
 )
 #: the branches and their switches, as the file's metadata says them
 FEET_BRANCHES = (
-    "rows with double_support = 0: the single support (flat foot, heel rise) up to the heel "
-    "strike; 1: the double support after it. The law takes the double support's rows when "
-    f"the swing heel's normal force passes {TOUCHDOWN_FORCE:g} N past s = 0.5, and swaps the "
-    "legs at s = 1; past a branch's last row x_ref goes on along its last slope dx/ds"
+    "rows with double_support = 0: the single support ({single}) up to the strike; 1: the "
+    "double support after it. The law takes the double support's rows when the swing "
+    f"{{point}}'s normal force passes {TOUCHDOWN_FORCE:g} N past s = 0.5, and swaps the legs "
+    "at s = 1; past a branch's last row x_ref goes on along its last slope dx/ds"
 )
 
 
