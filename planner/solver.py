@@ -44,6 +44,7 @@ import numpy as np
 from planner import native_nlp
 from planner.accuracy_check import ACCURACY_WARNING, check_accuracy_of
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
+from planner.mesh_multipliers import carried_entries
 from planner.native_output import captured
 from planner.ocp import OCPDefinition
 from planner.phases import PhasesDefinition
@@ -273,29 +274,55 @@ def warm_start_multipliers(
         return None
     old = source.transcription
     lam_g_old, g_scale_old = source.lam_g, old.g_scale
+    lam_x_old, w_scale_old = source.lam_x, old.w_scale
     if source.nlp_signature != transcription.signature:
         rows = _same_rows(old, transcription)
         if rows is None:
-            logger.debug(
-                "multipliers not reused: NLP layout %s differs from the guess's %s",
-                transcription.signature,
-                source.nlp_signature,
-            )
-            return None
-        # The same variables with rows added or removed (limits added at samples): each row
-        # the two share keeps its multiplier, a new row starts at 0.
-        known = rows >= 0
-        lam_g_old = np.where(known, source.lam_g[np.maximum(rows, 0)], 0.0)
-        g_scale_old = np.where(known, old.g_scale[np.maximum(rows, 0)], 1.0)
+            carried = _across_cut(source, transcription)
+            if carried is None:
+                logger.debug(
+                    "multipliers not reused: NLP layout %s differs from the guess's %s",
+                    transcription.signature,
+                    source.nlp_signature,
+                )
+                return None
+            lam_x_old, w_scale_old, lam_g_old, g_scale_old = carried
+        else:
+            # The same variables with rows added or removed (limits added at samples): each
+            # row the two share keeps its multiplier, a new row starts at 0.
+            known = rows >= 0
+            lam_g_old = np.where(known, source.lam_g[np.maximum(rows, 0)], 0.0)
+            g_scale_old = np.where(known, old.g_scale[np.maximum(rows, 0)], 1.0)
     # The physical multipliers lam * f_scale / scale are invariant (the Lagrangian is
     # f / f_scale + lam^T (v / scale)): lam_new = lam_old * (new / old scale) * (old / new
     # f_scale).
     ratio = float(source.stats.get("objective_scale", 1.0)) / objective_scale
-    lam_x = source.lam_x * (transcription.w_scale / old.w_scale) * ratio
+    lam_x = lam_x_old * (transcription.w_scale / w_scale_old) * ratio
     lam_g = lam_g_old * (transcription.g_scale / g_scale_old) * ratio
     if not (np.all(np.isfinite(lam_x)) and np.all(np.isfinite(lam_g))):
         return None
     return lam_x, lam_g
+
+
+def _across_cut(source, new: Transcription):
+    """(lam_x, w_scale, lam_g, g_scale) of ``source``'s NLP carried onto ``new``'s entries
+    when ``new``'s mesh is the source's with intervals cut in halves
+    (:mod:`planner.mesh_multipliers`; an entry without a source starts at 0), or None."""
+    old = source.transcription
+    carried = []
+    for old_names, new_names, lam, scale in (
+        (old.w_names, new.w_names, source.lam_x, old.w_scale),
+        (old.g_names, new.g_names, source.lam_g, old.g_scale),
+    ):
+        entries = carried_entries(old_names, new_names, old.problem, new.problem)
+        if entries is None:
+            return None
+        rows, factors = entries
+        known = rows >= 0
+        at = np.maximum(rows, 0)
+        carried.extend([np.where(known, lam[at] * factors, 0.0), np.where(known, scale[at], 1.0)])
+    logger.debug("multipliers carried across a mesh cut")
+    return tuple(carried)
 
 
 def _same_rows(old: Transcription, new: Transcription) -> np.ndarray | None:
