@@ -1068,6 +1068,7 @@ def test_walk_on_feet_toe_walking_writes_verified_files(tmp_path):
     profile = LinkageTrajectory.load(folder / "torques.csv")
     assert profile.metadata["gait"]["phases"] == ["heel rise", "double"]
     assert {"F_swing_toe_x", "F_swing_toe_y"} <= set(profile.extras)
+    assert "F_swing_toe_x/_y the front ball's force in the double support" in out
 
 
 def test_walk_on_feet_refuses_the_point_foot_options_by_name(capsys):

@@ -152,11 +152,12 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         with report.working("verifying torques.csv (numpy, independent of the planner)"):
             check = verify_gait(LinkageTrajectory.load(written[0]), step.linkage)
         root = step.linkage.names[0]
+        front = step.strike_role
         print(
             f"torques.csv: {profile.n_samples} samples at {args.rate_hz:g} Hz; M_{root} is the "
             "ground's torque on the stance foot (no drive: its centre of pressure is "
-            f"CoP_{root}_start_x, m from the ball), F_swing_heel_x/_y the front heel's force in "
-            "the double support",
+            f"CoP_{root}_start_x, m from the ball), F_{front}_x/_y the front "
+            f"{'heel' if front == 'swing_heel' else 'ball'}'s force in the double support",
             file=out,
         )
         print_verification(check, profile.n_samples, out)

@@ -130,6 +130,7 @@ def footed_figure(gait, samples: int = 801) -> Figure:
     _angles_and_torques(axes[0, 0], axes[0, 1], times, states, torques, names, problem.drives,
                         "x-small")  # fmt: skip
     stance = gait.stance(samples)
+    since = f"t from {'heel' if problem.strike_role == 'swing_heel' else 'ball'} strike [s]"
     t, force = stance["time"], stance["force"]
     durations = gait.durations()
     # the stance: as the front foot (the double support), its single support's phases, as
@@ -148,20 +149,20 @@ def footed_figure(gait, samples: int = 801) -> Figure:
                 ha="center", va="bottom", transform=ax.get_xaxis_transform())  # fmt: skip
     ax.plot(t, force.imag / weight, label="Fy / m g")
     ax.plot(t, force.real / weight, label="Fx / m g")
-    ax.set(xlabel="t from heel strike [s]", ylabel="ground force [body weights]",
+    ax.set(xlabel=since, ylabel="ground force [body weights]",
            title="one foot through its stance")  # fmt: skip
     ax.legend(fontsize="x-small", loc="upper right")
     ax = axes[1, 0]
     ax.plot(t, 100 * stance["pressure"], label="centre of pressure")
     ax.axhline(0.0, color="0.4", linestyle=":", label="ball")
     ax.axhline(-100 * problem.sole, color="0.4", linestyle="--", label="heel")
-    ax.set(xlabel="t from heel strike [s]", ylabel="from the ball [cm]",
+    ax.set(xlabel=since, ylabel="from the ball [cm]",
            title="where the ground pushes under the foot")  # fmt: skip
     ax.legend(fontsize="x-small")
     ax = axes[1, 1]
     ax.plot(t, stance["ankle_power"], color="C3")
     ax.axhline(0.0, color="0.5", linewidth=0.8)
-    ax.set(xlabel="t from heel strike [s]", ylabel="P [W]",
+    ax.set(xlabel=since, ylabel="P [W]",
            title="the ankle's power through the stance (> 0: push-off)")  # fmt: skip
     ax = axes[1, 2]
     single = times <= sum(durations[:-1]) + 1e-12
