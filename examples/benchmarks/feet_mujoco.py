@@ -18,7 +18,9 @@ Three tables, each from one run:
 3. The three speeds of the README's table (0.6, 1.0, 1.4 m/s): 50 steps each at the default
    gains.
 4. The contact sequences at 1 m/s (``footed_step(phases=...)``: human, flat-footed,
-   toe-walking): open loop and 50 steps closed loop at the default gains.
+   toe-walking): open loop and 50 steps closed loop at each sequence's default gains
+   (``FeetLaw``'s, :data:`problems.walking.feet_control.SEQUENCE_GAINS`).
+5. The toe walker's gains: 50 steps each, where its defaults come from.
 """
 
 from __future__ import annotations
@@ -54,6 +56,17 @@ GAINS = [
     (1000.0, 30.0, 70.0),
     (1000.0, 50.0, 50.0),
     (1500.0, 40.0, 50.0),
+]
+#: the toe walker's sweep (table 5)
+TOE_GAINS = [
+    (1000.0, 30.0, 50.0),
+    (600.0, 30.0, 50.0),
+    (1500.0, 40.0, 50.0),
+    (2000.0, 60.0, 50.0),
+    (1000.0, 30.0, 30.0),
+    (1000.0, 50.0, 50.0),
+    (1000.0, 40.0, 70.0),
+    (1000.0, 50.0, 70.0),
 ]
 
 
@@ -124,15 +137,26 @@ def main() -> int:
             lengths = np.mean([s.length for s in run.steps]) if run.steps else float("nan")
             print(_row(f"{speed:g} ({lengths:.3f})", run, weight), flush=True)
         print()
-        print("4. Contact sequences at 1 m/s: open loop, then 50 steps at the default gains")
+        print("4. Contact sequences at 1 m/s: open loop, then 50 steps at each sequence's "
+              "default gains")  # fmt: skip
         print(f"{'sequence':<22}" + HEAD[22:])
         print("-" * (len(HEAD) + 20))
-        for name in SEQUENCES:
-            planned = gait if name == "human" else _solve(1.0, name)
+        planned = {name: gait if name == "human" else _solve(1.0, name) for name in SEQUENCES}
+        for name, plan in planned.items():
             for open_loop in (True, False):
-                run = run_feet_in_mujoco(planned, steps=50, open_loop=open_loop)
-                label = f"{name} {'open' if open_loop else 'closed'}"
+                run = run_feet_in_mujoco(plan, steps=50, open_loop=open_loop)
+                law = FeetLaw(plan)
+                gains = f"{law.gains[1][0][1]:g} / {law.gains[1][1][1]:g} / {law.bandwidth:g}"
+                label = f"{name} {'open' if open_loop else gains}"
                 print(_row(label, run, weight), flush=True)
+        print()
+        print("5. Toe walking's gains (kp / kd / bandwidth), 50 steps each")
+        print(f"{'kp / kd / bandwidth':<22}" + HEAD[22:])
+        print("-" * (len(HEAD) + 20))
+        for kp, kd, bandwidth in TOE_GAINS:
+            law = FeetLaw(planned["toe-walking"], kp=kp, kd=kd, bandwidth=bandwidth)
+            run = run_feet_in_mujoco(planned["toe-walking"], steps=50, law=law)
+            print(_row(f"{kp:g} / {kd:g} / {bandwidth:g}", run, weight), flush=True)
     return 0
 
 

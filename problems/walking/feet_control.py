@@ -34,6 +34,7 @@ from planner.errors import DefinitionError, check_positive
 from planner.trajectory import Trajectory
 from problems.walking.control import GaitReference, PhasePD
 from problems.walking.feedback import LAW, limit_metadata, with_gains
+from problems.walking.footed import SEQUENCES
 from problems.walking.mujoco import TOUCHDOWN_FORCE
 
 #: the hinge drives' PD gains, N m/rad and N m s/rad, and the bandwidth, rad/s, that caps them
@@ -42,6 +43,11 @@ from problems.walking.mujoco import TOUCHDOWN_FORCE
 FEET_KP = 1000.0
 FEET_KD = 30.0
 FEET_BANDWIDTH = 50.0
+#: (kp, kd, bandwidth) per contact sequence where they differ from the above: toe walking
+#: falls in its seventh step at 1000 / 30 / 50 and walks 50 at 1000 / 50 / 70 (the toe
+#: walker's sweep in examples/benchmarks/feet_mujoco.py: its light feet and 30 ms double
+#: support want more damping)
+SEQUENCE_GAINS = {"toe-walking": (1000.0, 50.0, 70.0)}
 #: the law's rate, Hz (the torque file's)
 CONTROL_RATE_HZ = 1000.0
 
@@ -108,7 +114,8 @@ class FeetLaw:
     kp, kd : float
         N m/rad, N m s/rad of every hinge drive; in the single support capped on light links
         at ``bandwidth`` rad/s (:func:`hinge_gains`). The root's (the ground's torque on the
-        stance foot) is no drive: its gain is unused.
+        stance foot) is no drive: its gain is unused. None (each): the sequence's default,
+        :data:`SEQUENCE_GAINS` or (:data:`FEET_KP`, :data:`FEET_KD`, :data:`FEET_BANDWIDTH`).
     rate_hz : float
         The reference's sample rate (the file's), Hz.
 
@@ -119,13 +126,18 @@ class FeetLaw:
     def __init__(
         self,
         gait,
-        kp: float = FEET_KP,
-        kd: float = FEET_KD,
-        bandwidth: float = FEET_BANDWIDTH,
+        kp: float | None = None,
+        kd: float | None = None,
+        bandwidth: float | None = None,
         rate_hz: float = CONTROL_RATE_HZ,
     ) -> None:
         step = gait.problem
         self.step = step
+        sequence = next(name for name, phases in SEQUENCES.items() if phases == step.sequence)
+        defaults = SEQUENCE_GAINS.get(sequence, (FEET_KP, FEET_KD, FEET_BANDWIDTH))
+        kp = defaults[0] if kp is None else kp
+        kd = defaults[1] if kd is None else kd
+        bandwidth = defaults[2] if bandwidth is None else bandwidth
         self.rate_hz = check_positive("rate_hz", rate_hz, "Hz")
         self.bandwidth = bandwidth
         self.references = feet_references(gait, self.rate_hz)
@@ -222,6 +234,7 @@ __all__ = [
     "FEET_BANDWIDTH",
     "FEET_KD",
     "FEET_KP",
+    "SEQUENCE_GAINS",
     "FeetLaw",
     "feet_references",
     "hinge_gains",
