@@ -49,10 +49,6 @@ def _intervals(old: tuple[float, ...], new: tuple[float, ...]):
     return source if i == len(old) and j == len(new) else None
 
 
-def _fractions(ocp) -> tuple[float, ...]:
-    return tuple(ocp.mesh) if ocp.mesh is not None else (1.0 / ocp.N,) * ocp.N
-
-
 def _source(name: str, intervals) -> tuple[str, float] | None:
     """The old name of ``name``'s entry and its multiplier's factor, on a phase whose new
     intervals come from the old as ``intervals`` says; None without one."""
@@ -85,32 +81,35 @@ def _source(name: str, intervals) -> tuple[str, float] | None:
         return f"node {i}"
 
     old = _PLACE.sub(place, name)
-    if missing:
-        return None
-    # "interval i midpoint" written for a node, with a suffix after the node (rare): keep as is
-    return old, factor
+    return None if missing else (old, factor)
 
 
-def carried_entries(
-    old_names: tuple[str, ...], new_names: tuple[str, ...], old_problem, new_problem
-) -> tuple[np.ndarray, np.ndarray] | None:
-    """For each of ``new_names``: (the index of its source among ``old_names``, -1 for none;
-    the factor of its multiplier), when ``new_problem``'s phases are ``old_problem``'s with
-    some intervals cut in halves (the same phase names, every other interval unchanged);
-    None otherwise. ``*_problem``: :class:`planner.phases.PhasesDefinition`."""
-    old_phases, new_phases = old_problem.phases, new_problem.phases
-    if len(old_phases) != len(new_phases):
+def carried_entries(old, new) -> tuple[tuple[np.ndarray, np.ndarray], ...] | None:
+    """For the variables (``w_names``), then the rows (``g_names``) of the
+    :class:`planner.transcription.Transcription` ``new``: (the index of each one's source
+    in ``old``'s, -1 for none; the factor of its multiplier), when ``new``'s phases are
+    ``old``'s with some intervals cut in halves (the same phase names, every other interval
+    unchanged); None otherwise."""
+    names = old.problem.names
+    if tuple(new.problem.names) != tuple(names):
         return None
     maps = {}
-    for (old_name, old_ocp), (new_name, new_ocp) in zip(old_phases, new_phases, strict=True):
-        if old_name != new_name:
-            return None
-        intervals = _intervals(_fractions(old_ocp), _fractions(new_ocp))
+    for name, before, after in zip(names, old.phases, new.phases, strict=True):
+        intervals = _intervals(tuple(before.mesh.widths), tuple(after.mesh.widths))
         if intervals is None:
             return None
-        maps[new_name] = intervals
+        maps[name] = intervals
     if all(len(m) == len({i for i, _ in m}) for m in maps.values()):
         return None  # nothing was cut: not this function's case
+    return tuple(
+        _sources(old_names, new_names, maps)
+        for old_names, new_names in ((old.w_names, new.w_names), (old.g_names, new.g_names))
+    )
+
+
+def _sources(old_names, new_names, maps) -> tuple[np.ndarray, np.ndarray]:
+    """(index of each new name's source among ``old_names`` or -1, its factor), the phases'
+    interval maps ``maps`` ({phase name: :func:`_intervals`})."""
     index = {name: k for k, name in enumerate(old_names)}
     rows = np.full(len(new_names), -1, dtype=int)
     factors = np.zeros(len(new_names))

@@ -290,9 +290,7 @@ def warm_start_multipliers(
         else:
             # The same variables with rows added or removed (limits added at samples): each
             # row the two share keeps its multiplier, a new row starts at 0.
-            known = rows >= 0
-            lam_g_old = np.where(known, source.lam_g[np.maximum(rows, 0)], 0.0)
-            g_scale_old = np.where(known, old.g_scale[np.maximum(rows, 0)], 1.0)
+            lam_g_old, g_scale_old = _gathered(source.lam_g, old.g_scale, rows)
     # The physical multipliers lam * f_scale / scale are invariant (the Lagrangian is
     # f / f_scale + lam^T (v / scale)): lam_new = lam_old * (new / old scale) * (old / new
     # f_scale).
@@ -309,20 +307,23 @@ def _across_cut(source, new: Transcription):
     when ``new``'s mesh is the source's with intervals cut in halves
     (:mod:`planner.mesh_multipliers`; an entry without a source starts at 0), or None."""
     old = source.transcription
-    carried = []
-    for old_names, new_names, lam, scale in (
-        (old.w_names, new.w_names, source.lam_x, old.w_scale),
-        (old.g_names, new.g_names, source.lam_g, old.g_scale),
-    ):
-        entries = carried_entries(old_names, new_names, old.problem, new.problem)
-        if entries is None:
-            return None
-        rows, factors = entries
-        known = rows >= 0
-        at = np.maximum(rows, 0)
-        carried.extend([np.where(known, lam[at] * factors, 0.0), np.where(known, scale[at], 1.0)])
+    entries = carried_entries(old, new)
+    if entries is None:
+        return None
+    (w_rows, w_factors), (g_rows, g_factors) = entries
     logger.debug("multipliers carried across a mesh cut")
-    return tuple(carried)
+    return (
+        *_gathered(source.lam_x, old.w_scale, w_rows, w_factors),
+        *_gathered(source.lam_g, old.g_scale, g_rows, g_factors),
+    )
+
+
+def _gathered(lam, scale, rows, factors=1.0) -> tuple[np.ndarray, np.ndarray]:
+    """(multipliers, their nominal scales) of the old NLP's entries ``rows`` (-1: none, a 0
+    multiplier of scale 1), the multipliers times ``factors``."""
+    known = rows >= 0
+    at = np.maximum(rows, 0)
+    return np.where(known, lam[at] * factors, 0.0), np.where(known, scale[at], 1.0)
 
 
 def _same_rows(old: Transcription, new: Transcription) -> np.ndarray | None:

@@ -99,7 +99,8 @@ def main() -> int:
         seconds = time.perf_counter() - start
         rounds = gait.solution.stats["sampled_limits"]["rounds"]
         warned = any(issubclass(w.category, AccuracyWarning) for w in caught)
-        # a round's "split" cuts intervals for the next solve, whose multipliers start cold
+        # a round's "split" cuts intervals for the next solve (its multipliers carried onto
+        # the cut mesh: planner/mesh_multipliers.py)
         per_solve = [f"{r['iterations']}{'*' if k and rounds[k - 1]['split'] else ''}"
                      for k, r in enumerate(rounds)]  # fmt: skip
         print(f"{'/'.join(map(str, mesh)):<14} {seconds:8.2f} "
