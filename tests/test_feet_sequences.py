@@ -154,3 +154,19 @@ def test_the_drives_law_follows_each_sequence_and_walks_it_in_mujoco(gait):
     assert run.fell is None and run.walked == 20, run.fell
     lengths = np.array([s.length for s in run.steps])
     assert np.all(np.abs(lengths / gait.problem.step_length - 1.0) < 0.05), lengths
+
+
+def test_the_rates_are_checked_in_every_phase_sampled_densely_enough(gait, profile, tmp_path):
+    """The rates check (dpsi against the trapezoid of ddpsi between samples) needs several
+    samples per mesh interval to bound the rule's error from the samples. Before, it ran on
+    the whole file or not at all, and the flat-footed step's 30 ms double support on a fine
+    mesh failed it spuriously (-1.5e-3 rad/s); now a phase sampled too thinly is left out
+    and said so, and the others stay checked: rates bent inside the single support fail."""
+    report = verify_gait(profile, FEET)
+    assert report.facts["rates"].startswith("not checked in double"), report.facts["rates"]
+    assert report["rates"].passed
+    single = (profile.time > 0.1) & (profile.time < 0.2)
+    states = profile.states + 0.05 * (np.arange(16) == 10) * single[:, None]  # a rate bent
+    failed = {c.name for c in verify_gait(_tampered(profile, tmp_path, states=states),
+                                          FEET).failures}  # fmt: skip
+    assert "rates" in failed, failed
