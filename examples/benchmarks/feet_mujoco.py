@@ -3,7 +3,7 @@
     python examples/benchmarks/feet_mujoco.py              # gains, check, speeds
     python examples/benchmarks/feet_mujoco.py --quick      # the check at 1 m/s only
 
-Three tables, each from one run:
+Six tables, each from one run:
 
 1. The gains: the default step on feet (1 m/s) walked 50 steps in MuJoCo under joint PD
    around the plan (:class:`problems.walking.mujoco_feet.FeetLaw`) for several hinge gains
@@ -21,6 +21,8 @@ Three tables, each from one run:
    toe-walking): open loop and 50 steps closed loop at each sequence's default gains
    (``FeetLaw``'s, :data:`problems.walking.feet_control.SEQUENCE_GAINS`).
 5. The toe walker's gains: 50 steps each, where its defaults come from.
+6. The check of table 2 for the other sequences at their default gains: the disturbances and
+   the largest pushes, 20 steps each.
 """
 
 from __future__ import annotations
@@ -157,6 +159,23 @@ def main() -> int:
             law = FeetLaw(planned["toe-walking"], kp=kp, kd=kd, bandwidth=bandwidth)
             run = run_feet_in_mujoco(planned["toe-walking"], steps=50, law=law)
             print(_row(f"{kp:g} / {kd:g} / {bandwidth:g}", run, weight), flush=True)
+        for name, plan in planned.items():
+            if name == "human":  # table 2
+                continue
+            start = time.perf_counter()
+            check = feet_mujoco_check(plan, steps=20)
+            seconds = time.perf_counter() - start
+            kp, kd = check.gains[1][0][1], check.gains[1][1][1]
+            print()
+            print(f"6. The check for {name} at its default gains ({kp:g} / {kd:g} / "
+                  f"{FeetLaw(plan).bandwidth:g}), 20 steps each ({seconds:.0f} s)")  # fmt: skip
+            print(HEAD)
+            print("-" * (len(HEAD) + 20))
+            for label, run in check.runs.items():
+                print(_row(label, run, weight), flush=True)
+            if check.pushes is not None:
+                print(f"largest push survived (10 steps, at mid-step of the second): forward "
+                      f"{check.pushes[0]:.1f} N s, back {check.pushes[1]:.1f} N s")  # fmt: skip
     return 0
 
 
