@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -486,8 +487,10 @@ def hold_at_samples(
     ``lambda p: planner.solve(p, options=...)``); ``solution``: the solve of ``problem``
     already made, or None to make it. Returns the last solution, with
     ``stats["sampled_limits"]``: {"rate_hz", "tolerance", "rounds": [{"worst", "raised",
-    "split", "iterations", "build_seconds", "solve_seconds"}: the first solve's, then each
-    re-solve's], "problem"} (the problem solved last, with its margins and mesh). Raises
+    "split", "iterations", "build_seconds", "solve_seconds", "check_seconds"}: the first
+    solve's, then each re-solve's; ``check_seconds`` the wall time of checking that solve's
+    motion at the samples and making the next problem], "problem"} (the problem solved last,
+    with its margins and mesh). Raises
     :class:`SampleLimitError` when a round's solve fails or the limits still miss after
     ``max_rounds`` re-solves.
     """
@@ -498,6 +501,7 @@ def hold_at_samples(
     rounds = []
     previous: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
     for round_index in range(max_rounds + 1):
+        checked_from = time.perf_counter()
         phases = _phases(solution)
         ocps = [phase.ocp for phase in phases]
         worst = -np.inf
@@ -563,6 +567,8 @@ def hold_at_samples(
                 "iterations": solution.iterations,
                 "build_seconds": solution.stats.get("build_seconds", 0.0),
                 "solve_seconds": solution.stats.get("solve_seconds", 0.0),
+                # the motion checked at the samples and the next problem made from the misses
+                "check_seconds": time.perf_counter() - checked_from,
             }
         )
         previous = {} if refined else following  # a cut mesh renumbers the intervals

@@ -8,8 +8,10 @@ HS 20 + 10 + 30 intervals), in one run, alternating: the whole solve as ``step.s
 (the first solve and the warm re-solves that hold the limits at the 1 kHz samples), interpreted
 and with the compiled NLP functions from the disk cache (``compiled=True``; the first compiled
 run of each structure compiles it, minutes for the step on feet: that run is left out of the
-medians), and the first solve's breakdown per IPOPT iteration: the NLP functions, MUMPS (the
-linear-algebra floor IPOPT cannot avoid) and the NLP's size.
+medians), where its seconds go (IPOPT's solves, the transcriptions and solver set-ups, the
+motion's checks at the samples, the rest), and the first solve's breakdown per IPOPT
+iteration: the NLP functions, MUMPS (the linear-algebra floor IPOPT cannot avoid) and the
+NLP's size.
 """
 
 from __future__ import annotations
@@ -31,18 +33,28 @@ from problems import footed_step, walking_step
 STEPS = {"point feet (walking_step)": walking_step, "feet (footed_step)": footed_step}
 
 
-def timed(make, compiled: bool) -> tuple[float, int, float]:
-    """(seconds of step.solve(), IPOPT iterations of all its solves, cost)."""
+def timed(make, compiled: bool) -> tuple[float, int, float, dict[str, float]]:
+    """(seconds of step.solve(), IPOPT iterations of all its solves, cost, its seconds by
+    stage: IPOPT's solves, the transcriptions and solver set-ups, the motion's checks at the
+    samples; "other" the rest: the law's cost, the accuracy check, the gait's assembly)."""
     step = make()
     start = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
         gait = step.solve(compiled=compiled)
     seconds = time.perf_counter() - start
-    rounds = gait.solution.stats.get("sampled_limits", {}).get("rounds") or [
-        {"iterations": gait.solution.iterations}
-    ]
-    return seconds, sum(r["iterations"] for r in rounds), gait.cost
+    stats = gait.solution.stats
+    rounds = stats.get("sampled_limits", {}).get("rounds") or [
+        {"iterations": gait.solution.iterations, "solve_seconds": stats["solve_seconds"],
+         "build_seconds": stats["build_seconds"], "check_seconds": 0.0}
+    ]  # fmt: skip
+    stages = {
+        "IPOPT": sum(r["solve_seconds"] for r in rounds),
+        "builds": sum(r["build_seconds"] for r in rounds),
+        "checks": sum(r["check_seconds"] for r in rounds),
+    }
+    stages["other"] = seconds - sum(stages.values())
+    return seconds, sum(r["iterations"] for r in rounds), gait.cost, stages
 
 
 def main() -> int:
@@ -69,6 +81,21 @@ def main() -> int:
         functions = "compiled" if mode else "interpreted"
         print(f"{label:<28} {functions:<12} {seconds:8.2f} {seconds / base[mode]:12.2f} "
               f"{values[-1][1]:10d} {values[-1][2]:10.3f}")  # fmt: skip
+    print()
+    print(f"Where the whole solve's seconds go, medians of {args.repeat}: IPOPT's solves, the "
+          "transcriptions and solver set-ups (multipliers carried included), the motion's "
+          "checks at the samples, the rest")  # fmt: skip
+    head = (f"{'step':<28} {'functions':<12} {'whole':>6} {'IPOPT':>6} {'builds':>6} "
+            f"{'checks':>6} {'other':>6}")  # fmt: skip
+    print(head)
+    print("-" * len(head))
+    for (label, mode), values in runs.items():
+        functions = "compiled" if mode else "interpreted"
+        cells = [statistics.median(v[0] for v in values)] + [
+            statistics.median(v[3][stage] for v in values)
+            for stage in ("IPOPT", "builds", "checks", "other")
+        ]
+        print(f"{label:<28} {functions:<12} " + " ".join(f"{c:6.2f}" for c in cells))
     print()
     print("The first solve per IPOPT iteration, ms (interpreted; medians of 1)")
     head = f"{'step':<28} {'iter':>5} {'wall':>7} {'functions':>9} {'MUMPS':>7} {'IPOPT':>7}"
