@@ -76,9 +76,9 @@ DEFAULT_IPOPT = {
     "mu_strategy": "adaptive",
     "mumps_pivot_order": 2,
     # MUMPS's working memory as a percentage over its own estimate. IPOPT's 1000 % makes
-    # every factorisation allocate (and the kernel zero) ten times what it needs: on the step
-    # on feet that was a fifth of the solve's wall time, in system time (2.72 -> 2.26 s for
-    # its first solve, the same 80 iterations; examples/benchmarks/feet_times.py). Should a
+    # every factorisation allocate ten times what it needs: on the step on feet that was a
+    # fifth of the solve's wall time, spent as system time (the kernel mapping fresh pages):
+    # 2.72 -> 2.26 s for its first solve, the same 80 iterations (feet_levers.py). Should a
     # factorisation need more, MUMPS says so (INFO(1) = -9) and IPOPT doubles it and retries.
     "mumps_mem_percent": 100,
 }
