@@ -95,6 +95,18 @@ HEAD = (f"{'':<22} {'walked':>6} {'track rad':>9} {'slip mm':>8} {'|M| N m':>8} 
         f"{'at |M|%':>7} {'Fy / mg':>8}  fell")  # fmt: skip
 
 
+def _print_check(title: str, check, seconds: float, weight: float) -> None:
+    """A :func:`feet_mujoco_check`'s runs, one row each, and its largest pushes."""
+    print(f"{title}, 20 steps each ({seconds:.0f} s)")
+    print(HEAD)
+    print("-" * (len(HEAD) + 20))
+    for label, run in check.runs.items():
+        print(_row(label, run, weight), flush=True)
+    if check.pushes is not None:
+        print(f"largest push survived (10 steps, at mid-step of the second): forward "
+              f"{check.pushes[0]:.1f} N s, back {check.pushes[1]:.1f} N s")  # fmt: skip
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="the check at 1 m/s only")
@@ -120,15 +132,8 @@ def main() -> int:
     start = time.perf_counter()
     check = feet_mujoco_check(gait, steps=20)
     seconds = time.perf_counter() - start
-    print(f"2. The check at the default gains ({FEET_KP:g} / {FEET_KD:g} / {FEET_BANDWIDTH:g}),"
-          f" 20 steps each ({seconds:.0f} s)")  # fmt: skip
-    print(HEAD)
-    print("-" * (len(HEAD) + 20))
-    for label, run in check.runs.items():
-        print(_row(label, run, weight))
-    if check.pushes is not None:
-        print(f"largest push survived (10 steps, at mid-step of the second): forward "
-              f"{check.pushes[0]:.1f} N s, back {check.pushes[1]:.1f} N s")  # fmt: skip
+    _print_check(f"2. The check at the default gains ({FEET_KP:g} / {FEET_KD:g} / "
+                 f"{FEET_BANDWIDTH:g})", check, seconds, weight)  # fmt: skip
     print()
     if not args.quick:
         print("3. Speeds: 50 steps at the default gains")
@@ -167,15 +172,8 @@ def main() -> int:
             seconds = time.perf_counter() - start
             kp, kd = check.gains[1][0][1], check.gains[1][1][1]
             print()
-            print(f"6. The check for {name} at its default gains ({kp:g} / {kd:g} / "
-                  f"{FeetLaw(plan).bandwidth:g}), 20 steps each ({seconds:.0f} s)")  # fmt: skip
-            print(HEAD)
-            print("-" * (len(HEAD) + 20))
-            for label, run in check.runs.items():
-                print(_row(label, run, weight), flush=True)
-            if check.pushes is not None:
-                print(f"largest push survived (10 steps, at mid-step of the second): forward "
-                      f"{check.pushes[0]:.1f} N s, back {check.pushes[1]:.1f} N s")  # fmt: skip
+            _print_check(f"6. The check for {name} at its default gains ({kp:g} / {kd:g} / "
+                         f"{FeetLaw(plan).bandwidth:g})", check, seconds, weight)  # fmt: skip
     return 0
 
 

@@ -157,7 +157,7 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
             f"torques.csv: {profile.n_samples} samples at {args.rate_hz:g} Hz; M_{root} is the "
             "ground's torque on the stance foot (no drive: its centre of pressure is "
             f"CoP_{root}_start_x, m from the ball), F_{front}_x/_y the front "
-            f"{'heel' if front == 'swing_heel' else 'ball'}'s force in the double support",
+            f"{step.striking_point}'s force in the double support",
             file=out,
         )
         print_verification(check, profile.n_samples, out)

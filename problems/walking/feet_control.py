@@ -34,7 +34,6 @@ from planner.errors import DefinitionError, check_positive
 from planner.trajectory import Trajectory
 from problems.walking.control import GaitReference, PhasePD
 from problems.walking.feedback import LAW, limit_metadata, with_gains
-from problems.walking.footed import SEQUENCES
 from problems.walking.mujoco import TOUCHDOWN_FORCE
 
 #: the hinge drives' PD gains, N m/rad and N m s/rad, and the bandwidth, rad/s, that caps them
@@ -133,8 +132,7 @@ class FeetLaw:
     ) -> None:
         step = gait.problem
         self.step = step
-        sequence = next(name for name, phases in SEQUENCES.items() if phases == step.sequence)
-        defaults = SEQUENCE_GAINS.get(sequence, (FEET_KP, FEET_KD, FEET_BANDWIDTH))
+        defaults = SEQUENCE_GAINS.get(step.sequence_name, (FEET_KP, FEET_KD, FEET_BANDWIDTH))
         kp = defaults[0] if kp is None else kp
         kd = defaults[1] if kd is None else kd
         bandwidth = defaults[2] if bandwidth is None else bandwidth
@@ -190,7 +188,7 @@ class FeetLaw:
         kp = [np.r_[0.0, gains[1:]].tolist() for gains, _ in self.gains]
         kd = [np.r_[0.0, gains[1:]].tolist() for _, gains in self.gains]
         single = " + ".join(step.sequence[:-1])
-        point = "heel" if step.strike_role == "swing_heel" else "ball"
+        point = step.striking_point
         return with_gains(
             trajectory.with_extra("double_support", double.astype(float), "1"),
             step.linkage.names,

@@ -244,6 +244,16 @@ class FootedStep:
         return "swing_heel" if self.sequence[0] == "flat" else "swing_toe"
 
     @property
+    def striking_point(self) -> str:
+        """:attr:`strike_role` in words: "heel" or "ball"."""
+        return "heel" if self.strike_role == "swing_heel" else "ball"
+
+    @property
+    def sequence_name(self) -> str:
+        """The name of :attr:`sequence` in :data:`SEQUENCES` (``footed_step`` takes no other)."""
+        return next(name for name, phases in SEQUENCES.items() if phases == self.sequence)
+
+    @property
     def rear_flat(self) -> bool:
         """True when the stance foot stays flat until toe-off (no heel rise): the strike and
         the double support hold it welded, its centre of pressure on the sole."""

@@ -130,7 +130,7 @@ def footed_figure(gait, samples: int = 801) -> Figure:
     _angles_and_torques(axes[0, 0], axes[0, 1], times, states, torques, names, problem.drives,
                         "x-small")  # fmt: skip
     stance = gait.stance(samples)
-    since = f"t from {'heel' if problem.strike_role == 'swing_heel' else 'ball'} strike [s]"
+    since = f"t from {problem.striking_point} strike [s]"
     t, force = stance["time"], stance["force"]
     durations = gait.durations()
     # the stance: as the front foot (the double support), its single support's phases, as
