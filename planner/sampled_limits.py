@@ -484,8 +484,9 @@ def hold_at_samples(
     an end is tried once more without them there.
 
     ``solve``: problem -> Solution (or PhasesSolution), raising on failure (e.g.
-    ``lambda p: planner.solve(p, options=...)``); ``solution``: the solve of ``problem``
-    already made, or None to make it. Returns the last solution, with
+    ``lambda p: planner.solve(p, near_restart=True, options=...)``: each round starts near
+    the last one's optimum); ``solution``: the solve of ``problem`` already made, or None to
+    make it. Returns the last solution, with
     ``stats["sampled_limits"]``: {"rate_hz", "tolerance", "rounds": [{"worst", "raised",
     "split", "iterations", "build_seconds", "solve_seconds", "check_seconds"}: the first
     solve's, then each re-solve's; ``check_seconds`` the wall time of checking that solve's
@@ -559,14 +560,16 @@ def hold_at_samples(
             raised += count
             new_edges.append({name for name in edges if (ocp.margin(name) or (0, 0, False))[2]})
             updated.append(ocp)
+        failed = solution.stats.get("near_restart_failed", {})  # a near restart tried first
         rounds.append(
             {
                 "worst": worst,
                 "raised": raised - refined,
                 "split": refined,
-                "iterations": solution.iterations,
+                "iterations": solution.iterations + failed.get("iterations", 0),
                 "build_seconds": solution.stats.get("build_seconds", 0.0),
-                "solve_seconds": solution.stats.get("solve_seconds", 0.0),
+                "solve_seconds": solution.stats.get("solve_seconds", 0.0)
+                + failed.get("solve_seconds", 0.0),
                 # the motion checked at the samples and the next problem made from the misses
                 "check_seconds": time.perf_counter() - checked_from,
             }

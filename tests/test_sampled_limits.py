@@ -143,3 +143,26 @@ def test_the_walking_step_keeps_its_torques_within_the_limit_at_every_sample():
         torques = gait.to_trajectory(rate).torques
         assert np.abs(torques).max() <= 150.0 * (1 + 1e-6), rate
         assert gait.verify(rate).ok
+
+
+def test_a_gait_holds_its_limits_by_near_restarts_and_counts_a_failed_one(monkeypatch):
+    """The walking step's hold rounds restart IPOPT near the last round's optimum
+    (planner.NEAR_RESTART_IPOPT); a near restart that fails (here: stopped after one
+    iteration) is solved again with the plain warm start, its round counting both tries'
+    iterations, and the rounds end at the same plan."""
+    import planner.solver as solver_module
+
+    near = walking_step().solve(progress=False)
+    rounds = near.solution.stats["sampled_limits"]["rounds"]
+    assert len(rounds) >= 2 and near.solution.stats["near_restart"]
+    monkeypatch.setattr(
+        solver_module, "NEAR_RESTART_IPOPT", {**solver_module.NEAR_RESTART_IPOPT, "max_iter": 1}
+    )
+    retried = walking_step().solve(progress=False)
+    stats = retried.solution.stats
+    assert stats["near_restart_failed"]["iterations"] == 1 and not stats["near_restart"]
+    last = stats["sampled_limits"]["rounds"][-1]
+    assert last["iterations"] == retried.solution.iterations + 1
+    assert last["solve_seconds"] > stats["solve_seconds"]
+    assert retried.cost == pytest.approx(near.cost, rel=1e-8)
+    assert retried.verify().ok

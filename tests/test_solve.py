@@ -508,6 +508,57 @@ def test_user_options_override_the_warm_start_options(monkeypatch):
     assert seen[-1] == {"tol": 1e-9}  # nothing added when it is off
 
 
+def test_a_near_restart_reaches_the_same_optimum_in_fewer_iterations_and_falls_back(
+    monkeypatch,
+):
+    """A bound moved by a thousandth of itself (what a hold round does): the near restart
+    (barrier and pushes at 1e-8) reaches the cold solve's optimum, in fewer iterations than
+    the plain warm start; a near restart that fails is solved again with the plain warm start
+    and says so; without multipliers to start from nothing is added."""
+    import planner.solver as solver_module
+
+    seen = []
+    build = solver_module.nlp_solver
+
+    def recording(transcription, options=None, report=None, **keywords):
+        seen.append(dict(options or {}))
+        return build(transcription, options, report, **keywords)
+
+    monkeypatch.setattr(solver_module, "nlp_solver", recording)
+    previous = elbow_optimum()
+    moved = elbow_swing(limit=9.99)
+    cold = moved.solve(progress=False, options=TIGHT)
+    plain = moved.guess(previous).solve(progress=False, options=TIGHT, cache=False)
+    near = moved.guess(previous).solve(
+        progress=False, options=TIGHT, near_restart=True, cache=False
+    )
+    assert seen[-1] == {
+        **solver_module.WARM_START_IPOPT,
+        **solver_module.NEAR_RESTART_IPOPT,
+        **TIGHT,
+    }
+    assert near.stats["warm_start"] and near.stats["near_restart"]
+    assert plain.stats["warm_start"] and not plain.stats["near_restart"]
+    assert_same_optimum(near, cold)
+    assert near.iterations < plain.iterations
+    # a failed near restart (here: stopped after one iteration) is solved again plainly
+    monkeypatch.setattr(
+        solver_module, "NEAR_RESTART_IPOPT", {**solver_module.NEAR_RESTART_IPOPT, "max_iter": 1}
+    )
+    retried = moved.guess(previous).solve(
+        progress=False, options=TIGHT, near_restart=True, cache=False
+    )
+    assert retried.stats["near_restart_failed"]["status"] == "Maximum_Iterations_Exceeded"
+    assert retried.stats["near_restart_failed"]["iterations"] == 1
+    assert not retried.stats["near_restart"] and retried.iterations == plain.iterations
+    assert_same_optimum(retried, cold)
+    # no multipliers (a primal guess): a cold start, nothing of the near restart's
+    primal = moved.solve(progress=False, options=TIGHT, near_restart=True, cache=False)
+    assert seen[-1] == TIGHT and not primal.stats["near_restart"]
+    with pytest.raises(DefinitionTypeError, match=r"`near_restart`: must be True or False"):
+        moved.solve(progress=False, near_restart=1)
+
+
 # ---- generic dynamics: implicit residuals and time-dependent ODEs ----------------------------
 
 

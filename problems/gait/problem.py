@@ -77,6 +77,9 @@ def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=
     # from: the rounds then end where they end for every caller (a study, a single solve);
     # and a round of the same structure as the one before takes its solver from the cache.
     kept["warm_start"] = True
+    # ... from near it: the margins move by fractions of a per cent, cut intervals keep
+    # their motion (about half the iterations of a plain warm start; a failure retries one)
+    kept["near_restart"] = True
     kept["cache"] = True
 
     def again(changed):
