@@ -300,6 +300,9 @@ def _excesses(phase: Solution, blocks: list[_Rows], times: np.ndarray, refine: i
     between its neighbours (so that the maximum between the samples is found)."""
     N = phase.N
     _, owner, _ = phase._locate(times)
+    # the check times are sorted, so each interval's are one run of them: [first, last)
+    first = np.searchsorted(owner, np.arange(N), side="left")
+    last = np.searchsorted(owner, np.arange(N), side="right")
     values = _evaluate(phase, blocks, times)
     results = []
     extra_times: list[np.ndarray] = []
@@ -316,8 +319,7 @@ def _excesses(phase: Solution, blocks: list[_Rows], times: np.ndarray, refine: i
             # the worst check time of each interval and row, refined where it comes near
             near = excess > -NEAR * block.scale
             for k, j in zip(*np.nonzero(near), strict=True):
-                inside = np.flatnonzero(owner == k)
-                i = inside[np.argmax(side[inside, j])]
+                i = first[k] + int(np.argmax(side[first[k] : last[k], j]))
                 left = times[max(i - 1, 0)]
                 right = times[min(i + 1, times.size - 1)]
                 extra_times.append(np.linspace(left, right, refine + 2)[1:-1])
