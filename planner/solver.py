@@ -81,6 +81,15 @@ DEFAULT_IPOPT = {
     # 2.72 -> 2.26 s for its first solve, the same 80 iterations (feet_levers.py). Should a
     # factorisation need more, MUMPS says so (INFO(1) = -9) and IPOPT doubles it and retries.
     "mumps_mem_percent": 100,
+    # The largest multiple of the identity IPOPT adds to the Hessian to correct its inertia
+    # before it gives the iteration up to its restoration phase (IPOPT's default 1e20). On
+    # the scaled NLP a healthy solve stays below 1 (the gait problems: identical iterations
+    # and optima with this cap); past 1e4 the step is a crawl along the gradient, and a start
+    # that got there stayed: the step on feet from one of eight guesses of its phase
+    # durations ran 250 iterations of 1-5 s each (MUMPS's pivots delayed, its memory doubled
+    # to 3200 %, half the time in the kernel) without converging; capped, it converges in 142
+    # (feet_levers.py), and the infeasible flat-footed step at 1.4 m/s fails in 117 s, not 277.
+    "max_hessian_perturbation": 1e4,
 }
 #: IPOPT options added when :func:`solve` warm-starts the multipliers from a Solution on the
 #: same NLP layout; anything in ``options`` overrides them. Start from the given primal-dual
@@ -586,7 +595,8 @@ def solve(
     problem : the OCP, transcribed here, or a :class:`Transcription` to reuse.
     options : IPOPT options (``{"max_iter": 50, "tol": 1e-10}``), over the planner defaults
         :data:`DEFAULT_IPOPT` (exact Hessian, ``tol`` 1e-8, adaptive barrier update, AMF
-        ordering in MUMPS, quiet). Keys are IPOPT's own names.
+        ordering in MUMPS with 100 % working memory, the Hessian's regularisation capped at
+        1e4, quiet). Keys are IPOPT's own names.
     accept_acceptable : count "Solved_To_Acceptable_Level" as success.
     raise_on_failure : raise :class:`SolverError` on failure (default); otherwise return the
         last iterate with ``success == False``.

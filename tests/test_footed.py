@@ -163,6 +163,30 @@ def test_fixed_durations_are_kept():
         assert low <= d <= high and high - low < 1e-9
 
 
+def test_a_guess_of_the_durations_that_once_stalled_reaches_the_same_optimum(monkeypatch):
+    """From the guessed shares 0.45 / 0.30 / 0.25 of the step time (flat, heel rise, double
+    support) the first solve used to drive the Hessian's regularisation past 1e7 and crawl:
+    250 iterations of 1-5 s each without converging. With the planner's cap on the
+    regularisation (IPOPT's restoration phase takes over past it) it reaches the optimum of
+    the default guess; IPOPT's wall-time limit makes a regression fail in a minute, not
+    hang."""
+    from planner import solve
+    from planner.solver import DEFAULT_IPOPT
+    from problems.walking import footed
+
+    assert DEFAULT_IPOPT["max_hessian_perturbation"] == 1e4
+    options = {"max_wall_time": 60.0}
+    reference = solve(footed_step().phases, progress=False, options=options)
+    key = footed.SEQUENCES["human"]
+    monkeypatch.setitem(footed.SHARES, key, (0.45, 0.30, 0.25))
+    step = footed_step()
+    assert footed._guessed_durations(step) == pytest.approx((0.225, 0.15, 0.125))
+    other = solve(step.phases, progress=False, options=options)
+    assert other.cost == pytest.approx(reference.cost, rel=1e-7)
+    for a, b in zip(other.phases, reference.phases, strict=True):
+        assert a.T == pytest.approx(b.T, abs=1e-5)
+
+
 @pytest.mark.parametrize(
     "kwargs, match",
     [
