@@ -483,7 +483,9 @@ def test_a_guess_of_the_wrong_shape_is_refused_before_ipopt_is_set_up(monkeypatc
         rest_to_rest().solve(progress=False, guess=np.zeros(3))
 
 
-def test_user_options_override_the_warm_start_options(monkeypatch):
+@pytest.fixture
+def solver_options(monkeypatch):
+    """The IPOPT options of every solver built while the test runs, in order."""
     import planner.solver as solver_module
 
     seen = []
@@ -494,6 +496,13 @@ def test_user_options_override_the_warm_start_options(monkeypatch):
         return build(transcription, options, report, **keywords)
 
     monkeypatch.setattr(solver_module, "nlp_solver", recording)
+    return seen
+
+
+def test_user_options_override_the_warm_start_options(solver_options):
+    import planner.solver as solver_module
+
+    seen = solver_options
     ocp = elbow_swing().guess(elbow_optimum())
     warm = ocp.solve(
         progress=False, options={"mu_strategy": "monotone", "mu_init": 1e-9}, cache=False
@@ -509,7 +518,7 @@ def test_user_options_override_the_warm_start_options(monkeypatch):
 
 
 def test_a_near_restart_reaches_the_same_optimum_in_fewer_iterations_and_falls_back(
-    monkeypatch,
+    solver_options, monkeypatch
 ):
     """A bound moved by a thousandth of itself (what a hold round does): the near restart
     (barrier and pushes at 1e-8) reaches the cold solve's optimum, in fewer iterations than
@@ -517,14 +526,7 @@ def test_a_near_restart_reaches_the_same_optimum_in_fewer_iterations_and_falls_b
     and says so; without multipliers to start from nothing is added."""
     import planner.solver as solver_module
 
-    seen = []
-    build = solver_module.nlp_solver
-
-    def recording(transcription, options=None, report=None, **keywords):
-        seen.append(dict(options or {}))
-        return build(transcription, options, report, **keywords)
-
-    monkeypatch.setattr(solver_module, "nlp_solver", recording)
+    seen = solver_options
     previous = elbow_optimum()
     moved = elbow_swing(limit=9.99)
     cold = moved.solve(progress=False, options=TIGHT)
