@@ -839,13 +839,14 @@ def solve(
             status,
             iterations,
         )
+        # the transcription made above, unless an expanded solver needs the OCP itself
         again = solve(
-            problem,
+            problem if expand else transcription,
             options=options,
             accept_acceptable=accept_acceptable,
             raise_on_failure=raise_on_failure,
             progress=progress,
-            expand=expand if isinstance(problem, OCPDefinition | PhasesDefinition) else None,
+            expand=True if expand else None,
             guess=guess,
             warm_start=warm_start,
             cache=cache,
