@@ -57,7 +57,9 @@ DENSE_POINTS = 32
 #: Solves after the first before :func:`hold_at_samples` gives up.
 MAX_ROUNDS = 20
 #: Points between an interval's worst check time and its neighbours evaluated to find the
-#: largest miss between the samples.
+#: largest miss between the samples; then the vertex of the parabola through the best of
+#: them and its two neighbours (on a sharp torque peak of a coarse plan these points alone
+#: missed its maximum by 1.7e-5 N m, the vertex by 1e-8: tests/test_sampled_limits.py).
 REFINE = 16
 #: Intervals whose worst check point comes within this fraction of a row's scale of its
 #: bound are searched between the check points for a larger miss.
@@ -73,7 +75,9 @@ SPLIT = 0.1
 STUCK = 0.5
 STUCK_FLOOR = 1e-4
 #: Rounds in a row a miss must be stuck before its interval is cut (a first back-off may
-#: move a miss within its interval rather than remove it).
+#: move a miss within its interval rather than remove it); one for a pinned row's end
+#: interval, whose end point takes no margin (there the miss shrinks by about a quarter a
+#: round: the step on feet's rear foot unloading at toe-off).
 STUCK_ROUNDS = 2
 #: From this round on (counting the first solve as 0), a stuck miss of any size is cut.
 PERSISTENT = 4
@@ -305,8 +309,7 @@ def _excesses(phase: Solution, blocks: list[_Rows], times: np.ndarray, refine: i
     last = np.searchsorted(owner, np.arange(N), side="right")
     values = _evaluate(phase, blocks, times)
     results = []
-    extra_times: list[np.ndarray] = []
-    places = []
+    places = []  # (block, side, interval, row, the check time's index it is worst at)
     for block, value in zip(blocks, values, strict=True):
         with np.errstate(invalid="ignore"):
             sides = [block.lower - value, value - block.upper]  # (K, rows) each
@@ -317,26 +320,52 @@ def _excesses(phase: Solution, blocks: list[_Rows], times: np.ndarray, refine: i
             np.maximum.at(excess, owner, side)
             per_side.append(excess)
             # the worst check time of each interval and row, refined where it comes near
+            # (a passive joint's need is compared with PASSIVE, which the check times
+            # resolve: it is not refined)
             near = excess > -NEAR * block.scale
+            if block.equality:
+                continue
             for k, j in zip(*np.nonzero(near), strict=True):
                 i = first[k] + int(np.argmax(side[first[k] : last[k], j]))
-                left = times[max(i - 1, 0)]
-                right = times[min(i + 1, times.size - 1)]
-                extra_times.append(np.linspace(left, right, refine + 2)[1:-1])
-                places.append((len(results), len(per_side) - 1, k, j))
+                places.append((len(results), len(per_side) - 1, k, j, i))
         results.append(per_side)
-    if extra_times and refine:
-        fine = np.concatenate(extra_times)
+    if places and refine:
+        # every row worst at the same check time shares its refined points
+        worst_at = np.unique([place[-1] for place in places])
+        left = times[np.maximum(worst_at - 1, 0)]
+        right = times[np.minimum(worst_at + 1, times.size - 1)]
+        fine = np.concatenate(
+            [np.linspace(a, b, refine + 2)[1:-1] for a, b in zip(left, right, strict=True)]
+        )
         fine_values = _evaluate(phase, blocks, fine)
-        offset = 0
-        for (b, side_index, k, j), chunk in zip(places, extra_times, strict=True):
+        peaks, peak_places = [], []
+        for place in places:
+            b, side_index, k, j, i = place
             block = blocks[b]
-            value = fine_values[b][offset : offset + chunk.size, j]
-            offset += chunk.size
+            start = int(np.searchsorted(worst_at, i)) * refine
+            value = fine_values[b][start : start + refine, j]
             excess = (block.lower[j] - value) if side_index == 0 else (value - block.upper[j])
-            excess = excess[np.isfinite(excess)]
-            if excess.size:
-                results[b][side_index][k, j] = max(results[b][side_index][k, j], excess.max())
+            if not np.any(np.isfinite(excess)):
+                continue
+            results[b][side_index][k, j] = max(results[b][side_index][k, j], np.nanmax(excess))
+            # A sharp peak lies between two refined points: the vertex of the parabola
+            # through the best one and its neighbours, evaluated (a value of the motion, so
+            # never above its maximum; within the tolerance where 16 points are not).
+            m = int(np.nanargmax(excess))
+            if 0 < m < refine - 1 and np.all(np.isfinite(excess[m - 1 : m + 2])):
+                y0, y1, y2 = excess[m - 1 : m + 2]
+                curvature = y0 - 2.0 * y1 + y2
+                if curvature < 0.0:
+                    step = fine[start + 1] - fine[start]
+                    peaks.append(fine[start + m] + 0.5 * (y0 - y2) / curvature * step)
+                    peak_places.append(place)
+        if peaks:
+            peak_values = _evaluate(phase, blocks, np.array(peaks))
+            for n, (b, side_index, k, j, _) in enumerate(peak_places):
+                block, value = blocks[b], peak_values[b][n, j]
+                excess = (block.lower[j] - value) if side_index == 0 else (value - block.upper[j])
+                if np.isfinite(excess):
+                    results[b][side_index][k, j] = max(results[b][side_index][k, j], excess)
     return results
 
 
@@ -358,16 +387,50 @@ def _evaluate(phase: Solution, blocks: list[_Rows], times: np.ndarray) -> list[n
     return out
 
 
+def _parents(N: int, intervals: set[int]) -> np.ndarray:
+    """For each interval of a mesh of ``N`` with ``intervals`` cut in two, the interval it
+    comes from."""
+    return np.repeat(np.arange(N), [2 if k in intervals else 1 for k in range(N)])
+
+
+def _stuck(missed: np.ndarray, before, floor: float, tolerance: float, pinned: bool):
+    """(stuck, cut): per interval of a row, the rounds in a row its miss (``missed`` (N,),
+    of the row's scale) stayed above half of the last round's (``before``: (missed, stuck)
+    of the last round, or None) while above ``floor``, and whether that is enough to cut
+    the interval: :data:`STUCK_ROUNDS` rounds, one in the end intervals of a row
+    ``pinned`` at the phase's ends (its end points take no margin). A miss that backing off
+    does not halve lies where a back-off cannot reach (beside a pinned end point) or moves
+    with its own back-off; misses near the tolerance only shrink slowly and are backed off
+    again (``floor``)."""
+    stuck = np.zeros(missed.shape, dtype=int)
+    if before is None or before[0].shape != missed.shape:
+        return stuck, np.zeros(missed.shape, dtype=bool)
+    last, count = before
+    now = (missed > floor) & (last > tolerance) & (missed >= STUCK * last)
+    stuck = np.where(now, count + 1, 0)
+    needed = np.full(missed.shape, STUCK_ROUNDS)
+    if pinned:
+        needed[[0, -1]] = 1
+    return stuck, stuck >= needed
+
+
+def _carried(record: tuple[np.ndarray, np.ndarray], intervals: set[int]):
+    """A row's (missed, stuck) per interval (:func:`_stuck`) on the mesh with ``intervals``
+    cut in two: each half takes its interval's miss and starts unstuck; the others keep
+    theirs, renumbered."""
+    missed, stuck = record
+    parent = _parents(missed.size, intervals)
+    halves = np.isin(parent, sorted(intervals))
+    return missed[parent], np.where(halves, 0, stuck[parent])
+
+
 def _split(ocp: OCPDefinition, intervals: set[int]) -> OCPDefinition:
     """``ocp`` with each of ``intervals`` cut in two halves; the margins of an interval go
     to both its halves."""
     widths = np.full(ocp.N, 1.0 / ocp.N) if ocp.mesh is None else np.asarray(ocp.mesh)
-    pieces, parent = [], []
-    for k, width in enumerate(widths):
-        halves = 2 if k in intervals else 1
-        pieces.extend([width / halves] * halves)
-        parent.extend([k] * halves)
-    refined = ocp.refine(mesh=pieces)
+    parent = _parents(ocp.N, intervals)
+    halves = np.bincount(parent, minlength=ocp.N)
+    refined = ocp.refine(mesh=(widths / halves)[parent].tolist())
     for name, lower, upper, at_ends in ocp.margins:
         refined = refined.back_off(name, lower=lower[parent], upper=upper[parent], at_ends=at_ends)
     return refined
@@ -477,8 +540,12 @@ def hold_at_samples(
     misses by less, the constraint is backed off in that interval
     (:meth:`OCP.back_off`: the bound at the interval's dynamics points tightened by the miss
     times ``SAFETY``) and the problem solved again from the last solution: the NLP keeps its
-    structure, so the solver is reused and IPOPT restarts from the multipliers. A plan whose
-    constraints are inactive between the points needs no second solve.
+    structure, so the solver is reused and IPOPT restarts from the multipliers. Both happen
+    in the same round (a phase's small misses are backed off while its large ones are cut).
+    A miss that backing off did not halve for ``STUCK_ROUNDS`` rounds is cut too (after one
+    such round in the end intervals of the ``pinned`` rows, whose end points take no
+    margin); the misses follow their intervals across the cuts. A plan whose constraints
+    are inactive between the points needs no second solve.
 
     Margins apply at the phases' end nodes too (a row may approach its bound through
     them) except for the rows named in ``pinned``, which boundary conditions fix there (a
@@ -528,31 +595,29 @@ def hold_at_samples(
                         continue
                     worst = max(worst, float(np.max(relative)))
                     coarse.update(np.flatnonzero(np.max(relative, axis=1) > SPLIT).tolist())
-                    # A miss that backing off did not halve since the last round (a row a
-                    # boundary condition pins at the phase's end, where the miss lies just
-                    # inside; a row whose miss moves with its own back-off): the interval
-                    # is cut in two. Misses near the tolerance only shrink slowly: they are
-                    # backed off again.
                     missed = np.max(relative, axis=1)
                     key = (len(updated), block.name, side)
-                    before, count = previous.get(key, (None, None))
-                    stuck = np.zeros(missed.shape, dtype=int)
-                    if before is not None and before.shape == missed.shape:
+                    stuck, cut_here = _stuck(
+                        missed,
+                        previous.get(key),
                         # late in the rounds, any miss that came back is cut
-                        floor = tolerance if round_index >= PERSISTENT else STUCK_FLOOR
-                        now = (missed > floor) & (before > tolerance)
-                        now &= missed >= STUCK * before
-                        stuck = np.where(now, count + 1, 0)
-                        coarse.update(np.flatnonzero(stuck >= STUCK_ROUNDS).tolist())
+                        tolerance if round_index >= PERSISTENT else STUCK_FLOOR,
+                        tolerance,
+                        block.name in pinned,
+                    )
+                    coarse.update(np.flatnonzero(cut_here).tolist())
                     following[key] = (missed, stuck)
-            if coarse and ocp.N + len(coarse) <= max_intervals:
+            cut = bool(coarse) and ocp.N + len(coarse) <= max_intervals
+            if cut:
                 # Misses this large say the mesh is too coarse there (the motion and the
-                # plan part by much): cut those intervals in two rather than back off.
-                updated.append(_split(ocp, coarse))
-                raised += len(coarse)
-                refined += len(coarse)
-                new_edges.append(set())
-                continue
+                # plan part by much): those intervals are cut in two rather than backed off;
+                # the phase's other misses are backed off in the same round.
+                coarse_rows = np.zeros((ocp.N, 1), dtype=bool)
+                coarse_rows[sorted(coarse)] = True
+                excesses = [
+                    tuple(np.where(coarse_rows, -np.inf, side) for side in pair)
+                    for pair in excesses
+                ]
             try:
                 ocp, count, edges = _backed_off(ocp, blocks, excesses, tolerance, pinned)
             except SampleLimitError as error:
@@ -561,6 +626,12 @@ def hold_at_samples(
                 ) from None
             raised += count
             new_edges.append({name for name in edges if (ocp.margin(name) or (0, 0, False))[2]})
+            if cut:
+                ocp = _split(ocp, coarse)
+                raised += len(coarse)
+                refined += len(coarse)
+                for key in [key for key in following if key[0] == len(updated)]:
+                    following[key] = _carried(following[key], coarse)
             updated.append(ocp)
         failed = solution.stats.get("near_restart_failed", {})  # a near restart tried first
         rounds.append(
@@ -576,7 +647,7 @@ def hold_at_samples(
                 "check_seconds": time.perf_counter() - checked_from,
             }
         )
-        previous = {} if refined else following  # a cut mesh renumbers the intervals
+        previous = following
         if not raised:
             break
         if round_index == max_rounds:

@@ -139,6 +139,9 @@ def test_the_walking_step_keeps_its_torques_within_the_limit_at_every_sample():
     plain = step.solve(progress=False, hold_limits=False)
     assert np.abs(plain.to_trajectory(1000.0).torques).max() > 150.5
     gait = step.solve(progress=False)
+    # its first check cuts an interval and backs off the others' misses in the same round
+    first = gait.solution.stats["sampled_limits"]["rounds"][0]
+    assert first["split"] >= 1 and first["raised"] >= 1
     for rate in (1000.0, 4000.0):
         torques = gait.to_trajectory(rate).torques
         assert np.abs(torques).max() <= 150.0 * (1 + 1e-6), rate
@@ -166,3 +169,74 @@ def test_a_gait_holds_its_limits_by_near_restarts_and_counts_a_failed_one(monkey
     assert last["solve_seconds"] > stats["solve_seconds"]
     assert retried.cost == pytest.approx(near.cost, rel=1e-8)
     assert retried.verify().ok
+
+
+def test_the_largest_excess_per_interval_is_the_motions_maximum_between_the_samples():
+    """_excesses against brute force: the consistent motion's drives on 20000 points per
+    interval. Near a bound the check times, the 16 points refined around each interval's
+    worst one (shared by the rows worst at the same time) and the vertex of the parabola
+    through the best of those find the maximum to 2e-7 N m (the coarse plan's peaks are
+    sharp: 16 points alone missed one by 1.7e-5); far from it, the check times' maximum."""
+    from planner.sampled_limits import _checked_rows, _excesses, check_times
+
+    plain = swing().solve(progress=False)
+    blocks = _checked_rows(plain.ocp)
+    excesses = _excesses(plain, blocks, check_times(plain, 1000.0), 16)
+    fine = np.linspace(0.0, 1.0, 20001)
+    nodes = plain.time
+    refined = 0
+    for b, block in enumerate(blocks):
+        column = plain.system.control_names.index(block.source)
+        for k in range(plain.N):
+            # an interval holds its start node, the last one its end too
+            within = fine if k == plain.N - 1 else fine[:-1]
+            drive = plain.motion(nodes[k] + within * (nodes[k + 1] - nodes[k]))[2][:, column]
+            for excess, brute in (
+                (excesses[b][0][k, 0], -LIMIT - drive.min()),
+                (excesses[b][1][k, 0], drive.max() - LIMIT),
+            ):
+                assert excess <= brute + 2e-7, (block.name, k)  # values of the motion
+                if excess > -0.01 * block.scale[0]:  # near the bound: refined
+                    assert excess == pytest.approx(brute, abs=2e-7), (block.name, k)
+                    refined += 1
+    assert refined >= 2  # the plain plan misses in two intervals: something to find
+    assert max(e[1].max() for e in excesses) > 0.1
+
+
+def test_cut_intervals_map_to_their_halves_and_carry_the_misses():
+    from planner.sampled_limits import _carried, _parents, _split
+
+    np.testing.assert_array_equal(_parents(5, {1, 4}), [0, 1, 1, 2, 3, 4, 4])
+    missed = np.array([0.1, 0.2, 0.3, 0.4, 0.5])
+    stuck = np.array([1, 1, 0, 2, 1])
+    carried_missed, carried_stuck = _carried((missed, stuck), {1, 4})
+    np.testing.assert_array_equal(carried_missed, [0.1, 0.2, 0.2, 0.3, 0.4, 0.5, 0.5])
+    # the halves start unstuck; the others keep their count under their new numbers
+    np.testing.assert_array_equal(carried_stuck, [1, 0, 0, 0, 2, 0, 0])
+    ocp = swing(N=4).back_off("M_link1", upper=np.array([0.1, 0.2, 0.3, 0.4]))
+    cut = _split(ocp, {0, 2})
+    assert cut.N == 6
+    np.testing.assert_allclose(np.diff(np.r_[0.0, np.cumsum(cut.mesh)]) * 8, [1, 1, 2, 1, 1, 2])
+    ((name, lower, upper, at_ends),) = cut.margins
+    assert name == "M_link1" and at_ends and not lower.any()
+    np.testing.assert_array_equal(upper[:, 0], [0.1, 0.1, 0.2, 0.3, 0.3, 0.4])
+
+
+def test_a_miss_is_stuck_when_a_round_does_not_halve_it():
+    """A miss that backing off leaves above half of itself counts a stuck round; its
+    interval is cut after two such rounds, after one in the end intervals of a row pinned
+    at the phase's ends (its end points take no margin), never below the floor."""
+    from planner.sampled_limits import STUCK_ROUNDS, _stuck
+
+    assert STUCK_ROUNDS == 2
+    before = (np.array([1e-3, 1e-3, 1e-3, 1e-3]), np.array([0, 1, 0, 0]))
+    missed = np.array([0.8e-3, 0.6e-3, 0.4e-3, 0.9e-3])
+    stuck, cut = _stuck(missed, before, 1e-4, 1e-7, pinned=False)
+    np.testing.assert_array_equal(stuck, [1, 2, 0, 1])
+    np.testing.assert_array_equal(cut, [False, True, False, False])
+    stuck, cut = _stuck(missed, before, 1e-4, 1e-7, pinned=True)
+    np.testing.assert_array_equal(cut, [True, True, False, True])  # the ends at once
+    stuck, cut = _stuck(missed, before, 1e-2, 1e-7, pinned=True)  # all below the floor
+    assert not stuck.any() and not cut.any()
+    stuck, cut = _stuck(missed, None, 1e-4, 1e-7, pinned=True)  # a first round
+    assert not stuck.any() and not cut.any()
