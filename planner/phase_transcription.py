@@ -29,6 +29,7 @@ side's slope at interior nodes, and on collocation, control continuity rows (see
 
 from __future__ import annotations
 
+import copy as _copy
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -314,6 +315,16 @@ class PhaseTranscription:
         self.residual_scale = definition.residual_scale
         self.T_scale = definition.T_scale
         self._build()
+
+    def with_definition(self, ocp: OCPDefinition) -> PhaseTranscription:
+        """A copy of this phase's transcription for ``ocp``, which differs from this one's
+        only in margins and guesses (:meth:`planner.transcription.Transcription.for_problem`
+        checks that): the rows and functions shared, the bounds read again."""
+        copy = _copy.copy(self)
+        copy.ocp = ocp
+        copy.definition = ResolvedDefinition.of(ocp)
+        copy._bounds_and_names()
+        return copy
 
     # ---- sizes and layout ----------------------------------------------------------------
     @property

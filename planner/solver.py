@@ -35,6 +35,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +52,7 @@ from planner.phases import PhasesDefinition
 from planner.phases_solution import PhasesSolution
 from planner.solution import Solution
 from planner.solver_cache import SOLVERS, CachedSolver
-from planner.transcription import Transcription
+from planner.transcription import Transcription, remember, transcribe
 
 logger = logging.getLogger(__name__)
 progress_logger = logging.getLogger("planner.progress")
@@ -289,6 +290,27 @@ def _non_finite(
     return "NaN or inf in " + "; ".join(places)
 
 
+@dataclass(frozen=True)
+class _MultiplierSource:
+    """A guess Solution's multipliers on a transcription's entries and nominal scales
+    (lam_x (n_w,), lam_g (n_g,)), and the objective scale they were solved with: found once
+    per solve, scaled to the solve's objective scale when that is known."""
+
+    lam_x: np.ndarray
+    lam_g: np.ndarray
+    objective_scale: float
+
+    def scaled(self, objective_scale: float) -> tuple[np.ndarray, np.ndarray] | None:
+        # The physical multipliers lam * f_scale / scale are invariant (the Lagrangian is
+        # f / f_scale + lam^T (v / scale)): lam_new = lam_old * (new / old scale) * (old /
+        # new f_scale).
+        ratio = self.objective_scale / objective_scale
+        lam_x, lam_g = self.lam_x * ratio, self.lam_g * ratio
+        if not (np.all(np.isfinite(lam_x)) and np.all(np.isfinite(lam_g))):
+            return None
+        return lam_x, lam_g
+
+
 def warm_start_multipliers(
     transcription: Transcription, objective_scale: float = 1.0
 ) -> tuple[np.ndarray, np.ndarray] | None:
@@ -303,6 +325,12 @@ def warm_start_multipliers(
     Trajectory, a failed solve, a later guess over the Solution's) None: the guess is primal
     only.
     """
+    source = _multiplier_source(transcription)
+    return None if source is None else source.scaled(objective_scale)
+
+
+def _multiplier_source(transcription: Transcription) -> _MultiplierSource | None:
+    """The multipliers :func:`warm_start_multipliers` reuses, before the objective scale."""
     source = transcription.guess_solution()
     if not isinstance(source, Solution | PhasesSolution):
         return None
@@ -328,15 +356,11 @@ def warm_start_multipliers(
             # The same variables with rows added or removed (limits added at samples): each
             # row the two share keeps its multiplier, a new row starts at 0.
             lam_g_old, g_scale_old = _gathered(source.lam_g, old.g_scale, rows)
-    # The physical multipliers lam * f_scale / scale are invariant (the Lagrangian is
-    # f / f_scale + lam^T (v / scale)): lam_new = lam_old * (new / old scale) * (old / new
-    # f_scale).
-    ratio = float(source.stats.get("objective_scale", 1.0)) / objective_scale
-    lam_x = lam_x_old * (transcription.w_scale / w_scale_old) * ratio
-    lam_g = lam_g_old * (transcription.g_scale / g_scale_old) * ratio
-    if not (np.all(np.isfinite(lam_x)) and np.all(np.isfinite(lam_g))):
-        return None
-    return lam_x, lam_g
+    return _MultiplierSource(
+        lam_x_old * (transcription.w_scale / w_scale_old),
+        lam_g_old * (transcription.g_scale / g_scale_old),
+        float(source.stats.get("objective_scale", 1.0)),
+    )
 
 
 def _across_cut(source, new: Transcription):
@@ -654,11 +678,12 @@ def solve(
     if isinstance(problem, OCPDefinition | PhasesDefinition):
         # Always the MX transcription: it builds in milliseconds and its structure key is
         # cheap; the expansion to SX happens once, inside the (cached) solver.
-        transcription = Transcription(problem)
+        transcription = transcribe(problem)  # a recent one's copy when only margins changed
     elif isinstance(problem, Transcription):
         if expand is not None:
             raise DefinitionError("`expand`: applies when solving an OCP, not a Transcription")
         transcription = problem
+        remember(transcription)  # its re-solves with other margins copy it
     else:
         raise DefinitionTypeError(
             "`problem`: must be a planner.OCP, a planner.Phases or a transcription of one, "
@@ -691,7 +716,9 @@ def solve(
     if warm_start and guess is None:
         user = dict(options or {})
         if str(user.get("warm_start_init_point", "yes")).lower() == "yes":
-            warm = warm_start_multipliers(transcription) is not None
+            # found once: the multipliers are scaled to the solve's objective below
+            source = _multiplier_source(transcription)
+            warm = source is not None and source.scaled(1.0) is not None
         if warm:
             near = NEAR_RESTART_IPOPT if near_restart else {}
             solver_options = {**WARM_START_IPOPT, **near, **user}
@@ -757,7 +784,7 @@ def solve(
         solver, callback = entry.value, entry.extra
         entry.uses += 1
         f_scale = objective_scale(transcription, solver, w0)
-        multipliers = warm_start_multipliers(transcription, f_scale) if warm else None
+        multipliers = source.scaled(f_scale) if warm else None
         if callback is not None:
             callback.start(report, transcription.lbg, transcription.ubg, f_scale)
         parameters = transcription.parameter_values(f_scale)

@@ -30,9 +30,12 @@ total for a one-off solve; ``expand=True`` builds the whole NLP in SX.
 
 from __future__ import annotations
 
+import copy as _copy
+import dataclasses
 import hashlib
 import itertools
 import logging
+import threading
 import time
 from functools import cached_property
 from typing import Any
@@ -48,6 +51,34 @@ from planner.phases_solution import PhasesSolution
 from planner.solution import Solution
 
 logger = logging.getLogger(__name__)
+
+
+#: The fields of an OCP that do not enter its NLP's symbols, names or scales, only its
+#: bounds and starting point (:meth:`Transcription.for_problem`).
+_NUMBERS_ONLY = ("margins", "guesses", "T_guess")
+
+
+def _same_fields(old, new, skipped) -> bool:
+    """Whether two definitions (frozen dataclasses) of one type hold the same values in
+    every field but ``skipped``: the same objects, or equal ones."""
+    if type(old) is not type(new):
+        return False
+    for field in dataclasses.fields(old):
+        if field.name in skipped:
+            continue
+        a, b = getattr(old, field.name), getattr(new, field.name)
+        if a is b:
+            continue
+        try:
+            if not bool(a == b):
+                return False
+        except Exception:  # arrays or symbols inside: not provably equal
+            return False
+    return True
+
+
+def _same_but_margins(old: OCPDefinition, new: OCPDefinition) -> bool:
+    return _same_fields(old, new, _NUMBERS_ONLY)
 
 
 def _single_phase(name: str, what: str) -> property:
@@ -150,7 +181,10 @@ class Transcription:
         self._objective = objective
         #: Each objective term's value (n_terms,), physical units, phase by phase.
         self.term_values = ca.vertcat(*[b.term_values for b in self.phases])
-        self._assemble_bounds(join_scales, join_names, event_bounds, event_names)
+        #: What the bounds of the rows between the phases are made of (kept for
+        #: :meth:`for_problem`, which makes them again).
+        self._between = (join_scales, join_names, event_bounds, event_names)
+        self._assemble_bounds(*self._between)
         self.build_seconds = time.perf_counter() - start
         logger.debug(
             "transcribed %s: %d variables, %d constraints in %.3f s",
@@ -159,6 +193,42 @@ class Transcription:
             self.n_g,
             self.build_seconds,
         )
+
+    def for_problem(self, problem: OCPDefinition | PhasesDefinition) -> Transcription | None:
+        """This transcription for ``problem`` when ``problem`` is this one's problem but for
+        its phases' margins (:meth:`planner.OCP.back_off`) and guesses (``guess``, a warm
+        start), which change no symbol, name or scale of the NLP: a copy that shares the NLP
+        and reads the bounds and guesses again (a few milliseconds where a transcription
+        takes tens: the rounds of :func:`planner.hold_at_samples`). None when ``problem``
+        differs in anything else (then it needs its own transcription)."""
+        start = time.perf_counter()
+        if isinstance(problem, OCPDefinition):
+            if self.single is None or not _same_but_margins(self.single, problem):
+                return None
+            wrapped = PhasesDefinition(
+                (("phase", problem),), periodicity=problem.periodicity, single=True
+            )
+        elif isinstance(problem, PhasesDefinition) and self.single is None:
+            if not _same_fields(self.problem, problem, ("phases", "warm")):
+                return None
+            if [name for name, _ in problem.phases] != list(self.problem.names) or not all(
+                _same_but_margins(old, new)
+                for (_, old), (_, new) in zip(self.problem.phases, problem.phases, strict=True)
+            ):
+                return None
+            wrapped = problem
+        else:
+            return None
+        copy = _copy.copy(self)
+        copy.single = problem if self.single is not None else None
+        copy.problem = wrapped
+        copy.phases = [
+            block.with_definition(ocp)
+            for block, (_, ocp) in zip(self.phases, wrapped.phases, strict=True)
+        ]
+        copy._assemble_bounds(*self._between)
+        copy.build_seconds = time.perf_counter() - start
+        return copy
 
     # ---- sharing across continuity joins --------------------------------------------------
     def _sharing(self, k: int, block: PhaseTranscription):
@@ -510,6 +580,41 @@ class Transcription:
     aux_scale = _single_phase("aux_scale", "(nz,) nominal scales of the auxiliaries")
     point_function = _single_phase("point_function", "the Function of one dynamics point")
     boundary_function = _single_phase("boundary_function", "the Function of the boundary rows")
+
+
+#: The transcriptions :func:`transcribe` made or was shown last, newest last.
+_RECENT: list[Transcription] = []
+#: How many it keeps (a hold's rounds need the one before; a study's threads a few).
+RECENT_TRANSCRIPTIONS = 8
+_RECENT_LOCK = threading.Lock()
+
+
+def transcribe(problem: OCPDefinition | PhasesDefinition) -> Transcription:
+    """``Transcription(problem)``, or the copy of a recent transcription whose problem
+    differs from ``problem`` only in margins and guesses (:meth:`Transcription.for_problem`:
+    the same NLP, the bounds and guesses read again): what :func:`planner.solve` transcribes
+    with, so that re-solves with backed-off limits or another guess skip the symbolic work."""
+    with _RECENT_LOCK:
+        recent = list(reversed(_RECENT))
+    for old in recent:
+        made = old.for_problem(problem)
+        if made is not None:
+            remember(made, replacing=old)
+            return made
+    made = Transcription(problem)
+    remember(made)
+    return made
+
+
+def remember(transcription: Transcription, replacing: Transcription | None = None) -> None:
+    """Keep ``transcription`` among the recent ones :func:`transcribe` reuses (in place of
+    ``replacing``, a transcription it was copied from)."""
+    with _RECENT_LOCK:
+        for kept in (replacing, transcription):
+            if any(t is kept for t in _RECENT):
+                _RECENT[:] = [t for t in _RECENT if t is not kept]
+        _RECENT.append(transcription)
+        del _RECENT[:-RECENT_TRANSCRIPTIONS]
 
 
 def _assemble(own_values, own: np.ndarray, source: np.ndarray, before):

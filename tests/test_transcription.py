@@ -3,6 +3,7 @@ against finite differences, and convergence orders on problems with known optima
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 
 import casadi as ca
@@ -549,3 +550,70 @@ def test_a_phase_transcription_asks_its_definition_once(monkeypatch):
     # its arrays cannot be changed behind the definition's back
     with pytest.raises(ValueError):
         resolved.state_scale[0] = 2.0
+
+
+# ---- a transcription copied for new margins and guesses ------------------------------------
+
+
+def _same_numbers(copy: Transcription, full: Transcription) -> None:
+    """Every number and name a solve reads of a transcription, equal bit for bit."""
+    for name in ("lbx", "ubx", "lbg", "ubg", "w_scale", "g_scale"):
+        np.testing.assert_array_equal(getattr(copy, name), getattr(full, name), err_msg=name)
+    assert copy.w_names == full.w_names and copy.g_names == full.g_names
+    np.testing.assert_array_equal(copy.initial_guess(), full.initial_guess())
+    np.testing.assert_array_equal(copy.parameter_values(2.0), full.parameter_values(2.0))
+    assert copy.signature == full.signature and copy.structure_key == full.structure_key
+
+
+def test_a_problem_backed_off_and_guessed_again_is_transcribed_by_a_copy():
+    """Transcription.for_problem against a transcription built from scratch: the same
+    bounds, names, scales, guess and NLP, on one OCP and on the step on feet's three phases
+    (joins, events, a shared start); anything but margins and guesses makes its own."""
+    from problems import footed_step
+
+    ocp = min_energy(8, "hermite-simpson").bound("a", -5.0, 5.0)
+    original = Transcription(ocp)
+    backed = ocp.back_off("a", lower=np.linspace(0.0, 0.5, 8), upper=np.full(8, 0.25))
+    backed = backed.guess(t=[0.0, 1.0], q=[0.0, 0.7])
+    copy = original.for_problem(backed)
+    full = Transcription(backed)
+    _same_numbers(copy, full)
+    assert copy.parametric_nlp is original.parametric_nlp  # the symbols shared
+    assert not np.array_equal(copy.ubx, original.ubx)  # and the bounds its own
+    assert copy.single is backed and original.single is ocp
+    for other in (
+        ocp.bound("a", -4.0, 4.0),
+        ocp.refine(N=9),
+        ocp.constrain("more", lambda p: p.q, upper=5.0),
+        ocp.minimize(integral=lambda p: p.v**2),
+    ):
+        assert original.for_problem(other) is None
+
+    step = footed_step()
+    phases = step.phases
+    original = Transcription(phases)
+    name, double = phases.phases[2]
+    changed = double.back_off("rear unloads", upper=np.linspace(0.0, 5.0, double.N))
+    backed = dataclasses.replace(phases, phases=(*phases.phases[:2], (name, changed)))
+    copy = original.for_problem(backed)
+    _same_numbers(copy, Transcription(backed))
+    assert copy.problem is backed
+    tighter = double.bound(f"M_{step.biped.swing_leg[0]}", -100.0, 100.0)
+    other = dataclasses.replace(phases, phases=(*phases.phases[:2], (name, tighter)))
+    assert original.for_problem(other) is None
+    assert original.for_problem(double) is None  # one phase of it: another problem
+
+
+def test_solve_copies_a_recent_transcription_for_new_margins_to_the_same_optimum():
+    from planner import solve
+    from planner.transcription import transcribe
+
+    ocp = min_energy(8, "hermite-simpson").bound("a", -5.0, 5.0)
+    first = solve(ocp, progress=False)
+    backed = ocp.back_off("a", upper=np.full(8, 1.5)).guess(first)
+    again = solve(backed, progress=False)
+    assert again.transcription.parametric_nlp is first.transcription.parametric_nlp
+    fresh = solve(Transcription(backed), progress=False)
+    np.testing.assert_array_equal(again.states, fresh.states)
+    assert again.cost == fresh.cost and again.iterations == fresh.iterations
+    assert transcribe(ocp.refine(N=9)).parametric_nlp is not first.transcription.parametric_nlp
