@@ -597,6 +597,8 @@ def transcribe(problem: OCPDefinition | PhasesDefinition) -> Transcription:
     with _RECENT_LOCK:
         recent = list(reversed(_RECENT))
     for old in recent:
+        if old.expand:  # an SX transcription given to solve(): not what is asked here
+            continue
         made = old.for_problem(problem)
         if made is not None:
             remember(made, replacing=old)

@@ -606,7 +606,7 @@ def test_a_problem_backed_off_and_guessed_again_is_transcribed_by_a_copy():
 
 def test_solve_copies_a_recent_transcription_for_new_margins_to_the_same_optimum():
     from planner import solve
-    from planner.transcription import transcribe
+    from planner.transcription import remember, transcribe
 
     ocp = min_energy(8, "hermite-simpson").bound("a", -5.0, 5.0)
     first = solve(ocp, progress=False)
@@ -617,3 +617,7 @@ def test_solve_copies_a_recent_transcription_for_new_margins_to_the_same_optimum
     np.testing.assert_array_equal(again.states, fresh.states)
     assert again.cost == fresh.cost and again.iterations == fresh.iterations
     assert transcribe(ocp.refine(N=9)).parametric_nlp is not first.transcription.parametric_nlp
+    # an SX transcription a caller solved is not what solve() asks of transcribe (MX)
+    other = min_energy(6, "trapezoid")
+    remember(Transcription(other, expand=True))
+    assert transcribe(other).expand is False
