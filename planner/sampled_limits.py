@@ -393,6 +393,11 @@ def _parents(N: int, intervals: set[int]) -> np.ndarray:
     return np.repeat(np.arange(N), [2 if k in intervals else 1 for k in range(N)])
 
 
+#: In a row's stuck counts (:func:`_stuck`): a half of an interval just cut in two, and a
+#: half whose cut did not halve its miss (cutting does not help there: it is only backed off).
+HALF, BARRED = -1, -2
+
+
 def _stuck(missed: np.ndarray, before, floor: float, tolerance: float, pinned: bool):
     """(stuck, cut): per interval of a row, the rounds in a row its miss (``missed`` (N,),
     of the row's scale) stayed above half of the last round's (``before``: (missed, stuck)
@@ -401,13 +406,16 @@ def _stuck(missed: np.ndarray, before, floor: float, tolerance: float, pinned: b
     ``pinned`` at the phase's ends (its end points take no margin). A miss that backing off
     does not halve lies where a back-off cannot reach (beside a pinned end point) or moves
     with its own back-off; misses near the tolerance only shrink slowly and are backed off
-    again (``floor``)."""
+    again (``floor``). A half of a cut interval (:data:`HALF`) that misses as much as the
+    interval did is :data:`BARRED`: cutting it again would not help (a miss at a pinned end
+    point itself), backing off may."""
     stuck = np.zeros(missed.shape, dtype=int)
     if before is None or before[0].shape != missed.shape:
         return stuck, np.zeros(missed.shape, dtype=bool)
     last, count = before
     now = (missed > floor) & (last > tolerance) & (missed >= STUCK * last)
-    stuck = np.where(now, count + 1, 0)
+    stuck = np.where(now, np.maximum(count, 0) + 1, 0)
+    stuck = np.where((now & (count == HALF)) | (count == BARRED), BARRED, stuck)
     needed = np.full(missed.shape, STUCK_ROUNDS)
     if pinned:
         needed[[0, -1]] = 1
@@ -416,12 +424,12 @@ def _stuck(missed: np.ndarray, before, floor: float, tolerance: float, pinned: b
 
 def _carried(record: tuple[np.ndarray, np.ndarray], intervals: set[int]):
     """A row's (missed, stuck) per interval (:func:`_stuck`) on the mesh with ``intervals``
-    cut in two: each half takes its interval's miss and starts unstuck; the others keep
+    cut in two: each half takes its interval's miss, marked :data:`HALF`; the others keep
     theirs, renumbered."""
     missed, stuck = record
     parent = _parents(missed.size, intervals)
     halves = np.isin(parent, sorted(intervals))
-    return missed[parent], np.where(halves, 0, stuck[parent])
+    return missed[parent], np.where(halves, HALF, stuck[parent])
 
 
 def _split(ocp: OCPDefinition, intervals: set[int]) -> OCPDefinition:

@@ -240,6 +240,21 @@ def test_a_study_over_speed_on_feet_solves_and_verifies_every_point(tmp_path):
     assert all(0.1 < c < 0.5 for c in result.grid("cost_of_transport"))
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("speed", [0.6, 1.4])
+def test_the_step_on_feet_walks_at_the_issues_other_speeds_verified(speed):
+    """The issue's three speeds (1.0 m/s is the default step, solved above): each plan
+    holds its limits at every 1 kHz sample and passes the verification of its physics. At
+    1.4 m/s the hold once cut the heel rise's first interval 18 times over (a miss at its
+    pinned start point, which cutting cannot reach) and gave up."""
+    from problems import footed_step_at
+
+    gait = footed_step_at(speed).solve()
+    report = gait.verify(1000.0)
+    assert report.ok, [str(c) for c in report.failures]
+    assert gait.solution.stats["sampled_limits"]["rounds"][-1]["raised"] == 0
+
+
 def test_feet_outlines_must_match_between_the_legs(step):
     """world_motion draws a body with the same outline in alternate steps: corners on one
     foot only are refused, naming both."""

@@ -204,15 +204,15 @@ def test_the_largest_excess_per_interval_is_the_motions_maximum_between_the_samp
 
 
 def test_cut_intervals_map_to_their_halves_and_carry_the_misses():
-    from planner.sampled_limits import _carried, _parents, _split
+    from planner.sampled_limits import HALF, _carried, _parents, _split
 
     np.testing.assert_array_equal(_parents(5, {1, 4}), [0, 1, 1, 2, 3, 4, 4])
     missed = np.array([0.1, 0.2, 0.3, 0.4, 0.5])
     stuck = np.array([1, 1, 0, 2, 1])
     carried_missed, carried_stuck = _carried((missed, stuck), {1, 4})
     np.testing.assert_array_equal(carried_missed, [0.1, 0.2, 0.2, 0.3, 0.4, 0.5, 0.5])
-    # the halves start unstuck; the others keep their count under their new numbers
-    np.testing.assert_array_equal(carried_stuck, [1, 0, 0, 0, 2, 0, 0])
+    # the halves are marked as such; the others keep their count under their new numbers
+    np.testing.assert_array_equal(carried_stuck, [1, HALF, HALF, 0, 2, HALF, HALF])
     ocp = swing(N=4).back_off("M_link1", upper=np.array([0.1, 0.2, 0.3, 0.4]))
     cut = _split(ocp, {0, 2})
     assert cut.N == 6
@@ -226,7 +226,7 @@ def test_a_miss_is_stuck_when_a_round_does_not_halve_it():
     """A miss that backing off leaves above half of itself counts a stuck round; its
     interval is cut after two such rounds, after one in the end intervals of a row pinned
     at the phase's ends (its end points take no margin), never below the floor."""
-    from planner.sampled_limits import STUCK_ROUNDS, _stuck
+    from planner.sampled_limits import BARRED, HALF, STUCK_ROUNDS, _stuck
 
     assert STUCK_ROUNDS == 2
     before = (np.array([1e-3, 1e-3, 1e-3, 1e-3]), np.array([0, 1, 0, 0]))
@@ -240,3 +240,12 @@ def test_a_miss_is_stuck_when_a_round_does_not_halve_it():
     assert not stuck.any() and not cut.any()
     stuck, cut = _stuck(missed, None, 1e-4, 1e-7, pinned=True)  # a first round
     assert not stuck.any() and not cut.any()
+    # Halves of cut intervals: one that misses less than half of what its interval did
+    # starts counting afresh; one that misses as much is barred from more cuts (at a pinned
+    # end point itself: the step on feet at 1.4 m/s cut its heel rise's first interval 18
+    # times before this), and stays barred.
+    before = (np.array([1e-3, 1e-3, 1e-3, 1e-3]), np.array([HALF, HALF, BARRED, BARRED]))
+    missed = np.array([0.4e-3, 0.9e-3, 0.9e-3, 0.1e-3])
+    stuck, cut = _stuck(missed, before, 1e-4, 1e-7, pinned=True)
+    np.testing.assert_array_equal(stuck, [0, BARRED, BARRED, BARRED])
+    assert not cut.any()
