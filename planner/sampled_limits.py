@@ -552,8 +552,10 @@ def hold_at_samples(
     in the same round (a phase's small misses are backed off while its large ones are cut).
     A miss that backing off did not halve for ``STUCK_ROUNDS`` rounds is cut too (after one
     such round in the end intervals of the ``pinned`` rows, whose end points take no
-    margin); the misses follow their intervals across the cuts. A plan whose constraints
-    are inactive between the points needs no second solve.
+    margin), unless it is a half of a cut interval that misses as much as the interval did
+    (cutting again would not help: it is backed off only); the misses follow their
+    intervals across the cuts. A plan whose constraints are inactive between the points
+    needs no second solve.
 
     Margins apply at the phases' end nodes too (a row may approach its bound through
     them) except for the rows named in ``pinned``, which boundary conditions fix there (a
