@@ -34,7 +34,7 @@ if __package__ in (None, ""):  # run as a script: the oracle package sits beside
 from reference import newton_euler as ne
 
 from model import DefinitionError, Dynamics, Link, Linkage, LinkageTrajectory, presets
-from planner import SampleLimitError, SolverError
+from planner import SolverError
 
 
 # ---- outcomes ------------------------------------------------------------------------------
@@ -467,15 +467,12 @@ class GaitCase:
 GAIT_CASES: list[GaitCase] = [
     GaitCase("walking step, 0.5 m in 0.2 s", "walk", {"step_time": 0.2}),
     # 20 s at N = 30: intervals of 0.67 s, longer than the legs' swing time scales, so the
-    # plan swings freely between its points; the hold cuts the mesh for 20 rounds and then
-    # says so. At N = 100 it holds (12 rounds, 28 s here).
-    GaitCase(
-        "walking step, 0.5 m in 20 s, N = 30",
-        "walk",
-        {"step_time": 20.0},
-        {},
-        Raises(SampleLimitError, r"refine the mesh \(N\) or loosen the limits"),
-    ),
+    # plan swings freely between its points; the hold cuts the mesh where it misses by much
+    # and backs off the rest in the same rounds: 30 -> 108 intervals in 9 re-solves (18 s
+    # here), verified (it ran out of its 20 rounds while a cut round backed off nothing; the
+    # accuracy check warns: the open-loop re-integration of so slow a step drifts). At N = 100
+    # it holds too (12 rounds, 28 s). A hold that runs out says so: test_sampled_limits.py.
+    GaitCase("walking step, 0.5 m in 20 s, N = 30", "walk", {"step_time": 20.0}),
     GaitCase("walking step, 0.5 m in 20 s, N = 100", "walk", {"step_time": 20.0, "N": 100}),
     GaitCase(
         "walking step, 0.5 m in 0.05 s (10 m/s)",
