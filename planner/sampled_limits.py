@@ -341,10 +341,8 @@ def _excesses(phase: Solution, blocks: list[_Rows], times: np.ndarray, refine: i
         peaks, peak_places = [], []
         for place in places:
             b, side_index, k, j, i = place
-            block = blocks[b]
             start = int(np.searchsorted(worst_at, i)) * refine
-            value = fine_values[b][start : start + refine, j]
-            excess = (block.lower[j] - value) if side_index == 0 else (value - block.upper[j])
+            excess = _excess(blocks[b], side_index, j, fine_values[b][start : start + refine, j])
             if not np.any(np.isfinite(excess)):
                 continue
             results[b][side_index][k, j] = max(results[b][side_index][k, j], np.nanmax(excess))
@@ -362,11 +360,16 @@ def _excesses(phase: Solution, blocks: list[_Rows], times: np.ndarray, refine: i
         if peaks:
             peak_values = _evaluate(phase, blocks, np.array(peaks))
             for n, (b, side_index, k, j, _) in enumerate(peak_places):
-                block, value = blocks[b], peak_values[b][n, j]
-                excess = (block.lower[j] - value) if side_index == 0 else (value - block.upper[j])
+                excess = _excess(blocks[b], side_index, j, peak_values[b][n, j])
                 if np.isfinite(excess):
                     results[b][side_index][k, j] = max(results[b][side_index][k, j], excess)
     return results
+
+
+def _excess(block: _Rows, side: int, row: int, value):
+    """How far ``value`` of a block's ``row`` lies past its lower (``side`` 0) or upper (1)
+    bound, in the row's units (> 0: missed)."""
+    return (block.lower[row] - value) if side == 0 else (value - block.upper[row])
 
 
 def _evaluate(phase: Solution, blocks: list[_Rows], times: np.ndarray) -> list[np.ndarray]:

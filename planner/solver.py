@@ -300,15 +300,17 @@ class _MultiplierSource:
     lam_g: np.ndarray
     objective_scale: float
 
+    def finite(self) -> bool:
+        return bool(np.all(np.isfinite(self.lam_x)) and np.all(np.isfinite(self.lam_g)))
+
     def scaled(self, objective_scale: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """(lam_x, lam_g) for a solve with ``objective_scale``; None if not finite."""
         # The physical multipliers lam * f_scale / scale are invariant (the Lagrangian is
         # f / f_scale + lam^T (v / scale)): lam_new = lam_old * (new / old scale) * (old /
         # new f_scale).
         ratio = self.objective_scale / objective_scale
-        lam_x, lam_g = self.lam_x * ratio, self.lam_g * ratio
-        if not (np.all(np.isfinite(lam_x)) and np.all(np.isfinite(lam_g))):
-            return None
-        return lam_x, lam_g
+        scaled = _MultiplierSource(self.lam_x * ratio, self.lam_g * ratio, objective_scale)
+        return (scaled.lam_x, scaled.lam_g) if scaled.finite() else None
 
 
 def warm_start_multipliers(
@@ -718,7 +720,7 @@ def solve(
         if str(user.get("warm_start_init_point", "yes")).lower() == "yes":
             # found once: the multipliers are scaled to the solve's objective below
             source = _multiplier_source(transcription)
-            warm = source is not None and source.scaled(1.0) is not None
+            warm = source is not None and source.finite()
         if warm:
             near = NEAR_RESTART_IPOPT if near_restart else {}
             solver_options = {**WARM_START_IPOPT, **near, **user}
