@@ -9,9 +9,9 @@ HS 20 + 10 + 30 intervals), in one run, alternating: the whole solve as ``step.s
 and with the compiled NLP functions from the disk cache (``compiled=True``; the first compiled
 run of each structure compiles it, minutes for the step on feet: that run is left out of the
 medians), where its seconds go (IPOPT's solves, the transcriptions and solver set-ups, the
-motion's checks at the samples, the rest), and the first solve's breakdown per IPOPT
-iteration: the NLP functions, MUMPS (the linear-algebra floor IPOPT cannot avoid) and the
-NLP's size.
+motion's checks at the samples, the rest), a hold round's transcription built and copied,
+and the first solve's breakdown per IPOPT iteration: the NLP functions, MUMPS (the
+linear-algebra floor IPOPT cannot avoid) and the NLP's size.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from solve_breakdown import breakdown  # the breakdown of one solve, per iteration
 
-from planner import AccuracyWarning, native_nlp
+from planner import AccuracyWarning, Transcription, native_nlp
 from problems import footed_step, walking_step
 
 STEPS = {"point feet (walking_step)": walking_step, "feet (footed_step)": footed_step}
@@ -96,6 +96,28 @@ def main() -> int:
             for stage in ("IPOPT", "builds", "checks", "other")
         ]
         print(f"{label:<28} {functions:<12} " + " ".join(f"{c:6.2f}" for c in cells))
+    print()
+    print(f"A hold round's transcription of the step's last problem (margins backed off), ms, "
+          f"medians of {5 * args.repeat}: built (Transcription) and copied from the last one "
+          "(Transcription.for_problem, what planner.solve does when only margins and guesses "
+          "change)")  # fmt: skip
+    head = f"{'step':<28} {'built':>7} {'copied':>7} {'ratio':>6}"
+    print(head)
+    print("-" * len(head))
+    for label, make in STEPS.items():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", AccuracyWarning)
+            held = make().solve().solution.stats["sampled_limits"]["problem"]
+        built, copied = [], []
+        for _ in range(5 * args.repeat):
+            start = time.perf_counter()
+            transcription = Transcription(held)
+            built.append(time.perf_counter() - start)
+            start = time.perf_counter()
+            transcription.for_problem(held)
+            copied.append(time.perf_counter() - start)
+        b, c = statistics.median(built) * 1e3, statistics.median(copied) * 1e3
+        print(f"{label:<28} {b:7.1f} {c:7.1f} {b / c:6.1f}")
     print()
     print("The first solve per IPOPT iteration, ms (interpreted; medians of 1)")
     head = f"{'step':<28} {'iter':>5} {'wall':>7} {'functions':>9} {'MUMPS':>7} {'IPOPT':>7}"
