@@ -11,17 +11,22 @@ compilation takes seconds (the six-link walking step, Hermite-Simpson N = 30: ab
   serialised NLP function: the same key computes the same f and g from the same (w, p), and
   its Jacobian's AD mode follows from the structure) and the CasADi version (the folder).
   Bounds, scales, durations and guesses are arguments of the NLP, not part of the code.
-* **Where**: :func:`cache_folder`: ``$ANTHROPOID_CACHE``, else
+* **Where**: the disk cache of :mod:`planner.native_cache` (``$ANTHROPOID_CACHE``, else
   ``$XDG_CACHE_HOME/anthropoid-planner``, else ``~/.cache/anthropoid-planner``; one
-  ``<key>.so`` per structure under ``nlp-casadi-<version>-<platform>-<machine>/``. Deleting
-  the folder is always safe; a library that does not load is removed and solved without.
+  ``<key>.so`` per structure, with its publication record, under
+  ``nlp-casadi-<version>-<platform>-<machine>/``). Deleting the folder is always safe; a
+  library is checked against its record before it loads, and one that does not match or
+  does not load is removed and the solve runs interpreted; a folder this process cannot use
+  means interpreted solves, said once. The cache never makes a solve fail.
 * **How**: in a separate Python process (``python -m planner.native_nlp``), from the
   serialised NLP: CasADi generates the derivatives and the C code there, the compiler builds
-  a shared library into a temporary file, and an atomic rename publishes it. A lock file
-  makes processes that want the same structure at once (the workers of a study) wait for
-  one compilation instead of each running its own; a reader never sees a half-written
-  library. Nothing of it runs in the solving process, so a compilation in the background
-  does not hold up the solves meanwhile.
+  a shared library in a work folder, and :func:`planner.native_cache.publish` puts it in
+  place with its record (atomic renames). A lock file makes processes that want the same
+  structure at once (the workers of a study) wait for one compilation instead of each
+  running its own; a reader never sees a half-written library. Nothing of it runs in the
+  solving process, so a compilation in the background does not hold up the solves
+  meanwhile. A compilation that cannot write (a full disk, a file-size limit) leaves nothing
+  and the solve runs interpreted, said once.
 * **When** (:func:`planner.solver.solve`'s ``compiled``): ``True`` compiles now (waiting) and
   solves with the library; ``False`` never; ``None`` (default) follows
   ``$ANTHROPOID_COMPILE``: ``auto`` (the default) uses a library the cache already holds,
@@ -35,10 +40,10 @@ compilation takes seconds (the six-link walking step, Hermite-Simpson N = 30: ab
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import logging
 import os
-import platform
 import shutil
 import subprocess
 import sys
@@ -49,6 +54,7 @@ from pathlib import Path
 
 import casadi as ca
 
+from planner import native_cache
 from planner.errors import DefinitionError
 
 logger = logging.getLogger(__name__)
@@ -62,10 +68,15 @@ OPTIMISATION = "-O1"
 #: 0.08 s), 52 on the fixed-base gait (4.8 s against 0.09 s); and the least it takes.
 COMPILE_PER_BUILD, MINIMUM_COMPILE_SECONDS = 100.0, 0.5
 #: Environment variables: the cache folder, and the automatic mode (auto, never).
-CACHE_ENV, MODE_ENV = "ANTHROPOID_CACHE", "ANTHROPOID_COMPILE"
+CACHE_ENV, MODE_ENV = native_cache.CACHE_ENV, "ANTHROPOID_COMPILE"
 MODES = ("auto", "never")
 #: The NLP's functions the library holds (nlpsol loads them by these names).
 ORACLE = "nlp"
+#: The compiling process's exit status when the cache could not take the library (a full
+#: disk, a file-size limit, a folder it cannot write): the solve runs interpreted.
+CACHE_FAILURE = 3
+#: What the compiler and linker say when they cannot write (errno texts).
+_WRITE_ERRORS = tuple(os.strerror(code) for code in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT))
 
 _pending: dict[str, subprocess.Popen] = {}
 _failed: set[str] = set()
@@ -105,35 +116,30 @@ def mode() -> str:
 
 
 def cache_folder() -> Path:
-    """The folder of the compiled libraries of this CasADi version (see the module)."""
-    root = os.environ.get(CACHE_ENV)
-    if root:
-        base = Path(root).expanduser()
-    else:
-        xdg = os.environ.get("XDG_CACHE_HOME")
-        base = (Path(xdg) if xdg else Path.home() / ".cache") / "anthropoid-planner"
-    # Compiled code belongs to its CasADi version, operating system and processor (a home
-    # folder shared by machines of other kinds keeps their libraries apart).
-    return base / f"nlp-casadi-{ca.__version__}-{sys.platform}-{platform.machine() or 'cpu'}"
-
-
-def discard(path: Path) -> None:
-    """Remove a library that does not load (damaged, or built elsewhere), saying so; the
-    automatic mode compiles the structure again when it pays."""
-    logger.warning("the compiled NLP %s does not load; removed, solving interpreted", path.name)
-    with contextlib.suppress(OSError):
-        path.unlink()
+    """The folder of the compiled libraries of this CasADi version
+    (:func:`planner.native_cache.folder`)."""
+    return native_cache.folder()
 
 
 def library_path(key: str) -> Path:
-    suffix = ".dll" if sys.platform == "win32" else ".so"
-    return cache_folder() / f"{key}{suffix}"
+    """Where the library of the NLP structure ``key`` is published."""
+    return native_cache.library_path(key)
+
+
+def discard(path: Path) -> None:
+    """Remove a published library that does not load (built for another machine, or damaged
+    past its record), saying so once; the automatic mode compiles the structure again when
+    it pays."""
+    native_cache.discard(path, "it does not load (built for another machine, or damaged)")
 
 
 def ready(key: str) -> Path | None:
-    """The library of ``key`` when the cache holds it, else None."""
-    path = library_path(key)
-    return path if path.is_file() else None
+    """The library of ``key`` when the cache holds it, checked against its publication
+    record (:func:`planner.native_cache.checked`), else None (also when this process cannot
+    read the cache folder)."""
+    if not native_cache.access().read:
+        return None
+    return native_cache.checked(library_path(key))
 
 
 def pending(key: str) -> bool:
@@ -145,10 +151,14 @@ def pending(key: str) -> bool:
         if process.poll() is None:
             return True
         del _pending[key]
-        if process.returncode != 0:
+        failed = process.returncode
+        if failed != 0:
             _failed.add(key)
-            logger.warning("compiling the NLP %s failed (exit %s)", key, process.returncode)
-        return False
+    if failed == CACHE_FAILURE:
+        native_cache.cannot_write("a compilation in the background could not write")
+    elif failed != 0:
+        logger.warning("compiling the NLP %s failed (exit %s)", key, failed)
+    return False
 
 
 def library_for(key: str, how: str, entry, oracle: Callable[[], ca.Function]) -> Path | None:
@@ -172,8 +182,10 @@ def compile_library(oracle: ca.Function, key: str, *, wait: bool) -> Path | None
     the derivatives IPOPT asks for into the cache as the library of ``key``.
 
     ``wait``: compile now and return the library (raise DefinitionError when no compiler is
-    there or the compilation fails); else start a background compilation (once per key and
-    process; none without a compiler or after a failure) and return None.
+    there or the compiler fails on the code); else start a background compilation (once per
+    key and process; none without a compiler or after a failure) and return None. Either
+    way None, said once, when the cache cannot take the library (a folder this process
+    cannot write, a full disk): the solve runs interpreted.
     """
     found = ready(key)
     if found is not None:
@@ -189,11 +201,24 @@ def compile_library(oracle: ca.Function, key: str, *, wait: bool) -> Path | None
     with _lock:
         if not wait and (key in _pending or key in _failed):
             return None
+    access = native_cache.access()
+    if not access.write:
+        if access.read:  # else access() said so already
+            native_cache.cannot_write(access.reason)
+        return None
     folder = cache_folder()
-    folder.mkdir(parents=True, exist_ok=True)
-    handle, source = tempfile.mkstemp(dir=folder, prefix=f".{key}.", suffix=".casadi")
-    with os.fdopen(handle, "w", encoding="utf-8") as out:
-        json.dump({"nlp": oracle.serialize(), "key": key}, out)
+    try:
+        handle, source = tempfile.mkstemp(dir=folder, prefix=f".{key}.", suffix=".casadi")
+        try:
+            with os.fdopen(handle, "w", encoding="utf-8") as out:
+                json.dump({"nlp": oracle.serialize(), "key": key}, out)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(source)
+            raise
+    except OSError as error:
+        native_cache.cannot_write(f"writing the NLP for the compiler: {error.strerror or error}")
+        return None
     command = [sys.executable, "-m", "planner.native_nlp", source, cc]
     environment = {**os.environ, "PYTHONPATH": _package_root()}
     if not wait:
@@ -209,11 +234,14 @@ def compile_library(oracle: ca.Function, key: str, *, wait: bool) -> Path | None
         logger.info("compiling the NLP %s in the background", key)
         return None
     done = subprocess.run(command, capture_output=True, text=True, env=environment)
+    said = " / ".join((done.stderr or done.stdout).strip().splitlines()[-3:])
+    if done.returncode == CACHE_FAILURE:
+        native_cache.cannot_write(f"compiling into it: {said}")
+        return None
     found = ready(key)
     if done.returncode != 0 or found is None:
-        said = (done.stderr or done.stdout).strip().splitlines()[-3:]
         raise DefinitionError(
-            f"`compiled`: compiling the NLP with {cc} failed ({' / '.join(said)}); solve with "
+            f"`compiled`: compiling the NLP with {cc} failed ({said}); solve with "
             "compiled=False to run interpreted"
         )
     return found
@@ -229,14 +257,15 @@ def _package_root() -> str:
 
 # ---- the compiling process --------------------------------------------------------------
 def _build(source: Path, cc: str) -> None:
-    """Generate and compile the library of the serialised NLP in ``source`` (deleted)."""
+    """Generate and compile the library of the serialised NLP in ``source`` (deleted) and
+    publish it (:func:`planner.native_cache.publish`)."""
     spec = json.loads(source.read_text(encoding="utf-8"))
     source.unlink()
     key = spec["key"]
     target = library_path(key)
     target.parent.mkdir(parents=True, exist_ok=True)
     with _file_lock(target.with_suffix(".lock")):
-        if target.is_file():  # another process compiled it while this one waited
+        if native_cache.checked(target) is not None:  # compiled while this one waited
             return
         # Work folders of this key that a killed compilation left (the lock is ours, so
         # none of them is in use).
@@ -251,7 +280,10 @@ def _build(source: Path, cc: str) -> None:
             generator.add(solver.oracle())
             for name in solver.get_function():
                 generator.add(solver.get_function(name))
-            generator.generate(work + os.sep)
+            # Written here, not by CasADi's generate(), whose stream does not report a
+            # failed write (a full disk would leave a cut C file to the compiler).
+            code = Path(work) / f"{ORACLE}.c"
+            code.write_text(generator.dump(), encoding="utf-8")
             library = Path(work) / target.name
             subprocess.run(
                 [
@@ -262,15 +294,32 @@ def _build(source: Path, cc: str) -> None:
                     # CasADi's code copies empty blocks through integer 0 pointers, which
                     # newer compilers refuse by default; those copies never run.
                     "-Wno-int-conversion",
-                    str(Path(work) / f"{ORACLE}.c"),
+                    str(code),
                     "-o",
                     str(library),
                     "-lm",
                 ],
                 check=True,
                 capture_output=True,
+                text=True,
             )
-            os.replace(library, target)
+            native_cache.publish(library, target)
+
+
+def _main(source: Path, cc: str) -> int:
+    """The compiling process: 0 when the library is published, :data:`CACHE_FAILURE` when
+    the cache could not take it (said on stderr), 1 when the compiler failed on the code."""
+    try:
+        _build(source, cc)
+    except OSError as error:
+        where = f": {os.fsdecode(error.filename)!r}" if error.filename else ""
+        print(f"{error.strerror or error}{where}", file=sys.stderr)
+        return CACHE_FAILURE
+    except subprocess.CalledProcessError as error:
+        said = (error.stderr or "").strip()
+        print(said, file=sys.stderr)
+        return CACHE_FAILURE if any(text in said for text in _WRITE_ERRORS) else 1
+    return 0
 
 
 @contextlib.contextmanager
@@ -291,4 +340,4 @@ def _file_lock(path: Path):
 
 
 if __name__ == "__main__":
-    _build(Path(sys.argv[1]), sys.argv[2])
+    sys.exit(_main(Path(sys.argv[1]), sys.argv[2]))

@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from planner import OCP, native_nlp, solve
+from planner import OCP, native_cache, native_nlp, solve
 from planner.errors import DefinitionError, DefinitionTypeError
 from planner.solver import nlp_oracle, nlp_solver
 from planner.solver_cache import SOLVERS, CachedSolver
@@ -28,8 +28,10 @@ def cache(tmp_path, monkeypatch):
     """An empty cache folder of the test's own, the automatic mode on, no solver kept."""
     monkeypatch.setenv(native_nlp.CACHE_ENV, str(tmp_path))
     monkeypatch.setenv(native_nlp.MODE_ENV, "auto")
+    native_cache.forget()
     SOLVERS.clear()
     yield tmp_path
+    native_cache.forget()
     SOLVERS.clear()
 
 
@@ -69,6 +71,12 @@ def swing_up(N: int = 16, weight: float = 1.0) -> OCP:
 
 def files(folder) -> list[str]:
     return sorted(p.name for p in folder.rglob("*") if p.is_file())
+
+
+def published(library) -> list[str]:
+    """The files a published library has in the cache: itself, its record and its lock."""
+    record = native_cache.record_path(library)
+    return [library.name, record.name, library.with_suffix(".lock").name]
 
 
 @needs_compiler
@@ -205,8 +213,8 @@ def test_processes_compiling_one_structure_at_once_share_one_compilation(cache):
     for thread in threads:
         thread.join()
     assert not errors and len(set(found)) == 1
-    # one library, its lock, and nothing half-written or left over
-    assert files(cache) == sorted([found[0].name, found[0].with_suffix(".lock").name])
+    # one library, its record, its lock, and nothing half-written or left over
+    assert files(cache) == sorted(published(found[0]))
     assert nlp_solver(transcription, library=found[0], progress=False) is not None
 
 
@@ -234,7 +242,8 @@ def test_the_cache_folder_follows_the_environment(monkeypatch, tmp_path):
 def test_a_library_that_does_not_load_is_removed_and_the_solve_runs_interpreted(cache, caplog):
     """A damaged library (or one built on another kind of machine) is not an error of the
     user's: the solve runs interpreted, says so and removes it, so that it is compiled again
-    when it pays; options IPOPT refuses still fail as such."""
+    when it pays; options IPOPT refuses still fail as such. (Without its publication record
+    it is not even loaded: tests/test_native_cache.py has the loader's refusal too.)"""
     ocp = swing_up()
     reference = solve(ocp, compiled=False, progress=False)
     key = Transcription(ocp).structure_key
@@ -247,7 +256,8 @@ def test_a_library_that_does_not_load_is_removed_and_the_solve_runs_interpreted(
     assert solution.success and not solution.stats["compiled"]
     assert solution.cost == pytest.approx(reference.cost, rel=1e-12)
     assert not damaged.exists()
-    assert "does not load; removed" in caplog.text
+    assert "is not loaded: it has no publication record" in caplog.text
+    assert "removed, solving interpreted" in caplog.text
     damaged.write_bytes(b"not a shared library")
     with pytest.raises(DefinitionError, match=r"`options`: IPOPT refused the options"):
         solve(ocp, progress=False, options={"no_such_option": 1})
@@ -265,7 +275,7 @@ def test_a_compilation_killed_halfway_leaves_nothing_that_stays(cache):
     (left / "nlp.c").write_text("half a file")
     library = native_nlp.compile_library(nlp_oracle(transcription), key, wait=True)
     assert library.is_file() and not left.exists()
-    assert files(cache) == sorted([library.name, library.with_suffix(".lock").name])
+    assert files(cache) == sorted(published(library))
 
 
 def test_a_progress_reporter_needs_a_solver_that_reports():
