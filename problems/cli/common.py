@@ -59,6 +59,13 @@ class CommandFailed(Exception):
     """A computation that failed on valid input: reported as one line, exit status 1."""
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread as Ctrl-C is (:func:`problems.cli.program.main`):
+    a run stopped by ``kill`` (a job scheduler, a timeout) removes its staged output and
+    ends with status 143, where Python's default would end it on the spot and leave its
+    files half-staged."""
+
+
 class Parser(argparse.ArgumentParser):
     """argparse with one-line errors (no usage dump) raised instead of exiting, and no
     abbreviated options (``--step-length`` is no prefix of ``--step-length-m``: one
@@ -363,6 +370,12 @@ def save_trajectory(trajectory, folder: Path, stem: str, formats) -> list[Path]:
         trajectory.save(path)
         paths.append(path)
     return paths
+
+
+def check_clearance(value: float | None) -> None:
+    """--clearance-m: None (the walker's scaled default) or a finite number >= 0."""
+    if value is not None and (not math.isfinite(value) or value < 0):
+        raise UsageError(f"--clearance-m: must be a finite number >= 0 m, got {value}")
 
 
 def output_set(text: str, command: str) -> OutputSet:

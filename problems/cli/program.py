@@ -10,7 +10,10 @@ import argparse
 import contextlib
 import logging
 import os
+import re
+import signal
 import sys
+import threading
 from collections.abc import Iterator, Sequence
 
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
@@ -23,6 +26,7 @@ from problems.cli.common import (
     CommandFailed,
     Parser,
     Reporter,
+    Terminated,
     UsageError,
 )
 
@@ -101,10 +105,28 @@ def _solver_progress(report: Reporter, enabled: bool) -> Iterator[None]:
         logger.setLevel(level)
 
 
+def _terminate(signum, frame) -> None:
+    raise Terminated
+
+
+@contextlib.contextmanager
+def _terminated_as_interrupted() -> Iterator[None]:
+    """While a command runs, SIGTERM raises :class:`Terminated` (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line with ``argv`` (default: sys.argv[1:]); returns the exit status.
 
-    0 success, 1 a computation failed, 2 bad input (usage, file, parameter). Results go to
+    0 success, 1 a computation failed, 2 bad input (usage, file, parameter), 130 stopped by
+    Ctrl-C, 143 by SIGTERM (nothing half-written left either way). Results go to
     sys.stdout, progress and errors to sys.stderr (looked up at call time, so a caller can
     redirect them).
     """
@@ -119,8 +141,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         except SystemExit as exc:  # --help and --version exit through argparse
             return int(exc.code or 0)
         report = Reporter(err, enabled=not args.quiet, where=where)
-        with _solver_progress(report, enabled=not args.quiet):
+        with _terminated_as_interrupted(), _solver_progress(report, enabled=not args.quiet):
             return COMMANDS[args.command](args, out, report)
+    except Terminated:
+        print(f"{where}: terminated (SIGTERM); nothing of this run was written", file=err)
+        return 143
     except BrokenPipeError:
         # The reader went away (``... | head``): stop quietly, as Unix tools do.
         try:
@@ -145,4 +170,18 @@ def _first_line(exc: BaseException) -> str:
     if isinstance(exc, OSError) and exc.strerror:
         return f"{exc.filename!r}: {exc.strerror}" if exc.filename else exc.strerror
     text = str(exc).strip().splitlines()
-    return text[0] if text else type(exc).__name__
+    return abridged(text[0]) if text else type(exc).__name__
+
+
+#: A quoted value or a run of digits this long is abridged in an error line.
+LONGEST_ECHO = 120
+_QUOTED = re.compile(rf"'([^']{{{LONGEST_ECHO},}})'")
+_DIGITS = re.compile(rf"[0-9][0-9,_]{{{LONGEST_ECHO},}}")
+
+
+def abridged(line: str) -> str:
+    """An error line whose echo of what was typed stays readable: a quoted value or a
+    number of more than :data:`LONGEST_ECHO` characters keeps its first 40 and says how
+    long it was (``--steps 999...`` with 5,000 digits was echoed whole)."""
+    line = _QUOTED.sub(lambda m: f"'{m.group(1)[:40]}...' ({len(m.group(1)):,} characters)", line)
+    return _DIGITS.sub(lambda m: f"{m.group(0)[:40]}... ({len(m.group(0)):,} characters)", line)

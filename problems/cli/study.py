@@ -39,9 +39,11 @@ from planner.schemes import (
     WITH_DEGREE,
     check_degree,
 )
+from problems.cli.common import Terminated, UsageError
 from problems.study.backends import available_cores
 from problems.study.result import StudyProgress, StudyResult
 from problems.study.schedule import ORDERINGS
+from problems.study.store import StudyFileError, StudyFolderError
 from problems.study.study import Study
 from problems.walking.step import WALKING_DEFAULTS
 
@@ -175,9 +177,9 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
     study.add_argument(
         "--clearance-m",
         type=value_list("m", 1.0, zero=True),
-        default=(WALKING_DEFAULTS["clearance"],),
+        default=None,
         metavar="SPEC",
-        help=f"mid-swing foot clearances, m (default: {WALKING_DEFAULTS['clearance']:g})",
+        help="mid-swing foot clearances, m (default: 0.05 m for 0.86 m legs, scaled with the leg)",
     )
     study.add_argument(
         "--double-support-s",
@@ -288,6 +290,8 @@ def _axes_and_fixed(args) -> tuple[dict[str, tuple], dict[str, Any]]:
         ("clearance", args.clearance_m),
         ("double_support", args.double_support_s),
     ):
+        if values is None:  # the walking step's own default (scaled with the walker)
+            continue
         if len(values) > 1:
             axes[name] = values
         else:
@@ -457,16 +461,21 @@ def run(args, out: TextIO, report) -> int:
             retry_failed=args.retry_failed,
             progress=bar,
         )
-    except KeyboardInterrupt:
+    except (StudyFolderError, StudyFileError) as refused:
+        # the library's field is the command line's --output-dir
+        bar.close()
+        raise UsageError("--output-dir: " + str(refused).removeprefix("`folder`: ")) from None
+    except KeyboardInterrupt as stopped:
         bar.close()
         done = StudyResult.load(args.output_dir)
+        how = "terminated (SIGTERM)" if isinstance(stopped, Terminated) else "interrupted"
         print(
-            f"anthropoid-planner study: interrupted; {len(done.rows)} of {done.total} points "
+            f"anthropoid-planner study: {how}; {len(done.rows)} of {done.total} points "
             f"are saved in {args.output_dir}; run the same command again to solve the "
             f"{len(done.missing)} missing",
             file=sys.stderr,
         )
-        return 130
+        return 143 if isinstance(stopped, Terminated) else 130
     finally:
         logger.removeHandler(handler)
     bar.close()

@@ -156,19 +156,27 @@ class StudyFolder:
         self.damaged: list[str] = []
         if self.path.exists() and not self.path.is_dir():
             raise StudyFolderError(f"`folder`: {str(self.path)!r} exists and is not a folder")
-        if self.path.exists():
-            self._check()  # before anything is written: a refused folder stays as it was
-        self.path.mkdir(parents=True, exist_ok=True)
-        self._lock = self._take_lock()
         try:
-            self._check_or_create()  # again, now that this run holds the folder
-            (self.path / POINTS).mkdir(exist_ok=True)
-            (self.path / SOLUTIONS).mkdir(exist_ok=True)
-            self._remove_temporary_files()
-            self.damaged = self._set_damaged_aside()
-        except BaseException:
-            self.close()
-            raise
+            if self.path.exists():
+                self._check()  # before anything is written: a refused folder stays as it was
+            # A symbolic link is followed (a dangling one's target is made).
+            Path(os.path.realpath(self.path)).mkdir(parents=True, exist_ok=True)
+            self._lock = self._take_lock()
+            try:
+                self._check_or_create()  # again, now that this run holds the folder
+                (self.path / POINTS).mkdir(exist_ok=True)
+                (self.path / SOLUTIONS).mkdir(exist_ok=True)
+                self._remove_temporary_files()
+                self.damaged = self._set_damaged_aside()
+            except BaseException:
+                self.close()
+                raise
+        except OSError as error:
+            # Before any point is solved: a folder that cannot be read, made or written.
+            raise StudyFolderError(
+                f"`folder`: cannot use {str(self.path)!r} ({error.strerror or error}"
+                f"{_which(error, self.path)}); give a folder you can write"
+            ) from None
 
     # ---- opening ---------------------------------------------------------------------
     def _take_lock(self) -> int | None:
@@ -361,8 +369,18 @@ if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_close_inherited_locks)
 
 
+def _which(error: OSError, folder: Path) -> str:
+    """ ": <file>" for an OSError about a file inside ``folder`` ("" for the folder)."""
+    if error.filename is None:
+        return ""
+    name = Path(os.fsdecode(error.filename))
+    return "" if name in (folder, Path(os.path.realpath(folder))) else f": {str(name)!r}"
+
+
 def read_definition(folder: str | os.PathLike) -> dict[str, Any]:
-    """study.json of a study folder: {"format", "fingerprint", "definition"}."""
+    """study.json of a study folder: {"format", "fingerprint", "definition"}; refused
+    (:class:`StudyFileError`) when its definition no longer matches its fingerprint (the file
+    was edited: the records are those of the definition it was written with)."""
     path = Path(os.fspath(folder)) / DEFINITION_FILE
     try:
         content = json.loads(path.read_text(encoding="utf-8"))
@@ -372,6 +390,14 @@ def read_definition(folder: str | os.PathLike) -> dict[str, Any]:
         raise StudyFileError(f"{str(path)!r}: cannot be read as JSON: {exc}") from exc
     if not isinstance(content, dict) or content.get("format") != FORMAT:
         raise StudyFileError(f"{str(path)!r}: not a study definition of format {FORMAT!r}")
+    definition = content.get("definition")
+    if not isinstance(definition, dict) or fingerprint(definition) != content.get("fingerprint"):
+        raise StudyFileError(
+            f"{str(path)!r}: its definition was changed after the study was written (it no "
+            "longer matches its fingerprint), so its axes and settings do not describe the "
+            "points solved in the folder; put the file back as it was, or start the study in "
+            "a new folder"
+        )
     return content
 
 
