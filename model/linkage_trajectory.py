@@ -146,6 +146,19 @@ class LinkageTrajectory(Trajectory):
         return naming.links_of(self.state_names, self.state_units)
 
     def _not_linkage(self, what: str) -> TrajectoryError:
+        others = (f"{naming.TORQUES}_", f"{naming.ACCELERATIONS}_")
+        if not self.metadata and any(n.startswith(others) for n in self.state_names):
+            # Torques and accelerations among the states: a CSV file read by a reader that
+            # took every column for a state, because the sidecar that says which is which
+            # was not beside it.
+            return TrajectoryError(
+                f"`{what}`: every column of this trajectory was read as a state (torques "
+                f"{naming.TORQUES}_<link> and accelerations among them) and it has no "
+                "metadata: a CSV file read without its sidecar <file>.csv.meta.json, which "
+                "holds the column groups and the gait's settings; put the sidecar back beside "
+                "the CSV file (or read the file with model.LinkageTrajectory.load, which knows "
+                "the linkage's column names)"
+            )
         return TrajectoryError(
             f"`{what}`: this trajectory does not follow the linkage convention "
             f"({naming.CONVENTION}); its states are {list(self.state_names)}; build it with "

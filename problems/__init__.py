@@ -34,7 +34,13 @@ from problems.gait.accuracy import ACCURACY_PRESETS, AccuracyPreset
 from problems.gait.biped import Biped
 from problems.gait.law import LAW_PRESETS, GaitLaw
 from problems.gait.problem import OBJECTIVES, Gait
-from problems.gait.verification import Check, GaitReport, GaitVerificationError, verify_gait
+from problems.gait.verification import (
+    Check,
+    GaitReport,
+    GaitVerificationError,
+    GaitVerificationWarning,
+    verify_gait,
+)
 from problems.pinned.gait import KEYPOINTS, PeriodicGait, PeriodicGaitProblem, periodic_gait
 from problems.study.result import StudyProgress, StudyResult
 from problems.study.study import Study, run_study
@@ -59,6 +65,7 @@ __all__ = [
     "GaitLaw",
     "GaitReport",
     "GaitVerificationError",
+    "GaitVerificationWarning",
     "PeriodicGait",
     "PeriodicGaitProblem",
     "ReplayReport",

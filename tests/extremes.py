@@ -35,6 +35,7 @@ from reference import newton_euler as ne
 
 from model import DefinitionError, Dynamics, Link, Linkage, LinkageTrajectory, presets
 from planner import SolverError
+from problems import GaitVerificationError
 
 
 # ---- outcomes ------------------------------------------------------------------------------
@@ -491,6 +492,58 @@ GAIT_CASES: list[GaitCase] = [
         GaitCase(f"fixed-base gait, tol {t:.0e}", "gait", {}, {"tol": t}, Tol(10 * t))
         for t in (1e-3, 1e-6)
     ],
+    # 93 % of the legs' span (2 x 0.86 m): no plan lands the foot there with the body above
+    # the ground and the ankle torque within its sole (earlier versions, without those rows,
+    # planned it with the stance knee 0.16 m under the ground and the centre of pressure 72 m
+    # behind the ankle); 1.4 m solves and verifies. Infeasible at 1.0 s too (1.4 mm short).
+    GaitCase(
+        "walking step, 1.6 m in 0.5 s",
+        "walk",
+        {"step_length": 1.6},
+        expect=Raises(SolverError, r"IPOPT failed with status \w+ .*end\[landing\]"),
+    ),
+    # Plans that converge but fail their own check are not handed out as successes (before,
+    # solve() returned both with Solve_Succeeded and only verify() said so). The heavy torso's
+    # last swing moves between two 1 kHz samples more than they show (it verifies at 2 kHz);
+    # the slow step on feet lets its front heel drift in the double support (a finer mesh).
+    GaitCase(
+        "walking step, a 340 kg torso",
+        "walk",
+        {"linkage_overrides": {"torso_mass": 340.0}},
+        expect=Raises(
+            GaitVerificationError, r"fails its own verification at 1000 Hz: kinematics misses"
+        ),
+    ),
+    GaitCase(
+        "step on feet at 0.1 m/s",
+        "feet",
+        {"speed": 0.1},
+        expect=Raises(
+            GaitVerificationError, r"fails its own verification at 1000 Hz: heel at rest misses"
+        ),
+    ),
+]
+
+
+@dataclass(frozen=True)
+class ScaledCase:
+    """The walking step of a walker scaled by ``size`` (every length; masses unchanged) and
+    ``gravity`` (g), given its step in its own units (0.5 leg lengths of the six-link's in
+    0.5 s times sqrt(size / gravity)) and drives scaled as m g L (150 N m x size x gravity),
+    the rest left to the defaults (clearance, touchdown speed, approach window: dynamic
+    similarity, ``problems.gait.similarity``): the six-link's dimensionless optimum (cost /
+    ((size gravity)^2 sqrt(size / gravity))) to ``expect``, verified in numpy."""
+
+    name: str
+    size: float
+    gravity: float
+    expect: Tol = Tol(1e-6)
+    slow: bool = False
+
+
+SCALED_CASES: list[ScaledCase] = [
+    *[ScaledCase(f"walking step, a walker {f:g} times the size", f, 1.0) for f in (1e-3, 1e3)],
+    *[ScaledCase(f"walking step, a walker under {f:g} g", 1.0, f) for f in (1e-3, 1e3)],
 ]
 
 
@@ -779,8 +832,9 @@ def _planner_rows():
         if isinstance(case.expect, Tol):
             outcome = f"cost within {case.expect} of tol 1e-10's"
         elif isinstance(case.expect, Raises):
-            outcome = f"raises {case.expect.error.__name__}" + (
-                " (IPOPT's status)" if case.expect.error is SolverError else " (refine the mesh)"
+            why = {SolverError: " (IPOPT's status)", GaitVerificationError: " (the failed checks)"}
+            outcome = f"raises {case.expect.error.__name__}" + why.get(
+                case.expect.error, " (refine the mesh)"
             )
         else:
             outcome = "solves; verify_gait passes"
@@ -790,6 +844,12 @@ def _planner_rows():
             case.name + (" (slow)" if case.slow else ""),
             f"same answer to {case.expect}, iterations within {case.iterations:.0%}",
             "",
+        )
+    for case in SCALED_CASES:
+        yield (
+            case.name + (" (slow)" if case.slow else ""),
+            f"the six-link's dimensionless cost to {case.expect}; verify_gait passes",
+            "defaults by dynamic similarity",
         )
 
 

@@ -9,6 +9,8 @@ import sys
 
 import numpy as np
 import pytest
+from privileges import needs_permissions
+from privileges import run as run_unprivileged
 
 import problems.gait.accuracy as problems_accuracy
 from model import Dynamics, LinkageTrajectory, equations, presets
@@ -1285,7 +1287,10 @@ def test_a_failed_write_leaves_nothing_of_the_new_run(capsys, tmp_path, monkeypa
 
     monkeypatch.setitem(formats._WRITERS, ".json", (full_disk, False))
     code, _, err = run(capsys, "walk", "--quick", "-q", "--no-plots", "--output-dir", folder)
-    assert code == 1 and "No space left on device" in err
+    # the file and the folder as given: not the hidden staging folder
+    assert code == 1 and err.strip().splitlines()[-1] == (
+        f"{PROG} walk: error: --output-dir: writing torques.json in {str(folder)!r} failed "
+        "(No space left on device)")  # fmt: skip
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before  # the earlier run
     assert [p.name for p in tmp_path.iterdir()] == ["walk"]
     code, _, err = run(capsys, "walk", "--quick", "-q", "--no-plots", "--output-dir",
@@ -1311,17 +1316,141 @@ def test_walk_and_study_options_default_to_the_walking_steps_own_defaults():
         ("step_time_s", "step_time"),
         ("mu", "mu"),
         ("torque_limit_nm", "torque_limit"),
-        ("clearance_m", "clearance"),
         ("double_support_s", "double_support"),
         ("ground_margin_m", "ground_margin"),
         ("objective", "objective"),
         ("formulation", "formulation"),
     ):
         assert getattr(walk, option) == signature[argument].default, option
-        if option in ("mu", "torque_limit_nm", "clearance_m", "double_support_s"):
+        if option in ("mu", "torque_limit_nm", "double_support_s"):
             assert getattr(study, option) == (signature[argument].default,), option
+    # defaults scaled with the walker: the command line leaves them to walking_step
+    for option, argument in (("clearance_m", "clearance"), ("touchdown_speed_mps",
+                                                            "touchdown_speed")):  # fmt: skip
+        assert getattr(walk, option) is None and signature[argument].default == "default"
+    assert study.clearance_m is None
     assert study.transcription == DEFAULT_TRANSCRIPTION
     help_text = parser._subparsers._group_actions[0].choices["walk"].format_help()
     assert (
         f"default: {DEFAULT_N}," in help_text and f"(default: {DEFAULT_TRANSCRIPTION})" in help_text
     )
+
+
+# ---- output folders stay the user's, every command that writes ---------------------------------
+def _writer_argv(command, folder, profile_files):
+    """A short run of each command that writes a folder, into ``folder``."""
+    return {
+        "torques": ["torques", "--duration-s", "0.05", "--rate-hz", "100", "--no-plots"],
+        "simulate": ["simulate", profile_files / "torques.csv", "--t-end-s", "0.05", "--no-plots"],
+        "walk": ["walk", "--quick", "--no-plots"],
+    }[command] + ["--output-dir", folder]
+
+
+WRITERS = ("torques", "simulate", "walk")
+
+
+@pytest.mark.parametrize("command", WRITERS)
+def test_an_existing_output_folder_keeps_its_inode_and_mode_and_a_link_is_followed(
+    capsys, tmp_path, monkeypatch, profile_files, command
+):
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    folder.chmod(0o700)
+    before = folder.stat()
+    for _ in range(2):  # into the empty folder, then over the first run
+        code, _, err = run(capsys, *_writer_argv(command, folder, profile_files))
+        assert code == 0, err
+    after = folder.stat()
+    assert (after.st_ino, after.st_mode & 0o7777) == (before.st_ino, 0o700)
+    assert (folder / "manifest.json").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine"]  # no staging, nothing beside
+    # a link to a folder: followed, and still a link
+    target = tmp_path / "target"
+    target.mkdir()
+    link = tmp_path / "link"
+    link.symlink_to(target)
+    code, out, err = run(capsys, *_writer_argv(command, link, profile_files))
+    assert code == 0, err
+    assert link.is_symlink() and (target / "manifest.json").is_file()
+    assert f"wrote {link}" in out  # named as given
+    # the working folder itself, empty
+    here = tmp_path / "here"
+    here.mkdir()
+    monkeypatch.chdir(here)
+    code, _, err = run(capsys, *_writer_argv(command, ".", profile_files))
+    assert code == 0, err
+    assert (here / "manifest.json").is_file() and not [p for p in here.iterdir()
+                                                        if p.name.startswith(".")]  # fmt: skip
+
+
+@needs_permissions
+@pytest.mark.parametrize("command", WRITERS)
+@pytest.mark.parametrize("where", ["the folder", "its parent"])
+def test_a_folder_that_cannot_be_written_is_refused_before_the_command_computes(
+    tmp_path, profile_files, command, where
+):
+    locked = tmp_path / "ro"
+    locked.mkdir()
+    folder = locked if where == "the folder" else locked / "new"
+    locked.chmod(0o555)
+    argv = [sys.executable, "-m", "problems", *map(str, _writer_argv(command, folder,
+                                                                      profile_files))]  # fmt: skip
+    try:
+        done = run_unprivileged(argv, capture_output=True, text=True, timeout=300)
+    finally:
+        locked.chmod(0o755)
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 2, done.stderr
+    # one line, before any progress line of the computation (the run was not started)
+    assert len(lines) == 1, lines
+    doing = "write into" if where == "the folder" else "create"
+    assert f"--output-dir: cannot {doing} {str(folder)!r} (Permission denied)" in lines[0]
+    assert ".partial" not in lines[0] and list(locked.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", WRITERS)
+def test_stagings_that_killed_runs_left_are_removed_by_the_next_run(
+    capsys, tmp_path, profile_files, command
+):
+    left = tmp_path / ".out.partial-abcd1234"  # what a run killed with SIGKILL left
+    left.mkdir()
+    (left / "torques.csv").write_bytes(bytes(1 << 20))
+    earlier = tmp_path / ".out.old-abcd1234"  # what an earlier version's commit left
+    earlier.mkdir()
+    code, _, err = run(capsys, *_writer_argv(command, tmp_path / "out", profile_files))
+    assert code == 0, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_a_run_stopped_by_sigterm_leaves_nothing(tmp_path):
+    """SIGTERM while the files are staged (the GIF takes seconds): exit 143, one line, no
+    staging folder, no output folder."""
+    import signal
+    import time
+
+    folder = tmp_path / "out"
+    argv = [sys.executable, "-m", "problems", "torques", "--duration-s", "2", "--gif",
+            "--output-dir", str(folder)]  # fmt: skip
+    process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not any(p.name.startswith(".out.partial-") for p in tmp_path.iterdir()):
+        assert process.poll() is None and time.monotonic() < deadline, "it never staged"
+        time.sleep(0.02)
+    time.sleep(0.3)  # into the writing
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 143, err
+    assert err.strip().splitlines()[-1].endswith("terminated (SIGTERM); nothing of this run "
+                                                 "was written")  # fmt: skip
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_huge_value_is_echoed_abridged_not_whole(capsys):
+    """--steps with 5,000 digits was echoed whole (5,000 characters on one error line)."""
+    cases = (
+        (5000, r"expected an integer, got '9{40}\.\.\.' \(5,000 characters\)"),
+        (4000, r"at most 50 steps, got [0-9,]{40}\.\.\. \(5,333 characters\)"),
+    )
+    for digits, said in cases:
+        line = assert_one_line_error(capsys, said, "walk", "--steps", "9" * digits)
+        assert len(line) < 300, len(line)

@@ -22,6 +22,7 @@ from extremes import (
     INPUT_CASES,
     MODEL_CASES,
     PLANNER_CASES,
+    SCALED_CASES,
     UNITS_CASES,
     ModelCase,
     Raises,
@@ -34,7 +35,7 @@ from reference.checks import relative_error
 from model import Dynamics, Link, Linkage, LinkPoint, presets
 from planner import OCP, Transcription
 from planner.solver import jacobian_mode
-from problems import periodic_gait, walking_step
+from problems import footed_step_at, periodic_gait, walking_step
 from problems.__main__ import main
 from problems.gait.problem import objective_integrand
 
@@ -213,6 +214,12 @@ def test_free_time_jacobian_uses_forward_mode():
 
 # ---- walking step and gait at the extremes ------------------------------------------------------
 def _gait_problem(kind: str, options: dict):
+    options = dict(options)
+    if kind == "feet":
+        return footed_step_at(**options)
+    overrides = options.pop("linkage_overrides", None)
+    if overrides is not None:
+        options["linkage"] = presets.six_link_anthropoid(**overrides)
     return walking_step(**options) if kind == "walk" else periodic_gait(**options)
 
 
@@ -237,6 +244,35 @@ def test_gait_case(case):
     else:
         report = gait.verify()
         assert report.ok, report.failures
+
+
+# ---- walkers scaled in size and gravity ---------------------------------------------------------
+@functools.cache
+def _six_link_cost() -> float:
+    return walking_step().solve(progress=False).cost
+
+
+@pytest.mark.parametrize("case", [_param(c, c.name) for c in SCALED_CASES])
+def test_a_scaled_walker_solves_to_the_six_links_dimensionless_optimum(case):
+    """Dynamic similarity: lengths x size, g x gravity, times x sqrt(size / gravity), torques
+    x size x gravity (masses kept). Before the defaults scaled (a 0.03 s approach window, a
+    touchdown speed growing as L, a 0.05 m clearance), the 1 mm walker was infeasible and the
+    walker under 9.81e-3 m/s^2 cost 8.1x its similar optimum."""
+    six = presets.six_link_anthropoid()
+    links = six.in_units(length=case.size).links if case.size != 1.0 else six.links
+    walker = Linkage(links, gravity=9.81 * case.gravity)
+    time = np.sqrt(case.size / case.gravity)
+    step = walking_step(walker, 0.5 * case.size, 0.5 * time,
+                        torque_limit=150.0 * case.size * case.gravity)  # fmt: skip
+    # its defaults in its own units
+    assert step.clearance == pytest.approx(0.05 * case.size, rel=1e-11)
+    assert step.touchdown_speed == pytest.approx(0.3 * case.size / time, rel=1e-11)
+    assert step.approach_time == pytest.approx(0.03 * time, rel=1e-11)
+    gait = step.solve(progress=False)
+    assert gait.success and gait.verified, gait.verification
+    dimensionless = gait.cost / ((case.size * case.gravity) ** 2 * time)
+    reference = _six_link_cost()
+    assert abs(dimensionless - reference) <= case.expect.value * reference, dimensionless
 
 
 # ---- units: millimetres and grams against SI -------------------------------------------------

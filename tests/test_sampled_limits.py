@@ -16,7 +16,7 @@ from reference import newton_euler as ne
 
 from model import DefinitionError, Dynamics, presets
 from planner import OCP, SampleLimitError, Transcription, hold_at_samples, sample_misses, solve
-from problems import walking_step
+from problems import GaitVerificationError, GaitVerificationWarning, walking_step
 
 CHAIN = presets.n_link_chain(2)
 DOWN = -np.pi / 2
@@ -136,8 +136,18 @@ def test_back_off_refuses_what_it_cannot_do():
 def test_the_walking_step_keeps_its_torques_within_the_limit_at_every_sample():
     # The issue's case: a 0.8 m step whose torques.csv reached 153.5 N m against 150.
     step = walking_step(step_length=0.8)
-    plain = step.solve(progress=False, hold_limits=False)
+    # unheld, the plan misses at its samples: solve() does not hand it out as a success
+    with pytest.raises(GaitVerificationError, match=r"fails its own verification at 1000 Hz: "
+                       r"torque bounds misses by [0-9.]+ N m at sample") as failed:  # fmt: skip
+        step.solve(progress=False, hold_limits=False)
+    plain = failed.value.gait
+    assert plain.verified is False and not failed.value.report.ok
     assert np.abs(plain.to_trajectory(1000.0).torques).max() > 150.5
+    with pytest.warns(GaitVerificationWarning, match=r"torque bounds misses by"):
+        warned = step.solve(progress=False, hold_limits=False, raise_on_failure=False)
+    assert warned.success and warned.verified is False
+    unchecked = step.solve(progress=False, hold_limits=False, verify=False)
+    assert unchecked.verified is None and unchecked.verification is None
     gait = step.solve(progress=False)
     # its first check cuts an interval and backs off the others' misses in the same round
     first = gait.solution.stats["sampled_limits"]["rounds"][0]
@@ -146,6 +156,7 @@ def test_the_walking_step_keeps_its_torques_within_the_limit_at_every_sample():
         torques = gait.to_trajectory(rate).torques
         assert np.abs(torques).max() <= 150.0 * (1 + 1e-6), rate
         assert gait.verify(rate).ok
+    assert gait.verified is True and gait.verification.ok
 
 
 def test_a_gait_holds_its_limits_by_near_restarts_and_counts_a_failed_one(monkeypatch):

@@ -23,6 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import reference.newton_euler as ne
+from privileges import permissions_hold
+from privileges import run as run_unprivileged
 
 from model import LinkageTrajectory
 from model.presets import six_link_anthropoid
@@ -841,3 +843,64 @@ def test_a_refused_folder_is_left_exactly_as_it_was(tmp_path):
         with pytest.raises(StudyFolderError, match="another run is using"):
             StudyFolder(tmp_path / "s", definition)
         assert _snapshot(tmp_path / "s") == before
+
+
+@pytest.mark.parametrize(
+    "edit, value",
+    [("an axis made NaN", [float("nan")]), ("an axis changed", [0.7])],
+)
+def test_an_edited_study_definition_is_refused_not_resumed(tmp_path, edit, value):
+    """study.json edited by hand (its axes no longer those the records were solved for):
+    refused when the study is resumed and when it is read, naming the file and the fix;
+    before, only the fingerprint was compared and StudyResult reported the edited axes."""
+    import json
+
+    definition = {"axes": {"step_length": [0.4, 0.5]}, "fixed": {"N": 30}}
+    StudyFolder(tmp_path / "s", definition).close()
+    path = tmp_path / "s" / "study.json"
+    content = json.loads(path.read_text())
+    content["definition"]["axes"]["step_length"] = value
+    path.write_text(json.dumps(content))
+    message = r"study.json': its definition was changed after the study was written"
+    with pytest.raises(StudyFileError, match=message):
+        StudyFolder(tmp_path / "s", definition)
+    with pytest.raises(StudyFileError, match=message):
+        StudyResult.load(tmp_path / "s")
+
+
+def test_a_study_folder_link_is_followed_and_an_unusable_folder_named(tmp_path, capsys):
+    definition = {"axes": {"step_length": [0.4, 0.5]}, "fixed": {"N": 30}}
+    target = tmp_path / "made" / "here"
+    link = tmp_path / "link"
+    link.symlink_to(target)  # dangling: its target is made, the link stays
+    StudyFolder(link, definition).close()
+    assert link.is_symlink() and (target / "study.json").is_file()
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(StudyFolderError, match=r"`folder`: cannot use .*file/s' \(Not a directory"):
+        StudyFolder(tmp_path / "file" / "s", definition)
+    # the command line names its option, before solving anything
+    code = cli.main(["study", "--quick", "--output-dir", str(tmp_path / "file" / "s")])
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("anthropoid-planner study: error: --output-dir: cannot use ")
+    assert "(Not a directory" in err[-1] and "give a folder you can write" in err[-1]
+
+
+@pytest.mark.skipif(not permissions_hold(), reason="file permissions cannot be made to hold")
+def test_a_read_only_study_folder_is_refused_before_solving(tmp_path):
+    locked = tmp_path / "ro"
+    locked.mkdir()
+    locked.chmod(0o555)
+    try:
+        for folder in (locked, locked / "new"):
+            done = run_unprivileged(
+                [sys.executable, "-m", "problems", "study", "--quick", "-q",
+                 "--output-dir", str(folder)],
+                capture_output=True, text=True, timeout=300,
+            )  # fmt: skip
+            assert done.returncode == 2, done.stderr
+            line = done.stderr.strip().splitlines()[-1]
+            assert "error: --output-dir: cannot use" in line and "Permission denied" in line
+    finally:
+        locked.chmod(0o755)
+    assert list(locked.iterdir()) == []

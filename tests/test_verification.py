@@ -14,6 +14,7 @@ from reference import newton_euler as ne
 
 from model import LinkageTrajectory, presets
 from planner import Trajectory
+from planner.errors import DefinitionError
 from problems import verify_gait, walking_step
 from problems.gait.verification import RATES_DENSITY, _Kinematics
 
@@ -131,7 +132,7 @@ def test_a_plan_with_its_knees_under_the_ground_fails():
     # speed): a 1.0 m step with no point of the body kept above the ground brings both knees
     # 0.13-0.17 m under it.
     step = walking_step(step_length=1.0, ground_points=(), touchdown_speed=0.0, foot=None)
-    gait = step.solve(progress=False, hold_limits=False)
+    gait = step.solve(progress=False, hold_limits=False, verify=False)
     report = verify_gait(gait.to_trajectory(1000.0), SIX, settings={"ground_points": None})
     ground = report["ground"]
     assert not ground.passed and ground.margin < -0.05, str(report)
@@ -168,3 +169,44 @@ def test_what_is_checked_is_reported(profile):
     dynamics = report["dynamics"]
     assert dynamics.samples == 501 * 6 and dynamics.where.startswith("sample ")
     assert "ok   dynamics" in str(report)
+
+
+def test_a_torque_limit_given_as_one_number_bounds_every_drive(profile):
+    """settings={"torque_limit": 20.0} (a number, as walking_step takes it) bounds every
+    hinge: before, it raised AttributeError ('float' object has no attribute 'values')."""
+    peak = float(np.max(np.abs(profile.torques)))  # 52.9 N m at the stance thigh
+    report = verify_gait(profile, SIX, settings={"torque_limit": 20.0})
+    bounds = report["torque bounds"]
+    assert not bounds.passed and bounds.margin == pytest.approx(20.0 - peak, abs=1e-9)
+    every = dict.fromkeys(SIX.names, 20.0)
+    as_mapping = verify_gait(profile, SIX, settings={"torque_limit": every})
+    assert as_mapping["torque bounds"].margin == bounds.margin
+    assert verify_gait(profile, SIX, settings={"torque_limit": 150}).ok
+    for bad, said in (
+        (-1.0, r"got -1.0 for 'stance_shank'"),
+        ("20", r"got '20' for 'stance_shank'"),
+        (float("nan"), r"got nan"),
+        ({"knee": 20.0}, r"no links \['knee'\] in the linkage"),
+    ):
+        with pytest.raises(DefinitionError, match=r"`settings\['torque_limit'\]`: .*" + said):
+            verify_gait(profile, SIX, settings={"torque_limit": bad})
+
+
+def test_a_file_without_its_sidecar_is_named_as_such(tmp_path, profile):
+    """A torques.csv whose sidecar was not copied with it: read by the planner's generic
+    reader every column is a state; both that and verify_gait say the sidecar is missing
+    (before: 'does not follow the linkage convention', and 'say which gait this is')."""
+    from planner.trajectory.formats import sidecar_path
+
+    path = tmp_path / "torques.csv"
+    profile.save(path)
+    sidecar_path(path).unlink()
+    with pytest.raises(Exception, match=r"read without its sidecar <file>.csv.meta.json, which "
+                       r"holds the column groups"):  # fmt: skip
+        verify_gait(Trajectory.load(path), SIX)
+    with pytest.raises(DefinitionError, match=r"a torques.csv read without its sidecar "
+                       r"torques.csv.meta.json has none: put the sidecar back"):  # fmt: skip
+        verify_gait(LinkageTrajectory.load(path), SIX)
+    # with it, the same file verifies
+    profile.save(path)
+    assert verify_gait(Trajectory.load(path), SIX).ok

@@ -52,10 +52,12 @@ BIPEDS = list(LINKAGES)
 
 @functools.cache
 def gait(linkage_name: str = "six", hold_limits: bool = True, **options) -> WalkingGait:
+    """The step solved, its limits held at the samples and verified there; or, without
+    ``hold_limits``, the transcription's own optimum (not verified: its samples may miss)."""
     if linkage_name in SMALL_N:
         options = {"N": SMALL_N[linkage_name], **options}
     step = walking_step(LINKAGES[linkage_name], **options)
-    return step.solve(progress=False, hold_limits=hold_limits)
+    return step.solve(progress=False, hold_limits=hold_limits, verify=hold_limits)
 
 
 def node_data(result: WalkingGait):
@@ -425,7 +427,10 @@ def test_bad_walking_input_is_refused():
 # ---- a double support between the steps (planner.Phases) ---------------------------------------
 @functools.cache
 def double(N_double: int | None = None) -> WalkingGait:
-    return walking_step(double_support=0.1, N_double=N_double).solve(progress=False)
+    """The step with a 0.1 s double support; on a mesh given here (a convergence study)
+    not verified: the coarsest lets the front foot drift past the check's 1 mm/s."""
+    step = walking_step(double_support=0.1, N_double=N_double)
+    return step.solve(progress=False, verify=N_double is None)
 
 
 def test_double_support_is_periodic_through_the_held_impact_and_the_swap():
@@ -549,8 +554,9 @@ def test_every_point_of_the_body_stays_above_the_ground_at_every_sample():
 
 def test_the_default_step_is_not_changed_by_the_ground_rows():
     # the ground rows are inactive on the default step: the same optimum without them
-    without = walking_step(ground_points=()).solve(progress=False, hold_limits=False)
-    with_rows = walking_step().solve(progress=False, hold_limits=False)
+    unheld = {"progress": False, "hold_limits": False, "verify": False}
+    without = walking_step(ground_points=()).solve(**unheld)
+    with_rows = walking_step().solve(**unheld)
     assert with_rows.cost == pytest.approx(without.cost, rel=1e-7)
 
 

@@ -56,8 +56,10 @@ def _timed(define, repeats: int) -> dict:
         build, solve = total_seconds(result.solution)  # with the rounds that hold the limits
         builds.append(build)
         solves.append(solve)
-        again = problem.solve(progress=False, hold_limits=False)  # builds and keeps it
-        again = problem.solve(progress=False, hold_limits=False)
+        again = problem.solve(
+            progress=False, hold_limits=False, verify=False
+        )  # builds and keeps it
+        again = problem.solve(progress=False, hold_limits=False, verify=False)
         cached.append(again.solution.stats["build_seconds"])
     stats = result.solution.stats
     rounds = stats.get("sampled_limits", {}).get("rounds", [{}])

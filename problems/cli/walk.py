@@ -20,6 +20,7 @@ from problems.cli.common import (
     Reporter,
     UsageError,
     accuracy_option,
+    check_clearance,
     check_samples,
     new_folder,
     non_negative,
@@ -155,7 +156,8 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         default=None,
         metavar="V",
         help="least downward speed of the landing foot at heel strike, m/s, and the slope of "
-        "the clearance's approach line (default 0.3 m/s for 0.86 m legs; 0 lets it graze in)",
+        "the clearance's approach line (default 0.3 m/s for 0.86 m legs under 9.81 m/s^2, "
+        "scaled as sqrt(g L); 0 lets it graze in)",
     )
     walk.add_argument(
         "--ground-margin-m",
@@ -176,10 +178,10 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
     walk.add_argument(
         "--clearance-m",
         type=float,
-        default=WALKING_DEFAULTS["clearance"],
+        default=None,
         metavar="H",
-        help="mid-swing foot clearance h of the profile h sin^2(pi t/T), m (default: "
-        f"{WALKING_DEFAULTS['clearance']:g})",
+        help="mid-swing foot clearance h of the profile h sin^2(pi t/T), m (default: 0.05 m "
+        "for 0.86 m legs, scaled with the leg)",
     )
     walk.add_argument(
         "--objective",
@@ -256,8 +258,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
         raise UsageError(
             f"--preset: {args.preset!r} is not a biped; use six-link, five-link or six-link-feet"
         )
-    if not math.isfinite(args.clearance_m) or args.clearance_m < 0:
-        raise UsageError(f"--clearance-m: must be a finite number >= 0 m, got {args.clearance_m}")
+    check_clearance(args.clearance_m)
     if not math.isfinite(args.double_support_s) or not 0 <= args.double_support_s:
         raise UsageError(
             f"--double-support-s: must be a number >= 0 s, got {args.double_support_s}"
@@ -316,6 +317,8 @@ def run(args, out: TextIO, report: Reporter) -> int:
         extra["foot"] = sole
     if args.touchdown_speed_mps is not None:
         extra["touchdown_speed"] = args.touchdown_speed_mps
+    if args.clearance_m is not None:
+        extra["clearance"] = args.clearance_m
     step = walking_step(
         linkage,
         args.step_length_m,
@@ -325,7 +328,6 @@ def run(args, out: TextIO, report: Reporter) -> int:
         mu=args.mu,
         torque_limit=args.torque_limit_nm,
         passive=(linkage.names[0],) if args.passive_ankle else (),
-        clearance=args.clearance_m,
         objective=args.objective,
         double_support=args.double_support_s,
         ground_margin=args.ground_margin_m,

@@ -11,7 +11,6 @@ name. ``--feedback`` writes the drives' joint PD law around the plan into torque
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 import warnings
@@ -24,6 +23,7 @@ from problems.cli.common import (
     CommandFailed,
     Reporter,
     UsageError,
+    check_clearance,
     new_folder,
     output_set,
     print_mujoco_runs,
@@ -63,13 +63,14 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
             f"{', '.join(given)}: not for --preset six-link-feet (the step on feet has its own "
             "mesh, feet, phases and objective); drop them"
         )
-    if not math.isfinite(args.clearance_m) or args.clearance_m < 0:
-        raise UsageError(f"--clearance-m: must be a finite number >= 0 m, got {args.clearance_m}")
+    check_clearance(args.clearance_m)
     output = output_set(str(args.output_dir or new_folder("walk")), "walk")
     report.step("defining the walking step on feet of six-link-feet (8 links)")
     extra = {}
     if args.touchdown_speed_mps is not None:
         extra["touchdown_speed"] = args.touchdown_speed_mps
+    if args.clearance_m is not None:
+        extra["clearance"] = args.clearance_m
     if args.quick:
         extra["N"] = QUICK_MESH[args.feet_phases]
     step = footed_step(
@@ -77,7 +78,6 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         step_time=args.step_time_s,
         mu=args.mu,
         torque_limit=args.torque_limit_nm,
-        clearance=args.clearance_m,
         phases=args.feet_phases,
         **extra,
     )

@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -40,7 +41,12 @@ from planner.solver import solve
 from planner.trajectory import Trajectory
 from planner.transcription import Transcription
 from problems.gait.accuracy import refine_gait
-from problems.gait.verification import GaitReport, verify_gait
+from problems.gait.verification import (
+    GaitReport,
+    GaitVerificationError,
+    GaitVerificationWarning,
+    verify_gait,
+)
 
 OBJECTIVES = ("torque", "torque-rate", "work")
 HALF_PI = 0.5 * math.pi
@@ -135,6 +141,47 @@ def solve_and_hold(problem, options: dict, hold: bool, rate_hz, pinned=()):
     if solution.success and warning is not None:
         check_accuracy_of(solution, warning)
     return solution
+
+
+#: Checks that compare neighbouring samples: a plan whose mesh is finer than the samples
+#: somewhere (the hold's cuts) can move between two samples more than they can show.
+SAMPLING_CHECKS = ("kinematics", "rates")
+
+
+def verified(gait: Gait, rate_hz, verify: bool, raise_on_failure: bool) -> Gait:
+    """A gait problem's ``solve()`` is honest: a plan that converged is verified on the
+    samples it exports (:meth:`Gait.verify` at ``rate_hz``, None: the nodes; the report is
+    ``gait.verification``) and, when it fails, never handed out as a plain success: it
+    raises :class:`problems.GaitVerificationError` (carrying the gait and the report), or,
+    with ``raise_on_failure=False``, warns with :class:`problems.GaitVerificationWarning`
+    (``gait.verified`` is False). ``verify=False`` skips it (``gait.verified`` is None)."""
+    if not verify or not gait.success:
+        return gait
+    report = gait.verify(rate_hz)
+    gait._cache["verification"] = report
+    if report.ok:
+        return gait
+    at = "its nodes" if rate_hz is None else f"{rate_hz:g} Hz"
+    listed = "; ".join(
+        f"{c.name} misses by {-c.margin:.3g} {c.unit} at {c.where} (tolerance {c.tolerance:.0e})"
+        for c in report.failures
+    )
+    if all(c.name in SAMPLING_CHECKS for c in report.failures):
+        hint = (
+            "the plan moves between two samples more than they can show (its mesh is finer "
+            "than the samples there): verify and export it at a higher rate (solve(rate_hz=...)"
+            ", gait.verify(rate_hz=...))"
+        )
+    else:
+        hint = "refine the mesh (a larger N)"
+    message = (
+        f"the solve converged ({gait.solution.status}) but the plan fails its own verification "
+        f"at {at}: {listed}; {hint}"
+    )
+    if raise_on_failure:
+        raise GaitVerificationError(message, gait=gait, report=report)
+    warnings.warn(message, GaitVerificationWarning, stacklevel=3)
+    return gait
 
 
 def total_iterations(solution) -> int:
@@ -259,16 +306,33 @@ def keep_upright(ocp: OCP, upright: Sequence[str], posture: float) -> OCP:
     )
 
 
-def finish_gait_ocp(ocp: OCP, linkage: Linkage, objective: str, limits, law) -> OCP:
+#: Nominal angular rate and acceleration of a gait's links, rad/s and rad/s^2, for the
+#: six-link walker; another walker's in its own time unit (:func:`rate_scales`).
+RATE_SCALE, ACCELERATION_SCALE = 3.0, 30.0
+
+
+def rate_scales(time_unit: float = 1.0) -> dict[str, float]:
+    """The nominal scales of dpsi and ddpsi for a walker whose time unit sqrt(L / g) is
+    ``time_unit`` times the six-link walker's (:attr:`problems.gait.similarity.WalkerScales
+    .relative`): a walker scaled in size or gravity sees the same scaled NLP, so IPOPT takes
+    the same path and the accuracy check (errors per nominal scale) means the same."""
+    return {"dpsi": RATE_SCALE / time_unit, "ddpsi": ACCELERATION_SCALE / time_unit**2}
+
+
+def finish_gait_ocp(
+    ocp: OCP, linkage: Linkage, objective: str, limits, law, time_unit: float = 1.0
+) -> OCP:
     """The objective, nominal scales and the law as the guess, the same for both problems:
-    angles ~1 rad, rates a few rad/s, accelerations tens of rad/s^2, torques a third of
-    their limit (the law's inverse dynamics is of that size)."""
+    angles ~1 rad, rates a few rad/s, accelerations tens of rad/s^2 (in the walker's own
+    time unit, ``time_unit``: :func:`rate_scales`), torques a third of their limit (the
+    law's inverse dynamics is of that size)."""
     limit = float(np.median(list(limits.values())))
     typical = limit / 3.0
     integrand = objective_integrand(linkage, objective, limit)
-    ocp = ocp.minimize(integral=integrand).scale(dpsi=3.0, M=typical)
+    rates = rate_scales(time_unit)
+    ocp = ocp.minimize(integral=integrand).scale(dpsi=rates["dpsi"], M=typical)
     if ocp.system.nz:
-        ocp = ocp.scale(ddpsi=30.0)
+        ocp = ocp.scale(ddpsi=rates["ddpsi"])
     return ocp.guess(law)
 
 
@@ -410,6 +474,18 @@ class Gait:
         values = centre_of_pressure(trajectory.torques[:, 0], force)[loaded]
         return (float(values.min()), float(values.max())) if values.size else (0.0, 0.0)
 
+    @property
+    def verification(self) -> GaitReport | None:
+        """The report of the verification the problem's ``solve()`` ran on this plan's
+        samples (None when it ran none: ``verify=False``, or a failed solve)."""
+        return self._cache.get("verification")
+
+    @property
+    def verified(self) -> bool | None:
+        """Whether the plan passed that verification (None when none ran)."""
+        report = self.verification
+        return None if report is None else report.ok
+
     def verify(self, rate_hz: float | None = RATE_HZ, **options) -> GaitReport:
         """:func:`problems.verify_gait` on the trajectory at ``rate_hz`` (default 1 kHz, what
         the files hold; None: the nodes) (``options``: ``tolerance``, ``settings``
@@ -455,8 +531,10 @@ __all__ = [
     "keep_upright",
     "objective_at_guess",
     "objective_integrand",
+    "rate_scales",
     "refine_and_hold",
     "solve_and_hold",
     "torque_limits",
     "total_iterations",
+    "verified",
 ]

@@ -60,6 +60,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from numbers import Real
 from typing import Any
 
 import numpy as np
@@ -73,6 +74,7 @@ from model.rerooting import swap_legs
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.trajectory import Trajectory
 from problems.gait.biped import Biped
+from problems.gait.similarity import WalkerScales
 
 HALF_PI = 0.5 * math.pi
 #: The gaits :func:`verify_gait` knows (``metadata["gait"]["problem"]``).
@@ -82,7 +84,19 @@ STEPS = ("walking_step", "footed_step")
 
 
 class GaitVerificationError(AnthropoidError):
-    """A gait failed :func:`verify_gait` (raised by :meth:`GaitReport.raise_if_failed`)."""
+    """A gait failed :func:`verify_gait` (raised by :meth:`GaitReport.raise_if_failed`, and
+    by a gait problem's ``solve()`` for a plan that converged but fails its own check:
+    ``gait`` is that plan, for inspection, ``report`` its :class:`GaitReport`)."""
+
+    def __init__(self, message: str, gait: Any = None, report: GaitReport | None = None):
+        super().__init__(message)
+        self.gait = gait
+        self.report = report
+
+
+class GaitVerificationWarning(UserWarning):
+    """A gait problem's ``solve(raise_on_failure=False)`` returns a plan that fails its own
+    verification (``gait.verified`` is False; ``gait.verification`` says where)."""
 
 
 @dataclass(frozen=True)
@@ -275,9 +289,14 @@ def verify_gait(
         mu, clearance, torque_limit, knee_range, posture, upright, foot, passive, ...); default
         the trajectory's ``metadata["gait"]``; given keys override it.
     tolerance : relative tolerance of every check: margins are in physical units and a check
-        passes when margin >= -tolerance * its scale (1 for angles, m and m/s; the weight m g
-        for forces; m * 1 m/s for impulses; the largest torque limit for torques, or the
-        weight times the leg length without limits).
+        passes when margin >= -tolerance * its scale (1 for angles; 1 m, 1 m/s and 1 s for
+        the six-link walker's 0.86 m legs under 9.81 m/s^2, and for another walker (the
+        ``leg_length`` its settings state) its length, speed and time in those units by
+        dynamic similarity (:class:`problems.gait.similarity.WalkerScales`): a walker 1000 times
+        larger is held to 1000 times a metre's tolerance, one of a millimetre to a
+        micrometre's; the weight m g for forces; m * 1 m/s (scaled alike) for impulses; the
+        largest torque limit for torques, or the weight times the leg length without
+        limits).
     hold_tolerance : m and m/s: how far the front foot of a double support may drift from
         its foothold and from rest. The planner holds it through its acceleration (the
         closed chain as a constraint on ddpsi), so position and velocity drift with the
@@ -303,12 +322,20 @@ def verify_gait(
         )
     merged = dict(trajectory.metadata.get("gait") or {})
     merged.update(settings or {})
+    if merged.get("torque_limit") is not None:
+        merged["torque_limit"] = _torque_limits(merged, linkage)
     problem = merged.get("problem")
     if problem not in GAITS:
+        missing = (
+            "; a torques.csv read without its sidecar torques.csv.meta.json has none: put the "
+            "sidecar back beside the CSV file, it holds the gait's settings"
+            if not trajectory.metadata
+            else ""
+        )
         raise DefinitionError(
             "`settings`: say which gait this is: settings={'problem': 'walking_step', "
             "'footed_step' or 'periodic_gait', ...} (the trajectory's metadata has none), got "
-            f"{problem!r}"
+            f"{problem!r}{missing}"
         )
     for name, value in (
         ("tolerance", tolerance),
@@ -321,8 +348,10 @@ def verify_gait(
     times = trajectory.time
     weight = float(np.sum(kin.mass)) * linkage.gravity
     checks: list[Check] = []
+    similar = _similarity_factors(merged, linkage)
 
     def add(name, margins, unit, scale=1.0, where=None):
+        scale = scale * similar.get(unit, 1.0)
         margins = np.atleast_1d(np.asarray(margins, dtype=float))
         if where is None:
             if margins.ndim == 1 and margins.size != times.size:
@@ -390,12 +419,49 @@ def _named_contacts(kin: _Kinematics, settings) -> dict[str, tuple[int, complex]
     return named
 
 
+def _torque_limits(settings, linkage: Linkage) -> dict[str, float]:
+    """``settings["torque_limit"]`` as {link: |M| bound, N m}: a mapping as the gait files
+    hold it, or one number for every drive (``settings["drives"]`` when it lists them: a
+    footed walker's root torque is the ground's) or every hinge."""
+    limits = settings["torque_limit"]
+    if isinstance(limits, Mapping):
+        unknown = [name for name in limits if name not in linkage.names]
+        if unknown:
+            raise DefinitionError(
+                f"`settings['torque_limit']`: no links {unknown} in the linkage "
+                f"{list(linkage.names)}; give {{link: N m}} or one number for every drive"
+            )
+        values = dict(limits)
+    else:
+        values = dict.fromkeys(settings.get("drives") or linkage.names, limits)
+    for name, value in values.items():
+        if isinstance(value, bool) or not isinstance(value, Real) or not 0 < value < math.inf:
+            raise DefinitionError(
+                f"`settings['torque_limit']`: must be one number > 0 (N m, every drive) or "
+                f"{{link: N m}}, got {value!r} for {name!r}"
+            )
+    return {name: float(value) for name, value in values.items()}
+
+
 def _torque_scale(kin: _Kinematics, settings) -> float:
     limits = settings.get("torque_limit")
     if limits:
         return float(max(float(v) for v in limits.values()))
     leg = kin.linkage.links[0].length
     return float(np.sum(kin.mass)) * kin.linkage.gravity * leg
+
+
+def _similarity_factors(settings, linkage: Linkage) -> dict[str, float]:
+    """By unit, the factor of a check's scale for the walker of ``settings["leg_length"]``
+    under the linkage's gravity against the six-link walker (all 1 without a leg length:
+    files of earlier versions, the fixed-base gait)."""
+    leg = settings.get("leg_length")
+    if not isinstance(leg, float | int) or isinstance(leg, bool) or not leg > 0:
+        return {}
+    relative = WalkerScales(float(leg), linkage.gravity).relative
+    length, speed, time = relative["length"], relative["speed"], relative["time"]
+    return {"m": length, "m/s": speed, "s": time, "rad/s": 1.0 / time,
+            "rad(/s)": max(1.0, 1.0 / time), "N s": speed, "kg m^2/s": speed}  # fmt: skip
 
 
 def _impact_instants(settings, trajectory) -> np.ndarray:
@@ -965,4 +1031,10 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
     add("ankles", np.minimum(ankles - low, high - ankles), "rad")
 
 
-__all__ = ["Check", "GaitReport", "GaitVerificationError", "verify_gait"]
+__all__ = [
+    "Check",
+    "GaitReport",
+    "GaitVerificationError",
+    "GaitVerificationWarning",
+    "verify_gait",
+]

@@ -55,6 +55,7 @@ from problems.gait.problem import (
     refine_and_hold,
     solve_and_hold,
     torque_limits,
+    verified,
 )
 
 #: Fractions of the period at which the swing foot follows the law by default.
@@ -114,6 +115,7 @@ class PeriodicGaitProblem:
         *,
         rate_hz: float | None = RATE_HZ,
         hold_limits: bool = True,
+        verify: bool = True,
         **options,
     ) -> PeriodicGait:
         """Solve ``ocp`` (default this problem's); ``options`` go to :func:`planner.solve`.
@@ -126,7 +128,8 @@ class PeriodicGaitProblem:
         it, the tolerance of the preset the problem was built with applies.
         ``options={"tol": ...}`` overrides a preset's tolerance. ``rate_hz``,
         ``hold_limits``: the limits also hold on the exported motion at that rate, as in
-        :meth:`problems.walking.step.WalkingStep.solve`.
+        :meth:`problems.walking.step.WalkingStep.solve`; ``verify``: the plan checked on
+        those samples, never handed out as a plain success when it fails (as there).
         """
         ocp = self.ocp if ocp is None else ocp
         if not isinstance(ocp, OCP):
@@ -134,13 +137,15 @@ class PeriodicGaitProblem:
         remesh, target, options = solve_plan(accuracy, self.accuracy, options)
         if target is not None:
             solution, final = refine_and_hold(ocp, target, options, hold_limits, rate_hz)
-            return PeriodicGait(self, solution, self.law_cost(final))
-        if remesh is not None:
-            ocp = ocp.refine(**remesh.mesh(self.law.period))
-        transcription = Transcription(ocp)
-        law = objective_at_guess(transcription)
-        solution = solve_and_hold(transcription, options, hold_limits, rate_hz)
-        return PeriodicGait(self, solution, law)
+            gait = PeriodicGait(self, solution, self.law_cost(final))
+        else:
+            if remesh is not None:
+                ocp = ocp.refine(**remesh.mesh(self.law.period))
+            transcription = Transcription(ocp)
+            law = objective_at_guess(transcription)
+            solution = solve_and_hold(transcription, options, hold_limits, rate_hz)
+            gait = PeriodicGait(self, solution, law)
+        return verified(gait, rate_hz, verify, options.get("raise_on_failure", True))
 
     def settings(self, times=None) -> dict[str, Any]:
         """The problem's parameters as plain data (exported with the gait's files).

@@ -79,14 +79,15 @@ from problems.gait.problem import (
     joint_rates,
     keep_upright,
     objective_at_guess,
+    rate_scales,
     solve_and_hold,
+    verified,
 )
+from problems.gait.similarity import WalkerScales
 from problems.walking.step import (
-    APPROACH_TIME,
     CLEARANCE_SCALE,
     GUESS_LIFT,
     SPEED_SCALE,
-    TOUCHDOWN_SPEED,
     UNLOADED,
     SteppingGait,
     clearance_profile,
@@ -167,8 +168,14 @@ class FootedStep:
     mesh: tuple[int, ...]
     sequence: tuple[str, ...] = PHASES
     phases: Phases | None = None
+    approach_time: float = 0.03
 
     # ---- geometry ----------------------------------------------------------------------
+    @property
+    def leg_length(self) -> float:
+        """Shank and thigh, m: the leg of the walker's units (its defaults scale with it)."""
+        return math.fsum(self.biped.length(name) for name in self.biped.stance_leg[1:])
+
     def _offset(self, role: str) -> complex:
         return self.points[role].offset(self.linkage)
 
@@ -298,18 +305,23 @@ class FootedStep:
         *,
         rate_hz: float | None = RATE_HZ,
         hold_limits: bool = True,
+        verify: bool = True,
         **options,
     ) -> FootedGait:
         """Solve this step's phases, or ``problem`` (a changed copy of :attr:`phases`, e.g.
         guessed from another solution) with IPOPT (``options`` go to :func:`planner.solve`;
         raises :class:`planner.SolverError` on failure unless ``raise_on_failure=False``),
         the limits held on the exported motion at ``rate_hz`` as :meth:`WalkingStep.solve`
-        does (``hold_limits``); the law's cost on the same mesh is measured too."""
+        does (``hold_limits``), and the plan verified on those samples (``verify``: a plan
+        that fails raises :class:`problems.GaitVerificationError`, see
+        :func:`problems.gait.problem.verified`); the law's cost on the same mesh is measured
+        too."""
         transcription = Transcription(self.phases if problem is None else problem)
         law_cost = objective_at_guess(transcription)
         options.setdefault("progress", False)
         solution = solve_and_hold(transcription, options, hold_limits, rate_hz, PINNED)
-        return FootedGait(self, solution, law_cost)
+        gait = FootedGait(self, solution, law_cost)
+        return verified(gait, rate_hz, verify, options.get("raise_on_failure", True))
 
     def settings(self, times=None) -> dict[str, Any]:
         """The step's parameters as plain data, exported with the gait's files and read by
@@ -330,7 +342,8 @@ class FootedStep:
             "mu": self.mu,
             "clearance": self.clearance,
             "touchdown_speed": self.touchdown_speed,
-            "approach_time": APPROACH_TIME,
+            "approach_time": self.approach_time,
+            "leg_length": self.leg_length,
             "torque_limit": {name: self.torque_limit for name in self.drives},
             "drives": list(self.drives),
             "knee_range": list(self.knee_range),
@@ -361,8 +374,9 @@ def footed_step(
     transcription: str = "hermite-simpson",
     mu: float = 0.8,
     torque_limit: float = 150.0,
-    clearance: float = 0.05,
+    clearance: float | None = None,
     touchdown_speed: float | None = None,
+    approach_time: float | None = None,
     knee_range: tuple[float, float] = (0.0, 2.5),
     ankle_range: tuple[float, float] = ANKLE_RANGE,
     posture: float = 0.2,
@@ -380,8 +394,10 @@ def footed_step(
     points : the feet's contacts by role (``stance_heel``, ``stance_toe`` = H0, ``swing_heel``,
         ``swing_toe`` = the swing foot's end); default ``model.presets.anthropoid_feet()``.
     N : intervals of each phase; default :data:`MESHES` of the sequence.
-    mu, torque_limit, clearance, touchdown_speed, knee_range, posture : as for
-        :func:`problems.walking_step` (touchdown speed default 0.3 m/s per 0.86 m of leg).
+    mu, torque_limit, clearance, touchdown_speed, approach_time, knee_range, posture : as for
+        :func:`problems.walking_step` (None: the defaults scaled with the walker, the leg being
+        shank and thigh: 0.05 m, 0.3 m/s and 0.03 s for 0.86 m legs under 9.81 m/s^2;
+        :mod:`problems.gait.similarity`).
     ankle_range : (dorsiflexion, plantarflexion) limits from the neutral stance, rad.
     durations : each phase's duration, s, summing to step_time, to fix them; None: free
         within :data:`SHARE_BOUNDS` of the step time.
@@ -406,12 +422,16 @@ def footed_step(
     step_time = check_positive("step_time", step_time, "s")
     mu = check_positive("mu", mu, "(friction coefficient)")
     torque_limit = check_positive("torque_limit", torque_limit, "N m")
-    clearance = check_real("clearance", clearance)
+    scales = WalkerScales(math.fsum(biped.length(n) for n in biped.stance_leg[1:]),
+                          linkage.gravity)  # fmt: skip
+    clearance = check_real("clearance", scales.clearance if clearance is None else clearance)
     if clearance < 0:
         raise DefinitionError(f"`clearance`: must be >= 0 m, got {clearance!r}")
-    leg = math.fsum(biped.length(name) for name in biped.stance_leg[1:])
+    approach_time = check_positive(
+        "approach_time", scales.approach_time if approach_time is None else approach_time, "s"
+    )
     if touchdown_speed is None:
-        touchdown_speed = TOUCHDOWN_SPEED * leg
+        touchdown_speed = scales.touchdown_speed
     touchdown_speed = check_real("touchdown_speed", touchdown_speed)
     if touchdown_speed < 0:
         raise DefinitionError(
@@ -448,6 +468,7 @@ def footed_step(
         torque_limit=torque_limit,
         clearance=clearance,
         touchdown_speed=touchdown_speed,
+        approach_time=approach_time,
         knee_range=(float(knee_range[0]), float(knee_range[1])),
         ankle_range=(float(ankle_range[0]), float(ankle_range[1])),
         posture=check_positive("posture", posture, "rad"),
@@ -528,7 +549,7 @@ def _law(step: FootedStep) -> GaitLaw:
     # ... standing at H0: the law's postures put the stance foot at the origin
     point_foot = Linkage([replace(welded.links[0], origin=None), *welded.links[1:]],
                          gravity=welded.gravity)  # fmt: skip
-    leg = math.fsum(step.biped.length(name) for name in step.biped.stance_leg[1:])
+    leg = step.leg_length
     lift = GUESS_LIFT * leg
     law = Biped.of(point_foot).step_law(
         step.step_length, _single_support_guess(step), clearance=max(step.clearance, lift) + lift
@@ -622,8 +643,9 @@ def _base_ocp(step: FootedStep, phase: int, transcription: str, contacts=()):
     ocp = keep_upright(ocp, biped.upper_body, step.posture)
     limit = step.torque_limit
     drives = [step.linkage.index(name) for name in step.drives]
+    time_unit = WalkerScales(step.leg_length, step.linkage.gravity).relative["time"]
     ocp = ocp.minimize(integral=lambda p: ca.sumsqr(p.M[drives])).scale(
-        dpsi=3.0, M=limit / 3.0, ddpsi=30.0
+        M=limit / 3.0, **rate_scales(time_unit)
     )
     return ocp, duration
 
@@ -678,7 +700,7 @@ def _swing_clearance(step: FootedStep, phase: int, p):
     """Swing heel and ball above the clearance profile of the single support."""
     single = _summed(p, _parameters(step))
     s = (p.t + _offset(step, phase, p)) / single
-    floor = clearance_profile(s, single, step.clearance, step.touchdown_speed)
+    floor = clearance_profile(s, single, step.clearance, step.touchdown_speed, step.approach_time)
     heights = step.heights("swing_heel", "swing_toe")(p.psi)
     return heights - ca.vertcat(floor, floor)
 

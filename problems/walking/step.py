@@ -16,8 +16,8 @@ Constraints (names as in the OCP, each row scaled by a nominal magnitude):
 * ``clearance``: the swing foot's height >= the clearance profile at every dynamics point
   (default h sin^2(pi t / T) + v_td (T - t) exp(-((T - t) / w)^4), h = ``clearance``: the
   mid-swing height, and in the last instants the line coming down into the landing point at
-  the touchdown speed v_td, w = ``APPROACH_TIME``, so that the foot does not graze in: see
-  ``touchdown_speed``);
+  the touchdown speed v_td, w = ``approach_time``, so that the foot does not graze in: see
+  ``touchdown_speed``; their defaults scale with the walker, :mod:`problems.gait.similarity`);
 * ``ground``: every other point of the body (each link's end: knees, hip, neck, head top,
   the joints of any upper body; ``ground_points``) at or above ``ground_margin`` at every
   dynamics point;
@@ -84,7 +84,9 @@ from problems.gait.problem import (
     refine_and_hold,
     solve_and_hold,
     torque_limits,
+    verified,
 )
+from problems.gait.similarity import WalkerScales
 from problems.walking.feet import WalkerFeet
 
 #: The largest part of the weight on the rear foot when a double support ends.
@@ -105,20 +107,6 @@ SPEED_SCALE = 0.1
 #: guess used in metres before (a rounder 0.02 took 30 iterations instead of 29 for the
 #: default step, 61 instead of 41 with a 0.05 s double support: the same optima).
 GUESS_LIFT = 0.02 / 0.86
-#: The landing foot's least downward speed at heel strike, in leg lengths per second: 0.3 m/s
-#: for the six-link legs (0.86 m), a touchdown that a tracking error of a millimetre moves by
-#: about 3 ms (1 mm / 0.3 m/s) instead of 10-30 ms at the 0.05-0.10 m/s of a grazing foot
-#: (examples/benchmarks/touchdown.py measures the trade). In leg lengths, so that a biped
-#: given in millimetres gets 300 mm/s.
-TOUCHDOWN_SPEED = 0.3 / 0.86
-#: Window of the clearance profile's approach term v_td (T - t) exp(-((T - t) / w)^4), s: in
-#: its last ~0.7 w the foot stays above the line coming down into the landing point at v_td,
-#: so a foot that runs d low touches down at most about d / v_td early (3.3 ms per mm); the
-#: term is largest 0.71 w before T (0.55 v_td w: 5 mm at 0.3 m/s) and gone by 1.5 w. With
-#: the touchdown speed: touchdown shifts 2.5 / 5.1 / 11.6 ms early and 2.3 / 4.5 / 8.5 ms
-#: late for 1 / 2 / 4 mm of error, against 18 / 32 / 45 and 7 / 12 / 19 ms for the grazing
-#: step, for 2 % more cost (examples/benchmarks/touchdown.py).
-APPROACH_TIME = 0.03
 #: Rows the step's boundary conditions fix at its ends: the swing foot lifts off from and
 #: lands on the ground, where its clearance profile is 0 (:func:`planner.hold_at_samples`).
 PINNED = ("clearance",)
@@ -126,20 +114,21 @@ PINNED = ("clearance",)
 #: forward to the toe, in leg lengths: (0.05, 0.15) m, a 0.20 m foot, for the six-link's
 #: 0.86 m legs.
 FOOT = (0.05 / 0.86, 0.15 / 0.86)
-#: What ``touchdown_speed`` and ``foot`` take for their defaults (scaled by the leg length).
+#: What ``clearance``, ``touchdown_speed``, ``approach_time`` and ``foot`` take for their
+#: defaults (scaled with the walker: :mod:`problems.gait.similarity`).
 DEFAULT = "default"
 
 
-def clearance_profile(s, T, height: float, touchdown_speed: float):
+def clearance_profile(s, T, height: float, touchdown_speed: float, window: float):
     """The swing foot's least height at normalised times s = t / T of a single support of
-    T s (numpy or SX), m: h sin^2(pi s) + v_td (T - t) exp(-((T - t) / w)^4), w =
-    :data:`APPROACH_TIME` (see the module docstring)."""
+    T s (numpy or SX), m: h sin^2(pi s) + v_td (T - t) exp(-((T - t) / w)^4), w = ``window``,
+    s (the step's ``approach_time``; see the module docstring)."""
     if isinstance(s, ca.SX | ca.MX) or isinstance(T, ca.SX | ca.MX):
-        swing, fade = ca.sin(math.pi * s) ** 2, ca.exp(-(((1 - s) * T / APPROACH_TIME) ** 4))
+        swing, fade = ca.sin(math.pi * s) ** 2, ca.exp(-(((1 - s) * T / window) ** 4))
     else:
         s = np.asarray(s, dtype=float)
         swing = np.sin(np.pi * s) ** 2
-        fade = np.exp(-(((1 - s) * T / APPROACH_TIME) ** 4))
+        fade = np.exp(-(((1 - s) * T / window) ** 4))
     return height * swing + touchdown_speed * (1 - s) * T * fade
 
 
@@ -175,6 +164,7 @@ class WalkingStep(WalkerFeet):
     foot_sole: tuple[float, float] | None = (0.05, 0.15)
     ground_points: tuple[str, ...] = ()
     ground_margin: float = 0.0
+    approach_time: float = 0.03
 
     @property
     def linkage(self) -> Linkage:
@@ -210,6 +200,12 @@ class WalkingStep(WalkerFeet):
     corners: ClassVar[Mapping[str, tuple]] = MappingProxyType({})
 
     @property
+    def time_unit(self) -> float:
+        """The walker's time unit sqrt(L / g) over the six-link walker's (its nominal rates
+        scale with it: :func:`problems.gait.problem.rate_scales`)."""
+        return WalkerScales(self.biped.leg_length, self.linkage.gravity).relative["time"]
+
+    @property
     def speed(self) -> float:
         """Average forward speed, m/s: step_length / step_time."""
         return self.step_length / self.step_time
@@ -232,7 +228,7 @@ class WalkingStep(WalkerFeet):
         if callable(self.clearance):
             return self.clearance(s)
         T = self.single_support_time if T is None else T
-        return clearance_profile(s, T, self.clearance, self.touchdown_speed)
+        return clearance_profile(s, T, self.clearance, self.touchdown_speed, self.approach_time)
 
     def _transcription(self, problem: OCP | Phases | None):
         problem = self.problem if problem is None else problem
@@ -261,6 +257,7 @@ class WalkingStep(WalkerFeet):
         *,
         rate_hz: float | None = RATE_HZ,
         hold_limits: bool = True,
+        verify: bool = True,
         **options,
     ) -> WalkingGait:
         """Solve this step's problem, or ``ocp`` (a changed copy of :attr:`ocp`, or of
@@ -274,6 +271,12 @@ class WalkingStep(WalkerFeet):
         rows are added there and the step solved again warm-started
         (:func:`planner.sampled_limits.hold_at_samples`; ``stats["sampled_limits"]``);
         :class:`planner.SampleLimitError` when that fails.
+
+        ``verify`` (default): the plan is checked on its samples at ``rate_hz``
+        (:func:`problems.verify_gait`, as the command line checks its files; the report is
+        ``gait.verification``) and never handed out as a plain success when it fails:
+        :class:`problems.GaitVerificationError`, or with ``raise_on_failure=False`` a
+        :class:`problems.GaitVerificationWarning` and ``gait.verified`` False.
 
         ``accuracy``: a preset name (:data:`problems.ACCURACY_PRESETS`: the single-support
         OCP re-meshed with the preset's transcription and density, solved at its tolerance),
@@ -296,12 +299,14 @@ class WalkingStep(WalkerFeet):
                 solution, final = refine_and_hold(
                     problem, target, options, hold_limits, rate_hz, PINNED
                 )
-                return WalkingGait(self, solution, self.law_cost(final))
+                gait = WalkingGait(self, solution, self.law_cost(final))
+                return verified(gait, rate_hz, verify, options.get("raise_on_failure", True))
             ocp = problem.refine(**remesh.mesh(self.single_support_time))
         transcription = self._transcription(ocp)
         law = objective_at_guess(transcription)
         solution = solve_and_hold(transcription, options, hold_limits, rate_hz, PINNED)
-        return WalkingGait(self, solution, law)
+        gait = WalkingGait(self, solution, law)
+        return verified(gait, rate_hz, verify, options.get("raise_on_failure", True))
 
     def clearance_table(self, times=None) -> dict[str, list[float]] | None:
         """A callable clearance profile as data, so that it travels with the gait's files:
@@ -346,7 +351,8 @@ class WalkingStep(WalkerFeet):
             "swing_foot": self.biped.swing_shank,
             "double_support": self.double_support,
             "touchdown_speed": self.touchdown_speed,
-            "approach_time": APPROACH_TIME,
+            "approach_time": self.approach_time,
+            "leg_length": self.biped.leg_length,
             "foot": None if self.foot_sole is None else list(self.foot_sole),
             "ground_points": list(self.ground_points),
             "ground_margin": self.ground_margin,
@@ -371,7 +377,7 @@ def walking_step(
     mu: float = 0.8,
     torque_limit: float | Mapping[str, float] = 150.0,
     passive: Sequence[str] = (),
-    clearance: float | Callable = 0.05,
+    clearance: float | Callable | str = DEFAULT,
     knee_range: tuple[float, float] = (0.0, 2.5),
     posture: float = 0.2,
     upright: Sequence[str] | None = None,
@@ -380,6 +386,7 @@ def walking_step(
     double_support: float = 0.0,
     N_double: int | None = None,
     touchdown_speed: float | str = DEFAULT,
+    approach_time: float | str = DEFAULT,
     foot: tuple[float, float] | str | None = DEFAULT,
     ground_points: Sequence[str] | None = None,
     ground_margin: float = 0.0,
@@ -401,12 +408,18 @@ def walking_step(
     torque_limit : |M_i| bound, N m: one number or one per link name.
     passive : names of links whose hinge torque is 0 (a passive ankle: the stance shank).
     clearance : mid-swing height h of the default profile h sin^2(pi t / T) + v_td (T - t)
-        exp(-((T - t) / w)^4), w = ``APPROACH_TIME``, m (>= 0), or a callable of s = t / T
-        (numpy or CasADi SX) giving the minimum height, m (taken as it is: no approach term).
+        exp(-((T - t) / w)^4), w = ``approach_time``, m (>= 0; default 0.05 m per 0.86 m of
+        leg), or a callable of s = t / T (numpy or CasADi SX) giving the minimum height, m
+        (taken as it is: no approach term).
     touchdown_speed : v_td, the landing foot's least downward speed at heel strike and the
-        slope of the clearance's approach line, m/s (>= 0; default 0.3 m/s for 0.86 m legs,
-        scaled with the leg length: a millimetre of tracking error moves the touchdown by
-        ~3 ms; 0: the foot may graze in).
+        slope of the clearance's approach line, m/s (>= 0; default 0.3 m/s for 0.86 m legs
+        under 9.81 m/s^2, scaled as sqrt(g L): a millimetre of tracking error moves the
+        touchdown by ~3 ms; 0: the foot may graze in).
+    approach_time : w, the window of the approach term, s (> 0; default 0.03 s for 0.86 m
+        legs under 9.81 m/s^2, scaled as sqrt(L / g)). The defaults of ``clearance``,
+        ``touchdown_speed`` and ``approach_time`` follow dynamic similarity
+        (:mod:`problems.gait.similarity`): a walker scaled in size or gravity, given its
+        step and its drives in the same units, solves to the same dimensionless optimum.
     foot : (heel, toe): the sole extends heel m behind and toe m ahead of the stance foot's
         contact point (the ankle, H0); the centre of pressure M / Fy of the ankle torque stays
         on it (default (0.05, 0.15) m for 0.86 m legs, scaled with the leg length). None: no
@@ -449,6 +462,9 @@ def walking_step(
     if mu <= 0:
         raise DefinitionError(f"`mu`: the friction coefficient must be > 0, got {mu!r}")
     check_objective(objective)
+    scales = WalkerScales(biped.leg_length, linkage.gravity)
+    if isinstance(clearance, str) and clearance == DEFAULT:
+        clearance = scales.clearance
     if callable(clearance):
         profile_probe = clearance(np.linspace(0.0, 1.0, 5))
         if np.shape(profile_probe) != (5,) or not np.all(np.isfinite(profile_probe)):
@@ -471,7 +487,10 @@ def walking_step(
     upright = biped.upper_body if upright is None else check_links("upright", upright, linkage)
     leg = biped.leg_length
     if isinstance(touchdown_speed, str) and touchdown_speed == DEFAULT:
-        touchdown_speed = TOUCHDOWN_SPEED * leg
+        touchdown_speed = scales.touchdown_speed
+    if isinstance(approach_time, str) and approach_time == DEFAULT:
+        approach_time = scales.approach_time
+    approach_time = check_positive("approach_time", approach_time, "s")
     if isinstance(foot, str) and foot == DEFAULT:
         foot = (FOOT[0] * leg, FOOT[1] * leg)
     touchdown_speed = check_real("touchdown_speed", touchdown_speed)
@@ -538,6 +557,7 @@ def walking_step(
         foot_sole=foot,
         ground_points=ground_points,
         ground_margin=ground_margin,
+        approach_time=approach_time,
     )
     N, transcription, degree = mesh["N"], mesh["transcription"], mesh["degree"]
     step = replace(step, ocp=_walking_ocp(step, N, transcription, degree, formulation))
@@ -641,7 +661,9 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
             "centre of pressure", pressure, lower=0.0, scale=weight * sum(step.foot_sole)
         )
     ocp = keep_upright(ocp, step.upright, step.posture)
-    return finish_gait_ocp(ocp, linkage, step.objective, step.torque_limit, step.law)
+    return finish_gait_ocp(
+        ocp, linkage, step.objective, step.torque_limit, step.law, step.time_unit
+    )
 
 
 def _double_support_ocp(step: WalkingStep, mesh: dict) -> OCP:
@@ -708,7 +730,7 @@ def _double_support_ocp(step: WalkingStep, mesh: dict) -> OCP:
     ocp = keep_upright(ocp, step.upright, step.posture)
     # The guess holds the pose the law lands in; the feet share the weight.
     strike = step.law(step.single_support_time)
-    ocp = finish_gait_ocp(ocp, linkage, step.objective, step.torque_limit, step.law)
+    ocp = finish_gait_ocp(ocp, linkage, step.objective, step.torque_limit, step.law, step.time_unit)
     return replace(ocp, guesses=()).guess(psi=strike[0], dpsi=0.0, ddpsi=0.0, F=[0.0, weight / 2])
 
 
