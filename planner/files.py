@@ -20,7 +20,7 @@ from pathlib import Path
 _UMASK: list[int] = []
 
 
-def _new_file_mode() -> int:
+def new_file_mode() -> int:
     """Permissions of a newly created file under the process umask (mkstemp uses 0600)."""
     if not _UMASK:
         # os.umask can only be read by setting it; done once, restored at once.
@@ -48,7 +48,7 @@ def atomic_path(path: Path, suffix: str = ".tmp") -> Iterator[str]:
     os.close(descriptor)
     try:
         yield temporary
-        mode = path.stat().st_mode & 0o7777 if path.exists() else _new_file_mode()
+        mode = path.stat().st_mode & 0o7777 if path.exists() else new_file_mode()
         os.chmod(temporary, mode)
         os.replace(temporary, path)
     except BaseException as error:

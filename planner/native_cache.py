@@ -47,6 +47,8 @@ from pathlib import Path
 
 import casadi as ca
 
+from planner.files import new_file_mode
+
 logger = logging.getLogger("planner.native_nlp")
 
 #: The environment variable of the cache's root folder.
@@ -192,6 +194,9 @@ def publish(built: Path, library: Path) -> None:
             json.dump({"size": size, "sha256": sha}, out)
             out.flush()
             os.fsync(out.fileno())
+        # readable as the library is (mkstemp makes it private): a cache shared read-only
+        # by other users checks its libraries against it
+        os.chmod(temporary, new_file_mode())
         os.replace(temporary, record)
     except BaseException:
         with contextlib.suppress(OSError):

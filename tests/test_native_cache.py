@@ -92,8 +92,13 @@ def published(root) -> Path:
     library = native_nlp.compile_library(
         nlp_oracle(transcription), transcription.structure_key, wait=True
     )
-    assert library is not None and native_cache.record_path(library).is_file()
+    record = native_cache.record_path(library)
+    assert library is not None and record.is_file()
     assert Path(str(native_cache.folder())).parent == root
+    # the record is as readable as a new file (a cache shared read-only checks against it)
+    umask = os.umask(0o022)
+    os.umask(umask)
+    assert record.stat().st_mode & 0o777 == 0o666 & ~umask
     return library
 
 

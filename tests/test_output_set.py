@@ -265,3 +265,17 @@ def test_a_write_that_fails_names_the_folder_as_given_not_the_staging(tmp_path):
     assert message == (f"--output-dir: writing torques.csv in {str(folder)!r} failed "
                        "(No space left on device)")  # fmt: skip
     assert list(tmp_path.iterdir()) == []
+
+
+def test_folders_of_the_users_that_look_like_stagings_are_kept(tmp_path):
+    """Only what a run stages is cleaned: a hidden folder of the user's with a matching name
+    (a dated backup, a folder with subfolders) stays."""
+    backup = tmp_path / ".notes.old-20231201"
+    (backup / "drafts").mkdir(parents=True)
+    partial = tmp_path / ".thesis.partial-20240101"
+    (partial / "chapters").mkdir(parents=True)
+    earlier = tmp_path / ".out.old-abcd1234"  # what an earlier version left: kept run files
+    (earlier / "run").mkdir(parents=True)
+    (earlier / "run" / "torques.csv").write_text("x")
+    _run(tmp_path / "out")
+    assert backup.is_dir() and partial.is_dir() and not earlier.exists()

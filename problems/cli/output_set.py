@@ -121,11 +121,27 @@ def _stagings(folder: Path, pattern: re.Pattern) -> list[Path]:
         return []
 
 
+def _looks_staged(folder: Path) -> bool:
+    """Whether ``folder`` holds what a run stages: files only (or, an earlier version's
+    ``.old-*``, the folder ``run`` it moved an earlier run into). A folder of the user's that
+    happens to match the names (``.notes.old-20231201``) holds other things and is kept."""
+    try:
+        with os.scandir(folder) as entries:
+            for entry in entries:
+                if entry.is_symlink():
+                    return False
+                if entry.is_dir() and not (entry.name == "run" and ".old-" in folder.name):
+                    return False
+    except OSError:
+        return False
+    return True
+
+
 def clean_stale(folder: Path) -> None:
     """Remove the staging folders killed runs left inside ``folder`` and beside it (those
-    whose lock no live run holds); see the module."""
+    whose lock no live run holds, and that hold what a run stages); see the module."""
     for staging in [*_stagings(folder, _INSIDE), *_stagings(folder.parent, _BESIDE)]:
-        if _locked_by_a_live_run(staging) is False:
+        if _locked_by_a_live_run(staging) is False and _looks_staged(staging):
             shutil.rmtree(staging, ignore_errors=True)
 
 
@@ -230,10 +246,12 @@ class OutputSet:
             where, child = where.parent, where.name
         prefix = ".partial-" if child is None else f".{child}.partial-"  # cleaned if left
         try:
-            os.rmdir(tempfile.mkdtemp(dir=where, prefix=prefix))
+            probe = tempfile.mkdtemp(dir=where, prefix=prefix)
         except OSError as error:
             doing = "write into" if where == self.target else "create"
             raise self._refuse(error, doing) from None
+        with contextlib.suppress(OSError):  # a run cleaning stagings may have taken it
+            os.rmdir(probe)
 
     def _failed(self, error: OSError, doing: str) -> OutputWriteError:
         name = error.filename

@@ -356,6 +356,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
                 accuracy=target,
                 rate_hz=args.rate_hz,
                 compiled=True if args.compiled else None,
+                verify=False,  # the file itself is verified, read back from disk, below
             )
         except SampleLimitError as error:
             raise CommandFailed(

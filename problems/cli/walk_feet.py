@@ -86,7 +86,8 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
             warnings.catch_warnings(record=True) as caught:  # fmt: skip
         warnings.simplefilter("always", AccuracyWarning)
         try:
-            gait = step.solve(rate_hz=args.rate_hz, raise_on_failure=False,
+            # verify=False: the file itself is verified, read back from disk, below
+            gait = step.solve(rate_hz=args.rate_hz, raise_on_failure=False, verify=False,
                               compiled=True if args.compiled else None)  # fmt: skip
         except SampleLimitError as error:
             raise CommandFailed(
