@@ -26,9 +26,9 @@ that has not been checked against what was published.
   remembered: a re-solve does not read it again). A library without a record or unlike it
   (truncated, damaged, overwritten, another version's) is removed with its record, with one
   warning, and the solve runs interpreted; the automatic mode compiles it again when that
-  pays. The check costs about 1 ms per MB of library (SHA-256 at ~1 GB/s;
-  ``examples/benchmarks/cache_checks.py`` measures it against loading the library in a
-  child process first, the other way to be safe, which costs a Python start).
+  pays. The check costs about 0.6 ms per MB of library: 1.6 ms for the walking step's
+  2.8 MB, 5.6 ms for the step on feet's 10 MB, against about 100 ms for loading the library
+  in a child process first, the other way to be safe (``examples/benchmarks/cache_checks.py``).
 """
 
 from __future__ import annotations

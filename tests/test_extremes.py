@@ -35,7 +35,7 @@ from reference.checks import relative_error
 from model import Dynamics, Link, Linkage, LinkPoint, presets
 from planner import OCP, Transcription
 from planner.solver import jacobian_mode
-from problems import footed_step_at, periodic_gait, walking_step
+from problems import footed_step, footed_step_at, periodic_gait, walking_step
 from problems.__main__ import main
 from problems.gait.problem import objective_integrand
 
@@ -247,23 +247,28 @@ def test_gait_case(case):
 
 
 # ---- walkers scaled in size and gravity ---------------------------------------------------------
+_STEPS = {"walk": (presets.six_link_anthropoid, walking_step),
+          "feet": (presets.anthropoid_with_feet, footed_step)}  # fmt: skip
+
+
 @functools.cache
-def _six_link_cost() -> float:
-    return walking_step().solve(progress=False).cost
+def _unscaled_cost(kind: str) -> float:
+    return _STEPS[kind][1]().solve(progress=False).cost
 
 
 @pytest.mark.parametrize("case", [_param(c, c.name) for c in SCALED_CASES])
-def test_a_scaled_walker_solves_to_the_six_links_dimensionless_optimum(case):
+def test_a_scaled_walker_solves_to_the_unscaled_dimensionless_optimum(case):
     """Dynamic similarity: lengths x size, g x gravity, times x sqrt(size / gravity), torques
     x size x gravity (masses kept). Before the defaults scaled (a 0.03 s approach window, a
-    touchdown speed growing as L, a 0.05 m clearance), the 1 mm walker was infeasible and the
-    walker under 9.81e-3 m/s^2 cost 8.1x its similar optimum."""
-    six = presets.six_link_anthropoid()
-    links = six.in_units(length=case.size).links if case.size != 1.0 else six.links
+    touchdown speed growing as L, rates scaled by 3 rad/s), the 1 mm walker was infeasible and
+    the walker under 9.81e-3 m/s^2 cost 8.08x its similar optimum."""
+    preset, make = _STEPS[case.kind]
+    body = preset()
+    links = body.in_units(length=case.size).links if case.size != 1.0 else body.links
     walker = Linkage(links, gravity=9.81 * case.gravity)
     time = np.sqrt(case.size / case.gravity)
-    step = walking_step(walker, 0.5 * case.size, 0.5 * time,
-                        torque_limit=150.0 * case.size * case.gravity)  # fmt: skip
+    step = make(walker, 0.5 * case.size, 0.5 * time,
+                torque_limit=150.0 * case.size * case.gravity)  # fmt: skip
     # its defaults in its own units
     assert step.clearance == pytest.approx(0.05 * case.size, rel=1e-11)
     assert step.touchdown_speed == pytest.approx(0.3 * case.size / time, rel=1e-11)
@@ -271,7 +276,7 @@ def test_a_scaled_walker_solves_to_the_six_links_dimensionless_optimum(case):
     gait = step.solve(progress=False)
     assert gait.success and gait.verified, gait.verification
     dimensionless = gait.cost / ((case.size * case.gravity) ** 2 * time)
-    reference = _six_link_cost()
+    reference = _unscaled_cost(case.kind)
     assert abs(dimensionless - reference) <= case.expect.value * reference, dimensionless
 
 
