@@ -47,3 +47,21 @@ def _private_compile_cache(tmp_path_factory):
     os.environ["ANTHROPOID_CACHE"] = str(tmp_path_factory.mktemp("compiled-nlp"))
     yield
     del os.environ["ANTHROPOID_CACHE"]
+
+
+@pytest.fixture
+def nlp_cache(tmp_path, monkeypatch):
+    """A compiled-NLP cache folder of the test's own (``$ANTHROPOID_CACHE``), the automatic
+    mode on, no solver kept and nothing remembered of other folders
+    (tests/test_native_nlp.py, tests/test_native_cache.py)."""
+    from planner import native_cache
+    from planner.solver_cache import SOLVERS
+
+    root = tmp_path / "cache"
+    monkeypatch.setenv("ANTHROPOID_CACHE", str(root))
+    monkeypatch.setenv("ANTHROPOID_COMPILE", "auto")
+    native_cache.forget()
+    SOLVERS.clear()
+    yield root
+    native_cache.forget()
+    SOLVERS.clear()

@@ -47,19 +47,6 @@ print(json.dumps(found))
 """
 
 
-@pytest.fixture
-def cache(tmp_path, monkeypatch):
-    """A cache folder of the test's own (the automatic mode on, nothing remembered)."""
-    root = tmp_path / "cache"
-    monkeypatch.setenv(native_cache.CACHE_ENV, str(root))
-    monkeypatch.setenv(native_nlp.MODE_ENV, "auto")
-    native_cache.forget()
-    SOLVERS.clear()
-    yield root
-    native_cache.forget()
-    SOLVERS.clear()
-
-
 @pytest.fixture(scope="module")
 def reference_cost():
     return solve(swing_up(), compiled=False, progress=False).cost
@@ -116,18 +103,18 @@ def assert_interpreted_and_right(status, results, reference, count=1):
 
 
 @needs_compiler
-def test_a_truncated_library_is_removed_and_every_solve_runs_interpreted(cache, reference_cost):
-    library = published(cache)
+def test_a_truncated_library_is_removed_and_every_solve_runs_interpreted(nlp_cache, reference_cost):
+    library = published(nlp_cache)
     size = library.stat().st_size
     os.truncate(library, size // 2)
-    status, results, warnings = child(cache, solves=2)
+    status, results, warnings = child(nlp_cache, solves=2)
     assert_interpreted_and_right(status, results, reference_cost, count=2)
     assert len(warnings) == 1, warnings
     assert f"{size // 2} bytes where {size} were published: truncated" in warnings[0]
     assert "removed, solving interpreted" in warnings[0]
     assert not library.exists() and not native_cache.record_path(library).exists()
     # the next process finds nothing to warn about, and compiles it again when asked
-    status, results, warnings = child(cache, compiled=True)
+    status, results, warnings = child(nlp_cache, compiled=True)
     assert status == 0 and results[0]["compiled"] is True and warnings == []
 
 
@@ -140,8 +127,8 @@ def test_a_truncated_library_is_removed_and_every_solve_runs_interpreted(cache, 
         ("record unreadable", "its publication record cannot be read"),
     ],
 )
-def test_a_library_unlike_its_record_is_never_loaded(cache, reference_cost, damage, said):
-    library = published(cache)
+def test_a_library_unlike_its_record_is_never_loaded(nlp_cache, reference_cost, damage, said):
+    library = published(nlp_cache)
     record = native_cache.record_path(library)
     if damage == "same size, other bytes":
         data = bytearray(library.read_bytes())
@@ -151,13 +138,13 @@ def test_a_library_unlike_its_record_is_never_loaded(cache, reference_cost, dama
         record.unlink()
     else:
         record.write_text("{not json")
-    status, results, warnings = child(cache)
+    status, results, warnings = child(nlp_cache)
     assert_interpreted_and_right(status, results, reference_cost)
     assert len(warnings) == 1 and said in warnings[0], warnings
     assert not library.exists() and not record.exists()
 
 
-def test_a_published_library_that_does_not_load_is_removed(cache, reference_cost, caplog):
+def test_a_published_library_that_does_not_load_is_removed(nlp_cache, reference_cost, caplog):
     """Random bytes with a record that matches them (another machine's library under the
     same name, say): the loader refuses them; the solve runs interpreted and removes both."""
     key = Transcription(swing_up()).structure_key
@@ -175,7 +162,7 @@ def test_a_published_library_that_does_not_load_is_removed(cache, reference_cost
     assert not library.exists() and not native_cache.record_path(library).exists()
 
 
-def test_a_library_is_hashed_once_per_process(cache, monkeypatch):
+def test_a_library_is_hashed_once_per_process(nlp_cache, monkeypatch):
     key = Transcription(swing_up()).structure_key
     library = native_nlp.library_path(key)
     library.parent.mkdir(parents=True)
@@ -218,33 +205,33 @@ def test_a_cache_path_that_cannot_be_a_folder_means_interpreted_solves(
 
 
 @needs_permissions
-def test_an_unreadable_cache_folder_means_interpreted_solves(cache, reference_cost):
-    library = published(cache)
-    cache.chmod(0o000)
+def test_an_unreadable_cache_folder_means_interpreted_solves(nlp_cache, reference_cost):
+    library = published(nlp_cache)
+    nlp_cache.chmod(0o000)
     try:
         for compiled in (None, True):
-            status, results, warnings = child(cache, solves=2, compiled=compiled,
+            status, results, warnings = child(nlp_cache, solves=2, compiled=compiled,
                                               unprivileged=True)  # fmt: skip
             assert_interpreted_and_right(status, results, reference_cost, count=2)
             assert len(warnings) == 1, warnings
             assert "cannot be used (Permission denied" in warnings[0]
             assert "set ANTHROPOID_CACHE to a folder you can write" in warnings[0]
     finally:
-        cache.chmod(0o755)
+        nlp_cache.chmod(0o755)
     assert library.is_file()  # nothing removed that was fine
 
 
 @needs_permissions
 @needs_compiler
-def test_a_read_only_cache_serves_its_libraries_and_compiles_none(cache, reference_cost):
-    published(cache)
+def test_a_read_only_cache_serves_its_libraries_and_compiles_none(nlp_cache, reference_cost):
+    published(nlp_cache)
     folder = native_cache.folder()
     folder.chmod(0o555)
     try:
-        status, results, warnings = child(cache, compiled=True, unprivileged=True)
+        status, results, warnings = child(nlp_cache, compiled=True, unprivileged=True)
         assert status == 0 and results[0]["compiled"] is True and warnings == []
         # another structure cannot be compiled into it: interpreted, said once
-        status, results, warnings = child(cache, solves=2, compiled=True, weight=2.0,
+        status, results, warnings = child(nlp_cache, solves=2, compiled=True, weight=2.0,
                                           unprivileged=True)  # fmt: skip
         assert status == 0 and [r["compiled"] for r in results] == [False, False]
         assert len(warnings) == 1 and "cannot take the library (Permission denied" in warnings[0]
@@ -272,15 +259,15 @@ def test_a_cache_folder_that_cannot_be_created_means_interpreted_solves(tmp_path
     [(16_000, "writing the NLP for the compiler"), (100_000, "compiling into it")],
 )
 def test_a_full_disk_while_compiling_leaves_nothing_and_solves_interpreted(
-    cache, reference_cost, limit, stage
+    nlp_cache, reference_cost, limit, stage
 ):
     """The serialised NLP (40 kB) or the generated C code (235 kB) does not fit: nothing
-    half-written stays in the cache, the solve runs interpreted, said once."""
-    status, results, warnings = child(cache, solves=2, compiled=True, limit=limit)
+    half-written stays in the nlp_cache, the solve runs interpreted, said once."""
+    status, results, warnings = child(nlp_cache, solves=2, compiled=True, limit=limit)
     assert_interpreted_and_right(status, results, reference_cost, count=2)
     assert len(warnings) == 1, warnings
     assert f"cannot take the library ({stage}" in warnings[0] and "File too large" in warnings[0]
-    assert leftovers(cache) == []
+    assert leftovers(nlp_cache) == []
     # with room again, the same structure compiles and serves
-    status, results, warnings = child(cache, compiled=True)
+    status, results, warnings = child(nlp_cache, compiled=True)
     assert status == 0 and results[0]["compiled"] is True and warnings == []

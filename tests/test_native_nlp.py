@@ -24,18 +24,6 @@ needs_compiler = pytest.mark.skipif(native_nlp.compiler() is None, reason="no C 
 
 
 @pytest.fixture
-def cache(tmp_path, monkeypatch):
-    """An empty cache folder of the test's own, the automatic mode on, no solver kept."""
-    monkeypatch.setenv(native_nlp.CACHE_ENV, str(tmp_path))
-    monkeypatch.setenv(native_nlp.MODE_ENV, "auto")
-    native_cache.forget()
-    SOLVERS.clear()
-    yield tmp_path
-    native_cache.forget()
-    SOLVERS.clear()
-
-
-@pytest.fixture
 def no_compiler(monkeypatch, tmp_path):
     """The compiler hidden: $CC unset and a PATH with nothing on it."""
     empty = tmp_path / "empty-path"
@@ -80,7 +68,7 @@ def published(library) -> list[str]:
 
 
 @needs_compiler
-def test_the_compiled_functions_are_casadis_own_to_round_off(cache):
+def test_the_compiled_functions_are_casadis_own_to_round_off(nlp_cache):
     transcription = Transcription(swing_up())
     library = native_nlp.compile_library(
         nlp_oracle(transcription), transcription.structure_key, wait=True
@@ -111,7 +99,7 @@ def test_the_compiled_functions_are_casadis_own_to_round_off(cache):
 
 
 @needs_compiler
-def test_compiled_solves_reach_the_same_optimum_and_the_cache_outlives_the_solver(cache):
+def test_compiled_solves_reach_the_same_optimum_and_the_cache_outlives_the_solver(nlp_cache):
     ocp = swing_up()
     interpreted = solve(ocp, compiled=False, progress=False)
     assert interpreted.stats["compiled"] is False
@@ -120,7 +108,7 @@ def test_compiled_solves_reach_the_same_optimum_and_the_cache_outlives_the_solve
     assert first.cost == pytest.approx(interpreted.cost, rel=1e-9)
     assert first.iterations == interpreted.iterations
     np.testing.assert_allclose(first.states, interpreted.states, atol=1e-8)
-    libraries = [name for name in files(cache) if name.endswith(".so")]
+    libraries = [name for name in files(nlp_cache) if name.endswith(".so")]
     assert len(libraries) == 1 and libraries[0].startswith(Transcription(ocp).structure_key)
     # A new process would have no solver in memory: the library on disk serves it, even
     # in the automatic mode, without a compilation
@@ -133,28 +121,28 @@ def test_compiled_solves_reach_the_same_optimum_and_the_cache_outlives_the_solve
     # another constant inside an expression is another structure: compiled anew
     other = solve(swing_up(weight=2.0), compiled=True, progress=False)
     assert other.stats["compiled"] is True
-    assert len([name for name in files(cache) if name.endswith(".so")]) == 2
+    assert len([name for name in files(nlp_cache) if name.endswith(".so")]) == 2
 
 
 @needs_compiler
-def test_progress_is_reported_from_a_compiled_solver(cache):
+def test_progress_is_reported_from_a_compiled_solver(nlp_cache):
     seen = []
     solution = solve(swing_up(), compiled=True, progress=seen.append)
     assert solution.stats["compiled"] is True
     assert [row["iteration"] for row in seen] == list(range(solution.iterations + 1))
 
 
-def test_everything_works_with_the_compiler_hidden(cache, no_compiler):
+def test_everything_works_with_the_compiler_hidden(nlp_cache, no_compiler):
     ocp = swing_up()
     solutions = [solve(ocp, progress=False) for _ in range(3)]
     assert all(s.success and not s.stats["compiled"] for s in solutions)
     with pytest.raises(DefinitionError, match=r"`compiled`: no C compiler found \(set \$CC"):
         solve(ocp, compiled=True, progress=False)
-    assert files(cache) == []
+    assert files(nlp_cache) == []
 
 
 @needs_compiler
-def test_a_library_compiled_before_serves_without_a_compiler(cache, monkeypatch, tmp_path):
+def test_a_library_compiled_before_serves_without_a_compiler(nlp_cache, monkeypatch, tmp_path):
     ocp = swing_up()
     reference = solve(ocp, compiled=True, progress=False)
     SOLVERS.clear()
@@ -167,7 +155,9 @@ def test_a_library_compiled_before_serves_without_a_compiler(cache, monkeypatch,
 
 
 @needs_compiler
-def test_the_automatic_mode_compiles_once_solving_has_cost_what_compiling_will(cache, monkeypatch):
+def test_the_automatic_mode_compiles_once_solving_has_cost_what_compiling_will(
+    nlp_cache, monkeypatch
+):
     ocp = swing_up()
     entry = CachedSolver(value=None, build_seconds=0.01, uses=1, solve_seconds=0.0)
     expected = max(native_nlp.MINIMUM_COMPILE_SECONDS, native_nlp.COMPILE_PER_BUILD * 0.01)
@@ -196,7 +186,7 @@ def test_the_automatic_mode_compiles_once_solving_has_cost_what_compiling_will(c
 
 
 @needs_compiler
-def test_processes_compiling_one_structure_at_once_share_one_compilation(cache):
+def test_processes_compiling_one_structure_at_once_share_one_compilation(nlp_cache):
     transcription = Transcription(swing_up(N=12))
     oracle, key = nlp_oracle(transcription), transcription.structure_key
     found, errors = [], []
@@ -214,11 +204,11 @@ def test_processes_compiling_one_structure_at_once_share_one_compilation(cache):
         thread.join()
     assert not errors and len(set(found)) == 1
     # one library, its record, its lock, and nothing half-written or left over
-    assert files(cache) == sorted(published(found[0]))
+    assert files(nlp_cache) == sorted(published(found[0]))
     assert nlp_solver(transcription, library=found[0], progress=False) is not None
 
 
-def test_bad_settings_are_refused_naming_the_fix(cache, monkeypatch):
+def test_bad_settings_are_refused_naming_the_fix(nlp_cache, monkeypatch):
     with pytest.raises(DefinitionTypeError, match=r"`compiled`: must be True, False or None"):
         solve(swing_up(), compiled="yes", progress=False)
     monkeypatch.setenv(native_nlp.MODE_ENV, "sometimes")
@@ -239,7 +229,7 @@ def test_the_cache_folder_follows_the_environment(monkeypatch, tmp_path):
     assert native_nlp.cache_folder().parent == tmp_path / "home" / ".cache" / "anthropoid-planner"
 
 
-def test_a_library_that_does_not_load_is_removed_and_the_solve_runs_interpreted(cache, caplog):
+def test_a_library_that_does_not_load_is_removed_and_the_solve_runs_interpreted(nlp_cache, caplog):
     """A damaged library (or one built on another kind of machine) is not an error of the
     user's: the solve runs interpreted, says so and removes it, so that it is compiled again
     when it pays; options IPOPT refuses still fail as such. (Without its publication record
@@ -264,7 +254,7 @@ def test_a_library_that_does_not_load_is_removed_and_the_solve_runs_interpreted(
 
 
 @needs_compiler
-def test_a_compilation_killed_halfway_leaves_nothing_that_stays(cache):
+def test_a_compilation_killed_halfway_leaves_nothing_that_stays(nlp_cache):
     """A compilation killed with kill -9 leaves its work folder (never a library: that
     appears by a rename); the next compilation of the key, holding the lock, removes it."""
     transcription = Transcription(swing_up(N=8))
@@ -275,7 +265,7 @@ def test_a_compilation_killed_halfway_leaves_nothing_that_stays(cache):
     (left / "nlp.c").write_text("half a file")
     library = native_nlp.compile_library(nlp_oracle(transcription), key, wait=True)
     assert library.is_file() and not left.exists()
-    assert files(cache) == sorted(published(library))
+    assert files(nlp_cache) == sorted(published(library))
 
 
 def test_a_progress_reporter_needs_a_solver_that_reports():

@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from privileges import needs_permissions
+from privileges import run as run_unprivileged
 from scipy.interpolate import CubicSpline
 
 from model import LinkageTrajectory
@@ -748,19 +750,31 @@ def test_a_folder_without_write_permission_names_the_file_not_the_temporary(tmp_
     assert ".x.csv." not in message and caught.value.filename == str(tmp_path / "x.csv")
 
 
-@pytest.mark.skipif(
-    not hasattr(os, "geteuid") or os.geteuid() == 0,
-    reason="root (and Windows) write into a folder without write permission",
-)
+@needs_permissions
 def test_a_read_only_folder_names_the_file(tmp_path):
+    # In a child that obeys the permissions (root's drops the capabilities that ignore them).
     folder = tmp_path / "locked"
     folder.mkdir()
     folder.chmod(0o555)
+    script = f"""
+import sys
+sys.path.insert(0, {str(Path(__file__).parent)!r})
+from test_trajectory import generic_trajectory
+from planner.trajectory import TrajectoryWriteError
+try:
+    generic_trajectory().save({str(folder / "x.csv")!r})
+except TrajectoryWriteError as error:
+    print(error)
+    sys.exit(3)
+"""
     try:
-        with pytest.raises(TrajectoryWriteError, match=r"locked/x.csv: cannot save: Permission"):
-            generic_trajectory().save(folder / "x.csv")
+        result = run_unprivileged([sys.executable, "-c", script], capture_output=True, text=True,
+                                  timeout=120)  # fmt: skip
     finally:
         folder.chmod(0o755)
+    assert result.returncode == 3, result.stderr
+    assert result.stdout.strip().startswith(f"{folder / 'x.csv'}: cannot save: Permission denied")
+    assert list(folder.iterdir()) == []
 
 
 def test_a_file_size_limit_leaves_no_partial_file(tmp_path):
