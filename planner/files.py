@@ -20,14 +20,23 @@ from pathlib import Path
 _UMASK: list[int] = []
 
 
-def new_file_mode() -> int:
-    """Permissions of a newly created file under the process umask (mkstemp uses 0600)."""
+def _umask() -> int:
     if not _UMASK:
         # os.umask can only be read by setting it; done once, restored at once.
         current = os.umask(0o022)
         os.umask(current)
         _UMASK.append(current)
-    return 0o666 & ~_UMASK[0]
+    return _UMASK[0]
+
+
+def new_file_mode() -> int:
+    """Permissions of a newly created file under the process umask (mkstemp uses 0600)."""
+    return 0o666 & ~_umask()
+
+
+def new_folder_mode() -> int:
+    """Permissions of a newly created folder under the process umask (mkdtemp uses 0700)."""
+    return 0o777 & ~_umask()
 
 
 @contextmanager

@@ -50,6 +50,7 @@ from pathlib import Path
 from typing import Any
 
 from planner.errors import AnthropoidError, DefinitionError
+from planner.files import new_folder_mode
 
 try:  # POSIX advisory locks; elsewhere stagings are not locked (and not cleaned)
     import fcntl
@@ -201,12 +202,6 @@ def _listed(names: list[str]) -> str:
     return ", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else "")
 
 
-def _new_folder_mode() -> int:
-    umask = os.umask(0o022)
-    os.umask(umask)
-    return 0o777 & ~umask
-
-
 class OutputSet:
     """The files of one run of ``command``, staged and then committed to ``folder``.
 
@@ -342,7 +337,7 @@ class OutputSet:
     def _commit_new(self, staging: Path, manifest: dict[str, Any]) -> None:
         """A new folder: its staging folder, with the manifest, renamed into place."""
         self._write_manifest(staging, manifest, MANIFEST)
-        os.chmod(staging, _new_folder_mode())
+        os.chmod(staging, new_folder_mode())
         try:
             os.rename(staging, self.target)
         except OSError as error:

@@ -148,13 +148,14 @@ def solve_and_hold(problem, options: dict, hold: bool, rate_hz, pinned=()):
 SAMPLING_CHECKS = ("kinematics", "rates")
 
 
-def verified(gait: Gait, rate_hz, verify: bool, raise_on_failure: bool) -> Gait:
+def verified(gait: Gait, rate_hz, verify: bool, options: Mapping[str, Any]) -> Gait:
     """A gait problem's ``solve()`` is honest: a plan that converged is verified on the
     samples it exports (:meth:`Gait.verify` at ``rate_hz``, None: the nodes; the report is
     ``gait.verification``) and, when it fails, never handed out as a plain success: it
     raises :class:`problems.GaitVerificationError` (carrying the gait and the report), or,
-    with ``raise_on_failure=False``, warns with :class:`problems.GaitVerificationWarning`
-    (``gait.verified`` is False). ``verify=False`` skips it (``gait.verified`` is None)."""
+    with ``raise_on_failure=False`` among the solve's ``options``, warns with
+    :class:`problems.GaitVerificationWarning` (``gait.verified`` is False). ``verify=False``
+    skips it (``gait.verified`` is None)."""
     if not verify or not gait.success:
         return gait
     report = gait.verify(rate_hz)
@@ -178,7 +179,7 @@ def verified(gait: Gait, rate_hz, verify: bool, raise_on_failure: bool) -> Gait:
         f"the solve converged ({gait.solution.status}) but the plan fails its own verification "
         f"at {at}: {listed}; {hint}"
     )
-    if raise_on_failure:
+    if options.get("raise_on_failure", True):
         raise GaitVerificationError(message, gait=gait, report=report)
     warnings.warn(message, GaitVerificationWarning, stacklevel=3)
     return gait

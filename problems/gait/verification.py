@@ -324,19 +324,7 @@ def verify_gait(
     merged.update(settings or {})
     if merged.get("torque_limit") is not None:
         merged["torque_limit"] = _torque_limits(merged, linkage)
-    problem = merged.get("problem")
-    if problem not in GAITS:
-        missing = (
-            "; a torques.csv read without its sidecar torques.csv.meta.json has none: put the "
-            "sidecar back beside the CSV file, it holds the gait's settings"
-            if not trajectory.metadata
-            else ""
-        )
-        raise DefinitionError(
-            "`settings`: say which gait this is: settings={'problem': 'walking_step', "
-            "'footed_step' or 'periodic_gait', ...} (the trajectory's metadata has none), got "
-            f"{problem!r}{missing}"
-        )
+    problem = _gait_problem(merged, trajectory)
     for name, value in (
         ("tolerance", tolerance),
         ("hold_tolerance", hold_tolerance),
@@ -417,6 +405,25 @@ def _named_contacts(kin: _Kinematics, settings) -> dict[str, tuple[int, complex]
         i = kin.linkage.index(link)
         named[name] = (i, kin.linkage.links[i].length * complex(float(along), float(lateral)))
     return named
+
+
+def _gait_problem(settings, trajectory: Trajectory) -> str:
+    """Which gait the settings say this is (one of :data:`GAITS`), or a DefinitionError
+    saying how to tell it (and that a CSV file without its sidecar says nothing)."""
+    problem = settings.get("problem")
+    if problem in GAITS:
+        return problem
+    missing = (
+        "; a torques.csv read without its sidecar torques.csv.meta.json has none: put the "
+        "sidecar back beside the CSV file, it holds the gait's settings"
+        if not trajectory.metadata
+        else ""
+    )
+    raise DefinitionError(
+        "`settings`: say which gait this is: settings={'problem': 'walking_step', "
+        "'footed_step' or 'periodic_gait', ...} (the trajectory's metadata has none), got "
+        f"{problem!r}{missing}"
+    )
 
 
 def _torque_limits(settings, linkage: Linkage) -> dict[str, float]:

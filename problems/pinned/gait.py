@@ -145,7 +145,7 @@ class PeriodicGaitProblem:
             law = objective_at_guess(transcription)
             solution = solve_and_hold(transcription, options, hold_limits, rate_hz)
             gait = PeriodicGait(self, solution, law)
-        return verified(gait, rate_hz, verify, options.get("raise_on_failure", True))
+        return verified(gait, rate_hz, verify, options)
 
     def settings(self, times=None) -> dict[str, Any]:
         """The problem's parameters as plain data (exported with the gait's files).

@@ -321,7 +321,7 @@ class FootedStep:
         options.setdefault("progress", False)
         solution = solve_and_hold(transcription, options, hold_limits, rate_hz, PINNED)
         gait = FootedGait(self, solution, law_cost)
-        return verified(gait, rate_hz, verify, options.get("raise_on_failure", True))
+        return verified(gait, rate_hz, verify, options)
 
     def settings(self, times=None) -> dict[str, Any]:
         """The step's parameters as plain data, exported with the gait's files and read by

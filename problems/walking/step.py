@@ -300,13 +300,13 @@ class WalkingStep(WalkerFeet):
                     problem, target, options, hold_limits, rate_hz, PINNED
                 )
                 gait = WalkingGait(self, solution, self.law_cost(final))
-                return verified(gait, rate_hz, verify, options.get("raise_on_failure", True))
+                return verified(gait, rate_hz, verify, options)
             ocp = problem.refine(**remesh.mesh(self.single_support_time))
         transcription = self._transcription(ocp)
         law = objective_at_guess(transcription)
         solution = solve_and_hold(transcription, options, hold_limits, rate_hz, PINNED)
         gait = WalkingGait(self, solution, law)
-        return verified(gait, rate_hz, verify, options.get("raise_on_failure", True))
+        return verified(gait, rate_hz, verify, options)
 
     def clearance_table(self, times=None) -> dict[str, list[float]] | None:
         """A callable clearance profile as data, so that it travels with the gait's files:
@@ -463,19 +463,7 @@ def walking_step(
         raise DefinitionError(f"`mu`: the friction coefficient must be > 0, got {mu!r}")
     check_objective(objective)
     scales = WalkerScales(biped.leg_length, linkage.gravity)
-    if isinstance(clearance, str) and clearance == DEFAULT:
-        clearance = scales.clearance
-    if callable(clearance):
-        profile_probe = clearance(np.linspace(0.0, 1.0, 5))
-        if np.shape(profile_probe) != (5,) or not np.all(np.isfinite(profile_probe)):
-            raise DefinitionError(
-                "`clearance`: a profile must map s = t / T (K,) to finite heights (K,), m"
-            )
-        height = max(float(np.max(profile_probe)), 0.0)
-    else:
-        height = check_real("clearance", clearance)
-        if height < 0:
-            raise DefinitionError(f"`clearance`: must be >= 0 m, got {height!r}")
+    clearance, height = _checked_clearance(clearance, scales)
     limits = torque_limits(linkage, torque_limit)
     passive = check_links("passive", passive, linkage)
     if len(knee_range) != 2:
@@ -485,42 +473,9 @@ def walking_step(
         raise DefinitionError(f"`knee_range`: lower must be < upper, got {knees}")
     posture = check_positive("posture", posture, "rad")
     upright = biped.upper_body if upright is None else check_links("upright", upright, linkage)
-    leg = biped.leg_length
-    if isinstance(touchdown_speed, str) and touchdown_speed == DEFAULT:
-        touchdown_speed = scales.touchdown_speed
-    if isinstance(approach_time, str) and approach_time == DEFAULT:
-        approach_time = scales.approach_time
-    approach_time = check_positive("approach_time", approach_time, "s")
-    if isinstance(foot, str) and foot == DEFAULT:
-        foot = (FOOT[0] * leg, FOOT[1] * leg)
-    touchdown_speed = check_real("touchdown_speed", touchdown_speed)
-    if touchdown_speed < 0:
-        raise DefinitionError(
-            f"`touchdown_speed`: the landing foot's downward speed must be >= 0 m/s, got "
-            f"{touchdown_speed!r}"
-        )
-    if foot is not None:
-        if isinstance(foot, str) or len(foot) != 2:
-            raise DefinitionError(
-                f"`foot`: give (heel, toe), m behind and ahead of the ankle, or None, got {foot!r}"
-            )
-        foot = (check_real("foot[0]", foot[0]), check_real("foot[1]", foot[1]))
-        if foot[0] < 0 or foot[1] < 0 or foot[0] + foot[1] <= 0:
-            raise DefinitionError(
-                f"`foot`: heel and toe must be >= 0 m with a sole longer than 0, got {foot}; "
-                "for a point foot give passive=(the stance shank,) instead"
-            )
-    if ground_points is None:
-        ground_points = tuple(name for name in linkage.names if name != biped.swing_shank)
-    ground_points = check_links("ground_points", ground_points, linkage)
-    if biped.swing_shank in ground_points:
-        raise DefinitionError(
-            f"`ground_points`: {biped.swing_shank!r} ends in the swing foot, a contact: its "
-            "height is the clearance's (give the other links)"
-        )
-    ground_margin = check_real("ground_margin", ground_margin)
-    if ground_margin < 0:
-        raise DefinitionError(f"`ground_margin`: must be >= 0 m, got {ground_margin!r}")
+    touchdown_speed, approach_time = _checked_touchdown(touchdown_speed, approach_time, scales)
+    foot = _checked_foot(foot, biped.leg_length)
+    ground_points, ground_margin = _checked_ground(biped, ground_points, ground_margin)
     if step_time <= 0:
         raise DefinitionError(f"`step_time`: must be > 0 s, got {step_time!r}")
     double_support = check_real("double_support", double_support)
@@ -563,16 +518,94 @@ def walking_step(
     step = replace(step, ocp=_walking_ocp(step, N, transcription, degree, formulation))
     if double_support == 0.0:
         return step
+    return _with_double_support(step, mesh, formulation, N_double)
+
+
+def _checked_clearance(clearance, scales: WalkerScales) -> tuple[float | Callable, float]:
+    """(``clearance``, its mid-swing height, m): the walker's default for DEFAULT, a profile
+    probed at five points, or a height >= 0."""
+    if isinstance(clearance, str) and clearance == DEFAULT:
+        clearance = scales.clearance
+    if callable(clearance):
+        profile_probe = clearance(np.linspace(0.0, 1.0, 5))
+        if np.shape(profile_probe) != (5,) or not np.all(np.isfinite(profile_probe)):
+            raise DefinitionError(
+                "`clearance`: a profile must map s = t / T (K,) to finite heights (K,), m"
+            )
+        return clearance, max(float(np.max(profile_probe)), 0.0)
+    height = check_real("clearance", clearance)
+    if height < 0:
+        raise DefinitionError(f"`clearance`: must be >= 0 m, got {height!r}")
+    return clearance, height
+
+
+def _checked_touchdown(touchdown_speed, approach_time, scales: WalkerScales):
+    """(touchdown speed m/s >= 0, approach window s > 0), the walker's defaults for DEFAULT."""
+    if isinstance(touchdown_speed, str) and touchdown_speed == DEFAULT:
+        touchdown_speed = scales.touchdown_speed
+    if isinstance(approach_time, str) and approach_time == DEFAULT:
+        approach_time = scales.approach_time
+    approach_time = check_positive("approach_time", approach_time, "s")
+    touchdown_speed = check_real("touchdown_speed", touchdown_speed)
+    if touchdown_speed < 0:
+        raise DefinitionError(
+            f"`touchdown_speed`: the landing foot's downward speed must be >= 0 m/s, got "
+            f"{touchdown_speed!r}"
+        )
+    return touchdown_speed, approach_time
+
+
+def _checked_foot(foot, leg: float) -> tuple[float, float] | None:
+    """The sole (heel, toe), m, or None; :data:`FOOT` in leg lengths for DEFAULT."""
+    if isinstance(foot, str) and foot == DEFAULT:
+        foot = (FOOT[0] * leg, FOOT[1] * leg)
+    if foot is None:
+        return None
+    if isinstance(foot, str) or len(foot) != 2:
+        raise DefinitionError(
+            f"`foot`: give (heel, toe), m behind and ahead of the ankle, or None, got {foot!r}"
+        )
+    foot = (check_real("foot[0]", foot[0]), check_real("foot[1]", foot[1]))
+    if foot[0] < 0 or foot[1] < 0 or foot[0] + foot[1] <= 0:
+        raise DefinitionError(
+            f"`foot`: heel and toe must be >= 0 m with a sole longer than 0, got {foot}; "
+            "for a point foot give passive=(the stance shank,) instead"
+        )
+    return foot
+
+
+def _checked_ground(biped: Biped, ground_points, ground_margin):
+    """(the links whose ends stay above the ground, the margin m >= 0); default every link
+    but the swing shank, whose end is the swing foot."""
+    linkage = biped.linkage
+    if ground_points is None:
+        ground_points = tuple(name for name in linkage.names if name != biped.swing_shank)
+    ground_points = check_links("ground_points", ground_points, linkage)
+    if biped.swing_shank in ground_points:
+        raise DefinitionError(
+            f"`ground_points`: {biped.swing_shank!r} ends in the swing foot, a contact: its "
+            "height is the clearance's (give the other links)"
+        )
+    ground_margin = check_real("ground_margin", ground_margin)
+    if ground_margin < 0:
+        raise DefinitionError(f"`ground_margin`: must be >= 0 m, got {ground_margin!r}")
+    return ground_points, ground_margin
+
+
+def _with_double_support(step: WalkingStep, mesh, formulation, N_double) -> WalkingStep:
+    """The step as two phases: its single-support OCP, then the double support on
+    ``N_double`` intervals (default denser than the single support), periodic."""
+    N, transcription, degree = mesh["N"], mesh["transcription"], mesh["degree"]
     if N_double is None:
         # Denser than the single support, at least 12: the front foot is held through its
         # acceleration and drifts with the collocation error (fourth order: 0.1 mm and
         # 1 mm/s at 8 intervals of 0.1 s, 20 um and 0.2 mm/s at 12).
-        N_double = max(12, round(1.5 * N * double_support / single_time))
-    mesh = {"N": N_double, "transcription": transcription, "degree": degree,
-            "formulation": formulation}  # fmt: skip
+        N_double = max(12, round(1.5 * N * step.double_support / step.single_support_time))
+    double = {"N": N_double, "transcription": transcription, "degree": degree,
+              "formulation": formulation}  # fmt: skip
     phases = (
         Phases.sequence(("single", step.ocp))
-        .then("double", _double_support_ocp(step, mesh), mapping=step.step_map)
+        .then("double", _double_support_ocp(step, double), mapping=step.step_map)
         .periodic(step.biped.swap.state_function())
     )
     return replace(step, phases=phases)
