@@ -493,9 +493,10 @@ GAIT_CASES: list[GaitCase] = [
         for t in (1e-3, 1e-6)
     ],
     # 93 % of the legs' span (2 x 0.86 m): no plan lands the foot there with the body above
-    # the ground and the ankle torque within its sole (earlier versions, without those rows,
-    # planned it with the stance knee 0.16 m under the ground and the centre of pressure 72 m
-    # behind the ankle); 1.4 m solves and verifies. Infeasible at 1.0 s too (1.4 mm short).
+    # the ground and the ankle torque within its sole (without those rows it solves, with the
+    # stance knee 0.157 m under the ground and the centre of pressure up to 107 m behind the
+    # ankle); 1.4 m solves and verifies; infeasible at 1.0 s too, 1.4 mm short
+    # (examples/benchmarks/similarity.py).
     GaitCase(
         "walking step, 1.6 m in 0.5 s",
         "walk",

@@ -241,3 +241,17 @@ def test_speed_accuracy_benchmark_quick_run(tmp_path):
     summary = [line for line in result.stdout.splitlines() if line.startswith("  <=")]
     assert summary and all(line in out for line in summary)
     assert result.stdout.count("the other knobs") == 2
+
+
+def test_similarity_benchmark_quick_run():
+    """The benchmark behind the scaled walkers' numbers (walking.md, the README) runs; what
+    it prints is consistent: every scaled walking step verifies and lands within 1e-6 of the
+    unscaled dimensionless optimum (the unscaled row exactly 0)."""
+    result = _call("benchmarks/similarity.py", "--quick")
+    assert result.returncode == 0, result.stderr
+    rows = [line.split() for line in result.stdout.splitlines() if line.startswith("walking step")]
+    assert len(rows) == 5, result.stdout
+    for row in rows:
+        deviation, verified = float(row[5]), row[-2]
+        assert abs(deviation) <= 1e-6 and verified == "True", row
+    assert float(rows[0][5]) == 0.0

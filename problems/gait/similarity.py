@@ -16,7 +16,7 @@ scaled by hand (measured with a throwaway script on the code before): a walker 1
 walker 100 times the size cost 2.76 times what similarity predicts and one under 1e-3 g 8.08
 times, and one 1000 times the size failed its own check (its heel strike at 300 m/s held to
 1e-6 m/s). Now each solves to the six-link's dimensionless optimum within 2e-7 and verifies
-(``tests/extremes.py``'s scaled walkers).
+(``tests/extremes.py``'s scaled walkers; ``examples/benchmarks/similarity.py`` prints them).
 
 The drives' limit (``torque_limit``, N m) and the step (length, time) are the user's data,
 not defaults of the method: they do not scale here.
