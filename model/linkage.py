@@ -19,8 +19,9 @@ from __future__ import annotations
 
 import cmath
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -348,6 +349,36 @@ class Linkage:
                 for link in self._links
             ],
         }
+
+    @classmethod
+    def from_parameters(cls, description: Mapping[str, Any]) -> Linkage:
+        """The linkage :meth:`parameters` describes (the ``model`` entry of an exported
+        file's metadata): ``{"gravity": m/s^2, "links": [{"name", "parent", "length",
+        "mass", "com", "inertia", "com_lateral", "origin": [x, y] or None, "merged",
+        "rerooted"}, ...]}``; raises DefinitionError naming what is missing."""
+        if not isinstance(description, Mapping) or not isinstance(
+            description.get("links"), Sequence
+        ):
+            raise DefinitionError(
+                "`description`: give Linkage.parameters()'s {'gravity': ..., 'links': [...]} "
+                f"(a file's metadata['model']), got {type(description).__name__}"
+            )
+        links = []
+        for k, row in enumerate(description["links"]):
+            try:
+                origin = row.get("origin")
+                links.append(Link(
+                    row["name"], row["parent"], row["length"], row["mass"],
+                    row.get("com", 0.5), row.get("inertia"), row.get("com_lateral", 0.0),
+                    None if origin is None else complex(origin[0], origin[1]),
+                    tuple(row.get("merged") or ()), bool(row.get("rerooted", False)),
+                ))  # fmt: skip
+            except (KeyError, TypeError, AttributeError, IndexError) as error:
+                raise DefinitionError(
+                    f"`description['links'][{k}]`: a link needs name, parent, length and "
+                    f"mass ({error!r})"
+                ) from None
+        return cls(links, gravity=description.get("gravity", 9.81))
 
     # ---- the same body in other units ------------------------------------------------------
     def in_units(self, length: float = 1.0, mass: float = 1.0) -> Linkage:

@@ -65,3 +65,29 @@ def nlp_cache(tmp_path, monkeypatch):
     yield root
     native_cache.forget()
     SOLVERS.clear()
+
+
+def human_gait_data(name: str = "Winter_Appendix_data.xlsx"):
+    """A file of the shared human walking data (``../shared/human_gait/`` beside the clone,
+    or the folder ``$ANTHROPOID_HUMAN_GAIT`` names), or None."""
+    from pathlib import Path
+
+    folders = [os.environ.get("ANTHROPOID_HUMAN_GAIT")]
+    root = Path(__file__).resolve().parent.parent
+    folders += [root.parent / "shared" / "human_gait", root.parent.parent / "shared" / "human_gait"]
+    for folder in folders:
+        if folder and (Path(folder) / name).is_file():
+            return Path(folder) / name
+    return None
+
+
+@pytest.fixture(scope="session")
+def winter_xlsx():
+    """Winter's appendix workbook (the shared data; CI has it beside the clone)."""
+    path = human_gait_data()
+    if path is None:
+        pytest.skip(
+            "the shared human walking data (../shared/human_gait/) is not beside the "
+            "clone; set ANTHROPOID_HUMAN_GAIT to its folder"
+        )
+    return path
