@@ -17,7 +17,16 @@ import threading
 from collections.abc import Iterator, Sequence
 
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
-from problems.cli import compare_gait, demo, equations, simulate, study, torques, walk
+from problems.cli import (
+    compare_gait,
+    demo,
+    equations,
+    simulate,
+    study,
+    torques,
+    track_gait,
+    walk,
+)
 from problems.cli.common import (
     LIMIT_SAMPLES,
     LIMIT_SECONDS,
@@ -56,7 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", metavar="<command>", parser_class=Parser)
     commands.required = True
 
-    for command in (walk, study, compare_gait, equations, torques, simulate, demo):
+    for command in (walk, study, compare_gait, track_gait, equations, torques, simulate, demo):
         command.add_parser(commands, common, limits)
     return parser
 
@@ -65,6 +74,7 @@ COMMANDS = {
     "walk": walk.run,
     "study": study.run,
     "compare-gait": compare_gait.run,
+    "track-gait": track_gait.run,
     "equations": equations.run,
     "torques": torques.run,
     "simulate": simulate.run,

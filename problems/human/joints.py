@@ -35,6 +35,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -111,24 +112,34 @@ def _wrapped(angle: np.ndarray) -> np.ndarray:
     return np.pi - np.mod(np.pi - angle, 2 * np.pi)
 
 
-def leg_angles(body: Body, leg: Leg, psi: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """``thigh``, ``hip``, ``knee``, ``ankle`` of ``leg`` (deg, (K,)) from the link angles
-    ``psi`` {link: (K,) rad} (see the module)."""
+def joint_radians(body: Body, leg: Leg, psi: Mapping[str, Any]) -> dict[str, Any]:
+    """``thigh``, ``hip``, ``knee``, ``ankle`` of ``leg`` in rad from the link angles ``psi``
+    {link: value}, unwrapped (see the module): arithmetic only, so the values may be numpy
+    arrays or CasADi expressions (the tracking objective); a point foot's swing ankle is
+    None."""
     thigh = psi[leg.thigh] + (-HALF_PI if leg.stance else HALF_PI)
-    knee = psi[leg.thigh] - psi[leg.shank]
     lean = HALF_PI - psi[body.trunk]
     if leg.foot is not None:
         neutral = body.neutral_ankles[0 if leg.stance else 1]
         ankle = -(psi[leg.shank] - psi[leg.foot] - neutral)
-    elif leg.stance:
-        ankle = HALF_PI - psi[leg.shank]
     else:
-        ankle = np.full(np.shape(psi[leg.shank]), np.nan)
+        ankle = HALF_PI - psi[leg.shank] if leg.stance else None
     return {
-        "thigh": np.degrees(_wrapped(thigh)),
-        "hip": np.degrees(_wrapped(thigh + lean)),
-        "knee": np.degrees(_wrapped(knee)),
-        "ankle": np.degrees(_wrapped(ankle)),
+        "thigh": thigh,
+        "hip": thigh + lean,
+        "knee": psi[leg.thigh] - psi[leg.shank],
+        "ankle": ankle,
+    }
+
+
+def leg_angles(body: Body, leg: Leg, psi: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``thigh``, ``hip``, ``knee``, ``ankle`` of ``leg`` (deg, (K,), within (-180, 180],
+    NaN for a point foot's swing ankle) from the link angles ``psi`` {link: (K,) rad}
+    (:func:`joint_radians`)."""
+    shape = np.shape(psi[leg.shank])
+    return {
+        name: np.full(shape, np.nan) if value is None else np.degrees(_wrapped(value))
+        for name, value in joint_radians(body, leg, psi).items()
     }
 
 
