@@ -94,6 +94,24 @@ def anthropoid_with_feet(gravity: float = 9.81, foot: FootGeometry | None = None
     return Linkage(links, gravity=gravity)
 
 
+#: The body of the six-link scene: Winter's table for a person of this height, m, and mass, kg.
+SCENE_HEIGHT, SCENE_MASS = 1.75, 70.0
+
+
+def scaled_body(linkage: Linkage, height: float, body_mass: float) -> Linkage:
+    """``linkage`` (a body of :data:`SCENE_HEIGHT` and :data:`SCENE_MASS`, as the presets
+    are) for a person of ``height`` m and ``body_mass`` kg by the same anthropometric table
+    (Winter's segment lengths are fractions of the height, masses fractions of the body
+    mass, radii of gyration fractions of the segment): lengths and origins x height / 1.75,
+    masses x body_mass / 70, inertias x (body_mass / 70) (height / 1.75)^2; gravity and the
+    fractions (centres of mass, contact points on links) unchanged."""
+    height = check_positive("height", height, "m")
+    body_mass = check_positive("body_mass", body_mass, "kg")
+    length, mass = height / SCENE_HEIGHT, body_mass / SCENE_MASS
+    converted = linkage.in_units(length=length, mass=mass)  # gravity x length: put it back
+    return Linkage(converted.links, gravity=linkage.gravity)
+
+
 def anthropoid_feet(foot: FootGeometry | None = None) -> dict[str, LinkPoint]:
     """The contacts of :func:`anthropoid_with_feet`: ``stance_toe`` (H0, the ball),
     ``stance_heel``, ``swing_heel``, ``swing_toe`` (the swing foot's end), as points of the

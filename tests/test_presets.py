@@ -166,3 +166,33 @@ def test_preset_registry():
     assert presets.PRESETS["six-link"]() == presets.six_link_anthropoid()
     assert presets.PRESETS["five-link"]() == presets.five_link_biped()
     assert presets.PRESETS["exoskeleton-leg"]() == presets.exoskeleton_leg()
+
+
+def test_scaled_body_scales_the_dynamics_as_dimensional_analysis_says():
+    """A body of another height and mass from the same table: the mass matrix scales by
+    k s^2 and the gravity torques by k s (k the mass ratio, s the height ratio), the contact
+    points stay on the same fractions of their links, the total mass is the ratio's."""
+    from model.presets import anthropoid_with_feet, scaled_body
+
+    body = anthropoid_with_feet()
+    small = scaled_body(body, 1.60, 55.0)
+    s, k = 1.60 / 1.75, 55.0 / 70.0
+    assert small.gravity == body.gravity
+    assert sum(link.mass for link in small.links) == pytest.approx(
+        k * sum(link.mass for link in body.links)
+    )
+    rng = np.random.default_rng(11)
+    psi = rng.uniform(-3, 3, body.n)
+    big, little = Dynamics(body), Dynamics(small)
+    np.testing.assert_allclose(
+        np.asarray(little.function("mass_matrix")(psi)),
+        k * s**2 * np.asarray(big.function("mass_matrix")(psi)),
+        rtol=1e-12,
+    )
+    np.testing.assert_allclose(
+        np.asarray(little.function("gravity_torques")(psi)),
+        k * s * np.asarray(big.function("gravity_torques")(psi)),
+        rtol=1e-12, atol=1e-12,
+    )  # fmt: skip
+    with pytest.raises(ValueError, match="height"):
+        scaled_body(body, -1.0, 55.0)

@@ -199,8 +199,9 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
     study.add_argument(
         "--objective",
         default=WALKING_DEFAULTS["objective"],
-        choices=("torque", "torque-rate", "work"),
-        help="integral of sum M^2 (default), of sum dM^2, or positive work",
+        choices=("torque", "torque-rate", "work", "human"),
+        help="integral of sum M^2 (default), of sum dM^2, positive work, or the joints' "
+        "strength-normalised effort with passive moments (human)",
     )
     study.add_argument(
         "--transcription",

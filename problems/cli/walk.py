@@ -186,8 +186,10 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
     walk.add_argument(
         "--objective",
         default=WALKING_DEFAULTS["objective"],
-        choices=("torque", "torque-rate", "work"),
-        help="integral of sum M^2 (default), of sum dM^2, or positive work",
+        choices=("torque", "torque-rate", "work", "human"),
+        help="integral of sum M^2 (default), of sum dM^2, positive work, or 'human': the "
+        "joints' strength-normalised effort with passive moments (problems.human.effort; "
+        "with --preset six-link-feet: torque or human)",
     )
     walk.add_argument(
         "--rate-hz",
@@ -370,6 +372,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
         "torque": "integral of sum M_i^2, N^2 m^2 s",
         "torque-rate": "integral of sum dM_i^2 (+ 1e-3 sum M_i^2)",
         "work": f"positive work (+ {WORK_REGULARISATION / args.torque_limit_nm:.3g} sum M_i^2), J",
+        "human": "integral of the joints' strength-normalised effort, (N m)^2 s",
     }[args.objective]
     phases = f", double support {step.double_support:g} s" if step.double_support > 0 else ""
     single = gait.segments()[0][0]

@@ -4,7 +4,8 @@ The same job as the point-foot ``walk`` (plan, files, their verification read ba
 pictures), for a biped whose legs end in a foot with heel and ball: the human cycle of flat
 foot, heel rise, heel strike and a double support rolling the front foot down, with free
 phase durations. The options of the point-foot step that have no meaning here (its mesh,
-sole, passive ankle, double support, objective, the LQR's simulated ground) are refused by
+sole, passive ankle, double support, the objectives other than torque and human, the LQR's
+simulated ground) are refused by
 name. ``--feedback`` writes the drives' joint PD law around the plan into torques.csv
 (:class:`problems.walking.feet_control.FeetLaw`) and walks it in MuJoCo.
 """
@@ -47,10 +48,14 @@ NOT_WITH_FEET = (
     ("foot_toe_m", "--foot-toe-m", None),
     ("ground_margin_m", "--ground-margin-m", WALKING_DEFAULTS["ground_margin"]),
     ("double_support_s", "--double-support-s", WALKING_DEFAULTS["double_support"]),
-    ("objective", "--objective", WALKING_DEFAULTS["objective"]),
     ("ground_friction", "--ground-friction", 1.0),
 )
 
+#: What the cost is, per --objective.
+COST_WORDS = {
+    "torque": "integral of the drives' sum M_i^2, N^2 m^2 s",
+    "human": "integral of the joints' strength-normalised effort with passive moments, (N m)^2 s",
+}
 #: The mesh of ``--quick`` per ``--feet-phases`` (intervals of each phase).
 QUICK_MESH = {"human": (10, 6, 14), "flat-footed": (20, 20), "toe-walking": (20, 8)}
 
@@ -61,7 +66,7 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
     if given:
         raise UsageError(
             f"{', '.join(given)}: not for --preset six-link-feet (the step on feet has its own "
-            "mesh, feet, phases and objective); drop them"
+            "mesh, feet and phases); drop them"
         )
     check_clearance(args.clearance_m)
     output = output_set(str(args.output_dir or new_folder("walk")), "walk")
@@ -73,7 +78,12 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         extra["clearance"] = args.clearance_m
     if args.quick:
         extra["N"] = QUICK_MESH[args.feet_phases]
+    if args.objective not in ("torque", "human"):
+        raise UsageError(
+            f"--objective {args.objective}: the step on feet takes torque or human; drop it"
+        )
     step = footed_step(
+        objective=args.objective,
         step_length=args.step_length_m,
         step_time=args.step_time_s,
         mu=args.mu,
@@ -113,7 +123,7 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         file=out,
     )
     print(
-        f"cost (integral of the drives' sum M_i^2, N^2 m^2 s): {gait.cost:.6g}; the gait law "
+        f"cost ({COST_WORDS[args.objective]}): {gait.cost:.6g}; the gait law "
         f"(22) with flat feet, same mesh: {gait.law_cost:.6g}",
         file=out,
     )

@@ -7,6 +7,9 @@ Objectives (``OBJECTIVES``), integrated over the step or period:
 * ``"torque-rate"``: sum dM_i^2 (dM the derivative of the transcription's torque polynomial,
   ``planner`` Point field ``dM``), N^2 m^2/s^2, for smooth drive commands, plus
   ``REGULARISATION`` s^-2 times the torque term so that the torque level stays determined;
+* ``"human"``: the joints' strength-normalised effort with their passive moments
+  (:data:`problems.human.effort.HUMAN`, on point feet the stance ankle's torque on a flat
+  foot, no swing ankle), in (N m)^2;
 * ``"work"``: the positive mechanical power of the hinge drives sum max(0, M_i w_i) (w_i the
   hinge's relative rate: dpsi_i - dpsi_parent), smoothed as (P + sqrt(P^2 + eps^2)) / 2 with
   eps = ``WORK_EPSILON`` P_s, plus ``WORK_REGULARISATION`` P_s / L^2 times the torque term.
@@ -47,8 +50,9 @@ from problems.gait.verification import (
     GaitVerificationWarning,
     verify_gait,
 )
+from problems.human.effort import HUMAN, human_integrand
 
-OBJECTIVES = ("torque", "torque-rate", "work")
+OBJECTIVES = ("torque", "torque-rate", "work", "human")
 HALF_PI = 0.5 * math.pi
 #: Smoothing of max(0, P) in the positive-work objective, as a fraction of the power scale
 #: (median torque limit x 1 rad/s): 1 W at 150 N m.
@@ -232,6 +236,8 @@ def objective_integrand(linkage: Linkage, objective: str, torque_limit: float = 
     check_objective(objective)
     if objective == "torque":
         return lambda p: ca.sumsqr(p.M)
+    if objective == "human":
+        return human_integrand(linkage, HUMAN, linkage.names)
     if objective == "torque-rate":
         return lambda p: ca.sumsqr(p.dM) + REGULARISATION * ca.sumsqr(p.M)
     power_scale = check_positive("torque_limit", torque_limit)  # x 1 rad/s

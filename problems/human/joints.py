@@ -144,10 +144,12 @@ def leg_angles(body: Body, leg: Leg, psi: Mapping[str, np.ndarray]) -> dict[str,
 
 
 def leg_moments(
-    body: Body, leg: Leg, torques: Mapping[str, np.ndarray], body_mass: float
-) -> dict[str, np.ndarray]:
+    body: Body, leg: Leg, torques: Mapping[str, Any], body_mass: float
+) -> dict[str, Any]:
     """``hip_moment``, ``knee_moment``, ``ankle_moment`` of ``leg`` (N m/kg, extensor
-    positive, (K,)) from the hinge torques {link: (K,) N m} (see the module)."""
+    positive) from the hinge torques {link: value, N m} (see the module): arithmetic only,
+    numpy arrays (K,) or CasADi expressions; a point foot's swing ankle is NaN (numpy) or
+    None (expressions)."""
     if leg.stance:
         hip = sum(torques[name] for name in body.hip_links)
         knee = -torques[leg.thigh]
@@ -155,9 +157,11 @@ def leg_moments(
     else:
         hip = -torques[leg.thigh]
         knee = torques[leg.shank]
-        ankle = -torques[leg.foot] if leg.foot is not None else np.full(np.shape(knee), np.nan)
+        ankle = None if leg.foot is None else -torques[leg.foot]
+    if ankle is None and isinstance(knee, np.ndarray):
+        ankle = np.full(np.shape(knee), np.nan)
     return {
-        "hip_moment": np.asarray(hip) / body_mass,
-        "knee_moment": np.asarray(knee) / body_mass,
-        "ankle_moment": np.asarray(ankle) / body_mass,
+        "hip_moment": hip / body_mass,
+        "knee_moment": knee / body_mass,
+        "ankle_moment": None if ankle is None else ankle / body_mass,
     }

@@ -84,6 +84,8 @@ from problems.gait.problem import (
     verified,
 )
 from problems.gait.similarity import WalkerScales
+from problems.human.effort import HumanObjective, human_integrand, strike_collision
+from problems.human.effort import check_objective as check_human_objective
 from problems.walking.step import (
     CLEARANCE_SCALE,
     GUESS_LIFT,
@@ -169,6 +171,7 @@ class FootedStep:
     sequence: tuple[str, ...] = PHASES
     phases: Phases | None = None
     approach_time: float = 0.03
+    human: HumanObjective | None = None
 
     # ---- geometry ----------------------------------------------------------------------
     @property
@@ -361,6 +364,8 @@ class FootedStep:
             "swing_foot": self.biped.swing_leg[-1],
             "mesh": list(self.mesh),
             "law": self.law.to_dict(),
+            "objective": "torque" if self.human is None else "human",
+            "human_objective": None if self.human is None else self.human.as_dict(),
         }
 
 
@@ -382,6 +387,7 @@ def footed_step(
     posture: float = 0.2,
     durations: tuple[float, ...] | None = None,
     phases: str | tuple[str, ...] = "human",
+    objective: str | HumanObjective = "torque",
 ) -> FootedStep:
     """A periodic walking step on feet (see the module docstring).
 
@@ -404,6 +410,9 @@ def footed_step(
     phases : the contact phases in order, by a name of :data:`SEQUENCES` ("human": flat,
         heel rise, double; "flat-footed": flat, double; "toe-walking": heel rise, double) or
         as that tuple of phase names.
+    objective : "torque" (the drives' integral of sum M_i^2, the default), "human" (the
+        joints' strength-normalised effort with passive moments,
+        :data:`problems.human.effort.HUMAN`) or a :class:`problems.human.effort.HumanObjective`.
     """
     sequence = _sequence(phases)
     linkage = anthropoid_with_feet() if linkage is None else linkage
@@ -475,6 +484,7 @@ def footed_step(
         durations=durations,
         mesh=mesh,
         sequence=sequence,
+        human=check_human_objective(objective),
     )
     return replace(step, phases=_phases(step, transcription))
 
@@ -644,9 +654,11 @@ def _base_ocp(step: FootedStep, phase: int, transcription: str, contacts=()):
     limit = step.torque_limit
     drives = [step.linkage.index(name) for name in step.drives]
     time_unit = WalkerScales(step.leg_length, step.linkage.gravity).relative["time"]
-    ocp = ocp.minimize(integral=lambda p: ca.sumsqr(p.M[drives])).scale(
-        M=limit / 3.0, **rate_scales(time_unit)
-    )
+    if step.human is None:
+        integrand = lambda p: ca.sumsqr(p.M[drives])  # noqa: E731
+    else:
+        integrand = human_integrand(step.linkage, step.human, step.drives, step.neutral_ankles)
+    ocp = ocp.minimize(integral=integrand).scale(M=limit / 3.0, **rate_scales(time_unit))
     return ocp, duration
 
 
@@ -756,6 +768,9 @@ def _strike_rows(step: FootedStep, ocp: OCP) -> OCP:
             rows.append(ca.vertcat(-angular / sole, angular / sole + behind[1]))
         return ca.vertcat(*rows)
 
+    if step.human is not None and step.human.collision > 0:
+        ocp = ocp.minimize(terminal=strike_collision(step, step.human.collision),
+                           name="collision")  # fmt: skip
     return (
         ocp.boundary("landing", lambda p: ca.vertcat(*position(p.x[:n])), at="end",
                      lower=[step.landing, 0.0], upper=[step.landing, 0.0],
