@@ -255,3 +255,21 @@ def test_similarity_benchmark_quick_run():
         deviation, verified = float(row[5]), row[-2]
         assert abs(deviation) <= 1e-6 and verified == "True", row
     assert float(rows[0][5]) == 0.0
+
+
+@pytest.mark.slow
+def test_human_prediction_benchmark_quick_run(winter_xlsx):
+    """The benchmark behind human_gait.md's table of elements runs: every objective's plan
+    verifies, and the human setting's row is there."""
+    result = subprocess.run(
+        [sys.executable, str(EXAMPLES / "benchmarks/human_prediction.py"), "--data",
+         str(winter_xlsx), "--quick"],
+        capture_output=True, text=True, timeout=600, env=dict(os.environ, MPLBACKEND="Agg"),
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    rows = [line for line in result.stdout.splitlines() if line.startswith("| ")]
+    labels = ("torque", "joints", "+", "human")
+    planned = [row for row in rows if row.split("|")[1].strip().startswith(labels)]
+    assert len(planned) == 9, result.stdout
+    assert all(row.split("|")[-3].strip() == "True" for row in planned), result.stdout
+    assert any("= human" in row for row in planned)

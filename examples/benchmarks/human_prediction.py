@@ -1,7 +1,8 @@
 """Human walking reproduced: the objective's elements one by one against Winter's stride, the
 "human" setting at three speeds and for two bodies, and tracking the stride.
 
-    python examples/benchmarks/human_prediction.py --data ../shared/human_gait/Winter_Appendix_data.xlsx
+    python examples/benchmarks/human_prediction.py \
+        --data ../shared/human_gait/Winter_Appendix_data.xlsx   # about 3 min
     python examples/benchmarks/human_prediction.py --data ... --quick    # table 1 only
 
 Table 1: the step on feet at Winter's step (0.7075 m in 0.4935 s, the subject's 1.43 m/s)
@@ -93,14 +94,19 @@ def elements_table(data) -> None:
     print(f"| Winter (data) | | | | {humps} | | {f['knee_loading'].data:.1f} | "
           f"{f['knee_swing'].data:.1f} | {f['ankle_moment_peak'].data:.2f} | "
           f"{f['stance'].data:.1f} | | |")  # fmt: skip
-    print("| targets | <= 4, >= 0.95 | <= 6, >= 0.9 | <= 6, >= 0.9 | +-0.15 | >= 0.85 | "
-          ">= 10 | +-5 | +-20 % | | | |\n")
+    print(
+        "| targets | <= 4, >= 0.95 | <= 6, >= 0.9 | <= 6, >= 0.9 | +-0.15 | >= 0.85 | "
+        ">= 10 | +-5 | +-20 % | | | |\n"
+    )
 
 
 def speeds_table(data) -> None:
     print("Table 2: the human setting at three speeds, two bodies\n")
-    print("| body | speed m/s | step m in s | stance % | Fy humps BW | PF peak N m/kg | "
-          "knee swing | cost of transport | verified | s |\n|---|---|---|---|---|---|---|---|---|---|")
+    print(
+        "| body | speed m/s | step m in s | stance % | Fy humps BW | PF peak N m/kg | "
+        "knee swing | cost of transport | verified | s |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for height, mass in ((1.75, 70.0), (1.60, 55.0)):
         linkage = presets.scaled_body(presets.anthropoid_with_feet(), height, mass)
         for speed in (0.9, WINTER_SPEED, 1.8):
@@ -138,8 +144,9 @@ def tracking_table(data) -> None:
                 result = track_gait(data, feet=feet, weights=weights,
                                     solve_options={"progress": False})  # fmt: skip
             except Exception as error:
-                print(f"| {'feet' if feet else 'point feet'} | {label} | failed: "
-                      f"{str(error)[:90]} |")
+                print(
+                    f"| {'feet' if feet else 'point feet'} | {label} | failed: {str(error)[:90]} |"
+                )
                 continue
             seconds = time.perf_counter() - start
             c = result.comparison.channels
@@ -147,8 +154,10 @@ def tracking_table(data) -> None:
                   f"{c['hip'].rms:.1f} | {c['knee'].rms:.2f} | {c['ankle'].rms:.2f} | "
                   f"{c['force_y'].rms:.2f} {c['force_y'].r:.2f} | {result.gait.verified} | "
                   f"{seconds:.1f} |")  # fmt: skip
-    print("\n*hip: Winter's hip is the thigh against a HAT line that tilts with the pelvis; a point"
-          " foot's 'ankle' is its shank's tilt on a flat sole (not tracked)")
+    print(
+        "\n*hip: Winter's hip is the thigh against a HAT line that tilts with the pelvis; a point"
+        " foot's 'ankle' is its shank's tilt on a flat sole (not tracked)"
+    )
 
 
 def main(argv=None) -> int:

@@ -42,14 +42,13 @@ HARMONICS = 12
 #: Default weights, 1/deg^2 (angles) and 1/BW^2 (forces): the thigh, knee and ankle; the
 #: hip off (a recorded hip measures the thigh against a HAT line that tilts with the pelvis,
 #: no model trunk does); the ground force, when the recording has it, so that 0.1 BW counts
-#: as 1 deg (angles alone leave a rigid body's vertical force peaks at 3.4 BW on Winter's
-#: stride: his angles on the model's segment lengths ask for accelerations his body did not
-#: make).
+#: as 1 deg (on Winter's stride: the vertical force 0.26 BW RMS off instead of 0.48 with
+#: angles alone, for 0.2-0.4 deg on the knee and ankle; examples/benchmarks/
+#: human_prediction.py).
 DEFAULT_WEIGHTS = {"thigh": 1.0, "knee": 1.0, "ankle": 1.0, "force_x": 100.0, "force_y": 100.0}
-#: Default weight of the effort term sum (M_i / M_max)^2 (per s): at 1 the drives' torques
-#: chatter between the mesh points (a plan that misses its dynamics there, 600 N m
-#: consistent torques on Winter's stride); at 50 they are smooth and the angles still
-#: within 2 deg.
+#: Default weight of the effort term sum (M_i / M_max)^2 (per s): much lower and the
+#: drives' torques chatter between the mesh points (plans that fail their verification);
+#: at 50 with the rate terms below they are smooth and the angles within 2-3 deg.
 DEFAULT_EFFORT = 50.0
 #: Intervals of the footed step's phases when tracking (flat, heel rise, double): a tracked
 #: heel rise lasts about 60 % of the step, three times the predicted one.
