@@ -144,6 +144,32 @@ def test_the_command_line_offers_the_trajectory_formats(capsys, tmp_path):
             ],
         ),
         ("demo", ["--rows", "--no-equations", "N m"]),
+        (
+            "compare-gait",
+            [
+                "PLAN",
+                "--data",
+                "--data-body-mass-kg",
+                "--body-mass-kg",
+                "--output-dir",
+                "--no-plots",
+                "N m/kg",
+                "body weights",
+            ],
+        ),
+        (
+            "track-gait",
+            [
+                "--data",
+                "--point-feet",
+                "--weights",
+                "--effort",
+                "--rate-hz",
+                "1/deg^2",
+                "1/BW^2",
+                "--output-dir",
+            ],
+        ),
     ],
 )
 def test_every_subcommand_explains_its_options(capsys, command, expected):

@@ -45,22 +45,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
         raise UsageError(f"--data: {error}") from None
     comparison = compare_gait(model, recording)
     with output:
-        table = comparison.table()
-        heading = (
-            f"# {model.source}: {stride_summary(model)}\n\n"
-            f"against {recording.source}: {stride_summary(recording)}\n\n"
-        )
-        output.path("comparison.md").write_text(heading + table + "\n")
-        output.path("comparison.json").write_text(
-            json.dumps(comparison.as_dict(), indent=1, allow_nan=True) + "\n"
-        )
-        write_csv(model, output.path("stride.csv"))
-        if not args.no_plots:
-            from problems.human.plots import comparison_figure
-            from problems.walking.plots import save_figure
-
-            with report.working("plotting comparison.png"):
-                save_figure(comparison_figure(comparison), output.path("comparison.png"))
+        table = write_comparison(output, comparison, "against", {}, args.no_plots, report)
         written = output.commit({"argv": list(sys.argv[1:])})
     print(f"model: {model.source}: {stride_summary(model)}", file=out)
     print(f"human: {recording.source}: {stride_summary(recording)}", file=out)
@@ -68,6 +53,29 @@ def run(args, out: TextIO, report: Reporter) -> int:
     for path in written:
         print(f"wrote {path}", file=out)
     return 0
+
+
+def write_comparison(output, comparison, verb: str, extra: dict, no_plots: bool, report) -> str:
+    """Stage comparison.md (a heading: the model's stride ``verb`` the recording's, then the
+    table), comparison.json (the numbers and ``extra``), stride.csv (the model's stride) and,
+    unless ``no_plots``, comparison.png into ``output``; returns the table."""
+    model, recording = comparison.model, comparison.data
+    table = comparison.table()
+    output.path("comparison.md").write_text(
+        f"# {model.source}: {stride_summary(model)}\n\n{verb} {recording.source}: "
+        f"{stride_summary(recording)}\n\n{table}\n"
+    )
+    output.path("comparison.json").write_text(
+        json.dumps({**comparison.as_dict(), **extra}, indent=1, allow_nan=True) + "\n"
+    )
+    write_csv(model, output.path("stride.csv"))
+    if not no_plots:
+        from problems.human.plots import comparison_figure
+        from problems.walking.plots import save_figure
+
+        with report.working("plotting comparison.png"):
+            save_figure(comparison_figure(comparison), output.path("comparison.png"))
+    return table
 
 
 def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.ArgumentParser) -> None:

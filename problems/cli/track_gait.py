@@ -9,7 +9,6 @@ and the comparison with the recording (comparison.md, .json, .png, stride.csv).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import TextIO
@@ -24,8 +23,9 @@ from problems.cli.common import (
     print_verification,
     save_trajectory,
 )
+from problems.cli.compare_gait import write_comparison
 from problems.gait.verification import verify_gait
-from problems.human import read_recording, write_csv
+from problems.human import read_recording
 from problems.human.recording import ANGLES, FORCES
 from problems.human.tracking import DEFAULT_EFFORT, DEFAULT_WEIGHTS, track_gait
 from problems.human.winter import WINTER_BODY_MASS, stride_summary
@@ -82,23 +82,9 @@ def run(args, out: TextIO, report: Reporter) -> int:
         with report.working("verifying torques.csv (numpy, independent of the planner)"):
             check = verify_gait(LinkageTrajectory.load(written[0]), gait.problem.linkage)
         print_verification(check, profile.n_samples, out)
-        table = comparison.table()
-        output.path("comparison.md").write_text(
-            f"# {result.stride.source}: {stride_summary(result.stride)}\n\ntracking "
-            f"{recording.source}: {stride_summary(recording)}\n\n{table}\n"
-        )
-        output.path("comparison.json").write_text(
-            json.dumps({**comparison.as_dict(), "weights": dict(result.tracking.weights),
-                        "effort": result.tracking.effort,
-                        "cost_terms": dict(gait.solution.cost_terms)}, indent=1) + "\n"
-        )  # fmt: skip
-        write_csv(result.stride, output.path("stride.csv"))
-        if not args.no_plots:
-            from problems.human.plots import comparison_figure
-            from problems.walking.plots import save_figure
-
-            with report.working("plotting comparison.png"):
-                save_figure(comparison_figure(comparison), output.path("comparison.png"))
+        extra = {"weights": dict(result.tracking.weights), "effort": result.tracking.effort,
+                 "cost_terms": dict(gait.solution.cost_terms)}  # fmt: skip
+        table = write_comparison(output, comparison, "tracking", extra, args.no_plots, report)
         written = output.commit({"argv": list(sys.argv[1:])})
     print(table, file=out)
     for path in written:

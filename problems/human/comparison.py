@@ -226,50 +226,33 @@ def compare_gait(model: GaitRecording, data: GaitRecording) -> GaitComparison:
             features[name] = Feature(label, "BW", ma, da, mt, dt, "of the stance")
     for name in MOMENTS:
         if name in shared:
-            a, b = model.at(name, cycle), data.at(name, cycle)
-            i, j = int(np.nanargmax(a)), int(np.nanargmax(b))
             kind = "plantarflexor" if name == "ankle_moment" else "extensor"
-            label = f"{name.split('_')[0]} {kind} peak"
-            features[f"{name}_peak"] = Feature(
-                label,
-                "N m/kg",
-                float(a[i]),
-                float(b[j]),
-                float(cycle[i]),
-                float(cycle[j]),
-                "of the cycle",
-            )
+            everywhere = np.ones(cycle.shape, bool)
+            features[f"{name}_peak"] = _peak(
+                f"{name.split('_')[0]} {kind} peak", "N m/kg", model.at(name, cycle),
+                data.at(name, cycle), (everywhere, everywhere), cycle,
+            )  # fmt: skip
     return GaitComparison(model, data, channels, features)
 
 
+def _peak(label: str, unit: str, a: np.ndarray, b: np.ndarray, windows, cycle) -> Feature:
+    """The largest of ``a`` (model) and ``b`` (data) within their ``windows`` (masks), and
+    when (% of the cycle)."""
+    i = int(np.nanargmax(np.where(windows[0], a, -np.inf)))
+    j = int(np.nanargmax(np.where(windows[1], b, -np.inf)))
+    return Feature(label, unit, float(a[i]), float(b[j]), float(cycle[i]), float(cycle[j]),
+                   "of the cycle")  # fmt: skip
+
+
 def _knee_features(model: GaitRecording, data: GaitRecording, cycle: np.ndarray):
-    features = {}
-    early = cycle <= LOADING_RESPONSE
     a, b = model.at("knee", cycle), data.at("knee", cycle)
-    i, j = int(np.argmax(np.where(early, a, -np.inf))), int(np.argmax(np.where(early, b, -np.inf)))
-    features["knee_loading"] = Feature(
-        "knee flexion in loading response (0-25 %)",
-        "deg",
-        float(a[i]),
-        float(b[j]),
-        float(cycle[i]),
-        float(cycle[j]),
-        "of the cycle",
-    )
-    swing_a = cycle >= 100 * model.stance_fraction
-    swing_b = cycle >= 100 * data.stance_fraction
-    i = int(np.argmax(np.where(swing_a, a, -np.inf)))
-    j = int(np.argmax(np.where(swing_b, b, -np.inf)))
-    features["knee_swing"] = Feature(
-        "knee flexion, swing peak",
-        "deg",
-        float(a[i]),
-        float(b[j]),
-        float(cycle[i]),
-        float(cycle[j]),
-        "of the cycle",
-    )
-    return features
+    early = cycle <= LOADING_RESPONSE
+    swings = (cycle >= 100 * model.stance_fraction, cycle >= 100 * data.stance_fraction)
+    return {
+        "knee_loading": _peak("knee flexion in loading response (0-25 %)", "deg", a, b,
+                              (early, early), cycle),
+        "knee_swing": _peak("knee flexion, swing peak", "deg", a, b, swings, cycle),
+    }  # fmt: skip
 
 
 __all__ = ["ANGLES", "GaitComparison", "compare_gait", "humps"]

@@ -126,35 +126,23 @@ def read_winter(path: str | Path, body_mass: float = WINTER_BODY_MASS) -> GaitRe
     stride_time = float(time[-1] - time[0])
     percent = 100.0 * (time - time[0]) / stride_time
     weight = body_mass * GRAVITY
+
+    def read(sheet: Cells, table: str, *headers: str) -> np.ndarray:
+        return _series(sheet, _column(sheet, headers, path, table), frames)
+
     channels = {
-        "ankle": _series(joints, _column(joints, ("ANKLE", "THETA"), path, "A.4"), frames),
-        "knee": _series(joints, _column(joints, ("KNEE", "THETA"), path, "A.4"), frames),
-        "hip": _series(joints, _column(joints, ("HIP", "THETA"), path, "A.4"), frames),
-        "thigh": _series(segments, _column(segments, ("THIGH", "THETA"), path, "A.3"), frames)
-        - 90.0,
-        "force_x": _series(
-            kinetics, _column(kinetics, ("FOOT SEGMENT", "GROUND", "RX"), path, "A.5"), frames
-        )
-        / weight,
-        "force_y": _series(
-            kinetics, _column(kinetics, ("FOOT SEGMENT", "GROUND", "RY"), path, "A.5"), frames
-        )
-        / weight,
+        "ankle": read(joints, "A.4", "ANKLE", "THETA"),
+        "knee": read(joints, "A.4", "KNEE", "THETA"),
+        "hip": read(joints, "A.4", "HIP", "THETA"),
+        "thigh": read(segments, "A.3", "THIGH", "THETA") - 90.0,
+        "force_x": read(kinetics, "A.5", "FOOT SEGMENT", "GROUND", "RX") / weight,
+        "force_y": read(kinetics, "A.5", "FOOT SEGMENT", "GROUND", "RY") / weight,
         # the moments on the distal segment, counter-clockwise: to extensor positive
-        "ankle_moment": -_series(
-            kinetics, _column(kinetics, ("FOOT SEGMENT", "ANKLE", "MOMENT"), path, "A.5"), frames
-        )
-        / body_mass,
-        "knee_moment": _series(
-            kinetics, _column(kinetics, ("LEG SEGMENT", "KNEE", "MOMENT"), path, "A.5"), frames
-        )
-        / body_mass,
-        "hip_moment": -_series(
-            kinetics, _column(kinetics, ("THIGH SEGMENT", "HIP", "MOMENT"), path, "A.5"), frames
-        )
-        / body_mass,
+        "ankle_moment": -read(kinetics, "A.5", "FOOT SEGMENT", "ANKLE", "MOMENT") / body_mass,
+        "knee_moment": read(kinetics, "A.5", "LEG SEGMENT", "KNEE", "MOMENT") / body_mass,
+        "hip_moment": -read(kinetics, "A.5", "THIGH SEGMENT", "HIP", "MOMENT") / body_mass,
     }
-    heel_x = _series(markers, _column(markers, ("RIGHT HEEL", "X"), path, "A.2"), frames)
+    heel_x = read(markers, "A.2", "RIGHT HEEL", "X")
     stance = (_series(joints, 3, range(toe_off, toe_off + 1))[0] - time[0]) / stride_time
     return GaitRecording(
         percent,
