@@ -5,18 +5,19 @@
         --data ../shared/human_gait/Winter_Appendix_data.xlsx   # about 3 min
     python examples/benchmarks/human_prediction.py --data ... --quick    # table 1 only
 
-Table 1: the step on feet at Winter's step (0.7075 m in 0.4935 s, the subject's 1.43 m/s)
-under each objective, compared with the stride (``problems.human.compare_gait``: RMS and r
-over the cycle for the angles, over the stance for the vertical force; the force's humps and
-valley in body weights; the loading-response and swing knee flexion; the plantarflexor peak;
-the stance fraction), every plan verified at its 1 kHz samples. The targets of issue #34 in
-the last row. Table 2: the "human" setting at 0.9, 1.43 and 1.8 m/s (step length
+Table 1: the step on feet at Winter's step (0.7075 m in 0.4935 s, the subject's 1.43 m/s) under
+each objective, compared with the stride (``problems.human.compare_gait``: RMS and r over the
+cycle for the angles, over the stance for the vertical force; the force's humps and valley in
+body weights; the loading-response and swing knee flexion; the plantarflexor peak; the stance
+fraction), every plan verified at its 1 kHz samples; then the point-foot step under the torque
+and the human objective (its "ankle" the stance shank's tilt on a flat sole). The targets of
+issue #34 in the last row. Table 2: the "human" setting at 0.9, 1.43 and 1.8 m/s (step length
 0.7075 (v / 1.43)^(1/2) m times the height ratio, the step time length / v) for the scene's
 body (1.75 m, 70 kg) and one of 1.60 m, 55 kg by the same anthropometric table
-(``model.presets.scaled_body``): stance fraction, force humps, plantarflexor peak, knee
-swing peak, against the data where it was measured (1.43 m/s). Table 3: tracking the stride
-on feet and on point feet, angles only and angles with the ground force: RMS per channel,
-verified, seconds.
+(``model.presets.scaled_body``): stance fraction, force humps, plantarflexor peak, knee swing
+peak, against the data where it was measured (1.43 m/s). Table 3: tracking the stride on feet
+and on point feet, angles only and angles with the ground force: RMS per channel, verified,
+seconds.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from dataclasses import replace
 
 from model import presets
 from planner import AccuracyWarning
-from problems import footed_step
+from problems import footed_step, walking_step
 from problems.human import compare_gait, read_winter, step_stride
 from problems.human.effort import HUMAN, HumanObjective
 from problems.human.tracking import track_gait
@@ -88,6 +89,12 @@ def elements_table(data) -> None:
         seconds = time.perf_counter() - start
         channels, features = metrics(gait, data)
         print(row(label, channels, features, seconds, gait.verified))
+    for objective in ("torque", "human"):  # the point-foot step: no ankle to push off with
+        start = time.perf_counter()
+        gait = walking_step(None, *WINTER_STEP, objective=objective).solve()
+        channels, point_features = metrics(gait, data)
+        print(row(f"point feet, {objective}", channels, point_features,
+                  time.perf_counter() - start, gait.verified))  # fmt: skip
     f = features
     humps = "/".join(f"{f[k].data:.2f}" for k in ("force_peak_1", "force_valley",
                                                     "force_peak_2"))  # fmt: skip
