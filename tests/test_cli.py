@@ -944,6 +944,24 @@ def walk_run(tmp_path_factory):
     return code, out.getvalue(), err.getvalue(), folder
 
 
+def test_walk_writes_the_robots_view_beside_the_models(walk_run):
+    """joints.csv: one stride of the file read back, the printed peaks the file's."""
+    code, out, err, folder = walk_run
+    assert code == 0, err
+    table = np.genfromtxt(folder / "joints.csv", delimiter=",", names=True)
+    meta = json.loads((folder / "joints.csv.meta.json").read_text())
+    assert meta["format"] == "anthropoid-planner joint space" and meta["sides"] == ["right", "left"]
+    assert table["t_s"][-1] == pytest.approx(1.0)  # two steps of 0.5 s
+    printed = re.search(r"peak \|tau\| \(N m\): right_hip ([\d.]+)", out)
+    assert float(printed.group(1)) == pytest.approx(np.max(np.abs(table["tau_right_hip_N_m"])),
+                                                    abs=0.051)  # fmt: skip
+    assert "joints.csv" in json.loads((folder / "manifest.json").read_text())["files"]
+
+
+def test_walk_legs_option_is_checked(capsys):
+    assert_one_line_error(capsys, r"--legs: .*two different leg names", "walk", "--legs", "a,a")
+
+
 def test_walk_quick_writes_the_torques_the_solution_and_the_pictures(walk_run):
     code, out, err, folder = walk_run
     assert code == 0, err
@@ -1480,3 +1498,29 @@ def test_a_huge_value_is_echoed_abridged_not_whole(capsys):
     for digits, said in cases:
         line = assert_one_line_error(capsys, said, "walk", "--steps", "9" * digits)
         assert len(line) < 300, len(line)
+
+
+def test_the_commands_default_output_folders_are_ignored_by_git():
+    """Run from a clone's root, the commands' default folders do not show up as files to
+    commit."""
+    from pathlib import Path
+
+    from problems.cli import build_parser
+    from problems.cli.common import new_folder
+    from problems.cli.study import DEFAULT_FOLDER
+
+    root = Path(__file__).resolve().parent.parent
+    if not (root / ".git").exists():
+        pytest.skip("not a git clone")
+    parser = build_parser()
+    defaults = {
+        command: parser.parse_args([command, *extra]).output_dir
+        for command, extra in (("torques", []), ("simulate", ["t.csv"]),
+                               ("compare-gait", ["p.csv", "--data", "d.csv"]),
+                               ("track-gait", ["--data", "d.csv"]))
+    }  # fmt: skip
+    folders = [*defaults.values(), DEFAULT_FOLDER, str(new_folder("walk"))]
+    for folder in folders:
+        result = subprocess.run(["git", "check-ignore", "-q", f"{folder}/torques.csv"],
+                                cwd=root, capture_output=True)  # fmt: skip
+        assert result.returncode == 0, f"{folder} is not ignored by git"

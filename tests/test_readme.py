@@ -5,7 +5,10 @@ every link between them leads to a file that exists."""
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from model import Dynamics
 
 ROOT = Path(__file__).resolve().parent.parent
 #: The README and every guide beside what it describes.
@@ -34,6 +37,12 @@ def run_blocks(path: Path, tmp_path: Path, monkeypatch) -> list[tuple[Path, dict
     return namespaces
 
 
+def test_the_readme_cites_the_seed_paper():
+    text = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    assert "Compilation of a system equations dynamics of a six-link mechanism with " \
+        "branching using complex functions" in text  # fmt: skip
+
+
 def test_the_guides_are_found():
     # the guard: the documents the README links to are the ones this module runs
     names = {str(path.relative_to(ROOT)) for path in DOCUMENTS}
@@ -47,6 +56,16 @@ def test_the_readme_example_writes_its_torque_file(tmp_path, monkeypatch):
     folder, namespace = namespaces[0]
     assert namespace["solution"].success
     assert (folder / "torques.csv").stat().st_size > 0
+    # "at rest at both ends": the file's first and last samples neither move nor accelerate,
+    # so the last torque is the one that holds the arm level against gravity
+    from model import LinkageTrajectory
+
+    written = LinkageTrajectory.load(folder / "torques.csv")
+    arm = namespace["arm"]
+    for k in (0, -1):
+        assert abs(written.dpsi[k]).max() < 1e-9 and abs(written.ddpsi[k]).max() < 1e-6, k
+    holding = np.asarray(Dynamics(arm).function("gravity_torques")(written.psi[-1])).ravel()
+    np.testing.assert_allclose(written.torques[-1], holding, rtol=1e-6, atol=1e-6)
 
 
 @pytest.mark.parametrize(

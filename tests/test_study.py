@@ -164,10 +164,14 @@ def test_outputs_recomputed_from_the_exported_gaits(pool_study):
         use = np.max(np.abs(force.real[loaded]) / (0.8 * force.imag[loaded]))
         assert row["peak_friction_use"] == pytest.approx(use, rel=1e-8)
         assert row["verified"] is True and verify_gait(gait, linkage).ok
-        # The peak over the interpolant's fine grid is at least the peak over the nodes.
-        for i, name in enumerate(linkage.names):
-            nodes = np.max(np.abs(gait.torques[:, i]))
-            assert nodes - 1e-9 <= row[f"peak_torque_{name}"] <= 1.2 * nodes + 1.0
+        # The peaks are the 1 kHz file's (the consistent motion between the nodes, not the
+        # nodes'): solved again alone, the point's file holds the same peaks.
+        if row is pool_study.solved[0]:
+            alone = walking_step(step_length=row["step_length"], step_time=row["step_time"], N=N)
+            exported = alone.solve().to_trajectory(1000.0)
+            for i, name in enumerate(linkage.names):
+                peak = np.max(np.abs(exported.torques[:, i]))
+                assert row[f"peak_torque_{name}"] == pytest.approx(peak, rel=1e-4, abs=1e-6)
         assert gait.metadata["gait"]["step_length"] == row["step_length"]
         assert 0 < row["accuracy"] < 0.5 and row["iterations"] > 0
 
@@ -673,7 +677,13 @@ def test_the_walking_study_example_runs(tmp_path):
     ankle = StudyResult.load(tmp_path / "ankle")
     rows = {row["ankle"]: row for row in ankle.rows}
     # A passive ankle has no torque at H0: no ankle power, and a user-defined output column.
-    assert rows["passive"]["peak_torque_stance_shank"] <= 1e-6
+    # The peaks are the 1 kHz file's, the consistent motion's inverse dynamics: at a passive
+    # hinge it needs no more than the verification's 1 % of the torque scale (150 N m).
+    assert rows["passive"]["peak_torque_stance_shank"] <= 0.01 * 150.0
+    assert (
+        rows["passive"]["peak_torque_stance_shank"]
+        < 0.1 * rows["actuated"]["peak_torque_stance_shank"]
+    )
     assert rows["passive"]["peak_ankle_power"] <= 1e-5 < rows["actuated"]["peak_ankle_power"]
     for name in FILES:
         assert (tmp_path / "speed" / name).stat().st_size > 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import io
 import math
 import os
 import re
@@ -16,6 +17,7 @@ from typing import TextIO
 
 import numpy as np
 
+from model.linkage_trajectory import LinkageTrajectory
 from model.presets import PRESETS
 from planner.errors import DefinitionError, DefinitionTypeError
 from planner.refinement import check_accuracy
@@ -24,6 +26,7 @@ from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from problems.cli.output_set import OutputFolderError, OutputSet
 from problems.gait.accuracy import ACCURACY_PRESETS
 from problems.gait.law import LAW_PRESETS, GaitLaw
+from problems.robot import joint_space
 
 #: The help of --preset, for every command that takes one.
 PRESET_HELP = f"linkage preset, one of: {', '.join(PRESETS)} (default: six-link)"
@@ -79,6 +82,19 @@ class Parser(argparse.ArgumentParser):
         raise UsageError(f"{message} (see {self.prog} --help)")
 
 
+def _own_descriptor(stream: TextIO) -> TextIO:
+    """``stream`` written through a duplicate of its file descriptor, when it has one: the
+    planner captures descriptor 2 process-wide for the instant a solver is built
+    (``planner.native_output.captured``), and a progress line written meanwhile from another
+    thread would otherwise be caught there and logged back as something IPOPT wrote."""
+    try:
+        descriptor = os.dup(stream.fileno())
+    except (AttributeError, OSError, ValueError, io.UnsupportedOperation):
+        return stream  # a stream without a descriptor (a test's buffer) is not captured
+    encoding = getattr(stream, "encoding", None) or "utf-8"
+    return open(descriptor, "w", encoding=encoding, errors="replace", buffering=1)
+
+
 class Reporter:
     """Progress on stderr: lines tagged with the elapsed time, throttled, switchable.
 
@@ -92,7 +108,7 @@ class Reporter:
     def __init__(
         self, stream: TextIO, enabled: bool = True, heartbeat_s: float = 1.0, where: str = PROG
     ) -> None:
-        self._stream = stream
+        self._stream = _own_descriptor(stream)
         self._enabled = enabled
         self._where = where
         self._heartbeat_s = heartbeat_s
@@ -370,6 +386,44 @@ def save_trajectory(trajectory, folder: Path, stem: str, formats) -> list[Path]:
         trajectory.save(path)
         paths.append(path)
     return paths
+
+
+def sample_grid(times, rate_hz: float) -> str:
+    """What the samples of a file are, in words: "501 samples every 1 ms from t = 0" and, when
+    some are off that grid (the joins of a multi-phase plan, a step's end), which."""
+    times = np.asarray(times, dtype=float)
+    off = times[np.abs(times * rate_hz - np.round(times * rate_hz)) > 1e-6]
+    grid = f"{times.size} samples every {1e3 / rate_hz:g} ms from t = 0"
+    if off.size == 0:
+        return grid
+    listed = ", ".join(f"{t:.4f}" for t in off[:4]) + (", ..." if off.size > 4 else "")
+    return f"{grid}, and {off.size} off that grid at the phases' ends ({listed} s)"
+
+
+def write_joint_space(torques_csv: Path, output, legs: tuple[str, str], out) -> None:
+    """The robot's view of the torque file read back from disk (``problems.robot``): one
+    stride, ``legs`` = (the leg in stance in the planned step, the other), staged as
+    joints.csv with its sidecar, and one line on ``out`` saying what it holds."""
+    view = joint_space(LinkageTrajectory.load(torques_csv), sides=tuple(legs))
+    view.save(output.path("joints.csv"))
+    peaks = ", ".join(f"{j['name']} {j['peak_N_m']:.1f}" for j in view.metadata["joints"])
+    print(
+        f"joints.csv: the robot's view of one stride ({view.time.size} samples, the {legs[0]} "
+        f"leg in stance first): joint angles q_, rates dq_, accelerations ddq_ (0 standing, "
+        f"flexion and dorsiflexion positive), each physical drive's torque tau_ (N m, the sense "
+        f"that grows q), the ground's force and torque ground_; peak |tau| (N m): {peaks}",
+        file=out,
+    )
+
+
+def legs_option(text: str) -> tuple[str, str]:
+    """--legs RIGHT,LEFT: two different names (letters, digits, _)."""
+    names = tuple(part.strip() for part in text.split(","))
+    if len(names) != 2 or names[0] == names[1] or not all(n.isidentifier() for n in names):
+        raise argparse.ArgumentTypeError(
+            f"give two different leg names, the one in stance first, e.g. right,left; got {text!r}"
+        )
+    return names
 
 
 def check_clearance(value: float | None) -> None:

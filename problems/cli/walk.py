@@ -22,6 +22,7 @@ from problems.cli.common import (
     accuracy_option,
     check_clearance,
     check_samples,
+    legs_option,
     new_folder,
     non_negative,
     one_of,
@@ -31,7 +32,9 @@ from problems.cli.common import (
     print_mujoco_runs,
     print_runs,
     print_verification,
+    sample_grid,
     save_trajectory,
+    write_joint_space,
     write_walk_pictures,
 )
 from problems.cli.study import DEFAULT_DEGREES, DEGREES, count_at_most, positive_count
@@ -197,6 +200,14 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         default=1000.0,
         metavar="HZ",
         help="samples per second of the torque files, Hz (default: 1000)",
+    )
+    walk.add_argument(
+        "--legs",
+        type=legs_option,
+        default=("right", "left"),
+        metavar="A,B",
+        help="names of the legs in joints.csv, the one in stance in the planned step first "
+        "(default: right,left)",
     )
     walk.add_argument("--steps", type=count_at_most(MAX_DRAWN_STEPS, "steps",
                       "the pictures repeat one step: a few show it"), default=2,
@@ -434,7 +445,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
     )
     impact = gait.impact
     peaks = ", ".join(
-        f"{name} {value:.1f}" for name, value in gait.summary()["peak_torque"].items()
+        f"{name} {value:.1f}" for name, value in gait.summary(args.rate_hz)["peak_torque"].items()
     )
     print(
         f"cost of transport {gait.cost_of_transport:.4f} (positive work "
@@ -511,9 +522,10 @@ def run(args, out: TextIO, report: Reporter) -> int:
             save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
         with report.working("verifying torques.csv (numpy, independent of the planner)"):
             check = verify_gait(LinkageTrajectory.load(written[0]), linkage)
+        write_joint_space(written[0], output, args.legs, out)
         dynamics = check.facts.get("dynamics residual", math.nan)
         print(
-            f"torques.csv: {profile.n_samples} samples at {args.rate_hz:g} Hz of the consistent "
+            f"torques.csv: {sample_grid(profile.time, args.rate_hz)} of the consistent "
             f"motion (positions integrate the velocities, accelerations are their slope); its "
             f"torques are the inverse dynamics of its own motion to {dynamics:.1e} N m",
             file=out,

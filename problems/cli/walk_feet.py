@@ -29,7 +29,9 @@ from problems.cli.common import (
     output_set,
     print_mujoco_runs,
     print_verification,
+    sample_grid,
     save_trajectory,
+    write_joint_space,
     write_walk_pictures,
 )
 from problems.gait.verification import verify_gait
@@ -127,7 +129,7 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         f"(22) with flat feet, same mesh: {gait.law_cost:.6g}",
         file=out,
     )
-    summary = gait.summary()
+    summary = gait.summary(args.rate_hz)
     drives = ", ".join(f"{name} {summary['peak_torque'][name]:.1f}" for name in step.drives)
     print(
         f"cost of transport {summary['cost_of_transport']:.4f} (positive work "
@@ -162,10 +164,11 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
             save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
         with report.working("verifying torques.csv (numpy, independent of the planner)"):
             check = verify_gait(LinkageTrajectory.load(written[0]), step.linkage)
+        write_joint_space(written[0], output, args.legs, out)
         root = step.linkage.names[0]
         front = step.strike_role
         print(
-            f"torques.csv: {profile.n_samples} samples at {args.rate_hz:g} Hz; M_{root} is the "
+            f"torques.csv: {sample_grid(profile.time, args.rate_hz)}; M_{root} is the "
             "ground's torque on the stance foot (no drive: its centre of pressure is "
             f"CoP_{root}_start_x, m from the ball), F_{front}_x/_y the front "
             f"{step.striking_point}'s force in the double support",

@@ -445,8 +445,13 @@ class Gait:
             {"t": float(t0 + solution.T), "x": solution.states[-1].tolist()}
             for solution, t0 in segments[:-1]
         ]
+        held = self.solution.stats.get("sampled_limits")
         metadata = {
             **joined.metadata,
+            # every solve's: the first and the hold rounds' (the solution's own count is the
+            # last re-solve's)
+            "iterations": total_iterations(self.solution),
+            "solves": 1 if held is None else len(held["rounds"]),
             "gait": {
                 **self.problem.settings(times=joined.time),
                 "cost": self.cost,
@@ -499,13 +504,25 @@ class Gait:
         overrides, ...)."""
         return verify_gait(self.to_trajectory(rate_hz), self.problem.linkage, **options)
 
-    def summary(self) -> dict[str, Any]:
-        """Status, cost and law cost, positive work, peak and RMS torque per hinge (N m),
-        iterations, build and solve seconds."""
-        times, _, torques = self.fine()
+    def exported(self, rate_hz: float | None = RATE_HZ) -> Trajectory:
+        """:meth:`to_trajectory` at ``rate_hz``, made once (what the files hold at that rate)."""
+        key = ("exported", rate_hz)
+        if key not in self._cache:
+            self._cache[key] = self.to_trajectory(rate_hz)
+        return self._cache[key]
+
+    def summary(self, rate_hz: float | None = RATE_HZ) -> dict[str, Any]:
+        """Status, cost and law cost, positive work, peak and RMS torque per hinge (N m) of
+        the exported samples at ``rate_hz`` (what a file written at that rate holds: the
+        consistent motion's torques, not the solution's interpolant), IPOPT's iterations over
+        every solve (the first and the hold rounds' re-solves), how many solves, build and
+        solve seconds of the first."""
+        exported = self.exported(rate_hz)
+        times, torques = np.asarray(exported.time), np.asarray(exported.torques)
         names = self.problem.linkage.names
         rms = np.sqrt(np.trapezoid(torques**2, times, axis=0) / self.duration)
         stats = self.solution.stats
+        held = stats.get("sampled_limits")
         return {
             "status": self.solution.status,
             "success": self.success,
@@ -514,7 +531,8 @@ class Gait:
             "positive_work": self.positive_work,
             "peak_torque": dict(zip(names, np.max(np.abs(torques), axis=0).tolist(), strict=True)),
             "rms_torque": dict(zip(names, rms.tolist(), strict=True)),
-            "iterations": self.solution.iterations,
+            "iterations": total_iterations(self.solution),
+            "solves": 1 if held is None else len(held["rounds"]),
             "build_seconds": stats.get("build_seconds"),
             "solve_seconds": stats.get("solve_seconds"),
         }

@@ -930,14 +930,15 @@ class FootedGait(SteppingGait):
                 "pressure": np.concatenate(pressure),
                 "ankle_power": np.concatenate(power)}  # fmt: skip
 
-    def summary(self) -> dict[str, Any]:
-        """:meth:`Gait.summary` plus speed, cost of transport, the phases' durations (s), and
+    def summary(self, rate_hz: float | None = RATE_HZ) -> dict[str, Any]:
+        """:meth:`Gait.summary` (of the samples at ``rate_hz``) plus speed, cost of
+        transport, the phases' durations (s), and
         one leg's stance: the largest vertical ground force (body weights) and the ankle's
         push-off (its largest power, W; when, as a fraction of the stance; its positive work,
         J)."""
         stance = self.stance()
         return {
-            **super().summary(),
+            **super().summary(rate_hz),
             "speed": self.speed,
             "cost_of_transport": self.cost_of_transport,
             "durations": dict(zip(self.problem.sequence, self.durations(), strict=True)),

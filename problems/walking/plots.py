@@ -220,7 +220,7 @@ def draw_world(ax, motion: WorldMotion, frames_per_step: int = 6, title: str | N
     ax.set(xlim=(x0, x1), ylim=(y0, y1), xlabel="x [m]", ylabel="y [m]", aspect="equal")
     ax.set_title(title or f"{steps} steps in world coordinates (later poses darker)")
     ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize="small", frameon=False,
-              title="bodies, named\nas in step 1", title_fontsize="small")  # fmt: skip
+              title="bodies, named\nas in step 0", title_fontsize="small")  # fmt: skip
 
 
 def animate_walk(
@@ -260,7 +260,7 @@ def animate_walk(
                 markersize=3.0, solid_capstyle="round", label=name)[0]
         for j, name in enumerate(motion.segments)
     ]  # fmt: skip
-    ax.legend(loc="upper right", fontsize="x-small", frameon=False, title="named as in step 1",
+    ax.legend(loc="upper right", fontsize="x-small", frameon=False, title="named as in step 0",
               title_fontsize="x-small")  # fmt: skip
     clock = ax.set_title(f"{caption}t = {motion.time[-1]:.3f} s, step 99")  # laid out once
     follow = view < x1 - x0
@@ -271,9 +271,7 @@ def animate_walk(
             if follow:  # the body in view, the view inside the walk's extent
                 left = min(max(centres[index] - view / 2, x0), x1 - view)
                 ax.set_xlim(left, left + view)
-            clock.set_text(
-                f"{caption}t = {motion.time[index]:.3f} s, step {motion.step[index] + 1}"
-            )
+            clock.set_text(f"{caption}t = {motion.time[index]:.3f} s, step {motion.step[index]}")
             gif.grab()
         gif.save(path)
     return path
@@ -312,11 +310,11 @@ def closed_loop_figure(check) -> Figure:
     for label, run in check.runs.items():
         if run.steps:
             tracking = [max(r.tracking, 1e-9) for r in run.steps]
-            errors.semilogy(range(1, len(tracking) + 1), tracking, marker=".", label=
+            errors.semilogy(range(len(tracking)), tracking, marker=".", label=
                             f"{label} ({run.walked}/{check.steps})")  # fmt: skip
         else:
-            errors.plot([], [], label=f"{label} (fell in step 1)")
-    errors.set_xlabel("step")
+            errors.plot([], [], label=f"{label} (fell in step 0)")
+    errors.set_xlabel("step (from 0, as the tables count)")
     errors.set_ylabel("largest |psi - psi_ref(s)| in the step, rad")
     errors.set_title(
         f"closed loop (periodic LQR): largest multiplier {check.loop.spectral_radius:.3f}"

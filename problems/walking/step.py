@@ -935,11 +935,12 @@ class WalkingGait(SteppingGait):
         x = self.segments()[0][0].states[-1]  # the single support's end
         return complex(np.asarray(self.problem.foot.velocity(x[:n], x[n:])).reshape(-1)[0])
 
-    def summary(self) -> dict[str, Any]:
-        """:meth:`Gait.summary` plus speed, cost of transport, impulse and lift-off speed."""
+    def summary(self, rate_hz: float | None = RATE_HZ) -> dict[str, Any]:
+        """:meth:`Gait.summary` (of the samples at ``rate_hz``) plus speed, cost of transport,
+        impulse and lift-off speed."""
         impact = self.impact
         return {
-            **super().summary(),
+            **super().summary(rate_hz),
             "speed": self.speed,
             "cost_of_transport": self.cost_of_transport,
             "impulse": impact["impulse"].tolist(),
