@@ -92,3 +92,38 @@ def test_links_lead_to_files_that_exist(document):
         and not (document.parent / target).exists()
     ]
     assert not missing, f"{document.relative_to(ROOT)} links to missing files: {missing}"
+
+
+def quoted_commands(path: Path) -> list[str]:
+    """Every ``python -m problems ...`` command line of a bash block, its comment cut off;
+    the ones with "..." (elisions) and the README's install lines left out (a command named
+    in prose is a mention, not a command line)."""
+    text = path.read_text(encoding="utf-8")
+    lines = []
+    for block in re.findall(r"```bash\n(.*?)```", text, flags=re.S):
+        lines += block.splitlines()
+    commands = []
+    for line in lines:
+        found = re.search(r"python -m problems (.*)", line.split("#")[0])
+        if found and "..." not in found.group(1) and "&&" not in found.group(1):
+            commands.append(found.group(1).strip())
+    return commands
+
+
+@pytest.mark.parametrize("document", DOCUMENTS, ids=lambda path: str(path.relative_to(ROOT)))
+def test_quoted_commands_are_commands_the_program_takes(document):
+    """Each command a guide quotes parses with today's command line: its command and every
+    option exist and take the values written (running them all is the benchmarks' job)."""
+    import shlex
+
+    from problems.cli import build_parser
+    from problems.cli.common import UsageError
+
+    parser = build_parser()
+    for command in quoted_commands(document):
+        argv = shlex.split(command)
+        try:
+            parser.parse_args(argv)
+        except (SystemExit, UsageError) as error:  # a bad command line
+            raise AssertionError(f"{document.name}: `python -m problems {command}` does not "
+                                 f"parse ({error})") from None  # fmt: skip
