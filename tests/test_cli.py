@@ -1301,8 +1301,8 @@ def test_walk_replaces_its_own_folder_as_a_set_and_refuses_others(capsys, tmp_pa
     code, _, err = run(capsys, "walk", "--quick", "-q", "--no-plots", "--output-dir", folder)
     assert code == 0, err
     names = sorted(p.name for p in folder.iterdir())
-    assert names == ["manifest.json", "solution.npz", "torques.csv", "torques.csv.meta.json",
-                     "torques.json"]  # fmt: skip
+    assert names == ["joints.csv", "joints.csv.meta.json", "manifest.json", "solution.npz",
+                     "torques.csv", "torques.csv.meta.json", "torques.json"]  # fmt: skip
     assert [p.name for p in tmp_path.iterdir()] == ["walk"]  # no staging folder left
     # a folder of other files is refused before the solve, and left as it was
     foreign = tmp_path / "foreign"
