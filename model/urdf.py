@@ -1,0 +1,301 @@
+"""URDF of a planar linkage, and a planar linkage from a robot's URDF (its sagittal view).
+
+The plane is the robot's sagittal plane, as in :mod:`model.mjcf`: the model's point x + j y is
+the URDF point (x, 0, y) (x forward, z up), and a counter-clockwise model angle turns +x toward
++z: a rotation about -y. So every hinge of :func:`to_urdf` has the axis (0, -1, 0); each link's
+frame sits at its start hinge with its x axis along the link (all links along +x at the zero
+pose), the child's joint at (l, 0, 0) of its parent's frame, and the URDF joint angle is the
+relative angle q_i = psi_i - psi_parent(i). The root hangs on a ``continuous`` joint from a
+massless ``ground`` link at H0 (its ``origin``). Inertials: mass, centre of mass (x along the
+link, z to its left), and the moment of inertia about the centre of mass J as i_yy (the two
+out-of-plane moments J / 2, so that the tensor is physical; a planar motion never excites
+them). A link without children ends at a massless frame ``<link>_end`` (fixed at (l, 0, 0)).
+
+:func:`from_urdf` reads any URDF whose moving joints turn about the y axis (either sense) and
+keeps what its sagittal view shows: each link runs from its joint to the point where its
+children's joints are (in the x-z projection: left and right hips at the same x and z are one
+hinge point), its mass, centre of mass (projected) and i_yy. It refuses, naming the joint or
+link and the reason, a robot that is not planar in that view: a moving joint about another
+axis, a frame turned out of the plane (roll or yaw), children of one link hinged at different
+points of the plane, a ``prismatic`` or ``floating`` joint. ``fixed`` joints of massless links
+(sensors, frames) are dropped; a fixed joint that carries mass or moving joints is refused
+(merge it first). A link without moving children ends at its farthest massless frame (a
+sole, a tip: :func:`to_urdf` writes one, ``<link>_end``), or at ``leaf_length`` {link: m}
+along its centre of mass's direction, or else twice its centre of mass's distance from its
+joint (the centre of mass then halfway).
+The zero pose need not be the model's: :class:`UrdfLinkage` keeps each link's angle at the
+URDF's zero pose and each joint's sense, so that psi = offset + sum over the chain of sense q.
+"""
+
+from __future__ import annotations
+
+import cmath
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping
+from dataclasses import dataclass
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from model.linkage import Link, Linkage
+from planner.errors import DefinitionError
+
+#: The massless link the root hangs from in :func:`to_urdf`.
+GROUND = "ground"
+#: A hinge axis within this of the y axis (unit vectors) counts as the y axis.
+AXIS_TOLERANCE = 1e-9
+
+
+def to_urdf(
+    linkage: Linkage,
+    name: str = "linkage",
+    torque_limits: Mapping[str, float] | float | None = None,
+    speed_limit: float = 100.0,
+) -> str:
+    """The URDF text of ``linkage`` (see the module): ``torque_limits`` {link: N m} or one
+    number for every hinge (the joints' ``effort``; default none: 1e6), ``speed_limit``
+    rad/s (the joints' ``velocity``, which URDF requires with an effort)."""
+    if not isinstance(linkage, Linkage):
+        raise DefinitionError(f"`linkage`: must be a model.Linkage, got {type(linkage).__name__}")
+    if isinstance(torque_limits, Mapping):
+        efforts = {n: float(torque_limits.get(n, 1e6)) for n in linkage.names}
+    else:
+        effort = 1e6 if torque_limits is None else float(torque_limits)
+        efforts = dict.fromkeys(linkage.names, effort)
+    lines = ['<?xml version="1.0"?>', f"<robot name={quoteattr(name)}>",
+             f"  <link name={quoteattr(GROUND)}/>"]  # fmt: skip
+    for link in linkage.links:
+        inertia = float(link.inertia)
+        com = (link.com * link.length, link.com_lateral * link.length)
+        lines += [
+            f"  <link name={quoteattr(link.name)}>",
+            "    <inertial>",
+            f'      <origin xyz="{com[0]!r} 0 {com[1]!r}" rpy="0 0 0"/>',
+            f'      <mass value="{float(link.mass)!r}"/>',
+            f'      <inertia ixx="{inertia / 2!r}" ixy="0" ixz="0" iyy="{inertia!r}" iyz="0" '
+            f'izz="{inertia / 2!r}"/>',
+            "    </inertial>",
+            "  </link>",
+        ]
+    for i, link in enumerate(linkage.links):
+        parent = linkage.parents[i]
+        if parent < 0:
+            origin = 0j if link.origin is None else complex(link.origin)
+            parent_name = GROUND
+        else:
+            origin = complex(linkage.links[parent].length, 0.0)
+            parent_name = linkage.names[parent]
+        lines += [
+            f'  <joint name={quoteattr("hinge_" + link.name)} type="continuous">',
+            f"    <parent link={quoteattr(parent_name)}/>",
+            f"    <child link={quoteattr(link.name)}/>",
+            f'    <origin xyz="{origin.real!r} 0 {origin.imag!r}" rpy="0 0 0"/>',
+            '    <axis xyz="0 -1 0"/>',
+            f'    <limit effort="{efforts[link.name]!r}" velocity="{float(speed_limit)!r}"/>',
+            "  </joint>",
+        ]
+    for i, link in enumerate(linkage.links):
+        if linkage.children[i]:
+            continue
+        tip = f"{link.name}_end"  # the leaf's end hinge point: a massless frame
+        lines += [
+            f"  <link name={quoteattr(tip)}/>",
+            f'  <joint name={quoteattr(tip)} type="fixed">',
+            f"    <parent link={quoteattr(link.name)}/>",
+            f"    <child link={quoteattr(tip)}/>",
+            f'    <origin xyz="{float(link.length)!r} 0 0" rpy="0 0 0"/>',
+            "  </joint>",
+        ]
+    lines.append("</robot>")
+    return "\n".join(lines) + "\n"
+
+
+@dataclass(frozen=True)
+class UrdfLinkage:
+    """:func:`from_urdf`'s result: the ``linkage``; per link, the URDF joint that moves it
+    (``joints``), that joint's sense (``senses``: +1 for an axis along -y, the model's
+    counter-clockwise, -1 along +y) and the link's model angle at the URDF's zero pose
+    (``offsets``, rad): psi_i = offsets_i + sum over i and its ancestors k of senses_k q_k;
+    ``dropped``: the massless links of fixed joints left out."""
+
+    linkage: Linkage
+    joints: tuple[str, ...]
+    senses: tuple[float, ...]
+    offsets: tuple[float, ...]
+    dropped: tuple[str, ...]
+
+    def psi(self, q) -> np.ndarray:
+        """The model's absolute angles (n,) at the URDF joint angles ``q`` {joint: rad}."""
+        linkage = self.linkage
+        values = np.array([float(q.get(j, 0.0)) * s for j, s in zip(self.joints, self.senses,
+                                                                      strict=True)])  # fmt: skip
+        return np.array(self.offsets) + linkage.ancestry() @ values
+
+
+def _floats(text: str | None, count: int, what: str) -> list[float]:
+    values = [float(v) for v in (text or " ".join(["0"] * count)).split()]
+    if len(values) != count:
+        raise DefinitionError(f"`urdf`: {what}: {count} numbers, got {text!r}")
+    return values
+
+
+def _origin(element, what: str) -> tuple[np.ndarray, float]:
+    """(xyz (3,), pitch rad) of an <origin>, refusing roll and yaw (out of the plane)."""
+    origin = element.find("origin") if element is not None else None
+    xyz = _floats(None if origin is None else origin.get("xyz"), 3, f"{what} origin xyz")
+    roll, pitch, yaw = _floats(None if origin is None else origin.get("rpy"), 3,
+                               f"{what} origin rpy")  # fmt: skip
+    if abs(roll) > AXIS_TOLERANCE or abs(yaw) > AXIS_TOLERANCE:
+        raise DefinitionError(
+            f"`urdf`: {what} turns its frame out of the sagittal plane (roll {roll:g}, yaw "
+            f"{yaw:g} rad): not a planar robot in its x-z view"
+        )
+    return np.array(xyz), pitch
+
+
+def _turn(pitch: float) -> complex:
+    """A frame's rotation about y by ``pitch`` (URDF's rpy) as the model's complex factor: a
+    rotation about +y turns x toward -z, a clockwise model angle."""
+    return cmath.exp(-1j * pitch)
+
+
+def from_urdf(text: str, leaf_length: Mapping[str, float] | None = None) -> UrdfLinkage:
+    """The planar linkage of a URDF's sagittal view (see the module)."""
+    try:
+        robot = ET.fromstring(text)
+    except ET.ParseError as error:
+        raise DefinitionError(f"`urdf`: not XML ({error})") from None
+    links = {link.get("name"): link for link in robot.findall("link")}
+    joints = robot.findall("joint")
+    children: dict[str, list] = {name: [] for name in links}
+    parent_of: dict[str, str] = {}
+    for joint in joints:
+        name = joint.get("name")
+        parent, child = joint.find("parent").get("link"), joint.find("child").get("link")
+        if parent not in links or child not in links:
+            raise DefinitionError(f"`urdf`: joint {name!r} joins links the file does not have")
+        kind = joint.get("type")
+        if kind not in ("revolute", "continuous", "fixed"):
+            raise DefinitionError(
+                f"`urdf`: joint {name!r} is {kind!r}: only hinges (revolute, continuous) and "
+                "fixed joints make a planar linkage"
+            )
+        children[parent].append(joint)
+        parent_of[child] = parent
+    roots = [name for name in links if name not in parent_of]
+    if len(roots) != 1:
+        raise DefinitionError(f"`urdf`: one root link, got {roots}")
+    dropped = []
+
+    def massless(name: str) -> bool:
+        """No mass in the link and its subtree, and no moving joint under it."""
+        below = [j.find("child").get("link") for j in children[name]]
+        fixed = all(j.get("type") == "fixed" for j in children[name])
+        return _mass(links[name]) == 0.0 and fixed and all(massless(c) for c in below)
+
+    # walk the tree: each link's frame (world x + j z of its origin, its turn), the model's
+    # links (every link with a hinge about y; the root too when it has mass: a floating base
+    # then hangs at H0) with their model parent, each hinge's sense
+    order: list[tuple[str, str | None, str | None]] = []  # (link, joint, model parent)
+    frames: dict[str, tuple[complex, complex]] = {}
+    senses: dict[str, float] = {}
+    tips: dict[str, list[complex]] = {}
+
+    def visit(link: str, frame: tuple[complex, complex], model_parent: str | None) -> None:
+        frames[link] = frame
+        for joint in children[link]:
+            child = joint.find("child").get("link")
+            xyz, pitch = _origin(joint, f"joint {joint.get('name')!r}")
+            where = frame[0] + frame[1] * complex(xyz[0], xyz[2])
+            turn = frame[1] * _turn(pitch)
+            if joint.get("type") == "fixed":
+                if massless(child):  # a frame (a sensor, a sole, a tip): it may mark an end
+                    dropped.append(child)
+                    tips.setdefault(link, []).append(where)
+                    continue
+                raise DefinitionError(
+                    f"`urdf`: fixed joint {joint.get('name')!r} carries {child!r} with mass or "
+                    "moving joints: merge it into its parent first"
+                )
+            axis_element = joint.find("axis")
+            axis = np.array(_floats("1 0 0" if axis_element is None else axis_element.get("xyz"),
+                                    3, f"joint {joint.get('name')!r} axis"))  # fmt: skip
+            axis = axis / np.linalg.norm(axis)
+            if abs(abs(axis[1]) - 1.0) > AXIS_TOLERANCE:
+                raise DefinitionError(
+                    f"`urdf`: joint {joint.get('name')!r} turns about {axis.tolist()}, not the "
+                    "y axis: the robot is not planar in its sagittal (x-z) view"
+                )
+            senses[child] = -float(np.sign(axis[1]))  # about -y: counter-clockwise, +1
+            order.append((child, joint.get("name"), model_parent))
+            visit(child, (where, turn), child)
+
+    root = roots[0]
+    if _mass(links[root]) > 0:  # a floating base: the model's root, hinged at H0
+        senses[root] = 1.0
+        order.append((root, None, None))
+        visit(root, (0j, 1 + 0j), root)
+    else:
+        visit(root, (0j, 1 + 0j), None)
+    moving = [link for link, _, _ in order]
+    if not moving:
+        raise DefinitionError("`urdf`: no moving joint (hinge about y)")
+    built = []
+    offsets = []
+    for link, _, model_parent in order:
+        start = frames[link][0]
+        ends = [frames[j.find("child").get("link")][0] for j in children[link]
+                if j.find("child").get("link") in senses]  # fmt: skip
+        com_xyz, _ = _origin(links[link].find("inertial"), f"link {link!r} inertial")
+        com = start + frames[link][1] * complex(com_xyz[0], com_xyz[2])
+        if ends and max(abs(e - ends[0]) for e in ends) > 1e-9:
+            raise DefinitionError(
+                f"`urdf`: link {link!r} has children hinged at different points of the plane "
+                f"{sorted((e.real, e.imag) for e in ends)}: one link runs to one hinge point"
+            )
+        if ends:
+            end = ends[0]
+        elif tips.get(link) and link not in (leaf_length or {}):  # its farthest frame
+            end = max(tips[link], key=lambda tip: abs(tip - start))
+        else:
+            given = (leaf_length or {}).get(link)
+            reach = abs(com - start)
+            if given is None and reach < 1e-9:
+                raise DefinitionError(
+                    f"`urdf`: link {link!r} has no child and its centre of mass is at its joint: "
+                    f"give its length, leaf_length={{{link!r}: metres}}"
+                )
+            direction = (com - start) / reach if reach > 1e-9 else frames[link][1]
+            end = start + direction * (2.0 * reach if given is None else float(given))
+        vector = end - start
+        length = abs(vector)
+        if length < 1e-12:
+            raise DefinitionError(f"`urdf`: link {link!r} has no length in the sagittal view")
+        local = (com - start) / vector  # in units of the link: along + j lateral
+        mass = _mass(links[link])
+        if mass <= 0:
+            raise DefinitionError(f"`urdf`: link {link!r} has no mass")
+        built.append(Link(link, model_parent, length, mass, float(local.real),
+                          _inertia_yy(links[link]), float(local.imag),
+                          origin=start if model_parent is None else None,
+                          rerooted=not 0.0 <= local.real <= 1.0))  # fmt: skip
+        offsets.append(cmath.phase(vector))
+    linkage = Linkage(built)
+    return UrdfLinkage(linkage, tuple(j or "" for _, j, _ in order),
+                       tuple(senses[link] for link in moving), tuple(offsets),
+                       tuple(dropped))  # fmt: skip
+
+
+def _mass(link) -> float:
+    inertial = link.find("inertial")
+    if inertial is None or inertial.find("mass") is None:
+        return 0.0
+    return float(inertial.find("mass").get("value"))
+
+
+def _inertia_yy(link) -> float:
+    inertia = link.find("inertial").find("inertia")
+    return 0.0 if inertia is None else float(inertia.get("iyy", 0.0))
+
+
+__all__ = ["GROUND", "UrdfLinkage", "from_urdf", "to_urdf"]
