@@ -138,16 +138,14 @@ class PhasesSolution:
     # ---- export -------------------------------------------------------------------------
     def to_trajectory(self, rate_hz: float | None = None) -> Trajectory:
         """The phases one after another on one time axis, sampled like
-        ``Solution.to_trajectory`` (each phase at its nodes, or at ``rate_hz`` on one
-        uniform grid k / rate_hz of the whole axis, the joins added). The phases
+        ``Solution.to_trajectory`` (each phase at its nodes or at ``rate_hz``). The phases
         must have the same states and drives; a channel that only some phases have (a
         contact force held in one phase) is 0 in the others, and ``metadata["phases"]``
         lists each phase's start, duration, mesh and channels. At a join the end of one
         phase and the start of the next are one instant: the start of the next is kept (a
         jump, e.g. an impact, shows as the next phase's value)."""
         self._same_states("to_trajectory")
-        parts = [s.to_trajectory(rate_hz, start=t0)
-                 for s, t0 in zip(self.phases, self.starts.tolist(), strict=True)]  # fmt: skip
+        parts = [s.to_trajectory(rate_hz) for s in self.phases]
         first = parts[0]
         for name, part in zip(self.names, parts, strict=True):
             if part.control_names != first.control_names:

@@ -224,16 +224,14 @@ def _checks(ocp: OCPDefinition) -> tuple[list[_Rows], ca.Function]:
     return blocks, stacked
 
 
-def check_times(
-    solution: Solution, rate_hz: float | None, dense: int = DENSE_POINTS, start: float = 0.0
-):
+def check_times(solution: Solution, rate_hz: float | None, dense: int = DENSE_POINTS):
     """The times (s, from the phase's start) a phase is checked at: its export samples at
-    ``rate_hz`` (the nodes for None; the phase starting at ``start`` s on the export's time
-    axis) and ``dense`` equally spaced points inside every mesh interval."""
+    ``rate_hz`` (the nodes for None) and ``dense`` equally spaced points inside every mesh
+    interval."""
     nodes = solution.time
     inside = (np.arange(1, dense + 1) / (dense + 1))[None, :]
     grid = (nodes[:-1, None] + inside * np.diff(nodes)[:, None]).reshape(-1)
-    return np.unique(np.concatenate([solution.sample_times(rate_hz, start), grid, nodes]))
+    return np.unique(np.concatenate([solution.sample_times(rate_hz), grid, nodes]))
 
 
 def _motion_point(solution: Solution, times: np.ndarray):
@@ -277,11 +275,6 @@ def _phases(solution) -> list[Solution]:
     return list(solution.phases) if isinstance(solution, PhasesSolution) else [solution]
 
 
-def _starts(solution) -> list[float]:
-    """Each phase's start on the export's time axis, s."""
-    return solution.starts.tolist() if isinstance(solution, PhasesSolution) else [0.0]
-
-
 def sample_misses(
     solution: Solution | PhasesSolution,
     rate_hz: float | None,
@@ -294,14 +287,13 @@ def sample_misses(
         check_positive("rate_hz", rate_hz, "Hz")
     tolerance = check_positive("tolerance", tolerance)
     misses = []
-    for k, (phase, start) in enumerate(zip(_phases(solution), _starts(solution), strict=True)):
+    for k, phase in enumerate(_phases(solution)):
         if not phase.system.has_motion:
             raise DefinitionError(
                 "`solution`: its system has no consistent motion (positions, velocities, "
                 "drives_for_motion) to check at samples"
             )
-        times = check_times(phase, rate_hz, dense, start)
-        misses += _phase_misses(k, phase, times, tolerance)
+        misses += _phase_misses(k, phase, check_times(phase, rate_hz, dense), tolerance)
     return sorted(misses, key=lambda m: m.margin)
 
 
@@ -599,15 +591,14 @@ def hold_at_samples(
         raised = refined = 0
         updated, new_edges = [], []
         following: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
-        for phase, ocp, start in zip(phases, ocps, _starts(solution), strict=True):
+        for phase, ocp in zip(phases, ocps, strict=True):
             if not phase.system.has_motion:
                 raise DefinitionError(
                     "`problem`: its system has no consistent motion (positions, velocities, "
                     "drives_for_motion) to hold limits on"
                 )
             blocks = _checked_rows(ocp)
-            times = check_times(phase, rate_hz, dense, start)
-            excesses = _excesses(phase, blocks, times, REFINE)
+            excesses = _excesses(phase, blocks, check_times(phase, rate_hz, dense), REFINE)
             coarse: set[int] = set()
             for block, pair in zip(blocks, excesses, strict=True):
                 for side, excess in enumerate(pair):

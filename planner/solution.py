@@ -26,7 +26,6 @@ Accuracy estimates (all in the states' physical units):
 from __future__ import annotations
 
 import importlib.metadata
-import math
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -701,35 +700,24 @@ class Solution:
             },
         }
 
-    def sample_times(self, rate_hz: float | None = None, start: float = 0.0) -> np.ndarray:
-        """The nodes (rate_hz None) or the instants k / rate_hz of one time axis that fall
-        in this solution, which starts at ``start`` s on that axis (a phase of a multi-phase
-        solution), as times from its own start, with its start and its end added when they
-        are not on the grid: with several phases the samples of all of them lie on one
-        uniform grid, plus the joins."""
+    def sample_times(self, rate_hz: float | None = None) -> np.ndarray:
+        """The nodes (rate_hz None) or a uniform grid 0, 1/rate, ... with T appended."""
         if rate_hz is None:
             return self.time
         rate = check_positive("rate_hz", rate_hz, "Hz")
-        tolerance = 1e-9 * max(self.T, 1.0 / rate)
-        first = math.ceil(start * rate - 1e-9)
-        last = math.floor((start + self.T) * rate + 1e-9)
-        times = np.arange(first, last + 1) / rate - start
-        times = times[(times > tolerance) & (times < self.T - tolerance)]
-        return np.concatenate([[0.0], times, [self.T]])
+        count = int(np.floor(self.T * rate + 1e-9))
+        times = np.arange(count + 1) / rate
+        if self.T - times[-1] > 1e-9 * self.T:
+            times = np.append(times, self.T)
+        return times
 
-    def to_trajectory(
-        self, rate_hz: float | None = None, motion: str | None = None, start: float = 0.0
-    ):
+    def to_trajectory(self, rate_hz: float | None = None, motion: str | None = None):
         """The solution as a :class:`planner.trajectory.Trajectory`.
 
         At the nodes (``rate_hz`` None) or sampled at ``rate_hz``, in the system's names: its
         drives as the controls, the other controls, the auxiliary variables and the
         accelerations as extras (a linkage: psi_, dpsi_ states, M_ controls, ddpsi_ and
         contact-force extras).
-
-        ``start``: where this solution starts on a longer time axis, s (a phase of a
-        multi-phase solution): the samples are that axis's grid (:meth:`sample_times`), the
-        times this solution's own.
 
         ``motion``: ``"consistent"`` (the default when the system offers it, a linkage: the
         samples of :meth:`motion`, whose positions, velocities, accelerations and drives obey
@@ -743,7 +731,7 @@ class Solution:
             motion = "consistent" if s.has_motion else "transcription"
         if motion not in MOTIONS:
             raise DefinitionError(f"`motion`: must be one of {MOTIONS}, got {motion!r}")
-        times = self.sample_times(rate_hz, start)
+        times = self.sample_times(rate_hz)
         if motion == "consistent":
             states, rates, controls = self.motion(times)
         else:

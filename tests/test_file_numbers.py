@@ -10,7 +10,7 @@ import pytest
 
 from model import LinkageTrajectory
 from problems import walking_step
-from problems.cli.common import sample_grid
+from problems.cli.common import phase_starts, sample_grid
 
 
 @pytest.fixture(scope="module")
@@ -46,21 +46,26 @@ def test_the_sidecar_counts_every_solves_iterations(which, point_gait, footed_ga
     assert total > gait.solution.iterations  # the last re-solve's count alone
 
 
-def test_a_footed_file_is_on_one_grid_plus_its_joins(footed_gait, tmp_path):
+def test_a_footed_file_is_on_a_grid_per_phase_and_says_so(footed_gait, tmp_path):
+    """Each phase sampled every ms from its own start (the interval before a join shorter),
+    and the words the command prints say that, with the phases' starts."""
     written = _written(footed_gait, tmp_path)
     times = np.asarray(written.time)
-    off = times[np.abs(times * 1000.0 - np.round(times * 1000.0)) > 1e-6]
-    starts = [t0 for _, t0 in footed_gait.segments()][1:]
-    np.testing.assert_allclose(np.sort(off), np.sort(starts), atol=1e-12)
-    on = times[np.abs(times * 1000.0 - np.round(times * 1000.0)) <= 1e-6]
-    np.testing.assert_allclose(np.diff(on), 1e-3, atol=1e-9)  # every ms, none skipped
-    assert footed_gait.verify().ok
+    starts = [t0 for _, t0 in footed_gait.segments()]
+    for k, t0 in enumerate(starts):
+        end = starts[k + 1] if k + 1 < len(starts) else times[-1] + 1.0
+        inside = times[(times >= t0 - 1e-12) & (times < end - 1e-12)]
+        assert inside[0] == pytest.approx(t0, abs=1e-12)
+        np.testing.assert_allclose(np.diff(inside)[:-1], 1e-3, atol=1e-9)
+    words = sample_grid(times, 1000.0, phase_starts(written))
+    assert words.startswith(f"{times.size} samples every 1 ms from the start of each phase")
+    assert "heel rise" in words and "double" in words
 
 
 def test_the_grid_in_words():
     assert sample_grid(np.arange(501) / 1000.0, 1000.0) == "501 samples every 1 ms from t = 0"
-    words = sample_grid(np.array([0.0, 0.001, 0.0015, 0.002]), 1000.0)
-    assert words.endswith("and 1 off that grid at the phases' ends (0.0015 s)")
+    words = sample_grid(np.zeros(3), 1000.0, [("single", 0.0), ("double", 0.4)])
+    assert words == "3 samples every 1 ms from the start of each phase (single 0 s, double 0.4 s)"
 
 
 def test_progress_lines_are_not_caught_as_ipopt_output(tmp_path):

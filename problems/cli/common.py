@@ -388,16 +388,22 @@ def save_trajectory(trajectory, folder: Path, stem: str, formats) -> list[Path]:
     return paths
 
 
-def sample_grid(times, rate_hz: float) -> str:
-    """What the samples of a file are, in words: "501 samples every 1 ms from t = 0" and, when
-    some are off that grid (the joins of a multi-phase plan, a step's end), which."""
+def phase_starts(profile) -> list[tuple[str, float]]:
+    """(phase, start s) of a multi-phase file (its metadata["phases"]), or [] for one phase."""
+    return [(p["name"], float(p["start"])) for p in profile.metadata.get("phases", [])]
+
+
+def sample_grid(times, rate_hz: float, phases=None) -> str:
+    """What the samples of a file are, in words: "501 samples every 1 ms from t = 0"; with
+    ``phases`` [(name, start s), ...] of a multi-phase plan (its metadata["phases"]), the grid
+    restarts at each phase's start (a uniform grid per phase: where two phases meet, the
+    interval before the join is shorter), and the words say so."""
     times = np.asarray(times, dtype=float)
-    off = times[np.abs(times * rate_hz - np.round(times * rate_hz)) > 1e-6]
-    grid = f"{times.size} samples every {1e3 / rate_hz:g} ms from t = 0"
-    if off.size == 0:
-        return grid
-    listed = ", ".join(f"{t:.4f}" for t in off[:4]) + (", ..." if off.size > 4 else "")
-    return f"{grid}, and {off.size} off that grid at the phases' ends ({listed} s)"
+    step = f"every {1e3 / rate_hz:g} ms"
+    if not phases or len(phases) < 2:
+        return f"{times.size} samples {step} from t = 0"
+    starts = ", ".join(f"{name} {start:.4g} s" for name, start in phases)
+    return f"{times.size} samples {step} from the start of each phase ({starts})"
 
 
 def write_joint_space(torques_csv: Path, output, legs: tuple[str, str], out) -> None:

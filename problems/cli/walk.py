@@ -27,6 +27,7 @@ from problems.cli.common import (
     non_negative,
     one_of,
     output_set,
+    phase_starts,
     positive,
     preset_linkage,
     print_mujoco_runs,
@@ -525,7 +526,8 @@ def run(args, out: TextIO, report: Reporter) -> int:
         write_joint_space(written[0], output, args.legs, out)
         dynamics = check.facts.get("dynamics residual", math.nan)
         print(
-            f"torques.csv: {sample_grid(profile.time, args.rate_hz)} of the consistent "
+            f"torques.csv: {sample_grid(profile.time, args.rate_hz, phase_starts(profile))} "
+            "of the consistent "
             f"motion (positions integrate the velocities, accelerations are their slope); its "
             f"torques are the inverse dynamics of its own motion to {dynamics:.1e} N m",
             file=out,

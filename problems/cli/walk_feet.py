@@ -27,6 +27,7 @@ from problems.cli.common import (
     check_clearance,
     new_folder,
     output_set,
+    phase_starts,
     print_mujoco_runs,
     print_verification,
     sample_grid,
@@ -168,7 +169,8 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         root = step.linkage.names[0]
         front = step.strike_role
         print(
-            f"torques.csv: {sample_grid(profile.time, args.rate_hz)}; M_{root} is the "
+            f"torques.csv: {sample_grid(profile.time, args.rate_hz, phase_starts(profile))}; "
+            f"M_{root} is the "
             "ground's torque on the stance foot (no drive: its centre of pressure is "
             f"CoP_{root}_start_x, m from the ball), F_{front}_x/_y the front "
             f"{step.striking_point}'s force in the double support",

@@ -109,9 +109,8 @@ class GaitReference(TimedReference):
         after it, each from its own phase's consistent motion sampled at ``rate_hz`` from its
         start, both indexed by the whole step's phase (s = 1 where the rear foot lifts)."""
         problem = gait.problem
-        (single, _), (double, start) = gait.segments()
-        # on the exported file's grid: one uniform grid of the step, plus the strike
-        parts = [single.to_trajectory(rate_hz), double.to_trajectory(rate_hz, start=start)]
+        (single, _), (double, _) = gait.segments()
+        parts = [single.to_trajectory(rate_hz), double.to_trajectory(rate_hz)]
         hip = problem.dynamics.point(problem.biped.stance_thigh)
         ends = (complex(hip.position(parts[0].psi[0])).real,
                 complex(hip.position(parts[1].psi[-1])).real)  # fmt: skip

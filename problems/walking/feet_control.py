@@ -58,8 +58,7 @@ def feet_references(gait, rate_hz: float = CONTROL_RATE_HZ) -> tuple[GaitReferen
     state before the heel strike), both indexed by the whole step's phase: s = 0 at the
     step's start, 1 where the rear foot leaves."""
     step = gait.problem
-    # each phase on the exported file's grid (one uniform grid of the step, plus the joins)
-    *singles, last = (part.to_trajectory(rate_hz, start=t0) for part, t0 in gait.segments())
+    *singles, last = (part.to_trajectory(rate_hz) for part, _ in gait.segments())
     single = dataclasses.replace(singles[0], extras={}, metadata={})
     for second in singles[1:]:
         # the heel rise's first sample is the flat foot's last (the same instant): kept once
