@@ -77,3 +77,11 @@ def naming(error: OSError, path: Path) -> OSError:
         return type(error)(error.errno, strerror, str(path))
     except TypeError:  # a subclass with another constructor: keep it as it is
         return error
+
+
+def write_text_atomically(path: Path, text: str) -> Path:
+    """``text`` into ``path``, whole or not at all (:func:`atomic_path`)."""
+    path = Path(path)
+    with atomic_path(path, suffix=path.suffix) as temporary:
+        Path(temporary).write_text(text)
+    return path

@@ -31,7 +31,6 @@ names=True)`` reads it as well.
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from planner.errors import DefinitionError
+from planner.files import write_text_atomically
 
 #: channel -> (CSV column, unit, label for tables and pictures).
 CHANNELS: dict[str, tuple[str, str, str]] = {
@@ -160,13 +160,7 @@ def write_csv(recording: GaitRecording, path: str | Path) -> Path:
         row = [f"{percent:.6g}"] + [f"{recording.channels[n][k]:.6g}" for n in names]
         lines.append(",".join(row))
     text = "\n".join(line for line in lines if line is not None) + "\n"
-    partial = path.with_name(f".{path.name}.partial-{os.getpid()}")
-    try:
-        partial.write_text(text)
-        os.replace(partial, path)
-    finally:
-        partial.unlink(missing_ok=True)
-    return path
+    return write_text_atomically(path, text)
 
 
 def read_csv(path: str | Path) -> GaitRecording:

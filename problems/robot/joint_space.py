@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,6 +47,7 @@ import numpy as np
 from model.linkage import Linkage
 from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import DefinitionError, DefinitionTypeError
+from planner.files import write_text_atomically
 from planner.trajectory import Trajectory
 from problems.gait.biped import Biped
 from problems.human.joints import Body, Leg, body_of, joint_radians, leg_moments
@@ -79,19 +79,10 @@ class JointSpace:
         rows = np.column_stack([self.columns[n] for n in names])
         lines = [",".join(names)]
         lines += [",".join(repr(float(v)) for v in row) for row in rows]
-        _write(path, "\n".join(lines) + "\n")
-        _write(path.with_name(path.name + ".meta.json"),
+        write_text_atomically(path, "\n".join(lines) + "\n")
+        write_text_atomically(path.with_name(path.name + ".meta.json"),
                json.dumps(self.metadata, indent=1, allow_nan=False) + "\n")  # fmt: skip
         return path
-
-
-def _write(path: Path, text: str) -> None:
-    partial = path.with_name(f".{path.name}.partial-{os.getpid()}")
-    try:
-        partial.write_text(text)
-        os.replace(partial, path)
-    finally:
-        partial.unlink(missing_ok=True)
 
 
 def _linear(body: Body, leg: Leg, names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
