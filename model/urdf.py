@@ -32,7 +32,7 @@ from __future__ import annotations
 import cmath
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -159,17 +159,34 @@ def _turn(pitch: float) -> complex:
     return cmath.exp(-1j * pitch)
 
 
-def from_urdf(text: str, leaf_length: Mapping[str, float] | None = None) -> UrdfLinkage:
-    """The planar linkage of a URDF's sagittal view (see the module)."""
+@dataclass(frozen=True)
+class _Tree:
+    """A URDF's links by name, each link's joints to its children, the root link."""
+
+    links: dict
+    children: dict
+    root: str
+
+    def child(self, joint) -> str:
+        return joint.find("child").get("link")
+
+    def massless(self, name: str) -> bool:
+        """No mass in the link and its subtree, and no moving joint under it."""
+        joints = self.children[name]
+        return (_mass(self.links[name]) == 0.0 and all(j.get("type") == "fixed" for j in joints)
+                and all(self.massless(self.child(j)) for j in joints))  # fmt: skip
+
+
+def _tree(text: str) -> _Tree:
+    """The URDF's tree, refusing joints that are neither hinges nor fixed."""
     try:
         robot = ET.fromstring(text)
     except ET.ParseError as error:
         raise DefinitionError(f"`urdf`: not XML ({error})") from None
     links = {link.get("name"): link for link in robot.findall("link")}
-    joints = robot.findall("joint")
     children: dict[str, list] = {name: [] for name in links}
     parent_of: dict[str, str] = {}
-    for joint in joints:
+    for joint in robot.findall("joint"):
         name = joint.get("name")
         parent, child = joint.find("parent").get("link"), joint.find("child").get("link")
         if parent not in links or child not in links:
@@ -185,105 +202,123 @@ def from_urdf(text: str, leaf_length: Mapping[str, float] | None = None) -> Urdf
     roots = [name for name in links if name not in parent_of]
     if len(roots) != 1:
         raise DefinitionError(f"`urdf`: one root link, got {roots}")
-    dropped = []
+    return _Tree(links, children, roots[0])
 
-    def massless(name: str) -> bool:
-        """No mass in the link and its subtree, and no moving joint under it."""
-        below = [j.find("child").get("link") for j in children[name]]
-        fixed = all(j.get("type") == "fixed" for j in children[name])
-        return _mass(links[name]) == 0.0 and fixed and all(massless(c) for c in below)
 
-    # walk the tree: each link's frame (world x + j z of its origin, its turn), the model's
-    # links (every link with a hinge about y; the root too when it has mass: a floating base
-    # then hangs at H0) with their model parent, each hinge's sense
-    order: list[tuple[str, str | None, str | None]] = []  # (link, joint, model parent)
-    frames: dict[str, tuple[complex, complex]] = {}
-    senses: dict[str, float] = {}
-    tips: dict[str, list[complex]] = {}
+def _sense(joint) -> float:
+    """+1 for a hinge about -y (the model's counter-clockwise), -1 about +y; any other axis
+    refused."""
+    element = joint.find("axis")
+    axis = np.array(_floats("1 0 0" if element is None else element.get("xyz"), 3,
+                            f"joint {joint.get('name')!r} axis"))  # fmt: skip
+    axis = axis / np.linalg.norm(axis)
+    if abs(abs(axis[1]) - 1.0) > AXIS_TOLERANCE:
+        raise DefinitionError(
+            f"`urdf`: joint {joint.get('name')!r} turns about {axis.tolist()}, not the y axis: "
+            "the robot is not planar in its sagittal (x-z) view"
+        )
+    return -float(np.sign(axis[1]))
+
+
+@dataclass
+class _Walk:
+    """The tree walked at its zero pose: each link's frame (world x + j z of its origin, its
+    turn), the model's links in order (link, its joint, its model parent), each hinge's
+    sense, the massless frames each link carries (``tips``) and the ones dropped."""
+
+    frames: dict = field(default_factory=dict)
+    order: list = field(default_factory=list)
+    senses: dict = field(default_factory=dict)
+    tips: dict = field(default_factory=dict)
+    dropped: list = field(default_factory=list)
+
+
+def _walk(tree: _Tree) -> _Walk:
+    """Every link with a hinge about y is a model link; the root too when it has mass (a
+    floating base then hangs at H0)."""
+    walk = _Walk()
 
     def visit(link: str, frame: tuple[complex, complex], model_parent: str | None) -> None:
-        frames[link] = frame
-        for joint in children[link]:
-            child = joint.find("child").get("link")
+        walk.frames[link] = frame
+        for joint in tree.children[link]:
+            child = tree.child(joint)
             xyz, pitch = _origin(joint, f"joint {joint.get('name')!r}")
             where = frame[0] + frame[1] * complex(xyz[0], xyz[2])
-            turn = frame[1] * _turn(pitch)
             if joint.get("type") == "fixed":
-                if massless(child):  # a frame (a sensor, a sole, a tip): it may mark an end
-                    dropped.append(child)
-                    tips.setdefault(link, []).append(where)
-                    continue
-                raise DefinitionError(
-                    f"`urdf`: fixed joint {joint.get('name')!r} carries {child!r} with mass or "
-                    "moving joints: merge it into its parent first"
-                )
-            axis_element = joint.find("axis")
-            axis = np.array(_floats("1 0 0" if axis_element is None else axis_element.get("xyz"),
-                                    3, f"joint {joint.get('name')!r} axis"))  # fmt: skip
-            axis = axis / np.linalg.norm(axis)
-            if abs(abs(axis[1]) - 1.0) > AXIS_TOLERANCE:
-                raise DefinitionError(
-                    f"`urdf`: joint {joint.get('name')!r} turns about {axis.tolist()}, not the "
-                    "y axis: the robot is not planar in its sagittal (x-z) view"
-                )
-            senses[child] = -float(np.sign(axis[1]))  # about -y: counter-clockwise, +1
-            order.append((child, joint.get("name"), model_parent))
-            visit(child, (where, turn), child)
+                if not tree.massless(child):
+                    raise DefinitionError(
+                        f"`urdf`: fixed joint {joint.get('name')!r} carries {child!r} with mass "
+                        "or moving joints: merge it into its parent first"
+                    )
+                walk.dropped.append(child)  # a frame (a sensor, a sole, a tip): maybe an end
+                walk.tips.setdefault(link, []).append(where)
+                continue
+            walk.senses[child] = _sense(joint)
+            walk.order.append((child, joint.get("name"), model_parent))
+            visit(child, (where, frame[1] * _turn(pitch)), child)
 
-    root = roots[0]
-    if _mass(links[root]) > 0:  # a floating base: the model's root, hinged at H0
-        senses[root] = 1.0
-        order.append((root, None, None))
-        visit(root, (0j, 1 + 0j), root)
+    if _mass(tree.links[tree.root]) > 0:
+        walk.senses[tree.root] = 1.0
+        walk.order.append((tree.root, None, None))
+        visit(tree.root, (0j, 1 + 0j), tree.root)
     else:
-        visit(root, (0j, 1 + 0j), None)
-    moving = [link for link, _, _ in order]
-    if not moving:
+        visit(tree.root, (0j, 1 + 0j), None)
+    if not walk.order:
         raise DefinitionError("`urdf`: no moving joint (hinge about y)")
-    built = []
-    offsets = []
-    for link, _, model_parent in order:
-        start = frames[link][0]
-        ends = [frames[j.find("child").get("link")][0] for j in children[link]
-                if j.find("child").get("link") in senses]  # fmt: skip
-        com_xyz, _ = _origin(links[link].find("inertial"), f"link {link!r} inertial")
-        com = start + frames[link][1] * complex(com_xyz[0], com_xyz[2])
-        if ends and max(abs(e - ends[0]) for e in ends) > 1e-9:
-            raise DefinitionError(
-                f"`urdf`: link {link!r} has children hinged at different points of the plane "
-                f"{sorted((e.real, e.imag) for e in ends)}: one link runs to one hinge point"
-            )
-        if ends:
-            end = ends[0]
-        elif tips.get(link) and link not in (leaf_length or {}):  # its farthest frame
-            end = max(tips[link], key=lambda tip: abs(tip - start))
-        else:
-            given = (leaf_length or {}).get(link)
-            reach = abs(com - start)
-            if given is None and reach < 1e-9:
-                raise DefinitionError(
-                    f"`urdf`: link {link!r} has no child and its centre of mass is at its joint: "
-                    f"give its length, leaf_length={{{link!r}: metres}}"
-                )
-            direction = (com - start) / reach if reach > 1e-9 else frames[link][1]
-            end = start + direction * (2.0 * reach if given is None else float(given))
-        vector = end - start
-        length = abs(vector)
-        if length < 1e-12:
+    return walk
+
+
+def _end(link: str, tree: _Tree, walk: _Walk, com: complex, leaf_length) -> complex:
+    """Where ``link`` ends in the plane: its moving children's common hinge point, else its
+    farthest massless frame, else ``leaf_length`` (or twice its centre of mass's reach)
+    along its centre of mass's direction."""
+    start = walk.frames[link][0]
+    ends = [walk.frames[tree.child(j)][0] for j in tree.children[link]
+            if tree.child(j) in walk.senses]  # fmt: skip
+    if ends and max(abs(e - ends[0]) for e in ends) > 1e-9:
+        raise DefinitionError(
+            f"`urdf`: link {link!r} has children hinged at different points of the plane "
+            f"{sorted((e.real, e.imag) for e in ends)}: one link runs to one hinge point"
+        )
+    if ends:
+        return ends[0]
+    given = (leaf_length or {}).get(link)
+    if walk.tips.get(link) and given is None:
+        return max(walk.tips[link], key=lambda tip: abs(tip - start))
+    reach = abs(com - start)
+    if given is None and reach < 1e-9:
+        raise DefinitionError(
+            f"`urdf`: link {link!r} has no child and its centre of mass is at its joint: give "
+            f"its length, leaf_length={{{link!r}: metres}}"
+        )
+    direction = (com - start) / reach if reach > 1e-9 else walk.frames[link][1]
+    return start + direction * (2.0 * reach if given is None else float(given))
+
+
+def from_urdf(text: str, leaf_length: Mapping[str, float] | None = None) -> UrdfLinkage:
+    """The planar linkage of a URDF's sagittal view (see the module)."""
+    tree = _tree(text)
+    walk = _walk(tree)
+    built, offsets = [], []
+    for link, _, model_parent in walk.order:
+        start, turn = walk.frames[link]
+        com_xyz, _ = _origin(tree.links[link].find("inertial"), f"link {link!r} inertial")
+        com = start + turn * complex(com_xyz[0], com_xyz[2])
+        vector = _end(link, tree, walk, com, leaf_length) - start
+        if abs(vector) < 1e-12:
             raise DefinitionError(f"`urdf`: link {link!r} has no length in the sagittal view")
         local = (com - start) / vector  # in units of the link: along + j lateral
-        mass = _mass(links[link])
+        mass = _mass(tree.links[link])
         if mass <= 0:
             raise DefinitionError(f"`urdf`: link {link!r} has no mass")
-        built.append(Link(link, model_parent, length, mass, float(local.real),
-                          _inertia_yy(links[link]), float(local.imag),
+        built.append(Link(link, model_parent, abs(vector), mass, float(local.real),
+                          _inertia_yy(tree.links[link]), float(local.imag),
                           origin=start if model_parent is None else None,
                           rerooted=not 0.0 <= local.real <= 1.0))  # fmt: skip
         offsets.append(cmath.phase(vector))
-    linkage = Linkage(built)
-    return UrdfLinkage(linkage, tuple(j or "" for _, j, _ in order),
-                       tuple(senses[link] for link in moving), tuple(offsets),
-                       tuple(dropped))  # fmt: skip
+    return UrdfLinkage(Linkage(built), tuple(j or "" for _, j, _ in walk.order),
+                       tuple(walk.senses[link] for link, _, _ in walk.order), tuple(offsets),
+                       tuple(walk.dropped))  # fmt: skip
 
 
 def _mass(link) -> float:

@@ -962,6 +962,11 @@ def test_walk_legs_option_is_checked(capsys):
     assert_one_line_error(capsys, r"--legs: .*two different leg names", "walk", "--legs", "a,a")
 
 
+def test_walk_on_feet_takes_the_torque_or_the_human_objective_only(capsys):
+    assert_one_line_error(capsys, r"--objective work: the step on feet takes torque or human",
+                          "walk", "--preset", "six-link-feet", "--objective", "work")  # fmt: skip
+
+
 def test_walk_quick_writes_the_torques_the_solution_and_the_pictures(walk_run):
     code, out, err, folder = walk_run
     assert code == 0, err

@@ -172,3 +172,11 @@ def test_winter_angles_follow_his_definitions_on_his_markers(winter_xlsx):
     assert rms("ankle_raw", "ankle") < 2.0
     # ... and the opposite sign conventions would be tens of degrees off
     assert math.sqrt(np.nanmean((angles["ankle_raw"] + angles["ankle"]) ** 2)) > 5.0
+
+
+def test_a_csv_recording_takes_no_workbook_options(tmp_path):
+    path = write_csv(_recording(), tmp_path / "lab.csv")
+    with pytest.raises(
+        ValueError, match=r"`options`: a CSV recording takes none, got \['body_mass'\]"
+    ):
+        read_recording(path, body_mass=60.0)

@@ -263,6 +263,62 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
 def run(args, out: TextIO, report: Reporter) -> int:
     if args.preset == "six-link-feet":
         return run_feet(args, out, report)
+    mesh, preset, target, sole = _checked_options(args)
+    linkage = preset_linkage(args.preset)
+    output = output_set(str(args.output_dir or new_folder("walk")), "walk")
+    report.step(f"defining the walking step of {args.preset} ({linkage.n} links)")
+    step = _step(args, linkage, mesh, sole)
+    gait, caught = _solve(step, args, target, report)
+    _print_plan(gait, args, preset, target, caught, out, report)
+    # Everything goes to a staging folder first and replaces the output folder as a set once
+    # the file the drives read has been read back and verified.
+    feedback = None
+    if args.feedback:
+        from problems.walking.feedback import design_feedback
+
+        with report.working("designing the feedback (a periodic LQR through the step's events)"):
+            feedback = design_feedback(gait, ground_mu=args.ground_friction)
+    with output:
+        with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
+            profile = gait.to_trajectory(args.rate_hz)
+            if feedback is not None:
+                profile = feedback.channels(profile)
+            written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
+            save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
+        with report.working("verifying torques.csv (numpy, independent of the planner)"):
+            check = verify_gait(LinkageTrajectory.load(written[0]), linkage)
+        write_joint_space(written[0], output, args.legs, out)
+        dynamics = check.facts.get("dynamics residual", math.nan)
+        print(
+            f"torques.csv: {sample_grid(profile.time, args.rate_hz, phase_starts(profile))} "
+            "of the consistent "
+            f"motion (positions integrate the velocities, accelerations are their slope); its "
+            f"torques are the inverse dynamics of its own motion to {dynamics:.1e} N m",
+            file=out,
+        )
+        print_verification(check, profile.n_samples, out)
+        closed = None
+        if feedback is not None:
+            closed = _closed_loop(feedback, report, out)
+        if not args.no_plots:
+            from problems.walking import plots as walking_plots
+
+            write_walk_pictures(walking_plots.gait_figure(gait), gait, output, args, report)
+            if closed is not None:
+                with report.working("plotting closed_loop.png"):
+                    walking_plots.save_figure(walking_plots.closed_loop_figure(closed),
+                                              output.path("closed_loop.png"))  # fmt: skip
+                _draw_pushed_walk(closed, gait.problem.dynamics, output, args.no_gif, report)
+        paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
+    for path in paths:
+        print(f"wrote {path}", file=out)
+    return 0
+
+
+def _checked_options(args):
+    """(mesh options of walking_step, the accuracy preset or None, the refinement target or
+    None, the sole (heel, toe) m or (None, None)), every option checked against the others
+    (UsageError naming them)."""
     if args.feet_phases != "human":
         raise UsageError(
             f"--feet-phases {args.feet_phases}: only with --preset six-link-feet (point feet "
@@ -323,9 +379,11 @@ def run(args, out: TextIO, report: Reporter) -> int:
     if sole[0] is not None and sole[0] + sole[1] <= 0:
         raise UsageError("--foot-heel-m, --foot-toe-m: the sole must be longer than 0 m; for a "
                          "point foot give --passive-ankle")  # fmt: skip
-    linkage = preset_linkage(args.preset)
-    output = output_set(str(args.output_dir or new_folder("walk")), "walk")
-    report.step(f"defining the walking step of {args.preset} ({linkage.n} links)")
+    return mesh, preset, target, sole
+
+
+def _step(args, linkage, mesh, sole):
+    """The walking step the options ask for."""
     extra = {}
     if sole[0] is not None:
         extra["foot"] = sole
@@ -333,7 +391,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
         extra["touchdown_speed"] = args.touchdown_speed_mps
     if args.clearance_m is not None:
         extra["clearance"] = args.clearance_m
-    step = walking_step(
+    return walking_step(
         linkage,
         args.step_length_m,
         args.step_time_s,
@@ -347,6 +405,11 @@ def run(args, out: TextIO, report: Reporter) -> int:
         ground_margin=args.ground_margin_m,
         **extra,
     )
+
+
+def _solve(step, args, target, report):
+    """(gait, the warnings caught): the step solved with IPOPT (its iterations reported every
+    second), its limits held at the samples; a failure to hold them raises CommandFailed."""
     last = [-math.inf]
 
     def iteration(row) -> None:
@@ -376,16 +439,24 @@ def run(args, out: TextIO, report: Reporter) -> int:
             raise CommandFailed(
                 f"the plan's limits could not be held at every sample: {error}; nothing written"
             ) from None
+    return gait, caught
+
+
+def _print_plan(gait, args, preset, target, caught, out, report) -> None:
+    """The plan in lines (:func:`_print_solve`, :func:`_print_results`); raises
+    CommandFailed when IPOPT did not converge or the accuracy target was not reached
+    (nothing is written)."""
+    _print_solve(gait, args, preset, out)
+    _print_results(gait, args, target, caught, out, report)
+
+
+def _print_solve(gait, args, preset, out) -> None:
+    """The step and its mesh (the refinement's passes), IPOPT's first solve and the limits'
+    hold rounds; raises CommandFailed when IPOPT did not converge."""
+    step = gait.problem
     solution = gait.solution
     stats = solution.stats
     history = stats.get("refinement")
-    accuracy = stats.get("accuracy")
-    objective_words = {
-        "torque": "integral of sum M_i^2, N^2 m^2 s",
-        "torque-rate": "integral of sum dM_i^2 (+ 1e-3 sum M_i^2)",
-        "work": f"positive work (+ {WORK_REGULARISATION / args.torque_limit_nm:.3g} sum M_i^2), J",
-        "human": "integral of the joints' strength-normalised effort, (N m)^2 s",
-    }[args.objective]
     phases = f", double support {step.double_support:g} s" if step.double_support > 0 else ""
     single = gait.segments()[0][0]
     scheme = single.scheme.label
@@ -439,6 +510,23 @@ def run(args, out: TextIO, report: Reporter) -> int:
             f"{words}",
             file=out,
         )
+
+
+def _print_results(gait, args, target, caught, out, report) -> None:
+    """Cost, the peaks of the samples at --rate-hz (the file's), heel strike, centre of
+    pressure, accuracy and its warning; raises CommandFailed when the accuracy target was not
+    reached."""
+    step = gait.problem
+    stats = gait.solution.stats
+    history = stats.get("refinement")
+    accuracy = stats.get("accuracy")
+    single = gait.segments()[0][0]
+    objective_words = {
+        "torque": "integral of sum M_i^2, N^2 m^2 s",
+        "torque-rate": "integral of sum dM_i^2 (+ 1e-3 sum M_i^2)",
+        "work": f"positive work (+ {WORK_REGULARISATION / args.torque_limit_nm:.3g} sum M_i^2), J",
+        "human": "integral of the joints' strength-normalised effort, (N m)^2 s",
+    }[args.objective]
     print(
         f"cost ({objective_words}): {gait.cost:.6g}; the gait law (22) fitted to the step, "
         f"same mesh: {gait.law_cost:.6g} ({gait.law_cost / gait.cost:.3g}x the optimum)",
@@ -506,49 +594,6 @@ def run(args, out: TextIO, report: Reporter) -> int:
         raise CommandFailed(
             f"the accuracy target {target:g} was not reached: {history.reason}; nothing written"
         )
-    # Everything goes to a staging folder first and replaces the output folder as a set once
-    # the file the drives read has been read back and verified.
-    feedback = None
-    if args.feedback:
-        from problems.walking.feedback import design_feedback
-
-        with report.working("designing the feedback (a periodic LQR through the step's events)"):
-            feedback = design_feedback(gait, ground_mu=args.ground_friction)
-    with output:
-        with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
-            profile = gait.to_trajectory(args.rate_hz)
-            if feedback is not None:
-                profile = feedback.channels(profile)
-            written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
-            save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
-        with report.working("verifying torques.csv (numpy, independent of the planner)"):
-            check = verify_gait(LinkageTrajectory.load(written[0]), linkage)
-        write_joint_space(written[0], output, args.legs, out)
-        dynamics = check.facts.get("dynamics residual", math.nan)
-        print(
-            f"torques.csv: {sample_grid(profile.time, args.rate_hz, phase_starts(profile))} "
-            "of the consistent "
-            f"motion (positions integrate the velocities, accelerations are their slope); its "
-            f"torques are the inverse dynamics of its own motion to {dynamics:.1e} N m",
-            file=out,
-        )
-        print_verification(check, profile.n_samples, out)
-        closed = None
-        if feedback is not None:
-            closed = _closed_loop(feedback, report, out)
-        if not args.no_plots:
-            from problems.walking import plots as walking_plots
-
-            write_walk_pictures(walking_plots.gait_figure(gait), gait, output, args, report)
-            if closed is not None:
-                with report.working("plotting closed_loop.png"):
-                    walking_plots.save_figure(walking_plots.closed_loop_figure(closed),
-                                              output.path("closed_loop.png"))  # fmt: skip
-                _draw_pushed_walk(closed, gait.problem.dynamics, output, args.no_gif, report)
-        paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
-    for path in paths:
-        print(f"wrote {path}", file=out)
-    return 0
 
 
 def _closed_loop(feedback, report, out):

@@ -65,6 +65,39 @@ QUICK_MESH = {"human": (10, 6, 14), "flat-footed": (20, 20), "toe-walking": (20,
 
 def run_feet(args, out: TextIO, report: Reporter) -> int:
     """Plan, write, verify and draw a step on feet."""
+    step = _footed_step(args)
+    output = output_set(str(args.output_dir or new_folder("walk")), "walk")
+    gait, seconds, caught = _solve(step, args, report)
+    _print_plan(gait, args, seconds, out)
+    for warning in caught:
+        if issubclass(warning.category, AccuracyWarning):
+            # the planner's advice names -N and --accuracy, which the step on feet does not
+            # take: the fix here is its default mesh
+            what = str(warning.message).split("; refine")[0]
+            report.warn(what + ("; drop --quick for the default mesh" if args.quick else ""))
+    law = None
+    if args.feedback:
+        from problems.walking.feet_control import FeetLaw
+
+        law = FeetLaw(gait, rate_hz=args.rate_hz)
+    with output:
+        _write_files(gait, law, output, args, report, out)
+        if not args.no_plots:
+            from problems.walking.plots import footed_figure
+
+            write_walk_pictures(footed_figure(gait), gait, output, args, report)
+        if law is not None:
+            engine = _feet_in_mujoco(gait, law, report, out)
+            if engine is not None and not args.no_plots:
+                _draw_mujoco_walk(engine.runs["closed loop"], gait, output, report)
+        paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
+    for path in paths:
+        print(f"wrote {path}", file=out)
+    return 0
+
+
+def _footed_step(args):
+    """The step on feet the options ask for, the options it does not take refused first."""
     given = [option for name, option, default in NOT_WITH_FEET if getattr(args, name) != default]
     if given:
         raise UsageError(
@@ -72,8 +105,10 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
             "mesh, feet and phases); drop them"
         )
     check_clearance(args.clearance_m)
-    output = output_set(str(args.output_dir or new_folder("walk")), "walk")
-    report.step("defining the walking step on feet of six-link-feet (8 links)")
+    if args.objective not in ("torque", "human"):
+        raise UsageError(
+            f"--objective {args.objective}: the step on feet takes torque or human; drop it"
+        )
     extra = {}
     if args.touchdown_speed_mps is not None:
         extra["touchdown_speed"] = args.touchdown_speed_mps
@@ -81,11 +116,7 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         extra["clearance"] = args.clearance_m
     if args.quick:
         extra["N"] = QUICK_MESH[args.feet_phases]
-    if args.objective not in ("torque", "human"):
-        raise UsageError(
-            f"--objective {args.objective}: the step on feet takes torque or human; drop it"
-        )
-    step = footed_step(
+    return footed_step(
         objective=args.objective,
         step_length=args.step_length_m,
         step_time=args.step_time_s,
@@ -94,6 +125,12 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         phases=args.feet_phases,
         **extra,
     )
+
+
+def _solve(step, args, report):
+    """(gait, seconds, the warnings caught): the step solved, its limits held at the samples;
+    a solve that fails raises CommandFailed (nothing is written)."""
+    report.step("defining the walking step on feet of six-link-feet (8 links)")
     start = time.perf_counter()
     with report.working(f"solving with IPOPT ({len(step.sequence)} phases, N = {step.mesh})"), \
             warnings.catch_warnings(record=True) as caught:  # fmt: skip
@@ -106,11 +143,16 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
             raise CommandFailed(
                 f"the plan's limits could not be held at every sample: {error}; nothing written"
             ) from None
-    seconds = time.perf_counter() - start
-    solution = gait.solution
-    if not solution.success:
-        raise CommandFailed(f"IPOPT did not converge: {solution.status}; nothing written")
-    rounds = solution.stats.get("sampled_limits", {}).get("rounds", [])
+    if not gait.solution.success:
+        raise CommandFailed(f"IPOPT did not converge: {gait.solution.status}; nothing written")
+    return gait, time.perf_counter() - start, caught
+
+
+def _print_plan(gait, args, seconds: float, out: TextIO) -> None:
+    """The plan in lines: the step and its phases, IPOPT, the cost, the peaks of the samples
+    at --rate-hz (the file's), one foot's stance."""
+    step = gait.problem
+    summary = gait.summary(args.rate_hz)
     phases = ", ".join(f"{name} {d:.3f} s" for name, d in zip(step.sequence, gait.durations(),
                                                               strict=True))  # fmt: skip
     print(
@@ -119,10 +161,9 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         "within their bounds)",
         file=out,
     )
-    iterations = sum(r["iterations"] for r in rounds) or solution.iterations
     print(
-        f"IPOPT: {solution.status}; {iterations} iterations in {len(rounds) or 1} solves (the "
-        f"limits held at the samples), {seconds:.2f} s",
+        f"IPOPT: {gait.solution.status}; {summary['iterations']} iterations in "
+        f"{summary['solves']} solves (the limits held at the samples), {seconds:.2f} s",
         file=out,
     )
     print(
@@ -130,7 +171,6 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         f"(22) with flat feet, same mesh: {gait.law_cost:.6g}",
         file=out,
     )
-    summary = gait.summary(args.rate_hz)
     drives = ", ".join(f"{name} {summary['peak_torque'][name]:.1f}" for name in step.drives)
     print(
         f"cost of transport {summary['cost_of_transport']:.4f} (positive work "
@@ -145,50 +185,30 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
         "the stance",
         file=out,
     )
-    for warning in caught:
-        if issubclass(warning.category, AccuracyWarning):
-            # the planner's advice names -N and --accuracy, which the step on feet does not
-            # take: the fix here is its default mesh
-            what = str(warning.message).split("; refine")[0]
-            report.warn(what + ("; drop --quick for the default mesh" if args.quick else ""))
-    law = None
-    if args.feedback:
-        from problems.walking.feet_control import FeetLaw
 
-        law = FeetLaw(gait, rate_hz=args.rate_hz)
-    with output:
-        with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
-            profile = gait.to_trajectory(args.rate_hz)
-            if law is not None:
-                profile = law.channels(profile)
-            written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
-            save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
-        with report.working("verifying torques.csv (numpy, independent of the planner)"):
-            check = verify_gait(LinkageTrajectory.load(written[0]), step.linkage)
-        write_joint_space(written[0], output, args.legs, out)
-        root = step.linkage.names[0]
-        front = step.strike_role
-        print(
-            f"torques.csv: {sample_grid(profile.time, args.rate_hz, phase_starts(profile))}; "
-            f"M_{root} is the "
-            "ground's torque on the stance foot (no drive: its centre of pressure is "
-            f"CoP_{root}_start_x, m from the ball), F_{front}_x/_y the front "
-            f"{step.striking_point}'s force in the double support",
-            file=out,
-        )
-        print_verification(check, profile.n_samples, out)
-        if not args.no_plots:
-            from problems.walking.plots import footed_figure
 
-            write_walk_pictures(footed_figure(gait), gait, output, args, report)
+def _write_files(gait, law, output, args, report, out: TextIO) -> None:
+    """torques.csv and .json (with the law's channels), solution.npz, the file read back and
+    verified (raises when it fails), joints.csv."""
+    step = gait.problem
+    with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
+        profile = gait.to_trajectory(args.rate_hz)
         if law is not None:
-            engine = _feet_in_mujoco(gait, law, report, out)
-            if engine is not None and not args.no_plots:
-                _draw_mujoco_walk(engine.runs["closed loop"], gait, output, report)
-        paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
-    for path in paths:
-        print(f"wrote {path}", file=out)
-    return 0
+            profile = law.channels(profile)
+        written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
+        save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
+    with report.working("verifying torques.csv (numpy, independent of the planner)"):
+        check = verify_gait(LinkageTrajectory.load(written[0]), step.linkage)
+    write_joint_space(written[0], output, args.legs, out)
+    root = step.linkage.names[0]
+    print(
+        f"torques.csv: {sample_grid(profile.time, args.rate_hz, phase_starts(profile))}; "
+        f"M_{root} is the ground's torque on the stance foot (no drive: its centre of pressure "
+        f"is CoP_{root}_start_x, m from the ball), F_{step.strike_role}_x/_y the front "
+        f"{step.striking_point}'s force in the double support",
+        file=out,
+    )
+    print_verification(check, profile.n_samples, out)
 
 
 def _draw_mujoco_walk(run, gait, output, report) -> None:

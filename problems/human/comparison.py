@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.errors import DefinitionError, DefinitionTypeError
-from problems.human.recording import ANGLES, CHANNELS, FORCES, MOMENTS, GaitRecording
+from problems.human.recording import CHANNELS, FORCES, MOMENTS, GaitRecording
 
 #: Samples of the comparison grids (over the cycle and over the stance), 0.1 % apart.
 GRID = 1001
@@ -255,4 +255,4 @@ def _knee_features(model: GaitRecording, data: GaitRecording, cycle: np.ndarray)
     }  # fmt: skip
 
 
-__all__ = ["ANGLES", "GaitComparison", "compare_gait", "humps"]
+__all__ = ["GaitComparison", "compare_gait", "humps", "stance_grid"]

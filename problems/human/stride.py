@@ -73,7 +73,7 @@ def strike_time(settings: Mapping[str, Any], duration: float) -> float:
     return duration - float(settings.get("double_support") or 0.0)
 
 
-def _foot_forces(trajectory: LinkageTrajectory, root: str) -> tuple[np.ndarray, np.ndarray]:
+def foot_forces(trajectory: LinkageTrajectory, root: str) -> tuple[np.ndarray, np.ndarray]:
     """(the stance foot's, the front foot's) ground force, complex (K,) N."""
     extras = trajectory.extras
     rear = np.asarray(trajectory.ground_reaction)
@@ -139,7 +139,7 @@ def step_stride(trajectory: Trajectory, *, body_mass: float | None = None) -> Ga
             "the whole step"
         )
     t_s = strike_time(settings, T)
-    rear, front = _foot_forces(trajectory, linkage.names[0])
+    rear, front = foot_forces(trajectory, linkage.names[0])
     stance = _leg_channels(body, body.stance, trajectory, mass, rear)
     swing = _leg_channels(body, body.swing, trajectory, mass, front)
     # where two phases meet the file holds both sides' samples at one time: keep the later

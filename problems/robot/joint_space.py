@@ -51,7 +51,7 @@ from planner.files import write_text_atomically
 from planner.trajectory import Trajectory
 from problems.gait.biped import Biped
 from problems.human.joints import Body, Leg, body_of, joint_radians, leg_moments
-from problems.human.stride import strike_time
+from problems.human.stride import foot_forces, strike_time
 
 SCHEMA = "anthropoid-planner joint space"
 VERSION = 1
@@ -132,103 +132,87 @@ def joint_space(
         )
     trajectory, settings, linkage = _model(trajectory)
     body = body_of(linkage, settings.get("neutral_ankles"))
-    names = linkage.names
-    feet = body.stance.foot is not None
     time = np.asarray(trajectory.time, dtype=float) - float(trajectory.time[0])
     T = float(time[-1])
     t_s = strike_time(settings, T)
-    psi, dpsi = np.asarray(trajectory.psi), np.asarray(trajectory.dpsi)
-    ddpsi, torques = np.asarray(trajectory.ddpsi), np.asarray(trajectory.torques)
-    maps = {role: _linear(body, leg, names) for role, leg in (("stance", body.stance),
-                                                               ("swing", body.swing))}  # fmt: skip
-    by_name = {name: torques[:, i] for i, name in enumerate(names)}
-    moments = {role: leg_moments(body, leg, by_name, 1.0)
-               for role, leg in (("stance", body.stance), ("swing", body.swing))}  # fmt: skip
-    forces = _foot_forces(trajectory, names[0])
-    # the model's per-step columns by role, then laid out per side and step
-    per_role: dict[str, dict[str, np.ndarray]] = {}
-    for role in ("stance", "swing"):
-        A, b = maps[role]
-        values = {}
-        for k, joint in enumerate(JOINTS):
-            if np.isnan(b[k]):
-                continue
-            values[f"q_{joint}"] = psi @ A[k] + b[k]
-            values[f"dq_{joint}"] = dpsi @ A[k]
-            values[f"ddq_{joint}"] = ddpsi @ A[k]
-            values[f"tau_{joint}"] = -np.asarray(moments[role][f"{joint}_moment"])
-        per_role[role] = values
-    in_double = time >= t_s if t_s < T else np.zeros(time.shape, bool)
-    contact = {"stance": np.ones(time.shape), "swing": in_double.astype(float)}
-    if settings.get("phases") and "double" in settings["phases"]:
-        contact["swing"] = (time >= t_s - 1e-12).astype(float)
-    trunk = body.trunk
-    head = next((n for n in names if linkage.parents[linkage.index(n)] == linkage.index(trunk)),
-                None)  # fmt: skip
+    in_double = time >= t_s - 1e-12 if t_s < T else np.zeros(time.shape, bool)
+    per_leg, shared = _step_columns(trajectory, linkage, body, in_double)
     columns: dict[str, list[np.ndarray]] = {}
     units: dict[str, str] = {}
-
-    def put(name: str, values: np.ndarray, unit: str, keep: np.ndarray) -> None:
-        columns.setdefault(name, []).append(np.asarray(values, dtype=float)[keep])
-        units[name] = unit
-
     for step in range(steps):
-        keep = (
-            np.ones(time.shape, bool)
-            if step == steps - 1
-            else np.append(np.ones(time.size - 1, bool), False)
-        )  # the last sample is the next step's first (the later one is kept)
+        # where two steps meet the later step's first sample is kept
+        keep = np.ones(time.shape, bool)
+        keep[-1] = step == steps - 1
         side_of = {"stance": sides[step % 2], "swing": sides[(step + 1) % 2]}
-        put("t_s", time + step * T, "s", keep)
-        put("step", np.full(time.shape, float(step)), "", keep)
-        put(f"stance_{sides[0]}", np.full(time.shape, float(step % 2 == 0)), "", keep)
-        put("double_support", in_double.astype(float), "", keep)
-        for role in ("stance", "swing"):
-            side = side_of[role]
-            for joint in JOINTS:
-                for prefix, unit in (("q", "rad"), ("dq", "rad/s"), ("ddq", "rad/s^2"),
-                                     ("tau", "N m")):  # fmt: skip
-                    key = f"{prefix}_{joint}"
-                    suffix = {"rad": "rad", "rad/s": "rad_s", "rad/s^2": "rad_s2",
-                              "N m": "N_m"}[unit]  # fmt: skip
-                    values = per_role[role].get(key)
-                    if values is None:  # a point foot's swing ankle: none
-                        values = np.full(time.shape, np.nan)
-                    put(f"{prefix}_{side}_{joint}_{suffix}", values, unit, keep)
-        if head is not None:
-            h, t = names.index(head), names.index(trunk)
-            put("q_neck_rad", psi[:, h] - psi[:, t], "rad", keep)
-            put("dq_neck_rad_s", dpsi[:, h] - dpsi[:, t], "rad/s", keep)
-            put("ddq_neck_rad_s2", ddpsi[:, h] - ddpsi[:, t], "rad/s^2", keep)
-            put("tau_neck_N_m", torques[:, h], "N m", keep)
-        t = names.index(trunk)
-        put("trunk_pitch_rad", math.pi / 2 - psi[:, t], "rad", keep)
-        put("trunk_pitch_rate_rad_s", -dpsi[:, t], "rad/s", keep)
-        for role in ("stance", "swing"):
-            side = side_of[role]
-            put(f"contact_{side}", contact[role], "", keep)
-            force = forces[role]
-            put(f"ground_force_{side}_x_N", force.real, "N", keep)
-            put(f"ground_force_{side}_y_N", force.imag, "N", keep)
-            if feet:
-                ground = torques[:, 0] if role == "stance" else np.zeros(time.shape)
-                put(f"ground_torque_{side}_N_m", ground, "N m", keep)
-    ordered = _ordered(columns, sides, head is not None, feet)
+        step_columns = {
+            "t_s": (time + step * T, "s"),
+            "step": (np.full(time.shape, float(step)), ""),
+            f"stance_{sides[0]}": (np.full(time.shape, float(step % 2 == 0)), ""),
+            "double_support": (in_double.astype(float), ""),
+            **shared,
+        }
+        for role, templates in per_leg.items():
+            step_columns.update({name.format(side=side_of[role]): column
+                                 for name, column in templates.items()})  # fmt: skip
+        for name, (values, unit) in step_columns.items():
+            columns.setdefault(name, []).append(np.asarray(values, dtype=float)[keep])
+            units[name] = unit
+    head = "q_neck_rad" in shared
+    feet = body.stance.foot is not None
+    ordered = _ordered(columns, sides, head, feet)
     joined = {name: np.concatenate(columns[name]) for name in ordered}
-    metadata = _metadata(trajectory, settings, linkage, body, sides, steps, T, t_s, feet,
-                         head, {n: units[n] for n in ordered}, joined)  # fmt: skip
-    return JointSpace(joined, {n: units[n] for n in ordered}, metadata)
+    units = {n: units[n] for n in ordered}
+    metadata = _metadata(settings, linkage, sides, steps, T, t_s, feet, head, units, joined)
+    return JointSpace(joined, units, metadata)
 
 
-def _foot_forces(trajectory: LinkageTrajectory, root: str) -> dict[str, np.ndarray]:
-    """The ground's force on the stance foot and on the swing (front) foot, complex (K,) N."""
-    rear = np.asarray(trajectory.ground_reaction)
-    front = np.zeros(rear.shape, dtype=complex)
-    for name in trajectory.extras:
-        if name.startswith("F_") and not name.startswith(f"F_{root}_start"):
-            values = np.asarray(trajectory.column(name), dtype=float)
-            front = front + (values if name.endswith("_x") else 1j * values)
-    return {"stance": rear, "swing": front}
+#: A joint's channels: (prefix, unit, the column name's unit suffix).
+_CHANNELS = (("q", "rad", "rad"), ("dq", "rad/s", "rad_s"), ("ddq", "rad/s^2", "rad_s2"),
+             ("tau", "N m", "N_m"))  # fmt: skip
+
+
+def _step_columns(trajectory, linkage: Linkage, body: Body, in_double: np.ndarray):
+    """One step's columns: ({"stance" | "swing": {name with "{side}": (values (K,), unit)}},
+    {name: (values, unit)} of the neck and the trunk)."""
+    names = linkage.names
+    psi, dpsi = np.asarray(trajectory.psi), np.asarray(trajectory.dpsi)
+    ddpsi, torques = np.asarray(trajectory.ddpsi), np.asarray(trajectory.torques)
+    by_name = {name: torques[:, i] for i, name in enumerate(names)}
+    rear, front = foot_forces(trajectory, names[0])
+    size = psi.shape[0]
+    per_leg = {}
+    for role, leg, force, contact in (("stance", body.stance, rear, np.ones(size)),
+                                      ("swing", body.swing, front, in_double)):  # fmt: skip
+        A, b = _linear(body, leg, names)
+        moments = leg_moments(body, leg, by_name, 1.0)
+        columns = {}
+        for k, joint in enumerate(JOINTS):
+            # a point foot's swing ankle has none: NaN
+            values = {"q": psi @ A[k] + b[k], "dq": dpsi @ A[k], "ddq": ddpsi @ A[k],
+                      "tau": -np.asarray(moments[f"{joint}_moment"], dtype=float)}  # fmt: skip
+            for prefix, unit, suffix in _CHANNELS:
+                column = np.full(size, np.nan) if np.isnan(b[k]) else values[prefix]
+                columns[f"{prefix}_{{side}}_{joint}_{suffix}"] = (column, unit)
+        columns["contact_{side}"] = (np.asarray(contact, dtype=float), "")
+        columns["ground_force_{side}_x_N"] = (force.real, "N")
+        columns["ground_force_{side}_y_N"] = (force.imag, "N")
+        if body.stance.foot is not None:
+            ground = torques[:, 0] if role == "stance" else np.zeros(size)
+            columns["ground_torque_{side}_N_m"] = (ground, "N m")
+        per_leg[role] = columns
+    t = names.index(body.trunk)
+    shared = {}
+    head = next((i for i, p in enumerate(linkage.parents) if p == t), None)
+    if head is not None:
+        shared = {
+            "q_neck_rad": (psi[:, head] - psi[:, t], "rad"),
+            "dq_neck_rad_s": (dpsi[:, head] - dpsi[:, t], "rad/s"),
+            "ddq_neck_rad_s2": (ddpsi[:, head] - ddpsi[:, t], "rad/s^2"),
+            "tau_neck_N_m": (torques[:, head], "N m"),
+        }
+    shared["trunk_pitch_rad"] = (math.pi / 2 - psi[:, t], "rad")
+    shared["trunk_pitch_rate_rad_s"] = (-dpsi[:, t], "rad/s")
+    return per_leg, shared
 
 
 def _ordered(columns, sides, neck: bool, feet: bool) -> list[str]:
@@ -249,7 +233,7 @@ def _ordered(columns, sides, neck: bool, feet: bool) -> list[str]:
     return [n for n in order if not (n in seen or seen.add(n))]
 
 
-def _metadata(trajectory, settings, linkage, body, sides, steps, T, t_s, feet, head, units,
+def _metadata(settings, linkage, sides, steps, T, t_s, feet, head: bool, units,
               columns) -> dict[str, Any]:  # fmt: skip
     limits = settings.get("torque_limit") or {}
     limit = float(max(limits.values())) if isinstance(limits, Mapping) and limits else None
@@ -273,7 +257,7 @@ def _metadata(trajectory, settings, linkage, body, sides, steps, T, t_s, feet, h
                 "limit_N_m": limit,
                 "peak_N_m": float(np.nanmax(np.abs(values))),
             })  # fmt: skip
-    if head is not None:
+    if head:
         values = columns["tau_neck_N_m"]
         joints.append({"name": "neck", "angle": "q_neck_rad", "torque": "tau_neck_N_m",
                        "zero": "the head in line with the trunk",
