@@ -12,17 +12,22 @@ out-of-plane moments J / 2, so that the tensor is physical; a planar motion neve
 them). A link without children ends at a massless frame ``<link>_end`` (fixed at (l, 0, 0)).
 
 :func:`from_urdf` reads any URDF whose moving joints turn about the y axis (either sense) and
-keeps what its sagittal view shows: each link runs from its joint to the point where its
-children's joints are (in the x-z projection: left and right hips at the same x and z are one
-hinge point), its mass, centre of mass (projected) and i_yy. It refuses, naming the joint or
-link and the reason, a robot that is not planar in that view: a moving joint about another
-axis, a frame turned out of the plane (roll or yaw), children of one link hinged at different
-points of the plane, a ``prismatic`` or ``floating`` joint. ``fixed`` joints of massless links
-(sensors, frames) are dropped; a fixed joint that carries mass or moving joints is refused
-(merge it first). A link without moving children ends at its farthest massless frame (a
-sole, a tip: :func:`to_urdf` writes one, ``<link>_end``), or at ``leaf_length`` {link: m}
-along its centre of mass's direction, or else twice its centre of mass's distance from its
-joint (the centre of mass then halfway).
+keeps what its sagittal view shows. A link moved by a hinge is a model link; links ``fixed``
+to it (a pelvis to its torso, a battery, a cover) or joined by a joint named in ``lock``
+(a hip's roll and yaw, a waist, the arms: held at their zero) are merged into it: one rigid
+body, its mass, centre of mass (projected) and i_yy about the axis through it (every part's
+inertia tensor turned into the plane's axes, by the parallel-axis theorem). Each link runs
+from its joint to its farthest moving child's hinge point (in the x-z projection: left and
+right hips at the same x and z are one hinge point); children hinged elsewhere on it (the legs
+at the bottom of a trunk whose neck is at the top) hang from their own points (``Link.origin``).
+It refuses, naming the joint or link and the reason, a robot that is not planar in that view:
+a moving joint about another axis (lock it, or the robot is not planar), a frame turned out of
+the plane (roll or yaw), a ``prismatic`` or ``floating`` joint, a body with mass fixed to a
+massless root (welded to the world). Massless links of fixed joints (sensors, frames) are
+dropped. A link without moving children away from its joint ends at its farthest massless
+frame (a sole, a tip: :func:`to_urdf` writes one, ``<link>_end``), or at ``leaf_length``
+{link: m} along its centre of mass's direction, or else twice its centre of mass's distance
+from its joint (the centre of mass then halfway).
 The zero pose need not be the model's: :class:`UrdfLinkage` keeps each link's angle at the
 URDF's zero pose and each joint's sense, so that psi = offset + sum over the chain of sense q.
 """
@@ -30,8 +35,9 @@ URDF's zero pose and each joint's sense, so that psi = offset + sum over the cha
 from __future__ import annotations
 
 import cmath
+import math
 import xml.etree.ElementTree as ET
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from xml.sax.saxutils import quoteattr
 
@@ -83,7 +89,7 @@ def to_urdf(
             origin = 0j if link.origin is None else complex(link.origin)
             parent_name = GROUND
         else:
-            origin = complex(linkage.links[parent].length, 0.0)
+            origin = linkage.origin_in_parent(i)
             parent_name = linkage.names[parent]
         lines += [
             f'  <joint name={quoteattr("hinge_" + link.name)} type="continuous">',
@@ -116,13 +122,15 @@ class UrdfLinkage:
     (``joints``), that joint's sense (``senses``: +1 for an axis along -y, the model's
     counter-clockwise, -1 along +y) and the link's model angle at the URDF's zero pose
     (``offsets``, rad): psi_i = offsets_i + sum over i and its ancestors k of senses_k q_k;
-    ``dropped``: the massless links of fixed joints left out."""
+    ``dropped``: the massless links of fixed joints left out; ``merged`` {link: the URDF links
+    fixed or locked to it, whose mass it carries}."""
 
     linkage: Linkage
     joints: tuple[str, ...]
     senses: tuple[float, ...]
     offsets: tuple[float, ...]
     dropped: tuple[str, ...]
+    merged: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
 
     def psi(self, q) -> np.ndarray:
         """The model's absolute angles (n,) at the URDF joint angles ``q`` {joint: rad}."""
@@ -215,110 +223,161 @@ def _sense(joint) -> float:
     if abs(abs(axis[1]) - 1.0) > AXIS_TOLERANCE:
         raise DefinitionError(
             f"`urdf`: joint {joint.get('name')!r} turns about {axis.tolist()}, not the y axis: "
-            "the robot is not planar in its sagittal (x-z) view"
+            "lock it (from_urdf(..., lock=[its name])) to read the robot's sagittal (x-z) view, "
+            "or the robot is not planar"
         )
     return -float(np.sign(axis[1]))
 
 
 @dataclass
 class _Walk:
-    """The tree walked at its zero pose: each link's frame (world x + j z of its origin, its
-    turn), the model's links in order (link, its joint, its model parent), each hinge's
-    sense, the massless frames each link carries (``tips``) and the ones dropped."""
+    """The tree walked at its zero pose: each URDF link's frame (world x + j z of its origin,
+    its turn), the model's links in order (link, its joint, its model parent), each hinge's
+    sense, each model link's rigid body (the URDF links it carries: itself and those fixed or
+    locked to it), the massless frames each model link carries (``tips``) and the massless
+    links dropped."""
 
     frames: dict = field(default_factory=dict)
     order: list = field(default_factory=list)
     senses: dict = field(default_factory=dict)
+    bodies: dict = field(default_factory=dict)
     tips: dict = field(default_factory=dict)
     dropped: list = field(default_factory=list)
 
 
-def _walk(tree: _Tree) -> _Walk:
-    """Every link with a hinge about y is a model link; the root too when it has mass (a
-    floating base then hangs at H0)."""
+def _walk(tree: _Tree, lock: frozenset) -> _Walk:
+    """Every link moved by a hinge about y (not in ``lock``) is a model link, carrying the
+    links fixed or locked under it; the root too when its rigid body has mass (a floating
+    base then hangs at H0)."""
     walk = _Walk()
 
-    def visit(link: str, frame: tuple[complex, complex], model_parent: str | None) -> None:
+    def rigid(joint) -> bool:
+        return joint.get("type") == "fixed" or joint.get("name") in lock
+
+    def rigid_mass(link: str) -> float:
+        return _mass(tree.links[link]) + sum(rigid_mass(tree.child(j))
+                                             for j in tree.children[link] if rigid(j))  # fmt: skip
+
+    def visit(link: str, frame: tuple[complex, complex], owner: str | None) -> None:
         walk.frames[link] = frame
         for joint in tree.children[link]:
             child = tree.child(joint)
             xyz, pitch = _origin(joint, f"joint {joint.get('name')!r}")
-            where = frame[0] + frame[1] * complex(xyz[0], xyz[2])
-            if joint.get("type") == "fixed":
-                if not tree.massless(child):
+            child_frame = (frame[0] + frame[1] * complex(xyz[0], xyz[2]), frame[1] * _turn(pitch))
+            if rigid(joint):
+                if tree.massless(child) and joint.get("name") not in lock:
+                    walk.dropped.append(child)  # a frame (a sensor, a sole, a tip): maybe an end
+                    if owner is not None:
+                        walk.tips.setdefault(owner, []).append(child_frame[0])
+                    continue
+                if owner is None:
                     raise DefinitionError(
-                        f"`urdf`: fixed joint {joint.get('name')!r} carries {child!r} with mass "
-                        "or moving joints: merge it into its parent first"
+                        f"`urdf`: joint {joint.get('name')!r} fixes {child!r}, which has mass or "
+                        "moving joints, to the massless root: the robot is welded to the world"
                     )
-                walk.dropped.append(child)  # a frame (a sensor, a sole, a tip): maybe an end
-                walk.tips.setdefault(link, []).append(where)
+                walk.bodies[owner].append(child)  # one rigid body with its owner
+                visit(child, child_frame, owner)
                 continue
             walk.senses[child] = _sense(joint)
-            walk.order.append((child, joint.get("name"), model_parent))
-            visit(child, (where, frame[1] * _turn(pitch)), child)
+            walk.order.append((child, joint.get("name"), owner))
+            walk.bodies[child] = [child]
+            visit(child, child_frame, child)
 
-    if _mass(tree.links[tree.root]) > 0:
+    if rigid_mass(tree.root) > 0:
         walk.senses[tree.root] = 1.0
         walk.order.append((tree.root, None, None))
+        walk.bodies[tree.root] = [tree.root]
         visit(tree.root, (0j, 1 + 0j), tree.root)
     else:
         visit(tree.root, (0j, 1 + 0j), None)
+    unknown = sorted(lock - {j.get("name") for js in tree.children.values() for j in js})
+    if unknown:
+        raise DefinitionError(f"`lock`: the URDF has no joint {unknown}")
     if not walk.order:
         raise DefinitionError("`urdf`: no moving joint (hinge about y)")
     return walk
 
 
-def _end(link: str, tree: _Tree, walk: _Walk, com: complex, leaf_length) -> complex:
-    """Where ``link`` ends in the plane: its moving children's common hinge point, else its
-    farthest massless frame, else ``leaf_length`` (or twice its centre of mass's reach)
-    along its centre of mass's direction."""
+def _end(link: str, walk: _Walk, com: complex, leaf_length) -> complex:
+    """Where ``link`` ends in the plane: its farthest moving child's hinge point (the others
+    hang from it at their own points), else its farthest massless frame, else
+    ``leaf_length`` (or twice its centre of mass's reach) along its centre of mass's
+    direction."""
     start = walk.frames[link][0]
-    ends = [walk.frames[tree.child(j)][0] for j in tree.children[link]
-            if tree.child(j) in walk.senses]  # fmt: skip
-    if ends and max(abs(e - ends[0]) for e in ends) > 1e-9:
-        raise DefinitionError(
-            f"`urdf`: link {link!r} has children hinged at different points of the plane "
-            f"{sorted((e.real, e.imag) for e in ends)}: one link runs to one hinge point"
-        )
+    ends = [walk.frames[child][0] for child, _, parent in walk.order if parent == link]
+    ends = [e for e in ends if abs(e - start) > 1e-9]
     if ends:
-        return ends[0]
+        return max(ends, key=lambda e: abs(e - start))
     given = (leaf_length or {}).get(link)
     if walk.tips.get(link) and given is None:
         return max(walk.tips[link], key=lambda tip: abs(tip - start))
     reach = abs(com - start)
     if given is None and reach < 1e-9:
         raise DefinitionError(
-            f"`urdf`: link {link!r} has no child and its centre of mass is at its joint: give "
-            f"its length, leaf_length={{{link!r}: metres}}"
+            f"`urdf`: link {link!r} has no child away from its joint and its centre of mass is "
+            f"at its joint: give its length, leaf_length={{{link!r}: metres}}"
         )
     direction = (com - start) / reach if reach > 1e-9 else walk.frames[link][1]
     return start + direction * (2.0 * reach if given is None else float(given))
 
 
-def from_urdf(text: str, leaf_length: Mapping[str, float] | None = None) -> UrdfLinkage:
-    """The planar linkage of a URDF's sagittal view (see the module)."""
+def _body(tree: _Tree, walk: _Walk, link: str) -> tuple[float, complex, float]:
+    """(mass kg, centre of mass (world x + j z at the zero pose), moment of inertia about
+    the axis through it normal to the plane, kg m^2) of ``link``'s rigid body."""
+    parts = []
+    for member in walk.bodies[link]:
+        element = tree.links[member]
+        mass = _mass(element)
+        if mass == 0.0:
+            continue
+        start, turn = walk.frames[member]
+        xyz, rotation = _inertial_frame(element, f"link {member!r} inertial")
+        parts.append((mass, start + turn * complex(xyz[0], xyz[2]),
+                      _inertia_yy(element, rotation)))  # fmt: skip
+    mass = math.fsum(m for m, _, _ in parts)
+    if mass <= 0:
+        raise DefinitionError(f"`urdf`: link {link!r} has no mass")
+    com = sum(m * c for m, c, _ in parts) / mass
+    inertia = math.fsum(j + m * abs(c - com) ** 2 for m, c, j in parts)
+    return mass, com, inertia
+
+
+def from_urdf(
+    text: str,
+    leaf_length: Mapping[str, float] | None = None,
+    lock: Iterable[str] = (),
+) -> UrdfLinkage:
+    """The planar linkage of a URDF's sagittal view (see the module); the joints named in
+    ``lock`` (any axis: a hip's roll and yaw, the arms) are held at their zero and their
+    links merged into the link they hang from, as fixed joints' are."""
+    if isinstance(lock, str) or not all(isinstance(j, str) for j in lock):
+        raise DefinitionError(f"`lock`: joint names (a list of str), got {lock!r}")
     tree = _tree(text)
-    walk = _walk(tree)
-    built, offsets = [], []
+    walk = _walk(tree, frozenset(lock))
+    built, offsets, starts = [], {}, {}
     for link, _, model_parent in walk.order:
         start, turn = walk.frames[link]
-        com_xyz, _ = _origin(tree.links[link].find("inertial"), f"link {link!r} inertial")
-        com = start + turn * complex(com_xyz[0], com_xyz[2])
-        vector = _end(link, tree, walk, com, leaf_length) - start
+        mass, com, inertia = _body(tree, walk, link)
+        vector = _end(link, walk, com, leaf_length) - start
         if abs(vector) < 1e-12:
             raise DefinitionError(f"`urdf`: link {link!r} has no length in the sagittal view")
         local = (com - start) / vector  # in units of the link: along + j lateral
-        mass = _mass(tree.links[link])
-        if mass <= 0:
-            raise DefinitionError(f"`urdf`: link {link!r} has no mass")
-        built.append(Link(link, model_parent, abs(vector), mass, float(local.real),
-                          _inertia_yy(tree.links[link]), float(local.imag),
-                          origin=start if model_parent is None else None,
+        if model_parent is None:
+            origin = start
+        else:
+            # the hinge in the parent's frame; None where the parent ends (the paper's form)
+            parent = built[[b.name for b in built].index(model_parent)]
+            where = (start - starts[model_parent]) / cmath.exp(1j * offsets[model_parent])
+            origin = None if abs(where - parent.length) < 1e-12 else where
+        built.append(Link(link, model_parent, abs(vector), mass, float(local.real), inertia,
+                          float(local.imag), origin=origin,
                           rerooted=not 0.0 <= local.real <= 1.0))  # fmt: skip
-        offsets.append(cmath.phase(vector))
+        offsets[link], starts[link] = cmath.phase(vector), start
+    merged = {link: tuple(walk.bodies[link][1:]) for link, _, _ in walk.order}
     return UrdfLinkage(Linkage(built), tuple(j or "" for _, j, _ in walk.order),
-                       tuple(walk.senses[link] for link, _, _ in walk.order), tuple(offsets),
-                       tuple(walk.dropped))  # fmt: skip
+                       tuple(walk.senses[link] for link, _, _ in walk.order),
+                       tuple(offsets[link] for link, _, _ in walk.order), tuple(walk.dropped),
+                       {k: v for k, v in merged.items() if v})  # fmt: skip
 
 
 def _mass(link) -> float:
@@ -328,9 +387,33 @@ def _mass(link) -> float:
     return float(inertial.find("mass").get("value"))
 
 
-def _inertia_yy(link) -> float:
+def _inertial_frame(element, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """(xyz (3,), rotation (3, 3)) of a link's <inertial><origin>: the centre of mass in the
+    link's frame and the inertia tensor's axes (any rpy: the tensor is turned, not refused)."""
+    origin = element.find("inertial").find("origin")
+    xyz = _floats(None if origin is None else origin.get("xyz"), 3, f"{what} origin xyz")
+    roll, pitch, yaw = _floats(None if origin is None else origin.get("rpy"), 3,
+                               f"{what} origin rpy")  # fmt: skip
+    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
+                              math.cos(yaw), math.sin(yaw))  # fmt: skip
+    rotation = np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                         [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                         [-sp, cp * sr, cp * cr]])  # fmt: skip
+    return np.array(xyz), rotation
+
+
+def _inertia_yy(link, rotation: np.ndarray) -> float:
+    """The moment of inertia about the y axis of the link's frame through the centre of
+    mass: e_y' I e_y with the tensor I given in the inertial frame turned by ``rotation``."""
     inertia = link.find("inertial").find("inertia")
-    return 0.0 if inertia is None else float(inertia.get("iyy", 0.0))
+    if inertia is None:
+        return 0.0
+    get = {k: float(inertia.get(k, 0.0)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+    tensor = np.array([[get["ixx"], get["ixy"], get["ixz"]],
+                       [get["ixy"], get["iyy"], get["iyz"]],
+                       [get["ixz"], get["iyz"], get["izz"]]])  # fmt: skip
+    axis = rotation.T @ np.array([0.0, 1.0, 0.0])  # the y axis in the inertial frame
+    return float(axis @ tensor @ axis)
 
 
 __all__ = ["GROUND", "UrdfLinkage", "from_urdf", "to_urdf"]

@@ -5,6 +5,7 @@ by hand in URDF (frames down the leg, hinges about +y, the other sense) against 
 mass matrix of a double pendulum in absolute angles; every refusal names its joint or link.
 """
 
+import cmath
 import math
 
 import numpy as np
@@ -93,7 +94,10 @@ def test_a_leg_written_by_hand_is_a_double_pendulum():
             ('type="revolute"><parent link="thigh"/>', 'type="prismatic"><parent link="thigh"/>'),
             "joint 'knee' is 'prismatic'",
         ),
-        (('<mass value="0"/>', '<mass value="1"/>'), "fixed joint 'sole' carries 'foot'"),
+        (
+            ('<axis xyz="0 1 0"/>', '<axis xyz="1 0 0"/>'),
+            r"joint 'hip' turns about \[1.0.*lock it",
+        ),
     ],
 )
 def test_what_is_not_planar_is_refused_by_name(change, message):
@@ -101,7 +105,7 @@ def test_what_is_not_planar_is_refused_by_name(change, message):
         from_urdf(LEG.replace(*change, 1), leaf_length={"shank": 0.45})
 
 
-def test_children_at_different_points_and_leaves_without_length_are_refused():
+def test_children_at_different_points_hang_from_their_own_and_leaves_need_a_length():
     two = LEG.replace(
         "</robot>",
         """<link name="toe"><inertial><origin xyz="0.1 0 0"/>
@@ -113,11 +117,43 @@ def test_children_at_different_points_and_leaves_without_length_are_refused():
       <joint name="other" type="continuous"><parent link="shank"/><child link="spur"/>
       <origin xyz="0 0 -0.30"/><axis xyz="0 -1 0"/></joint></robot>""",
     )
-    with pytest.raises(ValueError, match="link 'shank' has children hinged at different points"):
-        from_urdf(two)
+    linkage = from_urdf(two).linkage
+    shank, toe, spur = (linkage.links[linkage.index(n)] for n in ("shank", "toe", "spur"))
+    assert shank.length == pytest.approx(0.40)  # to the farther hinge, the ankle
+    assert toe.origin is None  # at the shank's end
+    assert spur.origin == pytest.approx(0.30)  # 0.30 m along the shank, on its axis
     no_reach = LEG.replace('<origin xyz="0.01 0 -0.25"/>', '<origin xyz="0 0 0"/>')
     no_reach = no_reach.replace(
         '<parent link="shank"/><child link="foot"/>', '<parent link="world"/><child link="foot"/>'
     )  # no sole frame
     with pytest.raises(ValueError, match=r"leaf_length=\{'shank'"):
         from_urdf(no_reach)
+
+
+def test_fixed_and_locked_bodies_merge_into_one_rigid_body():
+    """A 1 kg boot fixed 0.45 m down the shank (its centre 0.45 m below its frame), and a 2 kg tool on a joint about x locked at
+    its zero (its inertial frame rolled by pi/2: its izz is the plane's moment): the shank's
+    body by hand (masses, centre of mass, parallel-axis theorem)."""
+    text = LEG.replace('<mass value="0"/>', '<mass value="1"/><inertia iyy="0.002"/>').replace(
+        "</robot>",
+        """<link name="tool"><inertial><origin xyz="0 0 -0.1" rpy="1.5707963267948966 0 0"/>
+      <mass value="2"/><inertia ixx="0.01" iyy="0.5" izz="0.03"/></inertial></link>
+      <joint name="wrist" type="revolute"><parent link="shank"/><child link="tool"/>
+      <origin xyz="0 0 -0.2"/><axis xyz="1 0 0"/></joint></robot>""",
+    )
+    with pytest.raises(ValueError, match="joint 'wrist' turns about"):
+        from_urdf(text)
+    leg = from_urdf(text, lock=["wrist"])
+    assert leg.merged == {"shank": ("foot", "tool")}
+    shank = leg.linkage.links[1]
+    parts = [(3.0, complex(0.01, -0.25), 0.05), (1.0, -0.9j, 0.002), (2.0, -0.3j, 0.03)]
+    mass = sum(m for m, _, _ in parts)
+    com = sum(m * c for m, c, _ in parts) / mass
+    inertia = sum(j + m * abs(c - com) ** 2 for m, c, j in parts)
+    assert shank.mass == pytest.approx(mass)
+    assert shank.inertia == pytest.approx(inertia, rel=1e-12)
+    # from the knee, along the shank's line at its zero-pose angle
+    along = complex(shank.com, shank.com_lateral) * shank.length
+    assert along * cmath.exp(1j * leg.offsets[1]) == pytest.approx(com, rel=1e-12)
+    with pytest.raises(ValueError, match=r"`lock`: the URDF has no joint \['elbow'\]"):
+        from_urdf(text, lock=["wrist", "elbow"])
