@@ -123,7 +123,8 @@ class UrdfLinkage:
     counter-clockwise, -1 along +y) and the link's model angle at the URDF's zero pose
     (``offsets``, rad): psi_i = offsets_i + sum over i and its ancestors k of senses_k q_k;
     ``dropped``: the massless links of fixed joints left out; ``merged`` {link: the URDF links
-    fixed or locked to it, whose mass it carries}."""
+    fixed or locked to it, whose mass it carries}; ``frames`` {dropped frame: (the model link
+    that carries it, its point x + j z at the zero pose, m)}: a sole's heel and toe marks."""
 
     linkage: Linkage
     joints: tuple[str, ...]
@@ -131,6 +132,7 @@ class UrdfLinkage:
     offsets: tuple[float, ...]
     dropped: tuple[str, ...]
     merged: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    frames: Mapping[str, tuple[str, complex]] = field(default_factory=dict)
 
     def psi(self, q) -> np.ndarray:
         """The model's absolute angles (n,) at the URDF joint angles ``q`` {joint: rad}."""
@@ -243,6 +245,7 @@ class _Walk:
     bodies: dict = field(default_factory=dict)
     tips: dict = field(default_factory=dict)
     dropped: list = field(default_factory=list)
+    marks: dict = field(default_factory=dict)
 
 
 def _walk(tree: _Tree, lock: frozenset) -> _Walk:
@@ -269,6 +272,7 @@ def _walk(tree: _Tree, lock: frozenset) -> _Walk:
                     walk.dropped.append(child)  # a frame (a sensor, a sole, a tip): maybe an end
                     if owner is not None:
                         walk.tips.setdefault(owner, []).append(child_frame[0])
+                        walk.marks[child] = (owner, child_frame[0])
                     continue
                 if owner is None:
                     raise DefinitionError(
@@ -356,7 +360,7 @@ def from_urdf(
     walk = _walk(tree, frozenset(lock))
     built, offsets, starts = [], {}, {}
     for link, _, model_parent in walk.order:
-        start, turn = walk.frames[link]
+        start, _ = walk.frames[link]
         mass, com, inertia = _body(tree, walk, link)
         vector = _end(link, walk, com, leaf_length) - start
         if abs(vector) < 1e-12:
@@ -377,7 +381,7 @@ def from_urdf(
     return UrdfLinkage(Linkage(built), tuple(j or "" for _, j, _ in walk.order),
                        tuple(walk.senses[link] for link, _, _ in walk.order),
                        tuple(offsets[link] for link, _, _ in walk.order), tuple(walk.dropped),
-                       {k: v for k, v in merged.items() if v})  # fmt: skip
+                       {k: v for k, v in merged.items() if v}, dict(walk.marks))  # fmt: skip
 
 
 def _mass(link) -> float:

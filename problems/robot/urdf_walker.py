@@ -1,0 +1,382 @@
+"""A robot's URDF as a walking biped: its sagittal legs and trunk, rooted at a foot.
+
+A legged robot's URDF hangs its legs from the pelvis (the base link) and moves each joint
+from the robot's own zero pose. The walking problems (:func:`problems.walking_step`,
+:func:`problems.footed_step`) plan a tree rooted at the stance foot, legs named stance and
+swing. :func:`walker_from_urdf` reads the URDF's sagittal view (:func:`model.urdf.from_urdf`:
+hinges about y; other joints to ``lock``; fixed parts merged) and builds that tree:
+
+* **the legs**: the two chains of two links (thigh, shank: point feet) or three (thigh,
+  shank, foot: feet) hanging from one link at one hinge point (the hip), mirror images in the
+  sagittal view; their sides are named from ``legs`` {side: thigh link} or from the thigh
+  links' names (``right``/``left``, ``r_``/``l_``);
+* **the stance leg** (``stance_side``) described from the ground up: ``stance_foot`` from its
+  toe mark (H0) to the ankle (feet), ``stance_shank`` from the ankle (point feet: from the
+  shank's end, the foot point) to the knee, ``stance_thigh`` from the knee to the hip; the
+  same rigid bodies, their centres of mass and inertias carried over (a point p of a link
+  described from its other end is at l - p);
+* **the swing leg** from the hip down: ``swing_thigh``, ``swing_shank`` and ``swing_foot``
+  (ankle to toe mark);
+* **the upper body**: the link the legs hang from, described from the hip (its line from the
+  hip to its farthest point: a trunk up to the neck, a pelvis up to its frame), keeping its
+  name; the links above it unchanged.
+
+The feet's contacts are the foot's massless frames (fixed joints) named with ``heel`` and
+``toe`` (or ``ball``), as a sole's marks: ``stance_toe`` = H0, ``stance_heel``, ``swing_heel``,
+``swing_toe`` = the swing foot's end (:func:`problems.footed_step`'s ``points``).
+
+:class:`UrdfWalker` keeps the robot's terms: each physical joint's URDF name, and how its URDF
+angle follows from the plan's link angles, q_urdf = sense (psi_child - psi_parent - zero), so
+that a joint-space file (:func:`problems.robot.joint_space`) names every drive as the robot
+does and states its encoder's sign and offset.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+import re
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from model.linkage import Link, Linkage
+from model.points import LinkPoint
+from model.urdf import UrdfLinkage, from_urdf
+from planner.errors import DefinitionError
+
+#: a side's name guessed from a thigh link's name
+_SIDE_PATTERNS = (("right", re.compile(r"(^|[^a-z])(right|r)([^a-z]|$)", re.I)),
+                  ("left", re.compile(r"(^|[^a-z])(left|l)([^a-z]|$)", re.I)))  # fmt: skip
+#: a leg's joints, from the hip down
+LEG_JOINTS = ("hip", "knee", "ankle")
+#: mirror legs agree to this relative tolerance (lengths, masses, centres, inertias)
+MIRROR_RTOL = 1e-9
+
+
+@dataclass(frozen=True)
+class UrdfWalker:
+    """A robot's URDF as a walking biped (see the module).
+
+    Attributes
+    ----------
+    linkage : the walking tree, rooted at the stance foot (point feet: at the stance shank's
+        foot point), legs named stance_* and swing_*, the upper body's links by their URDF names.
+    points : the feet's contacts by role (feet), or None (point feet).
+    sides : (the stance leg's side, the swing leg's) in the plan's step.
+    joints : {"<side>_<hip|knee|ankle>" or an upper-body link: the URDF joint that moves it}.
+    encoders : {the same keys: (parent link, child link, sense, zero rad)} in the plan's links:
+        q_urdf = sense (psi_child - psi_parent - zero).
+    robot : the URDF's sagittal linkage as read (:class:`model.urdf.UrdfLinkage`).
+    """
+
+    linkage: Linkage
+    points: dict[str, LinkPoint] | None
+    sides: tuple[str, str]
+    joints: dict[str, str]
+    encoders: dict[str, tuple[str, str, float, float]]
+    robot: UrdfLinkage
+
+    @property
+    def feet(self) -> bool:
+        return self.points is not None
+
+    def metadata(self, source: str | None = None) -> dict[str, Any]:
+        """What a plan's file keeps of the robot (JSON): the URDF's path, the sides, and each
+        joint's URDF name and encoder (parent, child, sense, zero)."""
+        return {
+            "urdf": source,
+            "sides": list(self.sides),
+            "joints": dict(self.joints),
+            "encoders": {k: [p, c, s, z] for k, (p, c, s, z) in self.encoders.items()},
+        }
+
+
+def read_urdf_walker(path: str | Path, **options) -> UrdfWalker:
+    """:func:`walker_from_urdf` of the file at ``path`` (options as there)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as error:
+        raise DefinitionError(f"`urdf`: cannot read {str(path)!r} ({error.strerror})") from None
+    return walker_from_urdf(text, **options)
+
+
+def _geometry(robot: UrdfLinkage) -> dict[str, tuple[complex, complex, complex]]:
+    """{link: (start, end, centre of mass)} at the URDF's zero pose, x + j z, m."""
+    linkage = robot.linkage
+    starts: dict[int, complex] = {}
+    out = {}
+    for i, link in enumerate(linkage.links):
+        parent = linkage.parents[i]
+        if parent < 0:
+            start = complex(link.origin or 0j)
+        else:
+            start = starts[parent] + cmath.exp(1j * robot.offsets[parent]) * complex(
+                linkage.origin_in_parent(i)
+            )
+        starts[i] = start
+        turn = cmath.exp(1j * robot.offsets[i])
+        out[link.name] = (start, start + turn * link.length, start + turn * link.com_offset)
+    return out
+
+
+def _described(name: str, parent: str | None, source: Link, start: complex, end: complex,
+               com: complex, origin: complex | None = None) -> Link:  # fmt: skip
+    """``source``'s rigid body as a link from ``start`` to ``end`` (zero-pose points)."""
+    vector = end - start
+    local = (com - start) / vector
+    return Link(name, parent, abs(vector), source.mass, local.real, source.inertia, local.imag,
+                origin=origin, rerooted=not 0.0 <= local.real <= 1.0)  # fmt: skip
+
+
+def _legs(robot: UrdfLinkage, legs: Mapping[str, str] | None) -> tuple[str, dict[str, list[str]]]:
+    """(the link the legs hang from, {side: [thigh, shank(, foot)]})."""
+    linkage = robot.linkage
+    names = linkage.names
+
+    def chain(i: int) -> list[int] | None:
+        members = [i]
+        while linkage.children[members[-1]]:
+            if len(linkage.children[members[-1]]) != 1:
+                return None
+            members.append(linkage.children[members[-1]][0])
+        return members if len(members) in (2, 3) else None
+
+    if legs is not None:
+        if not isinstance(legs, Mapping) or len(legs) != 2:
+            raise DefinitionError(f"`legs`: {{side: thigh link}} for two legs, got {legs!r}")
+        found = {}
+        for side, thigh in legs.items():
+            if thigh not in names:
+                raise DefinitionError(f"`legs`: {side}: the URDF's sagittal view has no moving "
+                                      f"link {thigh!r}; its links: {list(names)}")  # fmt: skip
+            members = chain(names.index(thigh))
+            if members is None:
+                raise DefinitionError(f"`legs`: {side}: {thigh!r} does not start a chain of two "
+                                      "or three links (thigh, shank, foot)")  # fmt: skip
+            found[side] = members
+    else:
+        found = {}
+        for parent in range(linkage.n):
+            chains = [c for c in linkage.children[parent] if chain(c) is not None]
+            if len(chains) == 2:
+                found = {f"leg{k}": chain(c) for k, c in enumerate(chains)}
+                break
+        if not found:
+            raise DefinitionError(
+                "`urdf`: no two legs (chains of two or three links, thigh to shank or foot, "
+                "hanging from one link) in the robot's sagittal view; lock the joints that are "
+                "not in it (lock=[...]) or name the thighs (legs={side: link})"
+            )
+        guessed = {}
+        for members in found.values():
+            thigh = names[members[0]]
+            sides = [side for side, pattern in _SIDE_PATTERNS if pattern.search(thigh)]
+            if len(sides) != 1:
+                raise DefinitionError(
+                    f"`legs`: cannot tell the side of the leg starting at {thigh!r} from its "
+                    "name (right/left, r_/l_); name the thighs: legs={'right': ..., 'left': ...}"
+                )
+            guessed[sides[0]] = members
+        if len(guessed) != 2:
+            raise DefinitionError(f"`legs`: both legs read as {list(guessed)}; name the thighs: "
+                                  "legs={'right': ..., 'left': ...}")  # fmt: skip
+        found = guessed
+    parents = {linkage.parents[m[0]] for m in found.values()}
+    lengths = {len(m) for m in found.values()}
+    if len(parents) != 1 or -1 in parents or len(lengths) != 1:
+        raise DefinitionError(
+            "`legs`: two legs of the same number of links hanging from one link (the pelvis or "
+            f"trunk), got {({s: [names[i] for i in m] for s, m in found.items()})}"
+        )
+    return names[parents.pop()], {s: [names[i] for i in m] for s, m in found.items()}
+
+
+def _mirrored(robot: UrdfLinkage, legs: dict[str, list[str]], geometry) -> None:
+    """Refuse legs that are not mirror images in the sagittal view (naming the parameter)."""
+    a, b = legs.values()
+    for one, two in zip(a, b, strict=True):
+        first, second = (robot.linkage.links[robot.linkage.index(n)] for n in (one, two))
+        for field in ("length", "mass", "com", "inertia", "com_lateral"):
+            x, y = getattr(first, field), getattr(second, field)
+            if abs(x - y) > MIRROR_RTOL * max(1.0, abs(x), abs(y)):
+                raise DefinitionError(
+                    f"`urdf`: the legs differ in the sagittal view: {one} {field} {x!r}, {two} "
+                    f"{y!r}; the walking step swaps the legs at every strike, so they must be "
+                    "mirror images"
+                )
+    if abs(geometry[a[0]][0] - geometry[b[0]][0]) > 1e-9:
+        raise DefinitionError("`urdf`: the hips are at different points of the sagittal view")
+
+
+def _marks(robot: UrdfLinkage, foot: str) -> tuple[complex, complex]:
+    """(heel, toe) marks of ``foot``: its massless frames named heel and toe (or ball)."""
+    found = {}
+    for frame, (owner, point) in robot.frames.items():
+        if owner != foot:
+            continue
+        for role, words in (("heel", ("heel",)), ("toe", ("toe", "ball"))):
+            if any(word in frame.lower() for word in words):
+                if role in found:
+                    raise DefinitionError(f"`urdf`: foot {foot!r} has two {role} frames")
+                found[role] = point
+    missing = [role for role in ("heel", "toe") if role not in found]
+    if missing:
+        raise DefinitionError(
+            f"`urdf`: foot {foot!r} needs massless frames (fixed joints) named with 'heel' and "
+            f"'toe' (or 'ball') where its sole touches the ground; missing {missing}"
+        )
+    return found["heel"], found["toe"]
+
+
+def walker_from_urdf(
+    text: str,
+    *,
+    legs: Mapping[str, str] | None = None,
+    stance_side: str | None = None,
+    lock: Iterable[str] = (),
+    leaf_length: Mapping[str, float] | None = None,
+    gravity: float = 9.81,
+) -> UrdfWalker:
+    """The walking biped of a robot's URDF (see the module). ``stance_side``: the leg in
+    stance in the plan's step (default: the first side, right before left)."""
+    robot = from_urdf(text, leaf_length=leaf_length, lock=lock)
+    trunk, sides_legs = _legs(robot, legs)
+    order = sorted(sides_legs, key=lambda s: (s != "right", s != "left", s))
+    if stance_side is None:
+        stance_side = order[0]
+    if stance_side not in sides_legs:
+        raise DefinitionError(f"`stance_side`: one of {order}, got {stance_side!r}")
+    swing_side = next(s for s in order if s != stance_side)
+    geometry = _geometry(robot)
+    _mirrored(robot, sides_legs, geometry)
+    source = {link.name: link for link in robot.linkage.links}
+    stance, swing = sides_legs[stance_side], sides_legs[swing_side]
+    feet = len(stance) == 3
+    roles = ("thigh", "shank", "foot")
+    built: list[Link] = []
+    points = None
+    # the stance leg from the ground up: each link from its end to its start
+    if feet:
+        heel, toe = _marks(robot, stance[2])
+        start, _, com = geometry[stance[2]]
+        built.append(_described("stance_foot", None, source[stance[2]], toe, start, com))
+    for k, role in reversed(list(enumerate(roles[:2]))):
+        start, end, com = geometry[stance[k]]
+        parent = built[-1].name if built else None
+        built.append(_described(f"stance_{role}", parent, source[stance[k]], end, start, com))
+    hip = geometry[stance[0]][0]
+    for k, role in enumerate(roles[: len(swing)]):
+        start, end, com = geometry[swing[k]]
+        parent = "stance_thigh" if k == 0 else f"swing_{roles[k - 1]}"
+        if role == "foot":
+            swing_heel, swing_toe = _marks(robot, swing[2])
+            end = swing_toe
+        built.append(_described(f"swing_{role}", parent, source[swing[k]], start, end, com))
+    if feet:
+        points = {
+            "stance_toe": LinkPoint("stance_foot", 0.0, 0.0, name="stance_toe"),
+            "stance_heel": _point("stance_foot", toe, geometry[stance[2]][0], heel),
+            "swing_heel": _point("swing_foot", geometry[swing[2]][0], swing_toe, swing_heel),
+            "swing_toe": LinkPoint("swing_foot", 1.0, 0.0, name="swing_toe"),
+        }
+    # the upper body: the trunk from the hip, the links above it as they are
+    start, end, com = geometry[trunk]
+    far = max((start, end), key=lambda p: abs(p - hip))
+    built.append(_described(trunk, "stance_thigh", source[trunk], hip, far, com))
+    trunk_turn = cmath.exp(1j * cmath.phase(far - hip))
+    leg_links = set(stance) | set(swing)
+    for link in robot.linkage.links:
+        if link.name == trunk or link.name in leg_links:
+            continue
+        if link.parent in leg_links:
+            raise DefinitionError(
+                f"`urdf`: {link.name!r} hangs from the leg link {link.parent!r}: a leg is a "
+                "chain; lock its joint to merge it"
+            )
+        if link.parent == trunk:
+            where = (geometry[link.name][0] - hip) / trunk_turn
+            built.append(Link(link.name, trunk, link.length, link.mass, link.com, link.inertia,
+                              link.com_lateral, origin=_origin(where, abs(far - hip)),
+                              merged=link.merged, rerooted=link.rerooted))  # fmt: skip
+        else:
+            built.append(link)
+    linkage = Linkage(built, gravity=gravity)
+    joints, encoders = _encoders(robot, linkage, geometry, trunk, stance, swing,
+                                 (stance_side, swing_side), hip, far)  # fmt: skip
+    return UrdfWalker(linkage, points, (stance_side, swing_side), joints, encoders, robot)
+
+
+def _origin(where: complex, length: float) -> complex | None:
+    """A child's hinge on the trunk: None at its end (the paper's form)."""
+    return None if abs(where - length) < 1e-12 else where
+
+
+def _point(link: str, start: complex, end: complex, point: complex) -> LinkPoint:
+    """``point`` (zero pose) on ``link`` (stance_foot, swing_foot) described from ``start``
+    to ``end``, named ``<side>_heel``."""
+    local = (point - start) / (end - start)
+    return LinkPoint(link, local.real, local.imag, name=link.replace("foot", "heel"))
+
+
+def _encoders(robot, linkage, geometry, trunk, stance, swing, sides, hip, far):
+    """Each physical joint's URDF name and encoder in the plan's links (see UrdfWalker)."""
+    zero = {}  # each plan link's angle at the robot's zero pose
+    for role, members, upward in (("stance", stance, True), ("swing", swing, False)):
+        for k, link in enumerate(members):
+            name = f"{role}_{('thigh', 'shank', 'foot')[k]}"
+            start, end, _ = geometry[link]
+            if name.endswith("foot"):
+                end = _marks(robot, link)[1]
+            zero[name] = cmath.phase(start - end if upward else end - start)
+    zero[trunk] = cmath.phase(far - hip)
+    for link in linkage.links:
+        if link.name not in zero:
+            zero[link.name] = robot.offsets[robot.linkage.index(link.name)]
+    plan_of = {}
+    for role, members in (("stance", stance), ("swing", swing)):
+        for k, link in enumerate(members):
+            plan_of[link] = f"{role}_{('thigh', 'shank', 'foot')[k]}"
+    plan_of[trunk] = trunk
+    joints, encoders = {}, {}
+    robot_names = robot.linkage.names
+    for side, members in zip(sides, (stance, swing), strict=True):
+        for k, link in enumerate(members):
+            i = robot_names.index(link)
+            parent = robot_names[robot.linkage.parents[i]]
+            key = f"{side}_{LEG_JOINTS[k]}"
+            joints[key] = robot.joints[i]
+            child_plan, parent_plan = plan_of[link], plan_of.get(parent, parent)
+            encoders[key] = (parent_plan, child_plan, robot.senses[i],
+                             _wrapped(zero[child_plan] - zero[parent_plan]))  # fmt: skip
+    for link in linkage.links:
+        if link.name in plan_of.values() or link.parent is None:
+            continue
+        i = robot_names.index(link.name)
+        joints[link.name] = robot.joints[i]
+        encoders[link.name] = (link.parent, link.name, robot.senses[i],
+                               _wrapped(zero[link.name] - zero[link.parent]))  # fmt: skip
+    return joints, encoders
+
+
+def _wrapped(angle: float) -> float:
+    return math.pi - (math.pi - angle) % (2 * math.pi)
+
+
+def urdf_angles(walker: UrdfWalker, psi: np.ndarray) -> dict[str, np.ndarray]:
+    """Each URDF joint's angle, rad, at the plan's link angles ``psi`` (K, n) (or (n,)):
+    {URDF joint name: values}."""
+    psi = np.asarray(psi, dtype=float)
+    names = walker.linkage.names
+    out = {}
+    for key, (parent, child, sense, zero) in walker.encoders.items():
+        difference = psi[..., names.index(child)] - psi[..., names.index(parent)] - zero
+        out[walker.joints[key]] = sense * (math.pi - np.mod(math.pi - difference, 2 * math.pi))
+    return out
+
+
+__all__ = ["UrdfWalker", "read_urdf_walker", "urdf_angles", "walker_from_urdf"]
