@@ -133,7 +133,7 @@ def test_children_at_different_points_hang_from_their_own_and_leaves_need_a_leng
 def test_fixed_and_locked_bodies_merge_into_one_rigid_body():
     """A 1 kg boot fixed 0.45 m down the shank (its centre 0.45 m below its frame), and a 2 kg
     tool on a joint about x locked at its zero (its inertial frame rolled by pi/2: its izz is
-    the plane's moment): the shank's body by hand (masses, centre of mass, parallel-axis theorem)."""
+    the plane's moment): the shank's body by hand (masses, centre of mass, parallel axes)."""
     text = LEG.replace('<mass value="0"/>', '<mass value="1"/><inertia iyy="0.002"/>').replace(
         "</robot>",
         """<link name="tool"><inertial><origin xyz="0 0 -0.1" rpy="1.5707963267948966 0 0"/>

@@ -191,7 +191,7 @@ def _legs(robot: UrdfLinkage, legs: Mapping[str, str] | None) -> tuple[str, dict
     if len(parents) != 1 or -1 in parents or len(lengths) != 1:
         raise DefinitionError(
             "`legs`: two legs of the same number of links hanging from one link (the pelvis or "
-            f"trunk), got {({s: [names[i] for i in m] for s, m in found.items()})}"
+            f"trunk), got { ({s: [names[i] for i in m] for s, m in found.items()}) }"
         )
     return names[parents.pop()], {s: [names[i] for i in m] for s, m in found.items()}
 
