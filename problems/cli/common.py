@@ -406,6 +406,15 @@ def sample_grid(times, rate_hz: float, phases=None) -> str:
     return f"{times.size} samples {step} from the start of each phase ({starts})"
 
 
+def with_robot(profile, args):
+    """``profile`` with the robot of ``walk --urdf`` in its metadata (``robot``: the URDF's
+    path, the sides, each joint's URDF name and encoder), read by the joint-space view."""
+    walker = getattr(args, "walker", None)
+    if walker is None:
+        return profile
+    return profile.with_metadata(robot=walker.metadata(str(args.urdf)))
+
+
 def write_joint_space(torques_csv: Path, output, legs: tuple[str, str], out) -> None:
     """The robot's view of the torque file read back from disk (``problems.robot``): one
     stride, ``legs`` = (the leg in stance in the planned step, the other), staged as

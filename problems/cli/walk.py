@@ -7,6 +7,7 @@ import math
 import sys
 import time
 import warnings
+from pathlib import Path
 from typing import TextIO
 
 from model import LinkageTrajectory
@@ -35,6 +36,7 @@ from problems.cli.common import (
     print_verification,
     sample_grid,
     save_trajectory,
+    with_robot,
     write_joint_space,
     write_walk_pictures,
 )
@@ -252,6 +254,23 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         "used when the cache holds it",
     )
     walk.add_argument("--no-plots", action="store_true", help="write no PNG or GIF")
+    walk.add_argument(
+        "--urdf",
+        type=Path,
+        metavar="PATH",
+        help="plan the robot of this URDF instead of a preset: its sagittal legs and trunk "
+        "(hinges about y; the legs hang from one link and are named right/left or r_/l_), "
+        "on feet when its legs have feet with heel and toe frames, else on point feet; "
+        "joints.csv names each drive's URDF joint and its encoder's sign and zero",
+    )
+    walk.add_argument(
+        "--lock",
+        type=lambda text: tuple(j.strip() for j in text.split(",") if j.strip()),
+        default=(),
+        metavar="J1,J2",
+        help="with --urdf, joints held at their zero and merged (a hip's roll and yaw, a "
+        "waist, the arms)",
+    )
     walk.add_argument("--no-gif", action="store_true", help="write the PNGs but no GIF")
     walk.add_argument(
         "--quick",
@@ -261,12 +280,13 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
 
 
 def run(args, out: TextIO, report: Reporter) -> int:
-    if args.preset == "six-link-feet":
+    args.walker = _robot(args)
+    if args.preset == "six-link-feet" or (args.walker is not None and args.walker.feet):
         return run_feet(args, out, report)
     mesh, preset, target, sole = _checked_options(args)
-    linkage = preset_linkage(args.preset)
+    linkage = preset_linkage(args.preset) if args.walker is None else args.walker.linkage
     output = output_set(str(args.output_dir or new_folder("walk")), "walk")
-    report.step(f"defining the walking step of {args.preset} ({linkage.n} links)")
+    report.step(f"defining the walking step of {args.urdf or args.preset} ({linkage.n} links)")
     step = _step(args, linkage, mesh, sole)
     gait, caught = _solve(step, args, target, report)
     _print_plan(gait, args, preset, target, caught, out, report)
@@ -283,6 +303,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
             profile = gait.to_trajectory(args.rate_hz)
             if feedback is not None:
                 profile = feedback.channels(profile)
+            profile = with_robot(profile, args)
             written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
             save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
         with report.working("verifying torques.csv (numpy, independent of the planner)"):
@@ -313,6 +334,23 @@ def run(args, out: TextIO, report: Reporter) -> int:
     for path in paths:
         print(f"wrote {path}", file=out)
     return 0
+
+
+def _robot(args):
+    """The robot of --urdf (problems.robot.UrdfWalker) or None, its options checked."""
+    if args.urdf is None:
+        if args.lock:
+            raise UsageError("--lock: only with --urdf (the joints of a robot's URDF to hold)")
+        return None
+    if args.preset != "six-link":
+        raise UsageError(f"--preset {args.preset} and --urdf: the URDF is the robot; drop one")
+    from problems.robot import read_urdf_walker
+
+    walker = read_urdf_walker(args.urdf, lock=args.lock)
+    if args.legs != ("right", "left") and tuple(args.legs) != walker.sides:
+        raise UsageError(f"--legs: the URDF names its legs {','.join(walker.sides)}; drop --legs")
+    args.legs = walker.sides
+    return walker
 
 
 def _checked_options(args):
@@ -468,7 +506,8 @@ def _print_solve(gait, args, preset, out) -> None:
     # between the points may cut intervals of it (said below).
     planned = history.sizes[-1] if history is not None else step.ocp.N
     print(
-        f"walking step of {args.preset}: {step.step_length:g} m in {step.step_time:g} s "
+        f"walking step of {args.urdf or args.preset}: {step.step_length:g} m in "
+        f"{step.step_time:g} s "
         f"({step.speed:.3g} m/s){phases}, {scheme} N = {planned}"
         + (" (refined mesh)" if history is not None else "")
         + f", {args.formulation}",

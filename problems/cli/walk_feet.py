@@ -32,6 +32,7 @@ from problems.cli.common import (
     print_verification,
     sample_grid,
     save_trajectory,
+    with_robot,
     write_joint_space,
     write_walk_pictures,
 )
@@ -116,6 +117,9 @@ def _footed_step(args):
         extra["clearance"] = args.clearance_m
     if args.quick:
         extra["N"] = QUICK_MESH[args.feet_phases]
+    walker = getattr(args, "walker", None)
+    if walker is not None:
+        extra.update(linkage=walker.linkage, points=walker.points)
     return footed_step(
         objective=args.objective,
         step_length=args.step_length_m,
@@ -156,7 +160,8 @@ def _print_plan(gait, args, seconds: float, out: TextIO) -> None:
     phases = ", ".join(f"{name} {d:.3f} s" for name, d in zip(step.sequence, gait.durations(),
                                                               strict=True))  # fmt: skip
     print(
-        f"walking step on feet of six-link-feet ({args.feet_phases}): {step.step_length:g} m "
+        f"walking step on feet of {_walker_name(args)} ({args.feet_phases}): "
+        f"{step.step_length:g} m "
         f"(ball to ball) in {step.step_time:g} s ({step.speed:.3g} m/s); {phases} (free "
         "within their bounds)",
         file=out,
@@ -187,6 +192,11 @@ def _print_plan(gait, args, seconds: float, out: TextIO) -> None:
     )
 
 
+def _walker_name(args) -> str:
+    """The preset's name, or the URDF file's."""
+    return "six-link-feet" if getattr(args, "walker", None) is None else str(args.urdf)
+
+
 def _write_files(gait, law, output, args, report, out: TextIO) -> None:
     """torques.csv and .json (with the law's channels), solution.npz, the file read back and
     verified (raises when it fails), joints.csv."""
@@ -195,6 +205,7 @@ def _write_files(gait, law, output, args, report, out: TextIO) -> None:
         profile = gait.to_trajectory(args.rate_hz)
         if law is not None:
             profile = law.channels(profile)
+        profile = with_robot(profile, args)
         written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
         save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
     with report.working("verifying torques.csv (numpy, independent of the planner)"):

@@ -46,12 +46,20 @@ import numpy as np
 
 from model.linkage import Linkage
 from model.linkage_trajectory import LinkageTrajectory
+from model.points import LinkPoint
 from planner.errors import DefinitionError, DefinitionTypeError
 from planner.files import write_text_atomically
 from planner.trajectory import Trajectory
 from problems.gait.biped import Biped
-from problems.human.joints import Body, Leg, body_of, joint_radians, leg_moments
+from problems.human.joints import Body, body_of
 from problems.human.stride import foot_forces, strike_time
+from problems.robot.controller import (
+    SWING_ANKLE_KD,
+    SWING_ANKLE_KP,
+    joint_gains,
+    joint_maps,
+    specification,
+)
 
 SCHEMA = "anthropoid-planner joint space"
 VERSION = 1
@@ -85,19 +93,6 @@ class JointSpace:
         return path
 
 
-def _linear(body: Body, leg: Leg, names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """(A (3, n), b (3,)): the leg's (hip, knee, ankle) = A psi + b, read off
-    :func:`problems.human.joints.joint_radians` (linear in psi); a missing ankle row NaN."""
-
-    def angles(psi):
-        values = joint_radians(body, leg, dict(zip(names, psi, strict=True)))
-        return np.array([np.nan if values[j] is None else values[j] for j in JOINTS])
-
-    zero = angles(np.zeros(len(names)))
-    columns = [angles(np.eye(len(names))[i]) - zero for i in range(len(names))]
-    return np.column_stack(columns), zero
-
-
 def _model(trajectory: Trajectory) -> tuple[LinkageTrajectory, Mapping[str, Any], Linkage]:
     if not isinstance(trajectory, Trajectory):
         raise DefinitionTypeError(
@@ -117,53 +112,76 @@ def _model(trajectory: Trajectory) -> tuple[LinkageTrajectory, Mapping[str, Any]
 
 
 def joint_space(
-    trajectory: Trajectory, *, steps: int = 2, sides: tuple[str, str] = ("right", "left")
+    trajectory: Trajectory, *, steps: int = 2, sides: tuple[str, str] | None = None
 ) -> JointSpace:
     """The robot's view of a planned step's exported samples (``gait.to_trajectory(rate)``
     or ``LinkageTrajectory.load("torques.csv")``): ``steps`` steps (2: one stride), the
-    ``sides[0]`` leg in stance in step 0 (see the module)."""
+    ``sides[0]`` leg in stance in step 0 (default: the robot's sides when the plan is of a
+    URDF, ``walk --urdf``, else right, left) (see the module)."""
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
         raise DefinitionError(f"`steps`: an integer >= 1 (2 = one stride), got {steps!r}")
+    trajectory, settings, linkage = _model(trajectory)
+    robot = (trajectory.metadata or {}).get("robot")
+    if sides is None:
+        sides = tuple(robot["sides"]) if robot else ("right", "left")
     if (not isinstance(sides, tuple | list) or len(sides) != 2 or sides[0] == sides[1]
             or not all(isinstance(s, str) and s.isidentifier() for s in sides)):  # fmt: skip
         raise DefinitionError(
             f"`sides`: two different names for the legs (letters, digits, _), the first in "
             f"stance in step 0, got {sides!r}"
         )
-    trajectory, settings, linkage = _model(trajectory)
+    if robot and tuple(sides) != tuple(robot["sides"]):
+        raise DefinitionError(
+            f"`sides`: the plan is of a robot whose {robot['sides'][0]} leg is in stance in the "
+            f"planned step; give sides={tuple(robot['sides'])!r} (or None), got {sides!r}"
+        )
     body = body_of(linkage, settings.get("neutral_ankles"))
     time = np.asarray(trajectory.time, dtype=float) - float(trajectory.time[0])
     T = float(time[-1])
     t_s = strike_time(settings, T)
     in_double = time >= t_s - 1e-12 if t_s < T else np.zeros(time.shape, bool)
-    per_leg, shared = _step_columns(trajectory, linkage, body, in_double)
+    step = _StepColumns.of(trajectory, linkage, body, in_double)
     columns: dict[str, list[np.ndarray]] = {}
     units: dict[str, str] = {}
-    for step in range(steps):
+    for index in range(steps):
         # where two steps meet the later step's first sample is kept
         keep = np.ones(time.shape, bool)
-        keep[-1] = step == steps - 1
-        side_of = {"stance": sides[step % 2], "swing": sides[(step + 1) % 2]}
+        keep[-1] = index == steps - 1
+        side_of = {"stance": sides[index % 2], "swing": sides[(index + 1) % 2]}
         step_columns = {
-            "t_s": (time + step * T, "s"),
-            "step": (np.full(time.shape, float(step)), ""),
-            f"stance_{sides[0]}": (np.full(time.shape, float(step % 2 == 0)), ""),
+            "t_s": (time + index * T, "s"),
+            "step": (np.full(time.shape, float(index)), ""),
+            f"stance_{sides[0]}": (np.full(time.shape, float(index % 2 == 0)), ""),
             "double_support": (in_double.astype(float), ""),
-            **shared,
+            "phase": (step.phase, ""),
+            **step.named(side_of),
         }
-        for role, templates in per_leg.items():
-            step_columns.update({name.format(side=side_of[role]): column
-                                 for name, column in templates.items()})  # fmt: skip
         for name, (values, unit) in step_columns.items():
             columns.setdefault(name, []).append(np.asarray(values, dtype=float)[keep])
             units[name] = unit
-    head = "q_neck_rad" in shared
+    head = step.head is not None
     feet = body.stance.foot is not None
     ordered = _ordered(columns, sides, head, feet)
     joined = {name: np.concatenate(columns[name]) for name in ordered}
     units = {n: units[n] for n in ordered}
     metadata = _metadata(settings, linkage, sides, steps, T, t_s, feet, head, units, joined)
+    limits = {j["name"]: j["limit_N_m"] for j in metadata["joints"]}
+    if robot:
+        _encoders_in_file_terms(metadata, robot, step, sides)
+    state = [step.column(key, "q", {"stance": sides[0], "swing": sides[1]}) for key in step.keys]
+    state += [step.column(key, "dq", {"stance": sides[0], "swing": sides[1]}) for key in step.keys]
+    metadata["controller"] = specification(
+        feet=feet, double=bool(np.any(in_double)), rate_hz=_rate(time), sides=sides,
+        steps=steps, state=state, drives=[j["name"] for j in metadata["joints"]],
+        limits=limits, hip_ahead=step.hip_ahead, gains=step.gains is not None,
+        robot=_robot_section(robot),
+    )  # fmt: skip
     return JointSpace(joined, units, metadata)
+
+
+def _rate(time: np.ndarray) -> float:
+    """The samples' rate, Hz (the median step: a phase's last step may be shorter)."""
+    return float(round(1.0 / float(np.median(np.diff(time))), 6))
 
 
 #: A joint's channels: (prefix, unit, the column name's unit suffix).
@@ -171,54 +189,178 @@ _CHANNELS = (("q", "rad", "rad"), ("dq", "rad/s", "rad_s"), ("ddq", "rad/s^2", "
              ("tau", "N m", "N_m"))  # fmt: skip
 
 
-def _step_columns(trajectory, linkage: Linkage, body: Body, in_double: np.ndarray):
-    """One step's columns: ({"stance" | "swing": {name with "{side}": (values (K,), unit)}},
-    {name: (values, unit)} of the neck and the trunk)."""
-    names = linkage.names
-    psi, dpsi = np.asarray(trajectory.psi), np.asarray(trajectory.dpsi)
-    ddpsi, torques = np.asarray(trajectory.ddpsi), np.asarray(trajectory.torques)
-    by_name = {name: torques[:, i] for i, name in enumerate(names)}
-    rear, front = foot_forces(trajectory, names[0])
-    size = psi.shape[0]
-    per_leg = {}
-    for role, leg, force, contact in (("stance", body.stance, rear, np.ones(size)),
-                                      ("swing", body.swing, front, in_double)):  # fmt: skip
-        A, b = _linear(body, leg, names)
-        moments = leg_moments(body, leg, by_name, 1.0)
-        columns = {}
-        for k, joint in enumerate(JOINTS):
-            # a point foot's swing ankle has none: NaN
-            values = {"q": psi @ A[k] + b[k], "dq": dpsi @ A[k], "ddq": ddpsi @ A[k],
-                      "tau": -np.asarray(moments[f"{joint}_moment"], dtype=float)}  # fmt: skip
-            for prefix, unit, suffix in _CHANNELS:
-                column = np.full(size, np.nan) if np.isnan(b[k]) else values[prefix]
-                columns[f"{prefix}_{{side}}_{joint}_{suffix}"] = (column, unit)
-        columns["contact_{side}"] = (np.asarray(contact, dtype=float), "")
-        columns["ground_force_{side}_x_N"] = (force.real, "N")
-        columns["ground_force_{side}_y_N"] = (force.imag, "N")
-        if body.stance.foot is not None:
-            ground = torques[:, 0] if role == "stance" else np.zeros(size)
-            columns["ground_torque_{side}_N_m"] = (ground, "N m")
-        per_leg[role] = columns
-    t = names.index(body.trunk)
-    shared = {}
-    head = next((i for i, p in enumerate(linkage.parents) if p == t), None)
-    if head is not None:
-        shared = {
-            "q_neck_rad": (psi[:, head] - psi[:, t], "rad"),
-            "dq_neck_rad_s": (dpsi[:, head] - dpsi[:, t], "rad/s"),
-            "ddq_neck_rad_s2": (ddpsi[:, head] - ddpsi[:, t], "rad/s^2"),
-            "tau_neck_N_m": (torques[:, head], "N m"),
-        }
-    shared["trunk_pitch_rad"] = (math.pi / 2 - psi[:, t], "rad")
-    shared["trunk_pitch_rate_rad_s"] = (-dpsi[:, t], "rad/s")
-    return per_leg, shared
+@dataclass(frozen=True)
+class _StepColumns:
+    """One planned step in the joint space's role terms (``stance_hip``, ``neck``,
+    ``trunk_pitch``: :func:`problems.robot.controller.joint_maps`): the state y (K, m), its
+    rates and accelerations, the drives' torques (K, drives) (the swing ankle of a point
+    foot: 0), each foot's contact and ground force, the phase, the hip's distance ahead of
+    the stance contact at the start and the end, and the gains (K, drives, 2m) or None."""
+
+    keys: list
+    drives: list
+    y: np.ndarray
+    dy: np.ndarray
+    ddy: np.ndarray
+    tau: np.ndarray
+    feet: dict
+    phase: np.ndarray
+    hip_ahead: tuple
+    gains: np.ndarray | None
+    head: int | None
+    maps: tuple
+
+    @classmethod
+    def of(cls, trajectory, linkage: Linkage, body: Body, in_double: np.ndarray) -> _StepColumns:
+        names = linkage.names
+        t = names.index(body.trunk)
+        head = next((i for i, p in enumerate(linkage.parents) if p == t), None)
+        keys, A, b, planned, basis, drives, D = joint_maps(linkage, body, head)
+        psi, dpsi = np.asarray(trajectory.psi), np.asarray(trajectory.dpsi)
+        ddpsi, torques = np.asarray(trajectory.ddpsi), np.asarray(trajectory.torques)
+        all_drives = [k for k in keys if k != "trunk_pitch"]
+        tau = np.zeros((psi.shape[0], len(all_drives)))
+        for r, key in enumerate(drives):
+            tau[:, all_drives.index(key)] = torques @ D[r]
+        rear, front = foot_forces(trajectory, names[0])
+        size = psi.shape[0]
+        feet = {}
+        for role, force, contact in (("stance", rear, np.ones(size)),
+                                     ("swing", front, in_double.astype(float))):  # fmt: skip
+            columns = {"contact_{side}": (contact, ""),
+                       "ground_force_{side}_x_N": (force.real, "N"),
+                       "ground_force_{side}_y_N": (force.imag, "N")}  # fmt: skip
+            if body.stance.foot is not None:
+                ground = torques[:, 0] if role == "stance" else np.zeros(size)
+                columns["ground_torque_{side}_N_m"] = (ground, "N m")
+            feet[role] = columns
+        levers = LinkPoint(body.stance.thigh, 1.0).levers(linkage)
+        ahead = sum((lever * np.exp(1j * psi[:, k])).real for k, lever in levers)
+        ahead = ahead + (linkage.links[0].origin or 0j).real
+        phase = (ahead - ahead[0]) / (ahead[-1] - ahead[0])
+        gains = None
+        model_gains = _model_gains(trajectory, names)
+        if model_gains is not None:
+            m = len(keys)
+            full = np.zeros((size, len(all_drives), 2 * m))
+            rows = [all_drives.index(key) for key in drives]
+            full[:, rows, :] = joint_gains(model_gains, A, basis, D)
+            if body.swing.foot is None:  # the level swing sole's PD
+                r, i = all_drives.index("swing_ankle"), keys.index("swing_ankle")
+                full[:, r, i], full[:, r, m + i] = SWING_ANKLE_KP, SWING_ANKLE_KD
+            gains = full
+        return cls(keys, all_drives, psi @ A.T + b, dpsi @ A.T, ddpsi @ A.T, tau, feet, phase,
+                   (float(ahead[0]), float(ahead[-1])), gains, head, (A, b, planned))  # fmt: skip
+
+    @staticmethod
+    def column(key: str, prefix: str, side_of) -> str:
+        """The file's column of a state entry: q_right_hip_rad, dq_neck_rad_s,
+        trunk_pitch_rad, trunk_pitch_rate_rad_s."""
+        if key == "trunk_pitch":
+            return "trunk_pitch_rad" if prefix == "q" else "trunk_pitch_rate_rad_s"
+        suffix = dict((p, s) for p, _, s in _CHANNELS)[prefix]
+        if key == "neck":
+            return f"{prefix}_neck_{suffix}"
+        role, _, joint = key.partition("_")
+        return f"{prefix}_{side_of[role]}_{joint}_{suffix}"
+
+    @staticmethod
+    def drive(key: str, side_of) -> str:
+        if key == "neck":
+            return "neck"
+        role, _, joint = key.partition("_")
+        return f"{side_of[role]}_{joint}"
+
+    def named(self, side_of) -> dict[str, tuple[np.ndarray, str]]:
+        """The step's columns with the roles named by side: {name: (values (K,), unit)}."""
+        out = {}
+        for i, key in enumerate(self.keys):
+            for prefix, values in (("q", self.y), ("dq", self.dy), ("ddq", self.ddy)):
+                if key == "trunk_pitch" and prefix == "ddq":
+                    continue
+                unit = dict((p, u) for p, u, _ in _CHANNELS)[prefix]
+                out[self.column(key, prefix, side_of)] = (values[:, i], unit)
+        for r, key in enumerate(self.drives):
+            out[f"tau_{self.drive(key, side_of)}_N_m"] = (self.tau[:, r], "N m")
+        for role, columns in self.feet.items():
+            for name, column in columns.items():
+                out[name.format(side=side_of[role])] = column
+        if self.gains is not None:
+            m = len(self.keys)
+            states = [self.column(k, "q", side_of) for k in self.keys]
+            states += [self.column(k, "dq", side_of) for k in self.keys]
+            for r, key in enumerate(self.drives):
+                drive = self.drive(key, side_of)
+                for j, state in enumerate(states):
+                    unit = "N m/rad" if j < m else "N m s/rad"
+                    out[f"K_{drive}__{state}"] = (self.gains[:, r, j], unit)
+        return out
+
+
+def _model_gains(trajectory, names) -> np.ndarray | None:
+    """The model file's K (K, n, 2n) from its K_<hinge>__<state> columns, or None."""
+    extras = trajectory.extras
+    n = len(names)
+    states = [f"psi_{name}" for name in names] + [f"dpsi_{name}" for name in names]
+    wanted = [f"K_{hinge}__{state}" for hinge in names for state in states]
+    if not all(name in extras for name in wanted):
+        return None
+    values = np.column_stack([np.asarray(extras[name][0], dtype=float) for name in wanted])
+    return values.reshape(-1, n, 2 * n)
+
+
+def _encoders_in_file_terms(metadata, robot, step: _StepColumns, sides) -> None:
+    """Each joint entry of ``metadata`` gains its URDF joint and encoder in the file's terms:
+    q_urdf = urdf_sign q + urdf_zero_rad (see examples/robot.md)."""
+    A, b, _ = step.maps
+    role_of = {sides[0]: "stance", sides[1]: "swing"}
+    names = metadata["model_view"]["links"]
+    head = names[step.head] if step.head is not None else None
+    for entry in metadata["joints"]:
+        key = entry["name"]
+        # the walker keys upper-body joints by the link they move: the neck moves the head
+        lookup = head if key == "neck" else key
+        encoder = robot["encoders"].get(lookup)
+        if encoder is None:
+            entry["urdf_joint"] = None
+            continue
+        parent, child, sense, zero = encoder
+        u = np.zeros(len(names))
+        u[names.index(child)] += sense
+        u[names.index(parent)] -= sense
+        if key == "neck":
+            row = step.keys.index("neck")
+        else:
+            side, _, joint = key.partition("_")
+            row = step.keys.index(f"{role_of[side]}_{joint}")
+        sign = float(np.round(u @ A[row] / (A[row] @ A[row])))
+        if sign not in (-1.0, 1.0) or not np.allclose(u, sign * A[row], atol=1e-12):
+            raise DefinitionError(
+                f"the robot's encoder of {key} ({robot['joints'][lookup]}) is not the file's "
+                f"joint {key} in another sense: read the plan with its sidecar"
+            )
+        offset = -sense * zero - sign * b[row]
+        entry["urdf_joint"] = robot["joints"][lookup]
+        entry["urdf_sign"] = sign
+        entry["urdf_zero_rad"] = float(math.pi - (math.pi - offset) % (2 * math.pi))
+
+
+def _robot_section(robot) -> dict | None:
+    if not robot:
+        return None
+    return {
+        "urdf": robot.get("urdf"),
+        "encoders": "each joint's URDF angle q_urdf = urdf_sign q + urdf_zero_rad (joints[])",
+        "base_pitch": "the base link's pitch about its y axis, forward positive, from its zero "
+        "pose = trunk_pitch_rad - trunk_offset_rad",
+        "trunk_offset_rad": math.pi / 2 - float(robot.get("trunk_zero_rad", math.pi / 2)),
+    }
 
 
 def _ordered(columns, sides, neck: bool, feet: bool) -> list[str]:
-    """File order: time and phase, each side's joints (q, dq, ddq, tau), the neck, the trunk,
-    each side's contact."""
-    order = ["t_s", "step", f"stance_{sides[0]}", "double_support"]
+    """File order: time, step and phase, each side's joints (q, dq, ddq, tau), the neck, the
+    trunk, each side's contact, the gains (K_<drive>__<state>)."""
+    order = ["t_s", "step", f"stance_{sides[0]}", "double_support", "phase"]
     for prefix in ("q", "dq", "ddq", "tau"):
         for side in sides:
             order += [n for n in columns if n.startswith(f"{prefix}_{side}_")]
@@ -229,6 +371,7 @@ def _ordered(columns, sides, neck: bool, feet: bool) -> list[str]:
         order += [f"contact_{side}", f"ground_force_{side}_x_N", f"ground_force_{side}_y_N"]
         if feet:
             order.append(f"ground_torque_{side}_N_m")
+    order += [n for n in columns if n.startswith("K_")]
     seen = set()
     return [n for n in order if not (n in seen or seen.add(n))]
 

@@ -71,6 +71,7 @@ class UrdfWalker:
     encoders : {the same keys: (parent link, child link, sense, zero rad)} in the plan's links:
         q_urdf = sense (psi_child - psi_parent - zero).
     robot : the URDF's sagittal linkage as read (:class:`model.urdf.UrdfLinkage`).
+    trunk_zero : the trunk's angle (its line from the hip) at the URDF's zero pose, rad.
     """
 
     linkage: Linkage
@@ -79,6 +80,7 @@ class UrdfWalker:
     joints: dict[str, str]
     encoders: dict[str, tuple[str, str, float, float]]
     robot: UrdfLinkage
+    trunk_zero: float = math.pi / 2
 
     @property
     def feet(self) -> bool:
@@ -92,6 +94,7 @@ class UrdfWalker:
             "sides": list(self.sides),
             "joints": dict(self.joints),
             "encoders": {k: [p, c, s, z] for k, (p, c, s, z) in self.encoders.items()},
+            "trunk_zero_rad": self.trunk_zero,
         }
 
 
@@ -308,7 +311,8 @@ def walker_from_urdf(
     linkage = Linkage(built, gravity=gravity)
     joints, encoders = _encoders(robot, linkage, geometry, trunk, stance, swing,
                                  (stance_side, swing_side), hip, far)  # fmt: skip
-    return UrdfWalker(linkage, points, (stance_side, swing_side), joints, encoders, robot)
+    return UrdfWalker(linkage, points, (stance_side, swing_side), joints, encoders, robot,
+                      cmath.phase(far - hip))  # fmt: skip
 
 
 def _origin(where: complex, length: float) -> complex | None:
