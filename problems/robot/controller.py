@@ -54,7 +54,9 @@ def joint_maps(linkage, body: Body, head: int | None):
     A : (m, n), b : (m,): y = A psi + b; a point foot's swing ankle's row is its level
         reference.
     planned : (m,) bool: the entries the plan has (a point foot's swing ankle has not).
-    basis : n indices of independent planned rows (legs, neck, then the trunk's pitch).
+    basis : n indices of independent planned rows (hips, knees, neck, the trunk's pitch,
+        then the ankles as needed: on point feet none, the stance shank's angle following
+        from the pitch, hips and knees).
     drives : the drives' keys (the joints with a torque: every planned joint but the pitch).
     D : (len(drives), n): tau = D M.
     """
@@ -97,7 +99,12 @@ def joint_maps(linkage, body: Body, head: int | None):
         planned.append(has)
     A, b = np.array(rows), np.array(offsets)
     basis: list[int] = []
-    for i in range(len(keys)):
+    # the ankles last: on point feet the stance shank's angle then comes from the trunk's
+    # pitch and the hips and knees (an IMU and encoders), not from an ankle encoder that
+    # reads a light foot rocking on the ground (in MuJoCo, gains on it chatter the foot)
+    order = [i for i, k in enumerate(keys) if "ankle" not in k]
+    order += [i for i, k in enumerate(keys) if "ankle" in k]
+    for i in order:
         if planned[i] and np.linalg.matrix_rank(A[[*basis, i]]) == len(basis) + 1:
             basis.append(i)
         if len(basis) == n:
