@@ -3,6 +3,7 @@ namespace and a scratch folder of its own), as a reader copies one block into a 
 every link between them leads to a file that exists."""
 
 import re
+import shlex
 from pathlib import Path
 
 import numpy as np
@@ -127,3 +128,38 @@ def test_quoted_commands_are_commands_the_program_takes(document):
         except (SystemExit, UsageError) as error:  # a bad command line
             raise AssertionError(f"{document.name}: `python -m problems {command}` does not "
                                  f"parse ({error})") from None  # fmt: skip
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "document",
+    [path for path in DOCUMENTS if quoted_commands(path)],
+    ids=lambda path: str(path.relative_to(ROOT)),
+)
+def test_quoted_commands_exit_0(document, tmp_path):
+    """Each command a guide quotes runs as written and exits 0: in the guide's order, in one
+    scratch folder per guide (a later command reads what an earlier one wrote), with the
+    shared human walking data at ../shared/human_gait beside it as in a clone."""
+    import os
+    import subprocess
+    import sys
+
+    from conftest import human_gait_data
+
+    commands = quoted_commands(document)
+    data = human_gait_data()
+    if data is None and any("../shared/" in c for c in commands):
+        pytest.skip("the shared human walking data is not here (../shared/human_gait)")
+    work = tmp_path / "clone"
+    work.mkdir()
+    if data is not None:
+        (tmp_path / "shared").mkdir()
+        (tmp_path / "shared" / "human_gait").symlink_to(data.parent, target_is_directory=True)
+    environment = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
+    for command in commands:
+        run = subprocess.run([sys.executable, "-m", "problems", *shlex.split(command)], cwd=work,
+                             env=environment, capture_output=True, text=True)  # fmt: skip
+        assert run.returncode == 0, (
+            f"{document.name}: `python -m problems {command}` exited {run.returncode}:\n"
+            f"{run.stderr[-2000:]}"
+        )

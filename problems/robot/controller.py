@@ -38,14 +38,16 @@ TOUCHDOWN_N = 5.0
 LEG_JOINTS = ("hip", "knee", "ankle")
 
 
-def joint_keys(head: bool) -> list[str]:
-    """The joint state's entries in role terms: ``<stance|swing>_<joint>``, ``neck`` (with a
-    head), ``trunk_pitch``."""
-    keys = [f"{role}_{joint}" for role in ("stance", "swing") for joint in LEG_JOINTS]
+def joint_keys(head: bool, ankles: bool = True) -> list[str]:
+    """The joint state's entries in role terms: ``<stance|swing>_<joint>`` (no ankles on
+    point feet with a passive ankle: nothing there to read or drive), ``neck`` (with a head),
+    ``trunk_pitch``."""
+    joints = LEG_JOINTS if ankles else LEG_JOINTS[:2]
+    keys = [f"{role}_{joint}" for role in ("stance", "swing") for joint in joints]
     return keys + (["neck"] if head else []) + ["trunk_pitch"]
 
 
-def joint_maps(linkage, body: Body, head: int | None):
+def joint_maps(linkage, body: Body, head: int | None, ankles: bool = True):
     """The linear maps of the joint space in role terms (see the module).
 
     Returns
@@ -62,7 +64,7 @@ def joint_maps(linkage, body: Body, head: int | None):
     """
     names = linkage.names
     n = len(names)
-    keys = joint_keys(head is not None)
+    keys = joint_keys(head is not None, ankles)
     rows, offsets, planned = [], [], []
 
     def linear(function):
@@ -135,7 +137,8 @@ def joint_gains(gains: np.ndarray, A: np.ndarray, basis: list[int], D: np.ndarra
 
 
 def specification(*, feet: bool, double: bool, rate_hz: float, sides, steps: int, state,
-                  drives, limits, hip_ahead, gains: bool, robot) -> dict:  # fmt: skip
+                  drives, limits, hip_ahead, gains: bool, robot,
+                  ankles: bool = True) -> dict:  # fmt: skip
     """The ``controller`` section of the joint-space sidecar: everything a controller needs
     without the product's code (see examples/robot.md)."""
     contact = "its ball (the toe mark)" if feet else "its foot point (the shank's end)"
@@ -179,7 +182,11 @@ def specification(*, feet: bool, double: bool, rate_hz: float, sides, steps: int
         "before_start": "s below the first row: the first row (z_ref, tau_ff, K)",
         "ankles": (
             "planned on both legs (the feet are links of the plan)" if feet else
-            "the stance ankle is planned (the shank on a flat sole); the swing leg's ankle "
+            "none: point feet with a passive ankle (nothing to read or drive there)"
+            if not ankles else
+            "the stance ankle is planned (the shank on a flat sole; the law's gains act "
+            "through the trunk's pitch, the hips and the knees, none on the ankle's own q: an "
+            "encoder there reads the foot rocking too); the swing leg's ankle "
             "(contact 0) is not in the plan: its rows hold the sole level (q from the shank's "
             f"angle), tau_ff 0, and its K row a PD, kp {SWING_ANKLE_KP:g} N m/rad and kd "
             f"{SWING_ANKLE_KD:g} N m s/rad on its own q and dq"

@@ -140,7 +140,10 @@ def joint_space(
     T = float(time[-1])
     t_s = strike_time(settings, T)
     in_double = time >= t_s - 1e-12 if t_s < T else np.zeros(time.shape, bool)
-    step = _StepColumns.of(trajectory, linkage, body, in_double)
+    # a point foot's passive ankle: no drive and no encoder there (RABBIT has no ankles)
+    ankles = body.stance.foot is not None or linkage.names[0] not in (settings.get("passive")
+                                                                      or ())  # fmt: skip
+    step = _StepColumns.of(trajectory, linkage, body, in_double, ankles)
     columns: dict[str, list[np.ndarray]] = {}
     units: dict[str, str] = {}
     for index in range(steps):
@@ -174,7 +177,7 @@ def joint_space(
         feet=feet, double=bool(np.any(in_double)), rate_hz=_rate(time), sides=sides,
         steps=steps, state=state, drives=[j["name"] for j in metadata["joints"]],
         limits=limits, hip_ahead=step.hip_ahead, gains=step.gains is not None,
-        robot=_robot_section(robot),
+        robot=_robot_section(robot), ankles=ankles,
     )  # fmt: skip
     return JointSpace(joined, units, metadata)
 
@@ -211,11 +214,12 @@ class _StepColumns:
     maps: tuple
 
     @classmethod
-    def of(cls, trajectory, linkage: Linkage, body: Body, in_double: np.ndarray) -> _StepColumns:
+    def of(cls, trajectory, linkage: Linkage, body: Body, in_double: np.ndarray,
+           ankles: bool = True) -> _StepColumns:  # fmt: skip
         names = linkage.names
         t = names.index(body.trunk)
         head = next((i for i, p in enumerate(linkage.parents) if p == t), None)
-        keys, A, b, planned, basis, drives, D = joint_maps(linkage, body, head)
+        keys, A, b, planned, basis, drives, D = joint_maps(linkage, body, head, ankles)
         psi, dpsi = np.asarray(trajectory.psi), np.asarray(trajectory.dpsi)
         ddpsi, torques = np.asarray(trajectory.ddpsi), np.asarray(trajectory.torques)
         all_drives = [k for k in keys if k != "trunk_pitch"]
@@ -245,7 +249,7 @@ class _StepColumns:
             full = np.zeros((size, len(all_drives), 2 * m))
             rows = [all_drives.index(key) for key in drives]
             full[:, rows, :] = joint_gains(model_gains, A, basis, D)
-            if body.swing.foot is None:  # the level swing sole's PD
+            if "swing_ankle" in keys and body.swing.foot is None:  # the level sole's PD
                 r, i = all_drives.index("swing_ankle"), keys.index("swing_ankle")
                 full[:, r, i], full[:, r, m + i] = SWING_ANKLE_KP, SWING_ANKLE_KD
             gains = full
@@ -384,9 +388,9 @@ def _metadata(settings, linkage, sides, steps, T, t_s, feet, head: bool, units,
     for side in sides:
         for joint in JOINTS:
             column = f"tau_{side}_{joint}_N_m"
-            values = columns[column]
-            if np.all(np.isnan(values)):
+            if column not in columns:  # a passive point foot's ankle
                 continue
+            values = columns[column]
             joints.append({
                 "name": f"{side}_{joint}",
                 "angle": f"q_{side}_{joint}_rad",
