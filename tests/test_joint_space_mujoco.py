@@ -103,8 +103,11 @@ def robot_mjcf(feet: bool, mu: float = 1.0) -> str:
             + inertial(-shank[0] * shank[2], shank[1], shank[3])
             + f'<body name="{side}_foot" pos="0 0 {-shank[0]!r}">'
             f'<joint name="{side}_ankle" axis="{axis}"/>{body}{spheres}'
-            f'<site name="{side}_toe_site" pos="{marks["toe"].real!r} 0 {marks["toe"].imag!r}"/>'
-            "</body></body></body>"
+            + "".join(
+                f'<site name="{side}_{m}_site" pos="{p.real!r} 0 {p.imag!r}"/>'
+                for m, p in marks.items()
+            )
+            + "</body></body></body>"
         )
     joints = [f"{side}_{j}" for side in SIDES for j in ("hip_pitch", "knee", "ankle")]
     motors = "".join(f'<motor name="{j}" joint="{j}"/>' for j in [*joints, "neck_pitch"])

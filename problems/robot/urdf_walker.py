@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from model.linkage import Link, Linkage
+from model.mjcf_in import mjcf_to_urdf
 from model.points import LinkPoint
 from model.urdf import UrdfLinkage, from_urdf
 from planner.errors import DefinitionError
@@ -99,12 +100,16 @@ class UrdfWalker:
 
 
 def read_urdf_walker(path: str | Path, **options) -> UrdfWalker:
-    """:func:`walker_from_urdf` of the file at ``path`` (options as there)."""
+    """:func:`walker_from_urdf` of the file at ``path``, a URDF or an MJCF (MuJoCo's XML,
+    translated by :func:`model.mjcf_in.mjcf_to_urdf`; told apart by the root element)
+    (options as there)."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as error:
         raise DefinitionError(f"`urdf`: cannot read {str(path)!r} ({error.strerror})") from None
+    if text.lstrip().startswith("<mujoco") or "\n<mujoco" in text[:2000]:
+        text = mjcf_to_urdf(text)
     return walker_from_urdf(text, **options)
 
 
