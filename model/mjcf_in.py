@@ -11,7 +11,8 @@ body is fixed to its parent), its ``<inertial>`` (``pos``, ``quat``/``euler``, `
 massless frames (a sole's ``heel`` and ``toe`` marks). Refused by name: a body with two joints
 (not the base), a joint away from its body's origin, a ``ball`` joint, a body with geoms but no
 ``<inertial>`` (MuJoCo would infer the mass from the geoms; this reader does not), ``xyaxes``
-and ``zaxis`` frames.
+and ``zaxis`` frames. Whether the robot is planar is :func:`model.urdf.from_urdf`'s to judge
+(each moving joint's axis in the world).
 """
 
 from __future__ import annotations
@@ -82,18 +83,15 @@ def _rotation(element, degrees: bool, sequence: str, what: str) -> np.ndarray:
     return np.eye(3)
 
 
-def _rpy(rotation: np.ndarray, what: str) -> str:
-    """URDF's rpy of a rotation about y only (others are not in the plane: refused by
-    :func:`model.urdf.from_urdf` when they are written; here they are named)."""
-    pitch = math.atan2(rotation[0, 2], rotation[0, 0])
-    expected = np.array([[math.cos(pitch), 0, math.sin(pitch)], [0, 1, 0],
-                         [-math.sin(pitch), 0, math.cos(pitch)]])  # fmt: skip
-    if not np.allclose(rotation, expected, atol=1e-9):
-        raise DefinitionError(
-            f"`mjcf`: {what} turns its frame out of the sagittal plane (a rotation about "
-            "another axis than y): not a planar robot in its x-z view"
-        )
-    return f"0 {_f(pitch)} 0"
+def _rpy(rotation: np.ndarray) -> str:
+    """URDF's rpy (fixed-axis roll, pitch, yaw: R = Rz Ry Rx) of a rotation."""
+    pitch = -math.asin(max(-1.0, min(1.0, rotation[2, 0])))
+    if abs(abs(rotation[2, 0]) - 1.0) < 1e-12:  # gimbal lock: the yaw taken as 0
+        roll, yaw = math.atan2(-rotation[1, 2], rotation[1, 1]), 0.0
+    else:
+        roll = math.atan2(rotation[2, 1], rotation[2, 2])
+        yaw = math.atan2(rotation[1, 0], rotation[0, 0])
+    return f"{_f(roll)} {_f(pitch)} {_f(yaw)}"
 
 
 class _Defaults:
@@ -172,7 +170,7 @@ def _body(body, parent: str | None, lines: list, defaults, degrees, sequence, ch
                  "</link>")  # fmt: skip
     if parent is not None:
         xyz = _numbers(body.get("pos", "0 0 0"), 3, f"{what} pos")
-        rpy = _rpy(_rotation(body, degrees, sequence, what), what)
+        rpy = _rpy(_rotation(body, degrees, sequence, what))
         origin = f'<origin xyz="{_triple(xyz)}" rpy="{rpy}"/>'
         if joints:
             joint = joints[0]

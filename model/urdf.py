@@ -12,22 +12,23 @@ out-of-plane moments J / 2, so that the tensor is physical; a planar motion neve
 them). A link without children ends at a massless frame ``<link>_end`` (fixed at (l, 0, 0)).
 
 :func:`from_urdf` reads any URDF whose moving joints turn about the y axis (either sense) and
-keeps what its sagittal view shows. A link moved by a hinge is a model link; links ``fixed``
-to it (a pelvis to its torso, a battery, a cover) or joined by a joint named in ``lock``
-(a hip's roll and yaw, a waist, the arms: held at their zero) are merged into it: one rigid
-body, its mass, centre of mass (projected) and i_yy about the axis through it (every part's
-inertia tensor turned into the plane's axes, by the parallel-axis theorem). Each link runs
-from its joint to its farthest moving child's hinge point (in the x-z projection: left and
-right hips at the same x and z are one hinge point); children hinged elsewhere on it (the legs
-at the bottom of a trunk whose neck is at the top) hang from their own points (``Link.origin``).
-It refuses, naming the joint or link and the reason, a robot that is not planar in that view:
-a moving joint about another axis (lock it, or the robot is not planar), a frame turned out of
-the plane (roll or yaw), a ``prismatic`` or ``floating`` joint, a body with mass fixed to a
-massless root (welded to the world). Massless links of fixed joints (sensors, frames) are
-dropped. A link without moving children away from its joint ends at its farthest massless
-frame (a sole, a tip: :func:`to_urdf` writes one, ``<link>_end``), or at ``leaf_length``
-{link: m} along its centre of mass's direction, or else twice its centre of mass's distance
-from its joint (the centre of mass then halfway).
+keeps what its sagittal view shows. A link moved by a hinge is a model link; links ``fixed`` to
+it (a pelvis to its torso, a battery, a cover) or joined by a joint named in ``lock`` (a hip's
+roll and yaw, a waist, the arms: held at their zero) are merged into it: one rigid body, its
+mass, centre of mass (projected) and i_yy about the axis through it (every part's inertia
+tensor turned into the plane's axes, by the parallel-axis theorem). Each link runs from its
+joint to its farthest moving child's hinge point (in the x-z projection: left and right hips at
+the same x and z are one hinge point); children hinged elsewhere on it (the legs at the bottom
+of a trunk whose neck is at the top) hang from their own points (``Link.origin``). Frames are
+followed in 3-D (every joint's and inertial's ``rpy``): a moving joint belongs to the plane
+when its axis is the world's y at the zero pose, whatever its frame's turn. It refuses, naming
+the joint or link and the reason, a robot that is not planar in that view: a moving joint about
+another axis (lock it, or the robot is not planar), a ``prismatic`` or ``floating`` joint, a
+body with mass fixed to a massless root (welded to the world). Massless links of fixed joints
+(sensors, frames) are dropped. A link without moving children away from its joint ends at its
+farthest massless frame (a sole, a tip: :func:`to_urdf` writes one, ``<link>_end``), or at
+``leaf_length`` {link: m} along its centre of mass's direction, or else twice its centre of
+mass's distance from its joint (the centre of mass then halfway).
 The zero pose need not be the model's: :class:`UrdfLinkage` keeps each link's angle at the
 URDF's zero pose and each joint's sense, so that psi = offset + sum over the chain of sense q.
 """
@@ -149,24 +150,24 @@ def _floats(text: str | None, count: int, what: str) -> list[float]:
     return values
 
 
-def _origin(element, what: str) -> tuple[np.ndarray, float]:
-    """(xyz (3,), pitch rad) of an <origin>, refusing roll and yaw (out of the plane)."""
+def _origin(element, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """(xyz (3,), rotation (3, 3)) of an element's <origin> (rpy: fixed-axis roll, pitch,
+    yaw, R = Rz Ry Rx)."""
     origin = element.find("origin") if element is not None else None
     xyz = _floats(None if origin is None else origin.get("xyz"), 3, f"{what} origin xyz")
     roll, pitch, yaw = _floats(None if origin is None else origin.get("rpy"), 3,
                                f"{what} origin rpy")  # fmt: skip
-    if abs(roll) > AXIS_TOLERANCE or abs(yaw) > AXIS_TOLERANCE:
-        raise DefinitionError(
-            f"`urdf`: {what} turns its frame out of the sagittal plane (roll {roll:g}, yaw "
-            f"{yaw:g} rad): not a planar robot in its x-z view"
-        )
-    return np.array(xyz), pitch
+    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
+                              math.cos(yaw), math.sin(yaw))  # fmt: skip
+    rotation = np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                         [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                         [-sp, cp * sr, cp * cr]])  # fmt: skip
+    return np.array(xyz), rotation
 
 
-def _turn(pitch: float) -> complex:
-    """A frame's rotation about y by ``pitch`` (URDF's rpy) as the model's complex factor: a
-    rotation about +y turns x toward -z, a clockwise model angle."""
-    return cmath.exp(-1j * pitch)
+def _xz(point: np.ndarray) -> complex:
+    """A world point (3,) in the sagittal plane: x + j z."""
+    return complex(point[0], point[2])
 
 
 @dataclass(frozen=True)
@@ -215,13 +216,14 @@ def _tree(text: str) -> _Tree:
     return _Tree(links, children, roots[0])
 
 
-def _sense(joint) -> float:
-    """+1 for a hinge about -y (the model's counter-clockwise), -1 about +y; any other axis
+def _sense(joint, rotation: np.ndarray) -> float:
+    """+1 for a hinge about the world's -y at the zero pose (the model's counter-clockwise),
+    -1 about +y (``rotation``: the joint frame's, world at the zero pose); any other axis
     refused."""
     element = joint.find("axis")
     axis = np.array(_floats("1 0 0" if element is None else element.get("xyz"), 3,
                             f"joint {joint.get('name')!r} axis"))  # fmt: skip
-    axis = axis / np.linalg.norm(axis)
+    axis = rotation @ (axis / np.linalg.norm(axis))
     if abs(abs(axis[1]) - 1.0) > AXIS_TOLERANCE:
         raise DefinitionError(
             f"`urdf`: joint {joint.get('name')!r} turns about {axis.tolist()}, not the y axis: "
@@ -261,18 +263,18 @@ def _walk(tree: _Tree, lock: frozenset) -> _Walk:
         return _mass(tree.links[link]) + sum(rigid_mass(tree.child(j))
                                              for j in tree.children[link] if rigid(j))  # fmt: skip
 
-    def visit(link: str, frame: tuple[complex, complex], owner: str | None) -> None:
+    def visit(link: str, frame: tuple[np.ndarray, np.ndarray], owner: str | None) -> None:
         walk.frames[link] = frame
         for joint in tree.children[link]:
             child = tree.child(joint)
-            xyz, pitch = _origin(joint, f"joint {joint.get('name')!r}")
-            child_frame = (frame[0] + frame[1] * complex(xyz[0], xyz[2]), frame[1] * _turn(pitch))
+            xyz, turn = _origin(joint, f"joint {joint.get('name')!r}")
+            child_frame = (frame[0] + frame[1] @ xyz, frame[1] @ turn)
             if rigid(joint):
                 if tree.massless(child) and joint.get("name") not in lock:
                     walk.dropped.append(child)  # a frame (a sensor, a sole, a tip): maybe an end
                     if owner is not None:
-                        walk.tips.setdefault(owner, []).append(child_frame[0])
-                        walk.marks[child] = (owner, child_frame[0])
+                        walk.tips.setdefault(owner, []).append(_xz(child_frame[0]))
+                        walk.marks[child] = (owner, _xz(child_frame[0]))
                     continue
                 if owner is None:
                     raise DefinitionError(
@@ -282,7 +284,7 @@ def _walk(tree: _Tree, lock: frozenset) -> _Walk:
                 walk.bodies[owner].append(child)  # one rigid body with its owner
                 visit(child, child_frame, owner)
                 continue
-            walk.senses[child] = _sense(joint)
+            walk.senses[child] = _sense(joint, child_frame[1])
             walk.order.append((child, joint.get("name"), owner))
             walk.bodies[child] = [child]
             visit(child, child_frame, child)
@@ -291,9 +293,9 @@ def _walk(tree: _Tree, lock: frozenset) -> _Walk:
         walk.senses[tree.root] = 1.0
         walk.order.append((tree.root, None, None))
         walk.bodies[tree.root] = [tree.root]
-        visit(tree.root, (0j, 1 + 0j), tree.root)
+        visit(tree.root, (np.zeros(3), np.eye(3)), tree.root)
     else:
-        visit(tree.root, (0j, 1 + 0j), None)
+        visit(tree.root, (np.zeros(3), np.eye(3)), None)
     unknown = sorted(lock - {j.get("name") for js in tree.children.values() for j in js})
     if unknown:
         raise DefinitionError(f"`lock`: the URDF has no joint {unknown}")
@@ -307,8 +309,8 @@ def _end(link: str, walk: _Walk, com: complex, leaf_length) -> complex:
     hang from it at their own points), else its farthest massless frame, else
     ``leaf_length`` (or twice its centre of mass's reach) along its centre of mass's
     direction."""
-    start = walk.frames[link][0]
-    ends = [walk.frames[child][0] for child, _, parent in walk.order if parent == link]
+    start = _xz(walk.frames[link][0])
+    ends = [_xz(walk.frames[child][0]) for child, _, parent in walk.order if parent == link]
     ends = [e for e in ends if abs(e - start) > 1e-9]
     if ends:
         return max(ends, key=lambda e: abs(e - start))
@@ -321,7 +323,8 @@ def _end(link: str, walk: _Walk, com: complex, leaf_length) -> complex:
             f"`urdf`: link {link!r} has no child away from its joint and its centre of mass is "
             f"at its joint: give its length, leaf_length={{{link!r}: metres}}"
         )
-    direction = (com - start) / reach if reach > 1e-9 else walk.frames[link][1]
+    rotation = walk.frames[link][1]
+    direction = (com - start) / reach if reach > 1e-9 else complex(rotation[0, 0], rotation[2, 0])
     return start + direction * (2.0 * reach if given is None else float(given))
 
 
@@ -335,9 +338,8 @@ def _body(tree: _Tree, walk: _Walk, link: str) -> tuple[float, complex, float]:
         if mass == 0.0:
             continue
         start, turn = walk.frames[member]
-        xyz, rotation = _inertial_frame(element, f"link {member!r} inertial")
-        parts.append((mass, start + turn * complex(xyz[0], xyz[2]),
-                      _inertia_yy(element, rotation)))  # fmt: skip
+        xyz, rotation = _origin(element.find("inertial"), f"link {member!r} inertial")
+        parts.append((mass, _xz(start + turn @ xyz), _inertia_yy(element, turn @ rotation)))
     mass = math.fsum(m for m, _, _ in parts)
     if mass <= 0:
         raise DefinitionError(f"`urdf`: link {link!r} has no mass")
@@ -360,7 +362,7 @@ def from_urdf(
     walk = _walk(tree, frozenset(lock))
     built, offsets, starts = [], {}, {}
     for link, _, model_parent in walk.order:
-        start, _ = walk.frames[link]
+        start = _xz(walk.frames[link][0])
         mass, com, inertia = _body(tree, walk, link)
         vector = _end(link, walk, com, leaf_length) - start
         if abs(vector) < 1e-12:
@@ -391,24 +393,9 @@ def _mass(link) -> float:
     return float(inertial.find("mass").get("value"))
 
 
-def _inertial_frame(element, what: str) -> tuple[np.ndarray, np.ndarray]:
-    """(xyz (3,), rotation (3, 3)) of a link's <inertial><origin>: the centre of mass in the
-    link's frame and the inertia tensor's axes (any rpy: the tensor is turned, not refused)."""
-    origin = element.find("inertial").find("origin")
-    xyz = _floats(None if origin is None else origin.get("xyz"), 3, f"{what} origin xyz")
-    roll, pitch, yaw = _floats(None if origin is None else origin.get("rpy"), 3,
-                               f"{what} origin rpy")  # fmt: skip
-    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
-                              math.cos(yaw), math.sin(yaw))  # fmt: skip
-    rotation = np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                         [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                         [-sp, cp * sr, cp * cr]])  # fmt: skip
-    return np.array(xyz), rotation
-
-
 def _inertia_yy(link, rotation: np.ndarray) -> float:
-    """The moment of inertia about the y axis of the link's frame through the centre of
-    mass: e_y' I e_y with the tensor I given in the inertial frame turned by ``rotation``."""
+    """The moment of inertia about the world's y axis through the centre of mass: e_y' I e_y
+    with the tensor I given in the inertial frame, turned by ``rotation`` (world)."""
     inertia = link.find("inertial").find("inertia")
     if inertia is None:
         return 0.0

@@ -88,7 +88,7 @@ def test_a_leg_written_by_hand_is_a_double_pendulum():
         (('<axis xyz="0 1 0"/>', '<axis xyz="1 0 0"/>'), r"joint 'hip' turns about \[1.0"),
         (
             ('<origin xyz="0 0 -0.42"/>', '<origin xyz="0 0 -0.42" rpy="0.2 0 0"/>'),
-            "joint 'knee' turns its frame out of the sagittal plane",
+            r"joint 'knee' turns about \[0.0, 0.98",  # its frame rolled: its axis too
         ),
         (
             ('type="revolute"><parent link="thigh"/>', 'type="prismatic"><parent link="thigh"/>'),
@@ -128,6 +128,28 @@ def test_children_at_different_points_hang_from_their_own_and_leaves_need_a_leng
     )  # no sole frame
     with pytest.raises(ValueError, match=r"leaf_length=\{'shank'"):
         from_urdf(no_reach)
+
+
+def test_frames_turned_out_of_the_plane_count_by_their_world_axis():
+    """The shank's frame rolled by -pi/2 at the knee (its content written in that frame: its
+    centre of mass, its inertia's frame rolled back, its sole), its axis (0 0 1) the world's
+    +y: the same leg as LEG's, read alike."""
+    rolled = LEG.replace('<origin xyz="0 0 -0.42"/><axis xyz="0 1 0"/>',
+                         '<origin xyz="0 0 -0.42" rpy="-1.5707963267948966 0 0"/>'
+                         '<axis xyz="0 0 1"/>')  # fmt: skip
+    rolled = rolled.replace(
+        '<origin xyz="0.01 0 -0.25"/>', '<origin xyz="0.01 0.25 0" rpy="1.5707963267948966 0 0"/>'
+    )
+    rolled = rolled.replace(
+        '<child link="foot"/>\n    <origin xyz="0 0 -0.45"/>',
+        '<child link="foot"/>\n    <origin xyz="0 0.45 0"/>',
+    )
+    assert rolled.count("rpy=") == LEG.count("rpy=") + 2 and "0 0.45 0" in rolled
+    plain, turned = from_urdf(LEG), from_urdf(rolled)
+    assert turned.senses == plain.senses
+    for a, b in zip(turned.linkage.links, plain.linkage.links, strict=True):
+        assert (a.length, a.mass, a.com, a.inertia, a.com_lateral) == pytest.approx(
+            (b.length, b.mass, b.com, b.inertia, b.com_lateral), rel=1e-9, abs=1e-12)  # fmt: skip
 
 
 def test_fixed_and_locked_bodies_merge_into_one_rigid_body():
