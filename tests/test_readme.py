@@ -138,8 +138,9 @@ def test_quoted_commands_are_commands_the_program_takes(document):
 )
 def test_quoted_commands_exit_0(document, tmp_path):
     """Each command a guide quotes runs as written and exits 0: in the guide's order, in one
-    scratch folder per guide (a later command reads what an earlier one wrote), with the
-    shared human walking data at ../shared/human_gait beside it as in a clone."""
+    scratch folder per guide standing for the clone (a later command reads what an earlier
+    one wrote; examples/ is the clone's), with the shared human walking data at
+    ../shared/human_gait beside it as in a clone."""
     import os
     import subprocess
     import sys
@@ -152,6 +153,7 @@ def test_quoted_commands_exit_0(document, tmp_path):
         pytest.skip("the shared human walking data is not here (../shared/human_gait)")
     work = tmp_path / "clone"
     work.mkdir()
+    (work / "examples").symlink_to(ROOT / "examples", target_is_directory=True)  # its inputs
     if data is not None:
         (tmp_path / "shared").mkdir()
         (tmp_path / "shared" / "human_gait").symlink_to(data.parent, target_is_directory=True)
