@@ -58,10 +58,32 @@ def test_rabbit_planned_verified_and_written_in_its_terms(tmp_path, capsys):
         "left_hip": "left_hip", "left_knee": "left_knee",
     }  # fmt: skip
     assert meta["controller"]["ankles"].startswith("none")
+    assert (
+        "the URDF's joint limits: every planned torque and angle within them (4 joints)" in printed
+    )
+    for joint in meta["joints"]:  # RABBIT's knees bend one way: 0..2.6 rad in the URDF
+        assert joint["urdf_effort_N_m"] == 150.0
+        assert joint["range_in_file_rad"][0] >= joint["urdf_range_rad"][0]
     model = LinkageTrajectory.load(out / "torques.csv")
     assert model.metadata["robot"]["urdf"] == str(ROBOTS / "rabbit.urdf")
     # the passive ankle: no torque at the foot, within the solver's tolerance
     assert np.max(np.abs(model.torques[:, 0])) < 1.0
+
+
+def test_a_drive_over_its_urdf_limit_is_named(tmp_path, capsys):
+    """The test robot with 20 N m knees: the plan (bounded at 150 N m per hinge) needs more,
+    and walk says which drive, by its URDF name, and by how much."""
+    knees = r'(<joint name="(right|left)_knee" .*?effort=")150\.0'
+    weak = re.sub(knees, r"\g<1>20.0", biped_urdf())
+    assert weak.count('effort="20.0"') == 2
+    path = tmp_path / "weak.urdf"
+    path.write_text(weak)
+    code = main(["walk", "--urdf", str(path), "--quick", "--no-plots", "--output-dir",
+                 str(tmp_path / "out")])  # fmt: skip
+    printed = capsys.readouterr().out
+    assert code == 0
+    pattern = r"right_knee \(right_knee\): peak \|tau\| [\d.]+ N m > its effort limit 20 N m"
+    assert re.search(pattern, printed)
 
 
 def test_the_robots_options_are_refused_by_name(tmp_path, capsys):
@@ -72,7 +94,7 @@ def test_the_robots_options_are_refused_by_name(tmp_path, capsys):
         return lines[0]
 
     robot = str(ROBOTS / "biped.urdf")
-    assert "--lock: only with --urdf" in error("--lock", "a,b")
+    assert "--lock, --sole: only with --urdf" in error("--lock", "a,b")
     assert "--preset five-link and --urdf" in error("--urdf", robot, "--preset", "five-link")
     assert "--legs: the URDF names its legs right,left" in error("--urdf", robot, "--legs",
                                                                  "front,back")  # fmt: skip

@@ -429,6 +429,36 @@ def write_joint_space(torques_csv: Path, output, legs: tuple[str, str], out) -> 
         f"that grows q), the ground's force and torque ground_; peak |tau| (N m): {peaks}",
         file=out,
     )
+    for line in robot_limit_lines(view.metadata):
+        print(line, file=out)
+
+
+def robot_limit_lines(metadata) -> list[str]:
+    """The joints of a URDF's robot whose planned torque or range exceeds the URDF's
+    <limit> (from joints.csv's sidecar), one line each, or one line saying none does."""
+    checked, over = 0, []
+    for joint in metadata["joints"]:
+        effort = joint.get("urdf_effort_N_m")
+        if effort is not None:
+            checked += 1
+            if joint["peak_N_m"] > effort:
+                over.append(f"  {joint['name']} ({joint['urdf_joint']}): peak |tau| "
+                            f"{joint['peak_N_m']:.1f} N m > its effort limit {effort:g} "
+                            "N m")  # fmt: skip
+        if "urdf_range_rad" in joint:
+            low, high = joint["urdf_range_rad"]
+            first, last = joint["range_in_file_rad"]
+            if first < low - 1e-9 or last > high + 1e-9:
+                over.append(f"  {joint['name']} ({joint['urdf_joint']}): q {first:.3f}.."
+                            f"{last:.3f} rad outside its URDF range {low:.3f}..{high:.3f} rad "
+                            "(file terms)")  # fmt: skip
+    if not checked and not over:
+        return []
+    if not over:
+        return [f"the URDF's joint limits: every planned torque and angle within them ({checked} "
+                "joints)"]  # fmt: skip
+    return ["the URDF's joint limits (the plan bounds every hinge by --torque-limit-nm, not by "
+            "each joint's effort): exceeded by", *over]  # fmt: skip
 
 
 def legs_option(text: str) -> tuple[str, str]:

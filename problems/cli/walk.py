@@ -271,6 +271,14 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         help="with --urdf, joints held at their zero and merged (a hip's roll and yaw, a "
         "waist, the arms)",
     )
+    walk.add_argument(
+        "--sole",
+        type=lambda text: tuple(float(v) for v in text.split(",")),
+        metavar="HEEL_X,TOE_X,Z",
+        help="with --urdf, the feet's heel and toe, m from the ankle in the robot's zero pose "
+        "(x forward, z up), for feet without heel and toe frames (read off the sole's "
+        "collision box)",
+    )
     walk.add_argument("--no-gif", action="store_true", help="write the PNGs but no GIF")
     walk.add_argument(
         "--quick",
@@ -339,14 +347,15 @@ def run(args, out: TextIO, report: Reporter) -> int:
 def _robot(args):
     """The robot of --urdf (problems.robot.UrdfWalker) or None, its options checked."""
     if args.urdf is None:
-        if args.lock:
-            raise UsageError("--lock: only with --urdf (the joints of a robot's URDF to hold)")
+        if args.lock or args.sole:
+            raise UsageError("--lock, --sole: only with --urdf (a robot's joints to hold, its "
+                             "soles)")  # fmt: skip
         return None
     if args.preset != "six-link":
         raise UsageError(f"--preset {args.preset} and --urdf: the URDF is the robot; drop one")
     from problems.robot import read_urdf_walker
 
-    walker = read_urdf_walker(args.urdf, lock=args.lock)
+    walker = read_urdf_walker(args.urdf, lock=args.lock, sole=args.sole)
     if args.legs != ("right", "left") and tuple(args.legs) != walker.sides:
         raise UsageError(f"--legs: the URDF names its legs {','.join(walker.sides)}; drop --legs")
     args.legs = walker.sides

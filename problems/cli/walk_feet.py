@@ -134,7 +134,7 @@ def _footed_step(args):
 def _solve(step, args, report):
     """(gait, seconds, the warnings caught): the step solved, its limits held at the samples;
     a solve that fails raises CommandFailed (nothing is written)."""
-    report.step("defining the walking step on feet of six-link-feet (8 links)")
+    report.step(f"defining the walking step on feet of {_walker_name(args)} (8 links)")
     start = time.perf_counter()
     with report.working(f"solving with IPOPT ({len(step.sequence)} phases, N = {step.mesh})"), \
             warnings.catch_warnings(record=True) as caught:  # fmt: skip

@@ -170,7 +170,7 @@ def joint_space(
     metadata = _metadata(settings, linkage, sides, steps, T, t_s, feet, head, units, joined)
     limits = {j["name"]: j["limit_N_m"] for j in metadata["joints"]}
     if robot:
-        _encoders_in_file_terms(metadata, robot, step, sides)
+        _encoders_in_file_terms(metadata, robot, step, sides, joined)
     state = [step.column(key, "q", {"stance": sides[0], "swing": sides[1]}) for key in step.keys]
     state += [step.column(key, "dq", {"stance": sides[0], "swing": sides[1]}) for key in step.keys]
     metadata["controller"] = specification(
@@ -313,7 +313,7 @@ def _model_gains(trajectory, names) -> np.ndarray | None:
     return values.reshape(-1, n, 2 * n)
 
 
-def _encoders_in_file_terms(metadata, robot, step: _StepColumns, sides) -> None:
+def _encoders_in_file_terms(metadata, robot, step: _StepColumns, sides, columns) -> None:
     """Each joint entry of ``metadata`` gains its URDF joint and encoder in the file's terms:
     q_urdf = urdf_sign q + urdf_zero_rad (see examples/robot.md)."""
     A, b, _ = step.maps
@@ -343,10 +343,19 @@ def _encoders_in_file_terms(metadata, robot, step: _StepColumns, sides) -> None:
                 f"the robot's encoder of {key} ({robot['joints'][lookup]}) is not the file's "
                 f"joint {key} in another sense: read the plan with its sidecar"
             )
-        offset = -sense * zero - sign * b[row]
+        offset = float(math.pi - (math.pi - (-sense * zero - sign * b[row])) % (2 * math.pi))
         entry["urdf_joint"] = robot["joints"][lookup]
         entry["urdf_sign"] = sign
-        entry["urdf_zero_rad"] = float(math.pi - (math.pi - offset) % (2 * math.pi))
+        entry["urdf_zero_rad"] = offset
+        limits = robot.get("limits", {}).get(lookup, {})
+        if "effort" in limits:
+            entry["urdf_effort_N_m"] = limits["effort"]
+        if "lower" in limits and "upper" in limits:
+            # q = sign (q_urdf - zero): the URDF's range in the file's terms
+            ends = sorted(sign * (limits[k] - offset) for k in ("lower", "upper"))
+            entry["urdf_range_rad"] = ends
+            values = columns[entry["angle"]]
+            entry["range_in_file_rad"] = [float(np.nanmin(values)), float(np.nanmax(values))]
 
 
 def _robot_section(robot) -> dict | None:

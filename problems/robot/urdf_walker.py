@@ -37,7 +37,7 @@ import cmath
 import math
 import re
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -73,6 +73,8 @@ class UrdfWalker:
         q_urdf = sense (psi_child - psi_parent - zero).
     robot : the URDF's sagittal linkage as read (:class:`model.urdf.UrdfLinkage`).
     trunk_zero : the trunk's angle (its line from the hip) at the URDF's zero pose, rad.
+    limits : {joint key: the URDF joint's <limit> (effort N m, lower and upper rad, velocity
+        rad/s), those it gives}.
     """
 
     linkage: Linkage
@@ -82,6 +84,7 @@ class UrdfWalker:
     encoders: dict[str, tuple[str, str, float, float]]
     robot: UrdfLinkage
     trunk_zero: float = math.pi / 2
+    limits: dict[str, dict[str, float]] = field(default_factory=dict)
 
     @property
     def feet(self) -> bool:
@@ -96,6 +99,7 @@ class UrdfWalker:
             "joints": dict(self.joints),
             "encoders": {k: [p, c, s, z] for k, (p, c, s, z) in self.encoders.items()},
             "trunk_zero_rad": self.trunk_zero,
+            "limits": {k: dict(v) for k, v in self.limits.items()},
         }
 
 
@@ -209,11 +213,11 @@ def _mirrored(robot: UrdfLinkage, legs: dict[str, list[str]], geometry) -> None:
     a, b = legs.values()
     for one, two in zip(a, b, strict=True):
         first, second = (robot.linkage.links[robot.linkage.index(n)] for n in (one, two))
-        for field in ("length", "mass", "com", "inertia", "com_lateral"):
-            x, y = getattr(first, field), getattr(second, field)
+        for name in ("length", "mass", "com", "inertia", "com_lateral"):
+            x, y = getattr(first, name), getattr(second, name)
             if abs(x - y) > MIRROR_RTOL * max(1.0, abs(x), abs(y)):
                 raise DefinitionError(
-                    f"`urdf`: the legs differ in the sagittal view: {one} {field} {x!r}, {two} "
+                    f"`urdf`: the legs differ in the sagittal view: {one} {name} {x!r}, {two} "
                     f"{y!r}; the walking step swaps the legs at every strike, so they must be "
                     "mirror images"
                 )
@@ -221,8 +225,12 @@ def _mirrored(robot: UrdfLinkage, legs: dict[str, list[str]], geometry) -> None:
         raise DefinitionError("`urdf`: the hips are at different points of the sagittal view")
 
 
-def _marks(robot: UrdfLinkage, foot: str) -> tuple[complex, complex]:
-    """(heel, toe) marks of ``foot``: its massless frames named heel and toe (or ball)."""
+def _marks(robot: UrdfLinkage, foot: str, sole=None, geometry=None) -> tuple[complex, complex]:
+    """(heel, toe) marks of ``foot`` (zero-pose points x + j z): ``sole`` (heel x, toe x, z
+    from the ankle), else its massless frames named heel and toe (or ball)."""
+    if sole is not None:
+        ankle = geometry[foot][0]
+        return ankle + complex(sole[0], sole[2]), ankle + complex(sole[1], sole[2])
     found = {}
     for frame, (owner, point) in robot.frames.items():
         if owner != foot:
@@ -236,7 +244,8 @@ def _marks(robot: UrdfLinkage, foot: str) -> tuple[complex, complex]:
     if missing:
         raise DefinitionError(
             f"`urdf`: foot {foot!r} needs massless frames (fixed joints) named with 'heel' and "
-            f"'toe' (or 'ball') where its sole touches the ground; missing {missing}"
+            f"'toe' (or 'ball') where its sole touches the ground, or give sole=(heel x, toe x, "
+            f"z) from the ankle (walk --sole); missing {missing}"
         )
     return found["heel"], found["toe"]
 
@@ -248,10 +257,22 @@ def walker_from_urdf(
     stance_side: str | None = None,
     lock: Iterable[str] = (),
     leaf_length: Mapping[str, float] | None = None,
+    sole: tuple[float, float, float] | None = None,
     gravity: float = 9.81,
 ) -> UrdfWalker:
     """The walking biped of a robot's URDF (see the module). ``stance_side``: the leg in
-    stance in the plan's step (default: the first side, right before left)."""
+    stance in the plan's step (default: the first side, right before left); ``sole``: the
+    feet's heel and toe as (heel x, toe x, z) m from the ankle in the robot's zero pose (x
+    forward, z up), for a URDF whose feet carry no heel and toe frames (its sole's collision
+    box, read off by the user)."""
+    if sole is not None:
+        if (not isinstance(sole, tuple | list) or len(sole) != 3
+                or not all(isinstance(v, int | float) and math.isfinite(v) for v in sole)
+                or not sole[0] < sole[1]):  # fmt: skip
+            raise DefinitionError(
+                f"`sole`: (heel x, toe x, z) m from the ankle, the heel behind the toe, got "
+                f"{sole!r}"
+            )
     robot = from_urdf(text, leaf_length=leaf_length, lock=lock)
     trunk, sides_legs = _legs(robot, legs)
     order = sorted(sides_legs, key=lambda s: (s != "right", s != "left", s))
@@ -270,7 +291,7 @@ def walker_from_urdf(
     points = None
     # the stance leg from the ground up: each link from its end to its start
     if feet:
-        heel, toe = _marks(robot, stance[2])
+        heel, toe = _marks(robot, stance[2], sole, geometry)
         start, _, com = geometry[stance[2]]
         built.append(_described("stance_foot", None, source[stance[2]], toe, start, com))
     for k, role in reversed(list(enumerate(roles[:2]))):
@@ -282,7 +303,7 @@ def walker_from_urdf(
         start, end, com = geometry[swing[k]]
         parent = "stance_thigh" if k == 0 else f"swing_{roles[k - 1]}"
         if role == "foot":
-            swing_heel, swing_toe = _marks(robot, swing[2])
+            swing_heel, swing_toe = _marks(robot, swing[2], sole, geometry)
             end = swing_toe
         built.append(_described(f"swing_{role}", parent, source[swing[k]], start, end, com))
     if feet:
@@ -315,9 +336,23 @@ def walker_from_urdf(
             built.append(link)
     linkage = Linkage(built, gravity=gravity)
     joints, encoders = _encoders(robot, linkage, geometry, trunk, stance, swing,
-                                 (stance_side, swing_side), hip, far)  # fmt: skip
+                                 (stance_side, swing_side), hip, far, sole)  # fmt: skip
     return UrdfWalker(linkage, points, (stance_side, swing_side), joints, encoders, robot,
-                      cmath.phase(far - hip))  # fmt: skip
+                      cmath.phase(far - hip), _limits(text, joints))  # fmt: skip
+
+
+def _limits(text: str, joints: Mapping[str, str]) -> dict[str, dict[str, float]]:
+    """{joint key: its URDF <limit>'s effort, lower, upper and velocity, those given}."""
+    import xml.etree.ElementTree as ET
+
+    by_name = {j.get("name"): j for j in ET.fromstring(text).iter("joint")}
+    out = {}
+    for key, name in joints.items():
+        limit = by_name[name].find("limit") if name in by_name else None
+        if limit is not None:
+            out[key] = {k: float(limit.get(k)) for k in ("effort", "lower", "upper", "velocity")
+                        if limit.get(k) is not None}  # fmt: skip
+    return out
 
 
 def _origin(where: complex, length: float) -> complex | None:
@@ -332,7 +367,7 @@ def _point(link: str, start: complex, end: complex, point: complex) -> LinkPoint
     return LinkPoint(link, local.real, local.imag, name=link.replace("foot", "heel"))
 
 
-def _encoders(robot, linkage, geometry, trunk, stance, swing, sides, hip, far):
+def _encoders(robot, linkage, geometry, trunk, stance, swing, sides, hip, far, sole=None):
     """Each physical joint's URDF name and encoder in the plan's links (see UrdfWalker)."""
     zero = {}  # each plan link's angle at the robot's zero pose
     for role, members, upward in (("stance", stance, True), ("swing", swing, False)):
@@ -340,7 +375,7 @@ def _encoders(robot, linkage, geometry, trunk, stance, swing, sides, hip, far):
             name = f"{role}_{('thigh', 'shank', 'foot')[k]}"
             start, end, _ = geometry[link]
             if name.endswith("foot"):
-                end = _marks(robot, link)[1]
+                end = _marks(robot, link, sole, geometry)[1]
             zero[name] = cmath.phase(start - end if upward else end - start)
     zero[trunk] = cmath.phase(far - hip)
     for link in linkage.links:
