@@ -23,6 +23,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from model.urdf import from_urdf
 from planner.errors import DefinitionError
 
 #: joint attributes a default class may set
@@ -231,8 +232,6 @@ def _inertial(body, what: str, degrees: bool, sequence: str) -> str:
 
 def from_mjcf(text: str, **options):
     """:func:`model.urdf.from_urdf` of the MJCF's translation (options as there)."""
-    from model.urdf import from_urdf
-
     return from_urdf(mjcf_to_urdf(text), **options)
 
 

@@ -12,6 +12,7 @@ from robot_urdf import biped_urdf
 
 from model import LinkageTrajectory
 from problems.__main__ import main
+from problems.cli.common import robot_limit_lines
 from problems.robot import read_urdf_walker
 
 ROBOTS = Path(__file__).resolve().parent.parent / "examples" / "robots"
@@ -70,20 +71,44 @@ def test_rabbit_planned_verified_and_written_in_its_terms(tmp_path, capsys):
     assert np.max(np.abs(model.torques[:, 0])) < 1.0
 
 
-def test_a_drive_over_its_urdf_limit_is_named(tmp_path, capsys):
-    """The test robot with 20 N m knees: the plan (bounded at 150 N m per hinge) needs more,
-    and walk says which drive, by its URDF name, and by how much."""
-    knees = r'(<joint name="(right|left)_knee" .*?effort=")150\.0'
-    weak = re.sub(knees, r"\g<1>20.0", biped_urdf())
-    assert weak.count('effort="20.0"') == 2
+def test_the_urdfs_efforts_bound_the_plan(tmp_path, capsys):
+    """The test robot with 45 N m hips (the plan's default bound is 150 N m a hinge): the
+    stance hip's drive, which carries the trunk's hinge and the swing thigh's, is held within
+    45 N m in the plan and in its verification, and the file's hips stay within it."""
+    hips = r'(<joint name="(right|left)_hip_pitch" .*?effort=")150\.0'
+    weak = re.sub(hips, r"\g<1>45.0", biped_urdf())
+    assert weak.count('effort="45.0"') == 2
     path = tmp_path / "weak.urdf"
     path.write_text(weak)
-    code = main(["walk", "--urdf", str(path), "--quick", "--no-plots", "--output-dir",
-                 str(tmp_path / "out")])  # fmt: skip
+    out = tmp_path / "out"
+    code = main(["walk", "--urdf", str(path), "--quick", "--no-plots", "--output-dir", str(out)])
     printed = capsys.readouterr().out
     assert code == 0
-    pattern = r"right_knee \(right_knee\): peak \|tau\| [\d.]+ N m > its effort limit 20 N m"
-    assert re.search(pattern, printed)
+    assert re.search(r"ok +stance hip", printed)
+    assert "every planned torque and angle within them" in printed
+    meta = json.loads((out / "joints.csv.meta.json").read_text())
+    hips = [j for j in meta["joints"] if j["name"].endswith("_hip")]
+    assert all(j["peak_N_m"] <= 45.0 + 1e-3 for j in hips), hips
+    model = LinkageTrajectory.load(out / "torques.csv")
+    assert model.metadata["gait"]["hip_limit"] == 45.0
+    assert model.metadata["gait"]["torque_limit"]["swing_thigh"] == 45.0
+
+
+def test_limit_lines_name_each_drive_over_its_urdf_limit():
+    joints = [
+        {"name": "right_knee", "urdf_joint": "rk", "peak_N_m": 52.6, "urdf_effort_N_m": 40.0,
+         "urdf_range_rad": [-0.5, 2.0], "range_in_file_rad": [-0.6, 1.0]},
+        {"name": "left_knee", "urdf_joint": "lk", "peak_N_m": 30.0, "urdf_effort_N_m": 40.0},
+    ]  # fmt: skip
+    lines = robot_limit_lines({"joints": joints})
+    assert lines[0] == "the URDF's joint limits: exceeded by"
+    assert "right_knee (rk): peak |tau| 52.6 N m > its effort limit 40 N m" in lines[1]
+    assert "right_knee (rk): q -0.600..1.000 rad outside its URDF range -0.500..2.000" in lines[2]
+    assert len(lines) == 3
+    assert robot_limit_lines({"joints": joints[1:]}) == [
+        "the URDF's joint limits: every planned torque and angle within them (1 joints)"
+    ]
+    assert robot_limit_lines({"joints": [{"name": "neck", "peak_N_m": 1.0}]}) == []
 
 
 def test_the_robots_options_are_refused_by_name(tmp_path, capsys):
@@ -100,3 +125,25 @@ def test_the_robots_options_are_refused_by_name(tmp_path, capsys):
                                                                  "front,back")  # fmt: skip
     assert "cannot read" in error("--urdf", str(tmp_path / "none.urdf"))
     assert "`lock`: the URDF has no joint ['wrist']" in error("--urdf", robot, "--lock", "wrist")
+
+
+def test_on_feet_each_hinge_has_its_joints_effort(tmp_path, capsys):
+    """The robot on feet with 30 N m ankles: both ankles' hinges bounded at 30 N m (the
+    footed step's per-drive limits), the others at their 150 N m; the ground's torque on
+    the stance foot is no drive and has no bound."""
+    ankles = r'(<joint name="(right|left)_ankle" .*?effort=")150\.0'
+    weak = re.sub(ankles, r"\g<1>30.0", biped_urdf(feet=True))
+    assert weak.count('effort="30.0"') == 2
+    path = tmp_path / "feet.urdf"
+    path.write_text(weak)
+    out = tmp_path / "out"
+    code = main(["walk", "--urdf", str(path), "--quick", "--no-plots", "--output-dir", str(out)])
+    printed = capsys.readouterr().out
+    assert code == 0, printed[-2000:]
+    model = LinkageTrajectory.load(out / "torques.csv")
+    limits = model.metadata["gait"]["torque_limit"]
+    assert limits["stance_shank"] == limits["swing_foot"] == 30.0
+    assert limits["stance_thigh"] == 150.0 and "stance_foot" not in limits
+    names = model.link_names
+    for name in ("stance_shank", "swing_foot"):
+        assert np.max(np.abs(model.torques[:, names.index(name)])) <= 30.0 + 1e-3

@@ -457,8 +457,7 @@ def robot_limit_lines(metadata) -> list[str]:
     if not over:
         return [f"the URDF's joint limits: every planned torque and angle within them ({checked} "
                 "joints)"]  # fmt: skip
-    return ["the URDF's joint limits (the plan bounds every hinge by --torque-limit-nm, not by "
-            "each joint's effort): exceeded by", *over]  # fmt: skip
+    return ["the URDF's joint limits: exceeded by", *over]
 
 
 def legs_option(text: str) -> tuple[str, str]:

@@ -359,6 +359,8 @@ def _robot(args):
     if args.legs != ("right", "left") and tuple(args.legs) != walker.sides:
         raise UsageError(f"--legs: the URDF names its legs {','.join(walker.sides)}; drop --legs")
     args.legs = walker.sides
+    # each hinge bounded by its joint's URDF effort (--torque-limit-nm where none is given)
+    args.torque_limit_nm = walker.hinge_limits(args.torque_limit_nm)
     return walker
 
 
@@ -438,6 +440,10 @@ def _step(args, linkage, mesh, sole):
         extra["touchdown_speed"] = args.touchdown_speed_mps
     if args.clearance_m is not None:
         extra["clearance"] = args.clearance_m
+    walker = getattr(args, "walker", None)
+    if walker is not None:  # the robot's knees and stance hip within their URDF limits
+        extra["knee_range"] = walker.joint_range("knee", WALKING_DEFAULTS["knee_range"])
+        extra["hip_limit"] = walker.hip_limit()
     return walking_step(
         linkage,
         args.step_length_m,
@@ -569,10 +575,12 @@ def _print_results(gait, args, target, caught, out, report) -> None:
     history = stats.get("refinement")
     accuracy = stats.get("accuracy")
     single = gait.segments()[0][0]
+    limit = args.torque_limit_nm
+    limit = max(limit.values()) if isinstance(limit, dict) else limit  # a URDF's: per hinge
     objective_words = {
         "torque": "integral of sum M_i^2, N^2 m^2 s",
         "torque-rate": "integral of sum dM_i^2 (+ 1e-3 sum M_i^2)",
-        "work": f"positive work (+ {WORK_REGULARISATION / args.torque_limit_nm:.3g} sum M_i^2), J",
+        "work": f"positive work (+ {WORK_REGULARISATION / limit:.3g} sum M_i^2), J",
         "human": "integral of the joints' strength-normalised effort, (N m)^2 s",
     }[args.objective]
     print(

@@ -119,15 +119,28 @@ def _footed_step(args):
         extra["N"] = QUICK_MESH[args.feet_phases]
     walker = getattr(args, "walker", None)
     if walker is not None:
-        extra.update(linkage=walker.linkage, points=walker.points)
-    return footed_step(
-        objective=args.objective,
-        step_length=args.step_length_m,
-        step_time=args.step_time_s,
-        mu=args.mu,
-        torque_limit=args.torque_limit_nm,
-        phases=args.feet_phases,
-        **extra,
+        extra.update(linkage=walker.linkage, points=walker.points, hip_limit=walker.hip_limit())
+
+    def step(**ranges):
+        return footed_step(
+            objective=args.objective,
+            step_length=args.step_length_m,
+            step_time=args.step_time_s,
+            mu=args.mu,
+            torque_limit=args.torque_limit_nm,
+            phases=args.feet_phases,
+            **extra,
+            **ranges,
+        )
+
+    planned = step()
+    if walker is None:
+        return planned
+    # the robot's knees and ankles within their URDF limits (the ankle's from the neutral
+    # stance the step's feet define)
+    return step(
+        knee_range=walker.joint_range("knee", planned.knee_range),
+        ankle_range=walker.joint_range("ankle", planned.ankle_range, planned.neutral_ankles),
     )
 
 

@@ -301,6 +301,24 @@ def gait_ocp(dynamics, duration: float, mesh: Mapping[str, Any], limits: Mapping
     return ocp
 
 
+def bound_stance_hip(ocp: OCP, linkage: Linkage, stance_thigh: str, limit: float | None) -> OCP:
+    """``stance hip`` rows: a biped's physical stance-hip drive, between its trunk and its
+    stance thigh, carries the torques of every hinge at the stance thigh's end (the tree's
+    M_trunk + M_swing_thigh: each bounded on its own by the torque limits), within +-``limit``
+    N m (None: no rows)."""
+    if limit is None:
+        return ocp
+    thigh = linkage.index(stance_thigh)
+    hinges = list(linkage.children[thigh])
+    return ocp.constrain(
+        "stance hip",
+        lambda p: ca.sum1(ca.vertcat(*[p.M[i] for i in hinges])),
+        lower=-limit,
+        upper=limit,
+        scale=limit,
+    )
+
+
 def keep_upright(ocp: OCP, upright: Sequence[str], posture: float) -> OCP:
     """``posture`` rows: each link of ``upright`` within ``posture`` rad of the vertical."""
     if not upright:

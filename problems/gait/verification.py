@@ -559,6 +559,13 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
         # a hinge without a limit (a footed walker's root: the ground's torque) is unbounded
         limit = np.array([float(limits.get(name, np.inf)) for name in linkage.names])
         add("torque bounds", limit[None, :] - np.abs(torques), "N m", scale)
+    if settings.get("hip_limit") is not None:
+        # the physical stance hip: the drive between the trunk and the stance thigh, the
+        # trunk's hinge and every other hinge at the stance thigh's end (the swing thigh)
+        thigh = linkage.index(Biped.of(linkage).stance_leg[-1])
+        at_hip = [i for i, parent in enumerate(linkage.parents) if parent == thigh]
+        hip = np.sum(torques[:, at_hip], axis=1)
+        add("stance hip", float(settings["hip_limit"]) - np.abs(hip), "N m", scale)
     # The ground: every point of the body that is not a contact stays above it.
     margin = float(settings.get("ground_margin") or 0.0)
     foot_link = settings.get("swing_foot")

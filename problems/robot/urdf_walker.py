@@ -36,6 +36,7 @@ from __future__ import annotations
 import cmath
 import math
 import re
+import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -89,6 +90,64 @@ class UrdfWalker:
     @property
     def feet(self) -> bool:
         return self.points is not None
+
+    def hinge_limits(self, default: float) -> dict[str, float]:
+        """Each hinge of the plan's tree bounded by its physical joint's URDF effort (the
+        smaller of the two sides: the legs swap every step), ``default`` N m where the URDF
+        gives none: the stance and swing ankles, knees and hips by their joints (the trunk's
+        hinge on the stance thigh by the hips': the stance hip's drive carries the trunk's
+        torque and the swing thigh's), the upper body's links by theirs. The root of a walker
+        on feet (the ground's torque) is left out."""
+
+        def effort(joint: str) -> float:
+            values = [self.limits.get(f"{side}_{joint}", {}).get("effort") for side in self.sides]
+            values = [v for v in values if v is not None]
+            return min(values) if values else float(default)
+
+        names = self.linkage.names
+        roles = {"stance_shank": "ankle", "stance_thigh": "knee", "swing_thigh": "hip",
+                 "swing_shank": "knee", "swing_foot": "ankle"}  # fmt: skip
+        out = {}
+        for i, name in enumerate(names):
+            if name == "stance_foot":
+                continue
+            if name in roles:
+                out[name] = effort(roles[name])
+            elif self.linkage.parents[i] == names.index("stance_thigh"):
+                out[name] = effort("hip")  # the trunk
+            else:
+                out[name] = float(self.limits.get(name, {}).get("effort", default))
+        return out
+
+    def joint_range(self, joint: str, default: tuple[float, float],
+                    neutral: tuple[float, float] = (0.0, 0.0)) -> tuple[float, float]:  # fmt: skip
+        """The plan's range of ``joint`` ("knee": flexion psi_thigh - psi_shank; "ankle":
+        plantarflexion from the neutral, psi_shank - psi_foot - ``neutral`` (stance, swing))
+        within both legs' URDF limits and ``default`` (the walking model's own: no
+        hyperextended knee), rad."""
+        low, high = default
+        for k, side in enumerate(self.sides):
+            key = f"{side}_{joint}"
+            limits = self.limits.get(key, {})
+            if key not in self.encoders or "lower" not in limits or "upper" not in limits:
+                continue
+            _, _, sense, zero = self.encoders[key]
+            # q_urdf = sense (psi_child - psi_parent - zero), the child below the parent:
+            # the plan's angle psi_parent - psi_child (- neutral) = -sense q_urdf - zero
+            ends = [-sense * limits[e] - zero - neutral[k] for e in ("lower", "upper")]
+            low, high = max(low, min(ends)), min(high, max(ends))
+        if not low < high:
+            raise DefinitionError(
+                f"`urdf`: the {joint}s' URDF limits leave no range within {default} rad"
+            )
+        return low, high
+
+    def hip_limit(self) -> float | None:
+        """The hips' URDF effort (the smaller side's), N m, or None: the bound of the
+        physical stance hip (``walking_step(hip_limit=...)``)."""
+        values = [self.limits.get(f"{side}_hip", {}).get("effort") for side in self.sides]
+        values = [v for v in values if v is not None]
+        return min(values) if values else None
 
     def metadata(self, source: str | None = None) -> dict[str, Any]:
         """What a plan's file keeps of the robot (JSON): the URDF's path, the sides, and each
@@ -343,8 +402,6 @@ def walker_from_urdf(
 
 def _limits(text: str, joints: Mapping[str, str]) -> dict[str, dict[str, float]]:
     """{joint key: its URDF <limit>'s effort, lower, upper and velocity, those given}."""
-    import xml.etree.ElementTree as ET
-
     by_name = {j.get("name"): j for j in ET.fromstring(text).iter("joint")}
     out = {}
     for key, name in joints.items():

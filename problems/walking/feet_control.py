@@ -183,7 +183,7 @@ class FeetLaw:
             gain[0] = 0.0  # the ground's torque on the stance foot: no drive
             rows.append(gain)
         gains = np.where(double[:, None, None], rows[1], rows[0])
-        limits = [np.inf] + [step.torque_limit] * (n - 1)
+        limits = [np.inf] + [step.limits[name] for name in step.linkage.names[1:]]
         # the gains as the file's K rows hold them: none for the ground's torque on the root
         kp = [np.r_[0.0, gains[1:]].tolist() for gains, _ in self.gains]
         kd = [np.r_[0.0, gains[1:]].tolist() for _, gains in self.gains]

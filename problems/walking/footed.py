@@ -75,6 +75,7 @@ from problems.gait.biped import Biped
 from problems.gait.law import GaitLaw
 from problems.gait.problem import (
     RATE_HZ,
+    bound_stance_hip,
     centre_of_pressure,
     joint_rates,
     keep_upright,
@@ -172,6 +173,14 @@ class FootedStep:
     phases: Phases | None = None
     approach_time: float = 0.03
     human: HumanObjective | None = None
+    hinge_limits: Mapping[str, float] | None = None
+    hip_limit: float | None = None
+
+    @property
+    def limits(self) -> dict[str, float]:
+        """Each drive's |M| bound, N m (``torque_limit`` for every drive, or per hinge)."""
+        given = self.hinge_limits or {}
+        return {name: float(given.get(name, self.torque_limit)) for name in self.drives}
 
     # ---- geometry ----------------------------------------------------------------------
     @property
@@ -347,7 +356,8 @@ class FootedStep:
             "touchdown_speed": self.touchdown_speed,
             "approach_time": self.approach_time,
             "leg_length": self.leg_length,
-            "torque_limit": {name: self.torque_limit for name in self.drives},
+            "torque_limit": self.limits,
+            "hip_limit": self.hip_limit,
             "drives": list(self.drives),
             "knee_range": list(self.knee_range),
             "ankle_range": list(self.ankle_range),
@@ -378,7 +388,7 @@ def footed_step(
     N: tuple[int, ...] | None = None,
     transcription: str = "hermite-simpson",
     mu: float = 0.8,
-    torque_limit: float = 150.0,
+    torque_limit: float | Mapping[str, float] = 150.0,
     clearance: float | None = None,
     touchdown_speed: float | None = None,
     approach_time: float | None = None,
@@ -388,6 +398,7 @@ def footed_step(
     durations: tuple[float, ...] | None = None,
     phases: str | tuple[str, ...] = "human",
     objective: str | HumanObjective = "torque",
+    hip_limit: float | None = None,
 ) -> FootedStep:
     """A periodic walking step on feet (see the module docstring).
 
@@ -410,6 +421,8 @@ def footed_step(
     phases : the contact phases in order, by a name of :data:`SEQUENCES` ("human": flat,
         heel rise, double; "flat-footed": flat, double; "toe-walking": heel rise, double) or
         as that tuple of phase names.
+    hip_limit : the physical stance hip's |torque| bound, N m, or None (as for
+        :func:`problems.walking_step`).
     objective : "torque" (the drives' integral of sum M_i^2, the default), "human" (the
         joints' strength-normalised effort with passive moments,
         :data:`problems.human.effort.HUMAN`) or a :class:`problems.human.effort.HumanObjective`.
@@ -430,6 +443,22 @@ def footed_step(
     step_length = check_positive("step_length", step_length, "m")
     step_time = check_positive("step_time", step_time, "s")
     mu = check_positive("mu", mu, "(friction coefficient)")
+    hinge_limits = None
+    if isinstance(torque_limit, Mapping):
+        drives = [name for name in linkage.names[1:]]
+        unknown = [k for k in torque_limit if k not in drives]
+        if unknown:
+            raise DefinitionError(
+                f"`torque_limit`: no drive {unknown} (the drives: {drives}; the root "
+                f"{linkage.names[0]!r} is the ground's torque)"
+            )
+        hinge_limits = {k: check_positive(f"torque_limit[{k}]", v, "N m")
+                        for k, v in torque_limit.items()}  # fmt: skip
+        missing = [k for k in drives if k not in hinge_limits]
+        if missing:
+            raise DefinitionError(f"`torque_limit`: give every drive's limit, missing {missing}; "
+                                  "or one number for all")  # fmt: skip
+        torque_limit = max(hinge_limits.values())
     torque_limit = check_positive("torque_limit", torque_limit, "N m")
     scales = WalkerScales(math.fsum(biped.length(n) for n in biped.stance_leg[1:]),
                           linkage.gravity)  # fmt: skip
@@ -475,6 +504,8 @@ def footed_step(
         step_time=step_time,
         mu=mu,
         torque_limit=torque_limit,
+        hinge_limits=hinge_limits,
+        hip_limit=None if hip_limit is None else check_positive("hip_limit", hip_limit, "N m"),
         clearance=clearance,
         touchdown_speed=touchdown_speed,
         approach_time=approach_time,
@@ -623,8 +654,8 @@ def _base_ocp(step: FootedStep, phase: int, transcription: str, contacts=()):
     parameters = _parameters(step)
     for k, name in enumerate(parameters):
         ocp = ocp.param(name, *bounds[k], guess=guesses[k], scale=T)
-    for name in step.drives:
-        ocp = ocp.bound(f"M_{name}", -step.torque_limit, step.torque_limit)
+    for name, limit in step.limits.items():
+        ocp = ocp.bound(f"M_{name}", -limit, limit)
     biped = step.biped
     stance_foot, stance_shank, stance_thigh = biped.stance_leg
     swing_thigh, swing_shank, swing_foot = biped.swing_leg
@@ -651,6 +682,7 @@ def _base_ocp(step: FootedStep, phase: int, transcription: str, contacts=()):
         "knees", knees, lower=step.knee_range[0], upper=step.knee_range[1]
     ).constrain("ankles", ankles, lower=step.ankle_range[0], upper=step.ankle_range[1])
     ocp = keep_upright(ocp, biped.upper_body, step.posture)
+    ocp = bound_stance_hip(ocp, step.linkage, biped.stance_thigh, step.hip_limit)
     limit = step.torque_limit
     drives = [step.linkage.index(name) for name in step.drives]
     time_unit = WalkerScales(step.leg_length, step.linkage.gravity).relative["time"]

@@ -44,7 +44,7 @@ def feet_walker_mjcf(step, *, ground_mu: float | None = None) -> MjcfModel:
         base="floating",
         contacts=list(step.points.values()),
         friction=step.mu if ground_mu is None else ground_mu,
-        torque_limits=dict.fromkeys(step.drives, step.torque_limit),
+        torque_limits=step.limits,
         timestep=TIMESTEP,
         name="walker_on_feet",
     )
@@ -103,9 +103,9 @@ def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preloa
     geom = {c.name: model.geom(c.name).id for c in mjcf.contacts}
     grounds = {g for g in range(model.ngeom) if model.geom(g).name.startswith("ground")}
     motors = [model.actuator(f"M_{name}").id for name in linkage.names[1:]]
-    limit = step.torque_limit
+    limit = np.array([step.limits[name] for name in linkage.names[1:]])
     if disturbances.torque_limit is not None:
-        limit = min(limit, disturbances.torque_limit)
+        limit = np.minimum(limit, disturbances.torque_limit)
     torso = model.body(step.biped.upper_body[0]).id
     start = single.states[0].copy()
     if disturbances.initial is not None:
@@ -152,7 +152,7 @@ def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preloa
         data.ctrl[motors] = np.clip(hinge[1:], -limit, limit)
         command = float(np.abs(data.ctrl[motors]).max())
         peak_torque = max(peak_torque, command)
-        saturated += command >= limit
+        saturated += bool(np.any(np.abs(data.ctrl[motors]) >= limit))
         push_now = (not pushed and len(records) == disturbances.push_step
                     and t_step >= disturbances.push_at * step.step_time)  # fmt: skip
         if push_now:

@@ -75,6 +75,7 @@ from problems.gait.law import GaitLaw
 from problems.gait.problem import (
     RATE_HZ,
     Gait,
+    bound_stance_hip,
     check_links,
     check_objective,
     finish_gait_ocp,
@@ -165,6 +166,7 @@ class WalkingStep(WalkerFeet):
     ground_points: tuple[str, ...] = ()
     ground_margin: float = 0.0
     approach_time: float = 0.03
+    hip_limit: float | None = None
 
     @property
     def linkage(self) -> Linkage:
@@ -347,6 +349,7 @@ class WalkingStep(WalkerFeet):
             "knee_range": list(self.knee_range),
             "posture": self.posture,
             "upright": list(self.upright),
+            "hip_limit": self.hip_limit,
             "objective": self.objective,
             "swing_foot": self.biped.swing_shank,
             "double_support": self.double_support,
@@ -390,6 +393,7 @@ def walking_step(
     foot: tuple[float, float] | str | None = DEFAULT,
     ground_points: Sequence[str] | None = None,
     ground_margin: float = 0.0,
+    hip_limit: float | None = None,
 ) -> WalkingStep:
     """A periodic walking step of a biped (see the module docstring).
 
@@ -429,6 +433,8 @@ def walking_step(
         link but the swing shank, whose end is the swing foot: knees, hip, neck, head top and
         any upper body's joints); () for none.
     ground_margin : m (>= 0).
+    hip_limit : the physical stance hip's |torque| bound, N m (the drive between the trunk and
+        the stance thigh carries M_trunk + M_swing_thigh), or None (each hinge bounded alone).
     knee_range : (lower, upper) knee flexion psi_thigh - psi_shank, rad, both legs.
     posture : largest deviation of an upright link from the vertical, rad.
     upright : links kept near upright (default: every upper-body link).
@@ -513,6 +519,7 @@ def walking_step(
         ground_points=ground_points,
         ground_margin=ground_margin,
         approach_time=approach_time,
+        hip_limit=None if hip_limit is None else check_positive("hip_limit", hip_limit, "N m"),
     )
     N, transcription, degree = mesh["N"], mesh["transcription"], mesh["degree"]
     step = replace(step, ocp=_walking_ocp(step, N, transcription, degree, formulation))
@@ -694,6 +701,7 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
             "centre of pressure", pressure, lower=0.0, scale=weight * sum(step.foot_sole)
         )
     ocp = keep_upright(ocp, step.upright, step.posture)
+    ocp = bound_stance_hip(ocp, linkage, biped.stance_thigh, step.hip_limit)
     return finish_gait_ocp(
         ocp, linkage, step.objective, step.torque_limit, step.law, step.time_unit
     )
@@ -761,6 +769,7 @@ def _double_support_ocp(step: WalkingStep, mesh: dict) -> OCP:
             scale=weight * sum(step.foot_sole),
         )
     ocp = keep_upright(ocp, step.upright, step.posture)
+    ocp = bound_stance_hip(ocp, linkage, biped.stance_thigh, step.hip_limit)
     # The guess holds the pose the law lands in; the feet share the weight.
     strike = step.law(step.single_support_time)
     ocp = finish_gait_ocp(ocp, linkage, step.objective, step.torque_limit, step.law, step.time_unit)
