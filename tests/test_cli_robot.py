@@ -71,18 +71,24 @@ def test_rabbit_planned_verified_and_written_in_its_terms(tmp_path, capsys):
     assert np.max(np.abs(model.torques[:, 0])) < 1.0
 
 
-def test_the_urdfs_efforts_bound_the_plan(tmp_path, capsys):
-    """The test robot with 45 N m hips (the plan's default bound is 150 N m a hinge): the
-    stance hip's drive, which carries the trunk's hinge and the swing thigh's, is held within
-    45 N m in the plan and in its verification, and the file's hips stay within it."""
-    hips = r'(<joint name="(right|left)_hip_pitch" .*?effort=")150\.0'
-    weak = re.sub(hips, r"\g<1>45.0", biped_urdf())
-    assert weak.count('effort="45.0"') == 2
+def _walk_with_effort(tmp_path, capsys, joint: str, effort: float, feet: bool):
+    """(exit code, printed, output folder) of walk --quick on the test robot whose two
+    ``joint``s (hip_pitch, knee, ankle) have the URDF effort ``effort`` N m."""
+    pattern = rf'(<joint name="(right|left)_{joint}" .*?effort=")150\.0'
+    weak = re.sub(pattern, rf"\g<1>{effort!r}", biped_urdf(feet=feet))
+    assert weak.count(f'effort="{effort!r}"') == 2
     path = tmp_path / "weak.urdf"
     path.write_text(weak)
     out = tmp_path / "out"
     code = main(["walk", "--urdf", str(path), "--quick", "--no-plots", "--output-dir", str(out)])
-    printed = capsys.readouterr().out
+    return code, capsys.readouterr().out, out
+
+
+def test_the_urdfs_efforts_bound_the_plan(tmp_path, capsys):
+    """The test robot with 45 N m hips (the plan's default bound is 150 N m a hinge): the
+    stance hip's drive, which carries the trunk's hinge and the swing thigh's, is held within
+    45 N m in the plan and in its verification, and the file's hips stay within it."""
+    code, printed, out = _walk_with_effort(tmp_path, capsys, "hip_pitch", 45.0, feet=False)
     assert code == 0
     assert re.search(r"ok +stance hip", printed)
     assert "every planned torque and angle within them" in printed
@@ -131,14 +137,7 @@ def test_on_feet_each_hinge_has_its_joints_effort(tmp_path, capsys):
     """The robot on feet with 30 N m ankles: both ankles' hinges bounded at 30 N m (the
     footed step's per-drive limits), the others at their 150 N m; the ground's torque on
     the stance foot is no drive and has no bound."""
-    ankles = r'(<joint name="(right|left)_ankle" .*?effort=")150\.0'
-    weak = re.sub(ankles, r"\g<1>30.0", biped_urdf(feet=True))
-    assert weak.count('effort="30.0"') == 2
-    path = tmp_path / "feet.urdf"
-    path.write_text(weak)
-    out = tmp_path / "out"
-    code = main(["walk", "--urdf", str(path), "--quick", "--no-plots", "--output-dir", str(out)])
-    printed = capsys.readouterr().out
+    code, printed, out = _walk_with_effort(tmp_path, capsys, "ankle", 30.0, feet=True)
     assert code == 0, printed[-2000:]
     model = LinkageTrajectory.load(out / "torques.csv")
     limits = model.metadata["gait"]["torque_limit"]
