@@ -115,6 +115,9 @@ def test_limit_lines_name_each_drive_over_its_urdf_limit():
         "the URDF's joint limits: every planned torque and angle within them (1 joints)"
     ]
     assert robot_limit_lines({"joints": [{"name": "neck", "peak_N_m": 1.0}]}) == []
+    # at the limit to the solver's tolerance is on it, not past it
+    on = [{"name": "ankle", "urdf_joint": "a", "peak_N_m": 40.0 + 1e-5, "urdf_effort_N_m": 40.0}]
+    assert "within them" in robot_limit_lines({"joints": on})[0]
 
 
 def test_the_robots_options_are_refused_by_name(tmp_path, capsys):

@@ -18,8 +18,9 @@ hinges about y; other joints to ``lock``; fixed parts merged) and builds that tr
 * **the swing leg** from the hip down: ``swing_thigh``, ``swing_shank`` and ``swing_foot``
   (ankle to toe mark);
 * **the upper body**: the link the legs hang from, described from the hip (its line from the
-  hip to its farthest point: a trunk up to the neck, a pelvis up to its frame), keeping its
-  name; the links above it unchanged.
+  hip to its farthest point, an end or a frame it carries: a trunk up to the neck, a pelvis
+  with a merged torso up to its head's camera), keeping its name; the links above it
+  unchanged.
 
 The feet's contacts are the foot's massless frames (fixed joints) named with ``heel`` and
 ``toe`` (or ``ball``), as a sole's marks: ``stance_toe`` = H0, ``stance_heel``, ``swing_heel``,
@@ -374,7 +375,10 @@ def walker_from_urdf(
         }
     # the upper body: the trunk from the hip, the links above it as they are
     start, end, com = geometry[trunk]
-    far = max((start, end), key=lambda p: abs(p - hip))
+    # its line from the hip to its farthest point: its ends or a frame it carries (a merged
+    # torso's head camera: the line a pelvis-rooted humanoid's trunk is drawn and leans by)
+    marks = [point for owner, point in robot.frames.values() if owner == trunk]
+    far = max((start, end, *marks), key=lambda p: abs(p - hip))
     built.append(_described(trunk, "stance_thigh", source[trunk], hip, far, com))
     trunk_turn = cmath.exp(1j * cmath.phase(far - hip))
     leg_links = set(stance) | set(swing)
