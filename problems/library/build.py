@@ -1,0 +1,129 @@
+"""Building a gait library: one periodic step on point feet per speed, planned, verified at
+every exported sample, given its periodic LQR and its closed loop's Floquet multipliers.
+
+The speeds are solved in order from the middle of the grid outward; each step after the
+first starts from its neighbour's solution (:meth:`planner.OCP.guess`: re-gridded in
+normalised time; the same mesh, so IPOPT also starts from its multipliers), which leaves a
+handful of iterations where a cold start takes dozens (examples/benchmarks/gait_library.py
+measures both). A speed whose warm start fails is solved again from the gait law; a step
+that still fails, or whose exported samples fail their verification, stops the build with
+the speed named.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from model.linkage import Linkage
+from model.linkage_trajectory import LinkageTrajectory
+from planner.errors import AnthropoidError, DefinitionError, check_positive
+from problems.library.library import GaitLibrary, LibraryGait
+from problems.walking.feedback import design_feedback
+from problems.walking.footed import step_at_speed
+from problems.walking.linearisation import fixed_point
+from problems.walking.step import walking_step
+
+#: the rate of the stored samples, Hz (the torque files')
+RATE_HZ = 1000.0
+
+
+def _order(count: int) -> list[int]:
+    """Indices from the middle outward: each one's neighbour toward the middle comes first."""
+    middle = count // 2
+    order = [middle]
+    for offset in range(1, count):
+        for k in (middle + offset, middle - offset):
+            if 0 <= k < count:
+                order.append(k)
+    return order
+
+
+def build_library(
+    speeds: Sequence[float],
+    linkage: Linkage | None = None,
+    *,
+    multipliers: bool = True,
+    progress: Callable[[str], None] | None = None,
+    **step_options,
+) -> GaitLibrary:
+    """The library of periodic steps on point feet at ``speeds`` m/s (increasing; each step's
+    length and time from :func:`problems.walking.footed.step_at_speed`), of ``linkage``
+    (default the six-link scene), ``step_options`` as for :func:`problems.walking_step`;
+    ``multipliers``: compute each closed loop's Floquet multipliers (the return map's
+    eigenvalues at its fixed point); ``progress``: called with a line per gait."""
+    speeds = [check_positive(f"speeds[{k}]", v, "m/s") for k, v in enumerate(speeds)]
+    if not speeds or any(b <= a for a, b in itertools.pairwise(speeds)):
+        raise DefinitionError(f"`speeds`: one or more, strictly increasing, got {speeds}")
+    gaits: dict[int, LibraryGait] = {}
+    solved: dict[int, object] = {}
+    for k in _order(len(speeds)):
+        clock = time.perf_counter()
+        length, duration = step_at_speed(speeds[k])
+        step = walking_step(linkage, length, duration, **step_options)
+        neighbours = [j for j in (k - 1, k + 1) if j in solved]
+        gait = None
+        if neighbours:
+            warm = solved[min(neighbours, key=lambda j: abs(speeds[j] - speeds[k]))]
+            try:
+                gait = step.solve(step.ocp.guess(warm.solution))
+            except AnthropoidError:  # a failed solve, hold or verification
+                gait = None  # from the law, below
+        if gait is None:
+            gait = step.solve()
+        solved[k] = gait
+        gaits[k] = _library_gait(gait, speeds[k], multipliers)
+        if progress is not None:
+            progress(f"{speeds[k]:.3f} m/s: {gaits[k].iterations} iterations, "
+                     f"{time.perf_counter() - clock:.2f} s")  # fmt: skip
+    first = solved[0]
+    return GaitLibrary(
+        tuple(gaits[k] for k in range(len(speeds))),
+        first.problem.linkage,
+        RATE_HZ,
+        {"feet": "points", "step_at_speed": "length 0.5 sqrt(v / 1 m/s) m, time length / v",
+         "options": {k: v for k, v in step_options.items() if isinstance(v, int | float | str)},
+         "order": "from the middle outward, each warm-started from its neighbour"},
+    )  # fmt: skip
+
+
+def _library_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
+    """One gait's samples, verification, gains and multipliers."""
+    verification = gait.verification
+    if verification is not None and not verification.ok:
+        raise DefinitionError(f"the step at {speed:g} m/s fails its verification: "
+                              f"{[c.name for c in verification.failures]}")  # fmt: skip
+    feedback = design_feedback(gait)
+    profile = feedback.channels(gait.to_trajectory(RATE_HZ))
+    linked = LinkageTrajectory.of(profile)
+    names = linked.link_names
+    states = [f"psi_{n}" for n in names] + [f"dpsi_{n}" for n in names]
+    n = len(names)
+    gains = np.stack([np.column_stack([np.asarray(profile.extras[f"K_{h}__{x}"][0])
+                                       for x in states]) for h in names], axis=1)  # fmt: skip
+    values = np.full(2 * n, np.nan + 0j)
+    if multipliers:
+        step = feedback.step
+        loop = fixed_point(feedback.plant, feedback.controller, feedback.reference.states[0],
+                           step_time=step.step_time, step_length=step.step_length,
+                           control_rate_hz=feedback.control_rate_hz)  # fmt: skip
+        values = np.asarray(loop.multipliers, dtype=complex)
+    settings = profile.metadata.get("gait", {})
+    time_ = np.asarray(profile.time, dtype=float) - float(profile.time[0])
+    return LibraryGait(
+        speed=float(speed),
+        step_length=float(gait.problem.step_length),
+        step_time=float(gait.problem.step_time),
+        time=time_, psi=np.asarray(linked.psi), dpsi=np.asarray(linked.dpsi),
+        ddpsi=np.asarray(linked.ddpsi),
+        torques=np.asarray(linked.torques), phase=np.asarray(profile.extras["phase"][0]),
+        gains=gains, multipliers=values,
+        iterations=int(profile.metadata.get("iterations") or 0),
+        settings=settings,
+    )  # fmt: skip
+
+
+__all__ = ["RATE_HZ", "build_library"]
