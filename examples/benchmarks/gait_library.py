@@ -1,0 +1,105 @@
+"""The gait library (issue #35, first part): building it over speed, and how far a blended
+gait is from a solved one at the grid's spacing.
+
+    python examples/benchmarks/gait_library.py [--write]  # about 1 min
+    python examples/benchmarks/gait_library.py --quick    # table 2 only
+
+Table 1: the point-foot library of 20 speeds from 0.4 to 1.8 m/s (``build_library``), with
+each closed loop's Floquet multipliers (the phase-indexed law's return map at its fixed point,
+``problems.walking.linearisation.fixed_point``) and without; seconds, the middle gait's IPOPT
+iterations from the gait law against its neighbours' from the warm start (median), the
+largest |multiplier| over the library. No compiled cache (the solver built in process).
+Target of issue #35: <= 15 s with the gains.
+
+Table 2: blends midway between two gaits 0.2, 0.1 and 0.05 m/s apart around 1 m/s
+(``GaitLibrary.at``) against the step solved at that speed: the blend's distance from the
+equations of motion (the independent verification's dynamics residual, N m), its landing and
+impact-momentum misses, the torques' RMS and largest difference and the angles' largest
+difference from the solved step, and the iterations of ``solve_at`` (the step re-solved
+from the blend); ratios to the 0.05 m/s row measured in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+
+import numpy as np
+
+from problems import verify_gait
+from problems.library import build_library
+
+
+def build_table() -> None:
+    print("Table 1: a point-foot library of 20 speeds, 0.4 to 1.8 m/s\n")
+    print("| multipliers | seconds | s per gait | iterations: middle (law) | warm (median) | "
+          "largest abs multiplier |")  # fmt: skip
+    print("|---|---|---|---|---|---|")
+    speeds = np.round(np.linspace(0.4, 1.8, 20), 6)
+    for with_multipliers in (True, False):
+        start = time.perf_counter()
+        library = build_library(speeds, multipliers=with_multipliers)
+        seconds = time.perf_counter() - start
+        iterations = [g.iterations for g in library.gaits]
+        middle = iterations[len(iterations) // 2]
+        warm = statistics.median(iterations[: len(iterations) // 2]
+                                 + iterations[len(iterations) // 2 + 1:])  # fmt: skip
+        largest = (f"{max(float(np.max(np.abs(g.multipliers))) for g in library.gaits):.3f}"
+                   if with_multipliers else "-")  # fmt: skip
+        print(f"| {'return map' if with_multipliers else 'none'} | {seconds:.1f} | "
+              f"{seconds / 20:.2f} | {middle} | {warm:g} | {largest} |")  # fmt: skip
+    print()
+
+
+def blend_table() -> None:
+    print("Table 2: blends midway between gaits, against the step solved there\n")
+    print(
+        "| spacing m/s | speed | dynamics residual N m | ratio | landing miss mm | "
+        "impact momentum miss | torque RMS / max N m | angles max rad | solve_at iterations |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    rows = []
+    for spacing in (0.2, 0.1, 0.05):
+        low, high = 1.0 - spacing / 2, 1.0 + spacing / 2
+        library = build_library([low, high], multipliers=False)
+        blended = library.at(1.0)
+        report = verify_gait(blended, library.linkage)
+        solved = library.solve_at(1.0)
+        reference = solved.to_trajectory(library.rate_hz)
+        tau = np.linspace(0.0, 1.0, 401)
+
+        def on(trajectory, values, tau=tau):
+            own = trajectory.time / trajectory.time[-1]
+            return np.stack([np.interp(tau, own, values[:, j]) for j in range(values.shape[1])],
+                            axis=1)  # fmt: skip
+
+        torque = on(blended, blended.torques) - on(reference, reference.torques)
+        angles = on(blended, blended.psi) - on(reference, reference.psi)
+        rows.append((spacing, -report["dynamics"].margin, -report["landing"].margin,
+                     -report["impact momentum"].margin, float(np.sqrt(np.mean(torque**2))),
+                     float(np.abs(torque).max()), float(np.abs(angles).max()),
+                     solved.to_trajectory(1000.0).metadata.get("iterations")))  # fmt: skip
+    finest = rows[-1][1]
+    for spacing, residual, landing, momentum, rms, peak, angle, iterations in rows:
+        print(f"| {spacing:g} | 1.0 | {residual:.3f} | {residual / finest:.1f} | "
+              f"{1000 * landing:.3f} | {momentum:.2e} | {rms:.3f} / {peak:.3f} | {angle:.4f} | "
+              f"{iterations} |")  # fmt: skip
+    print()
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="table 2 only")
+    args = parser.parse_args(argv)
+    if not args.quick:
+        build_table()
+    blend_table()
+    return 0
+
+
+if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
+    sys.exit(_tables.run(main, __file__))
