@@ -91,3 +91,20 @@ def test_a_speed_outside_is_refused(library):
         library.at(1.3)
     with pytest.raises(ValueError, match="strictly increasing"):
         build_library([1.0, 0.9])
+
+
+def test_the_command_writes_the_library_a_controller_loads(tmp_path, capsys):
+    from problems.__main__ import main
+
+    out = tmp_path / "lib"
+    code = main(["library", "--speeds-mps", "0.95,1.05", "--no-multipliers", "--output-dir",
+                 str(out)])  # fmt: skip
+    printed = capsys.readouterr().out
+    assert code == 0
+    assert "| 0.950 | 0.487 in 0.513 |" in printed
+    loaded = GaitLibrary.load(out / "library.npz")
+    assert loaded.speeds.tolist() == [0.95, 1.05]
+    assert np.all(np.isnan(loaded.gaits[0].multipliers))  # not computed, and said so: "-"
+    code = main(["library", "--speeds-mps", "1.0", "--output-dir", str(tmp_path / "one")])
+    assert code == 2
+    assert "--speeds-mps: two or more speeds" in capsys.readouterr().err

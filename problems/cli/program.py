@@ -21,6 +21,7 @@ from problems.cli import (
     compare_gait,
     demo,
     equations,
+    library,
     simulate,
     study,
     torques,
@@ -65,7 +66,8 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", metavar="<command>", parser_class=Parser)
     commands.required = True
 
-    for command in (walk, study, compare_gait, track_gait, equations, torques, simulate, demo):
+    for command in (walk, study, library, compare_gait, track_gait, equations, torques, simulate,
+                    demo):  # fmt: skip
         command.add_parser(commands, common, limits)
     return parser
 
@@ -73,6 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
 COMMANDS = {
     "walk": walk.run,
     "study": study.run,
+    "library": library.run,
     "compare-gait": compare_gait.run,
     "track-gait": track_gait.run,
     "equations": equations.run,

@@ -69,11 +69,11 @@ def build_library(
         if neighbours:
             warm = solved[min(neighbours, key=lambda j: abs(speeds[j] - speeds[k]))]
             try:
-                gait = step.solve(step.ocp.guess(warm.solution))
+                gait = step.solve(step.ocp.guess(warm.solution), progress=False)
             except AnthropoidError:  # a failed solve, hold or verification
                 gait = None  # from the law, below
         if gait is None:
-            gait = step.solve()
+            gait = step.solve(progress=False)
         solved[k] = gait
         gaits[k] = _library_gait(gait, speeds[k], multipliers)
         if progress is not None:
