@@ -29,6 +29,9 @@ from problems.walking.step import walking_step
 
 #: the rate of the stored samples, Hz (the torque files')
 RATE_HZ = 1000.0
+#: the closed loop's fixed point to this (max |P(x) - x|, rad and rad/s): its multipliers
+#: agree to 1e-8 with the search run to 1e-10 (the 1 m/s step), one Newton step (0.26 s) fewer
+FIXED_POINT_TOLERANCE = 1e-6
 
 
 def _order(count: int) -> list[int]:
@@ -109,7 +112,8 @@ def _library_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
         step = feedback.step
         loop = fixed_point(feedback.plant, feedback.controller, feedback.reference.states[0],
                            step_time=step.step_time, step_length=step.step_length,
-                           control_rate_hz=feedback.control_rate_hz)  # fmt: skip
+                           control_rate_hz=feedback.control_rate_hz,
+                           tolerance=FIXED_POINT_TOLERANCE)  # fmt: skip
         values = np.asarray(loop.multipliers, dtype=complex)
     settings = profile.metadata.get("gait", {})
     time_ = np.asarray(profile.time, dtype=float) - float(profile.time[0])
