@@ -4,8 +4,8 @@ lookup by commanded speed.
 Oracles: the file read back array by array; a grid speed's lookup against that gait's own
 samples; the blend between two gaits against the equations of motion (the independent
 verification's dynamics residual of the blended samples) and against a step solved at the
-blended speed, the residual falling with the grid's spacing at second order (a blend in
-absolute time, or a first-order scheme, would not); every stored gait verified, its closed
+blended speed, the residual falling with the grid's spacing at second order (linear blending
+of gaits smooth in speed: the error of a chord); every stored gait verified, its closed
 loop's Floquet multipliers inside the unit circle; warm starts along the grid.
 """
 
