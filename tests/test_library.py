@@ -108,3 +108,23 @@ def test_the_command_writes_the_library_a_controller_loads(tmp_path, capsys):
     code = main(["library", "--speeds-mps", "1.0", "--output-dir", str(tmp_path / "one")])
     assert code == 2
     assert "--speeds-mps: two or more speeds" in capsys.readouterr().err
+
+
+def test_a_blend_is_a_joint_space_file_a_controller_runs(library):
+    """The blend at 0.95 m/s written in the robot's terms (problems.robot.joint_space): its
+    gains per physical drive, its phase rising through each step, its ground force (the
+    whole body's, Newton) pressing and within the friction cone."""
+    from problems.robot import joint_space
+
+    view = joint_space(library.at(0.95))
+    spec = view.metadata["controller"]
+    assert spec["gains"] is not None and spec["rate_hz"] == 1000.0
+    columns = view.columns
+    assert all(f"K_{d}__{x}" in columns for d in spec["drives"] for x in spec["state"])
+    first = columns["step"] == 0
+    assert np.all(np.diff(columns["phase"][first]) > 0)
+    # the stance foot pressed on the ground all step, within the blend's friction cone
+    force_y = columns["ground_force_right_y_N"][first]
+    force_x = columns["ground_force_right_x_N"][first]
+    assert np.all(force_y > 0.0)
+    assert np.all(np.abs(force_x) <= library.gaits[0].settings["mu"] * force_y)

@@ -23,11 +23,13 @@ from __future__ import annotations
 import itertools
 import json
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from model.dynamics import Dynamics
 from model.linkage import Linkage
 from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import DefinitionError, check_real
@@ -93,6 +95,11 @@ class GaitLibrary:
             raise DefinitionError(f"`gaits`: one or more, by strictly increasing speed, got "
                                   f"{speeds}")  # fmt: skip
 
+    @cached_property
+    def dynamics(self) -> Dynamics:
+        """The linkage's model (built once)."""
+        return Dynamics(self.linkage)
+
     @property
     def speeds(self) -> np.ndarray:
         return np.array([g.speed for g in self.gaits])
@@ -131,9 +138,12 @@ class GaitLibrary:
         settings = dict(a.settings)
         settings["step_length"] = (1.0 - w) * a.step_length + w * b.step_length
         settings["step_time"] = T
+        # the ground's force on the stance foot, of the blended motion (Newton on the whole
+        # body: what a joint-space file and the verification read)
+        force = self.dynamics.ground_reaction(blend["psi"], blend["dpsi"], blend["ddpsi"])
         trajectory = LinkageTrajectory.from_linkage(
             times, blend["psi"], blend["dpsi"], blend["torques"], self.linkage.names,
-            ddpsi=blend["ddpsi"],
+            ddpsi=blend["ddpsi"], ground_reaction=np.asarray(force),
             metadata={"gait": settings, "model": self.linkage.parameters(),
                       "library": {"speed": float(speed), "between": [a.speed, b.speed],
                                   "weight": w}},
