@@ -51,6 +51,17 @@ RESIDUAL_QUADRATURE_POINTS = 12
 MOTIONS = ("consistent", "transcription")
 
 
+def uniform_times(duration: float, rate_hz: float) -> np.ndarray:
+    """The export grid of a motion lasting ``duration`` s: 0, 1/rate_hz, 2/rate_hz, ... and
+    ``duration`` itself at the end when it is not on that grid (s, (K,))."""
+    rate = check_positive("rate_hz", rate_hz, "Hz")
+    count = int(np.floor(duration * rate + 1e-9))
+    times = np.arange(count + 1) / rate
+    if duration - times[-1] > 1e-9 * duration:
+        times = np.append(times, duration)
+    return times
+
+
 @dataclass(frozen=True)
 class IntegrationError:
     """Per-interval error estimates.
@@ -701,15 +712,10 @@ class Solution:
         }
 
     def sample_times(self, rate_hz: float | None = None) -> np.ndarray:
-        """The nodes (rate_hz None) or a uniform grid 0, 1/rate, ... with T appended."""
+        """The nodes (rate_hz None) or :func:`uniform_times` of the duration T."""
         if rate_hz is None:
             return self.time
-        rate = check_positive("rate_hz", rate_hz, "Hz")
-        count = int(np.floor(self.T * rate + 1e-9))
-        times = np.arange(count + 1) / rate
-        if self.T - times[-1] > 1e-9 * self.T:
-            times = np.append(times, self.T)
-        return times
+        return uniform_times(self.T, rate_hz)
 
     def to_trajectory(self, rate_hz: float | None = None, motion: str | None = None):
         """The solution as a :class:`planner.trajectory.Trajectory`.

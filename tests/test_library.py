@@ -12,6 +12,7 @@ loop's Floquet multipliers inside the unit circle; warm starts along the grid.
 import numpy as np
 import pytest
 
+from planner.errors import AnthropoidError
 from problems import verify_gait
 from problems.library import GaitLibrary, build_library
 
@@ -91,6 +92,12 @@ def test_a_speed_outside_is_refused(library):
         library.at(1.3)
     with pytest.raises(ValueError, match="strictly increasing"):
         build_library([1.0, 0.9])
+
+
+def test_a_step_that_fails_stops_the_build_naming_its_speed():
+    """1 N m drives cannot walk: IPOPT's failure surfaces, with the library's speed."""
+    with pytest.raises(AnthropoidError, match=r"the library's step at 1 m/s: IPOPT failed"):
+        build_library([1.0], torque_limit=1.0)
 
 
 def test_the_command_writes_the_library_a_controller_loads(tmp_path, capsys):

@@ -34,6 +34,7 @@ from model.linkage import Linkage
 from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import DefinitionError, check_real
 from planner.files import atomic_path
+from planner.solution import uniform_times
 from problems.walking.feedback import with_gains
 from problems.walking.footed import step_at_speed
 from problems.walking.step import walking_step
@@ -128,10 +129,7 @@ class GaitLibrary:
         i, j, w = self.bracket(speed)
         a, b = self.gaits[i], self.gaits[j]
         T = (1.0 - w) * a.step_time + w * b.step_time
-        # the exported files' grid: every 1 / rate_hz from 0, and T itself at the end
-        times = np.arange(0.0, T, 1.0 / self.rate_hz)
-        times = times if T - times[-1] < 1e-9 else np.r_[times, T]
-        times[-1] = T
+        times = uniform_times(T, self.rate_hz)  # the exported files' grid
         tau = times / T
         left, right = a.on_grid(tau), b.on_grid(tau)
         blend = {name: (1.0 - w) * left[name] + w * right[name] for name in left}

@@ -60,6 +60,7 @@ from problems.robot.controller import (
     joint_maps,
     specification,
 )
+from problems.walking.feedback import gains_from
 
 SCHEMA = "anthropoid-planner joint space"
 VERSION = 1
@@ -243,7 +244,7 @@ class _StepColumns:
         ahead = ahead + (linkage.links[0].origin or 0j).real
         phase = (ahead - ahead[0]) / (ahead[-1] - ahead[0])
         gains = None
-        model_gains = _model_gains(trajectory, names)
+        model_gains = gains_from(trajectory, names)
         if model_gains is not None:
             m = len(keys)
             full = np.zeros((size, len(all_drives), 2 * m))
@@ -299,18 +300,6 @@ class _StepColumns:
                     unit = "N m/rad" if j < m else "N m s/rad"
                     out[f"K_{drive}__{state}"] = (self.gains[:, r, j], unit)
         return out
-
-
-def _model_gains(trajectory, names) -> np.ndarray | None:
-    """The model file's K (K, n, 2n) from its K_<hinge>__<state> columns, or None."""
-    extras = trajectory.extras
-    n = len(names)
-    states = [f"psi_{name}" for name in names] + [f"dpsi_{name}" for name in names]
-    wanted = [f"K_{hinge}__{state}" for hinge in names for state in states]
-    if not all(name in extras for name in wanted):
-        return None
-    values = np.column_stack([np.asarray(extras[name][0], dtype=float) for name in wanted])
-    return values.reshape(-1, n, 2 * n)
 
 
 def _encoders_in_file_terms(metadata, robot, step: _StepColumns, sides, columns) -> None:

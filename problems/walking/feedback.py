@@ -191,6 +191,20 @@ def with_gains(trajectory: Trajectory, names, phases, gains, law: dict) -> Traje
     )
 
 
+def gains_from(trajectory: Trajectory, names) -> np.ndarray | None:
+    """The gains (K, n, 2n) that :func:`with_gains` wrote into ``trajectory``'s columns
+    ``K_<hinge>__<state>`` (hinges and states in the order of ``names``), or None when it
+    has none of them."""
+    n = len(names)
+    states = [f"psi_{name}" for name in names] + [f"dpsi_{name}" for name in names]
+    wanted = [f"K_{hinge}__{state}" for hinge in names for state in states]
+    extras = trajectory.extras
+    if not all(name in extras for name in wanted):
+        return None
+    values = np.column_stack([np.asarray(extras[name][0], dtype=float) for name in wanted])
+    return values.reshape(-1, n, 2 * n)
+
+
 def design_feedback(
     gait,
     *,
