@@ -26,6 +26,7 @@ from planner.trajectory import FORMATS as TRAJECTORY_FORMATS
 from problems.cli.output_set import OutputFolderError, OutputSet
 from problems.gait.accuracy import ACCURACY_PRESETS
 from problems.gait.law import LAW_PRESETS, GaitLaw
+from problems.gait.verification import verify_gait
 from problems.robot import joint_space
 
 #: The help of --preset, for every command that takes one.
@@ -413,6 +414,23 @@ def with_robot(profile, args):
     if walker is None:
         return profile
     return profile.with_metadata(robot=walker.metadata(str(args.urdf)))
+
+
+def write_step_files(gait, channels, output, args, report):
+    """A planned step's files, staged in ``output``: torques.csv and .json at --rate-hz
+    (``channels``: the feedback's columns added, or None; the robot of --urdf in the
+    metadata), solution.npz (the nodes), torques.csv read back and verified (numpy,
+    independent of the planner). Returns (the profile written, its check, torques.csv)."""
+    with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
+        profile = gait.to_trajectory(args.rate_hz)
+        if channels is not None:
+            profile = channels(profile)
+        profile = with_robot(profile, args)
+        written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
+        save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
+    with report.working("verifying torques.csv (numpy, independent of the planner)"):
+        check = verify_gait(LinkageTrajectory.load(written[0]), gait.problem.linkage)
+    return profile, check, written[0]
 
 
 def write_joint_space(torques_csv: Path, output, legs: tuple[str, str], out) -> None:

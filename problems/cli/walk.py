@@ -10,7 +10,6 @@ import warnings
 from pathlib import Path
 from typing import TextIO
 
-from model import LinkageTrajectory
 from planner.accuracy_check import AccuracyWarning
 from planner.sampled_limits import SampleLimitError
 from planner.schemes import DEFAULT_TRANSCRIPTION, TRANSCRIPTIONS, WITH_DEGREE
@@ -35,16 +34,14 @@ from problems.cli.common import (
     print_runs,
     print_verification,
     sample_grid,
-    save_trajectory,
-    with_robot,
     write_joint_space,
+    write_step_files,
     write_walk_pictures,
 )
 from problems.cli.study import DEFAULT_DEGREES, DEGREES, count_at_most, positive_count
 from problems.cli.walk_feet import run_feet
 from problems.gait.accuracy import ACCURACY_PRESETS
 from problems.gait.problem import WORK_REGULARISATION
-from problems.gait.verification import verify_gait
 from problems.walking.footed import SEQUENCES
 from problems.walking.step import WALKING_DEFAULTS, walking_step
 
@@ -71,6 +68,14 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
             "the verification fails."
         ),
     )
+    _add_body_options(walk)
+    _add_step_options(walk)
+    _add_mesh_options(walk)
+    _add_output_options(walk)
+
+
+def _add_body_options(walk: argparse.ArgumentParser) -> None:
+    """walk's options of the walker: a preset or a robot's URDF/MJCF, its feet's contact phases."""
     walk.add_argument("--preset", default="six-link", metavar="NAME",
                       help="biped preset: six-link or five-link (point feet), or six-link-feet "
                       "(feet with heel and ball: flat foot, heel rise, heel strike, double "
@@ -81,20 +86,34 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
                       "rise: the stance foot flat until toe-off), toe-walking (on the balls of "
                       "the feet, the swing ball striking) (default: human)")  # fmt: skip
     walk.add_argument(
-        "--step-length-m",
-        type=positive("m", 2.0),
-        default=WALKING_DEFAULTS["step_length"],
-        metavar="S",
-        help="distance between the feet at heel strike, m (default: "
-        f"{WALKING_DEFAULTS['step_length']:g})",
+        "--urdf",
+        type=Path,
+        metavar="PATH",
+        help="plan the robot of this URDF instead of a preset: its sagittal legs and trunk "
+        "(hinges about y; the legs hang from one link and are named right/left or r_/l_), "
+        "on feet when its legs have feet with heel and toe frames, else on point feet; "
+        "joints.csv names each drive's URDF joint and its encoder's sign and zero",
     )
     walk.add_argument(
-        "--step-time-s",
-        type=positive("s", 10.0),
-        default=WALKING_DEFAULTS["step_time"],
-        metavar="T",
-        help=f"duration of one step, s (default: {WALKING_DEFAULTS['step_time']:g})",
+        "--lock",
+        type=lambda text: tuple(j.strip() for j in text.split(",") if j.strip()),
+        default=(),
+        metavar="J1,J2",
+        help="with --urdf, joints held at their zero and merged (a hip's roll and yaw, a "
+        "waist, the arms)",
     )
+    walk.add_argument(
+        "--sole",
+        type=lambda text: tuple(float(v) for v in text.split(",")),
+        metavar="HEEL_X,TOE_X,Z",
+        help="with --urdf, the feet's heel and toe, m from the ankle in the robot's zero pose "
+        "(x forward, z up), for feet without heel and toe frames (read off the sole's "
+        "collision box)",
+    )
+
+
+def _add_mesh_options(walk: argparse.ArgumentParser) -> None:
+    """walk's options of the transcription and its mesh."""
     walk.add_argument(
         "--transcription",
         default=None,
@@ -123,6 +142,33 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         default=WALKING_DEFAULTS["formulation"],
         choices=("implicit", "explicit"),
         help="implicit: accelerations are variables (default); explicit: forward dynamics",
+    )
+    walk.add_argument(
+        "--compiled",
+        action="store_true",
+        help="compile the NLP's functions to native code with the system's C compiler (about "
+        "10 s per structure the first time; kept in a disk cache, so later runs of the same "
+        "step solve faster: see planner.native_nlp); without it a compiled structure is "
+        "used when the cache holds it",
+    )
+
+
+def _add_step_options(walk: argparse.ArgumentParser) -> None:
+    """walk's options of the step: its length and time, friction, limits, feet, objective."""
+    walk.add_argument(
+        "--step-length-m",
+        type=positive("m", 2.0),
+        default=WALKING_DEFAULTS["step_length"],
+        metavar="S",
+        help="distance between the feet at heel strike, m (default: "
+        f"{WALKING_DEFAULTS['step_length']:g})",
+    )
+    walk.add_argument(
+        "--step-time-s",
+        type=positive("s", 10.0),
+        default=WALKING_DEFAULTS["step_time"],
+        metavar="T",
+        help=f"duration of one step, s (default: {WALKING_DEFAULTS['step_time']:g})",
     )
     walk.add_argument("--mu", type=positive("(friction coefficient)", 10.0),
                       default=WALKING_DEFAULTS["mu"],
@@ -197,6 +243,10 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         "joints' strength-normalised effort with passive moments (problems.human.effort; "
         "with --preset six-link-feet: torque or human)",
     )
+
+
+def _add_output_options(walk: argparse.ArgumentParser) -> None:
+    """walk's options of the files, pictures and feedback."""
     walk.add_argument(
         "--rate-hz",
         type=positive("Hz", 1e5),
@@ -245,40 +295,7 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         "plan runs along its own cone, --mu, right after heel strike, so the feedback needs a "
         "little more)",
     )
-    walk.add_argument(
-        "--compiled",
-        action="store_true",
-        help="compile the NLP's functions to native code with the system's C compiler (about "
-        "10 s per structure the first time; kept in a disk cache, so later runs of the same "
-        "step solve faster: see planner.native_nlp); without it a compiled structure is "
-        "used when the cache holds it",
-    )
     walk.add_argument("--no-plots", action="store_true", help="write no PNG or GIF")
-    walk.add_argument(
-        "--urdf",
-        type=Path,
-        metavar="PATH",
-        help="plan the robot of this URDF instead of a preset: its sagittal legs and trunk "
-        "(hinges about y; the legs hang from one link and are named right/left or r_/l_), "
-        "on feet when its legs have feet with heel and toe frames, else on point feet; "
-        "joints.csv names each drive's URDF joint and its encoder's sign and zero",
-    )
-    walk.add_argument(
-        "--lock",
-        type=lambda text: tuple(j.strip() for j in text.split(",") if j.strip()),
-        default=(),
-        metavar="J1,J2",
-        help="with --urdf, joints held at their zero and merged (a hip's roll and yaw, a "
-        "waist, the arms)",
-    )
-    walk.add_argument(
-        "--sole",
-        type=lambda text: tuple(float(v) for v in text.split(",")),
-        metavar="HEEL_X,TOE_X,Z",
-        help="with --urdf, the feet's heel and toe, m from the ankle in the robot's zero pose "
-        "(x forward, z up), for feet without heel and toe frames (read off the sole's "
-        "collision box)",
-    )
     walk.add_argument("--no-gif", action="store_true", help="write the PNGs but no GIF")
     walk.add_argument(
         "--quick",
@@ -307,16 +324,9 @@ def run(args, out: TextIO, report: Reporter) -> int:
         with report.working("designing the feedback (a periodic LQR through the step's events)"):
             feedback = design_feedback(gait, ground_mu=args.ground_friction)
     with output:
-        with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
-            profile = gait.to_trajectory(args.rate_hz)
-            if feedback is not None:
-                profile = feedback.channels(profile)
-            profile = with_robot(profile, args)
-            written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
-            save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
-        with report.working("verifying torques.csv (numpy, independent of the planner)"):
-            check = verify_gait(LinkageTrajectory.load(written[0]), linkage)
-        write_joint_space(written[0], output, args.legs, out)
+        channels = None if feedback is None else feedback.channels
+        profile, check, torques_csv = write_step_files(gait, channels, output, args, report)
+        write_joint_space(torques_csv, output, args.legs, out)
         dynamics = check.facts.get("dynamics residual", math.nan)
         print(
             f"torques.csv: {sample_grid(profile.time, args.rate_hz, phase_starts(profile))} "

@@ -17,7 +17,6 @@ import time
 import warnings
 from typing import TextIO
 
-from model import LinkageTrajectory
 from planner.accuracy_check import AccuracyWarning
 from planner.sampled_limits import SampleLimitError
 from problems.cli.common import (
@@ -31,12 +30,10 @@ from problems.cli.common import (
     print_mujoco_runs,
     print_verification,
     sample_grid,
-    save_trajectory,
-    with_robot,
     write_joint_space,
+    write_step_files,
     write_walk_pictures,
 )
-from problems.gait.verification import verify_gait
 from problems.walking.footed import footed_step
 from problems.walking.step import WALKING_DEFAULTS
 
@@ -214,16 +211,9 @@ def _write_files(gait, law, output, args, report, out: TextIO) -> None:
     """torques.csv and .json (with the law's channels), solution.npz, the file read back and
     verified (raises when it fails), joints.csv."""
     step = gait.problem
-    with report.working(f"writing torques at {args.rate_hz:g} Hz and the solution"):
-        profile = gait.to_trajectory(args.rate_hz)
-        if law is not None:
-            profile = law.channels(profile)
-        profile = with_robot(profile, args)
-        written = save_trajectory(profile, output.staging, "torques", ("csv", "json"))
-        save_trajectory(gait.to_trajectory(), output.staging, "solution", ("npz",))
-    with report.working("verifying torques.csv (numpy, independent of the planner)"):
-        check = verify_gait(LinkageTrajectory.load(written[0]), step.linkage)
-    write_joint_space(written[0], output, args.legs, out)
+    channels = None if law is None else law.channels
+    profile, check, torques_csv = write_step_files(gait, channels, output, args, report)
+    write_joint_space(torques_csv, output, args.legs, out)
     root = step.linkage.names[0]
     print(
         f"torques.csv: {sample_grid(profile.time, args.rate_hz, phase_starts(profile))}; "
