@@ -264,3 +264,21 @@ def test_feet_outlines_must_match_between_the_legs(step):
     with pytest.raises(DefinitionError, match="'stance_foot' and 'swing_foot' are one body"):
         world_motion(step.biped, step.dynamics, [0.0, 0.1], states, [0, 1], [0j, 0.5, 1.0],
                      {"stance_foot": (step.points["stance_heel"],)})  # fmt: skip
+
+
+def test_per_drive_limits_are_checked_by_name():
+    """torque_limit per drive: every link but the root (the ground's torque), each > 0."""
+    drives = presets.anthropoid_with_feet().names[1:]
+    limits = dict.fromkeys(drives, 100.0)
+    step = footed_step(torque_limit={**limits, "swing_foot": 30.0}, hip_limit=120.0)
+    assert step.limits["swing_foot"] == 30.0 and step.torque_limit == 100.0
+    assert step.settings()["torque_limit"]["stance_shank"] == 100.0
+    assert step.settings()["hip_limit"] == 120.0
+    with pytest.raises(ValueError, match=r"`torque_limit`: unknown links \['stance_foot'\]"):
+        footed_step(torque_limit={**limits, "stance_foot": 10.0})
+    with pytest.raises(ValueError, match=r"give a limit for every link, missing \['head'\]"):
+        footed_step(torque_limit={k: v for k, v in limits.items() if k != "head"})
+    with pytest.raises(ValueError, match=r"`torque_limit`: must be > 0 N m, got -1.0 for 'head'"):
+        footed_step(torque_limit={**limits, "head": -1.0})
+    with pytest.raises(ValueError, match="`hip_limit`"):
+        footed_step(hip_limit=0.0)

@@ -253,9 +253,10 @@ def objective_integrand(linkage: Linkage, objective: str, torque_limit: float = 
     return positive_work
 
 
-def torque_limits(linkage: Linkage, torque_limit) -> dict[str, float]:
-    """|M_i| bounds, N m, per link name, from one number or a mapping over every link."""
-    names = linkage.names
+def torque_limits(linkage: Linkage, torque_limit, links=None) -> dict[str, float]:
+    """|M_i| bounds, N m, per link name, from one number or a mapping over every link of
+    ``links`` (default all; a walker on feet: its drives, the root's torque the ground's)."""
+    names = linkage.names if links is None else tuple(links)
     if isinstance(torque_limit, Mapping):
         unknown = [k for k in torque_limit if k not in names]
         if unknown:

@@ -478,6 +478,26 @@ def _impact_instants(settings, trajectory) -> np.ndarray:
     return np.array([float(e["t"]) for e in events])
 
 
+def _verify_drives(add, linkage, settings, torques, passive_links, allowed: float,
+                   scale: float) -> None:  # fmt: skip
+    """Passive joints (``passive_links``, within ``allowed`` N m: what the motion may need of
+    a joint without a drive), the hinges' torque bounds and the physical stance hip's."""
+    limits = settings.get("torque_limit")
+    if passive_links:
+        add("passive joints", allowed - np.abs(torques[:, passive_links]), "N m", scale)
+    if limits:
+        # a hinge without a limit (a footed walker's root: the ground's torque) is unbounded
+        limit = np.array([float(limits.get(name, np.inf)) for name in linkage.names])
+        add("torque bounds", limit[None, :] - np.abs(torques), "N m", scale)
+    if settings.get("hip_limit") is not None:
+        # the physical stance hip: the drive between the trunk and the stance thigh, the
+        # trunk's hinge and every other hinge at the stance thigh's end (the swing thigh)
+        thigh = linkage.index(Biped.of(linkage).stance_leg[-1])
+        at_hip = [i for i, parent in enumerate(linkage.parents) if parent == thigh]
+        hip = np.sum(torques[:, at_hip], axis=1)
+        add("stance hip", float(settings["hip_limit"]) - np.abs(hip), "N m", scale)
+
+
 def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, facts) -> None:
     """What every gait must obey at every sample, whatever its OCP held: the duration, the
     kinematics, the equations of motion, passive joints, torque bounds, the ground, the
@@ -551,21 +571,7 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
     facts["dynamics residual"] = float(np.max(np.abs(gap)))
     add("dynamics", -np.abs(gap), "N m", scale)
     passive_links = [linkage.index(name) for name in settings.get("passive") or ()]
-    limits = settings.get("torque_limit")
-    if passive_links:
-        allowed = passive * scale  # what the motion may need of a joint without a drive
-        add("passive joints", allowed - np.abs(torques[:, passive_links]), "N m", scale)
-    if limits:
-        # a hinge without a limit (a footed walker's root: the ground's torque) is unbounded
-        limit = np.array([float(limits.get(name, np.inf)) for name in linkage.names])
-        add("torque bounds", limit[None, :] - np.abs(torques), "N m", scale)
-    if settings.get("hip_limit") is not None:
-        # the physical stance hip: the drive between the trunk and the stance thigh, the
-        # trunk's hinge and every other hinge at the stance thigh's end (the swing thigh)
-        thigh = linkage.index(Biped.of(linkage).stance_leg[-1])
-        at_hip = [i for i, parent in enumerate(linkage.parents) if parent == thigh]
-        hip = np.sum(torques[:, at_hip], axis=1)
-        add("stance hip", float(settings["hip_limit"]) - np.abs(hip), "N m", scale)
+    _verify_drives(add, linkage, settings, torques, passive_links, passive * scale, scale)
     # The ground: every point of the body that is not a contact stays above it.
     margin = float(settings.get("ground_margin") or 0.0)
     foot_link = settings.get("swing_foot")

@@ -82,6 +82,7 @@ from problems.gait.problem import (
     objective_at_guess,
     rate_scales,
     solve_and_hold,
+    torque_limits,
     verified,
 )
 from problems.gait.similarity import WalkerScales
@@ -415,6 +416,8 @@ def footed_step(
         :func:`problems.walking_step` (None: the defaults scaled with the walker, the leg being
         shank and thigh: 0.05 m, 0.3 m/s and 0.03 s for 0.86 m legs under 9.81 m/s^2;
         :mod:`problems.gait.similarity`).
+    torque_limit : one number, N m, or one per drive {link: N m} (every link but the root:
+        the stance foot's torque is the ground's, bounded by its sole).
     ankle_range : (dorsiflexion, plantarflexion) limits from the neutral stance, rad.
     durations : each phase's duration, s, summing to step_time, to fix them; None: free
         within :data:`SHARE_BOUNDS` of the step time.
@@ -444,20 +447,8 @@ def footed_step(
     step_time = check_positive("step_time", step_time, "s")
     mu = check_positive("mu", mu, "(friction coefficient)")
     hinge_limits = None
-    if isinstance(torque_limit, Mapping):
-        drives = [name for name in linkage.names[1:]]
-        unknown = [k for k in torque_limit if k not in drives]
-        if unknown:
-            raise DefinitionError(
-                f"`torque_limit`: no drive {unknown} (the drives: {drives}; the root "
-                f"{linkage.names[0]!r} is the ground's torque)"
-            )
-        hinge_limits = {k: check_positive(f"torque_limit[{k}]", v, "N m")
-                        for k, v in torque_limit.items()}  # fmt: skip
-        missing = [k for k in drives if k not in hinge_limits]
-        if missing:
-            raise DefinitionError(f"`torque_limit`: give every drive's limit, missing {missing}; "
-                                  "or one number for all")  # fmt: skip
+    if isinstance(torque_limit, Mapping):  # one per drive: the root's torque is the ground's
+        hinge_limits = torque_limits(linkage, torque_limit, links=linkage.names[1:])
         torque_limit = max(hinge_limits.values())
     torque_limit = check_positive("torque_limit", torque_limit, "N m")
     scales = WalkerScales(math.fsum(biped.length(n) for n in biped.stance_leg[1:]),
