@@ -107,7 +107,7 @@ def body_of(linkage: Linkage, neutral_ankles: Sequence[float] | None = None) -> 
     )
 
 
-def _wrapped(angle: np.ndarray) -> np.ndarray:
+def wrapped(angle: np.ndarray) -> np.ndarray:
     """Into (-pi, pi]."""
     return np.pi - np.mod(np.pi - angle, 2 * np.pi)
 
@@ -138,7 +138,7 @@ def leg_angles(body: Body, leg: Leg, psi: Mapping[str, np.ndarray]) -> dict[str,
     (:func:`joint_radians`)."""
     shape = np.shape(psi[leg.shank])
     return {
-        name: np.full(shape, np.nan) if value is None else np.degrees(_wrapped(value))
+        name: np.full(shape, np.nan) if value is None else np.degrees(wrapped(value))
         for name, value in joint_radians(body, leg, psi).items()
     }
 

@@ -51,7 +51,7 @@ from planner.errors import DefinitionError, DefinitionTypeError
 from planner.files import write_text_atomically
 from planner.trajectory import Trajectory
 from problems.gait.biped import Biped
-from problems.human.joints import Body, body_of
+from problems.human.joints import Body, body_of, wrapped
 from problems.human.stride import foot_forces, strike_time
 from problems.robot.controller import (
     SWING_ANKLE_KD,
@@ -123,19 +123,7 @@ def joint_space(
         raise DefinitionError(f"`steps`: an integer >= 1 (2 = one stride), got {steps!r}")
     trajectory, settings, linkage = _model(trajectory)
     robot = (trajectory.metadata or {}).get("robot")
-    if sides is None:
-        sides = tuple(robot["sides"]) if robot else ("right", "left")
-    if (not isinstance(sides, tuple | list) or len(sides) != 2 or sides[0] == sides[1]
-            or not all(isinstance(s, str) and s.isidentifier() for s in sides)):  # fmt: skip
-        raise DefinitionError(
-            f"`sides`: two different names for the legs (letters, digits, _), the first in "
-            f"stance in step 0, got {sides!r}"
-        )
-    if robot and tuple(sides) != tuple(robot["sides"]):
-        raise DefinitionError(
-            f"`sides`: the plan is of a robot whose {robot['sides'][0]} leg is in stance in the "
-            f"planned step; give sides={tuple(robot['sides'])!r} (or None), got {sides!r}"
-        )
+    sides = _checked_sides(sides, robot)
     body = body_of(linkage, settings.get("neutral_ankles"))
     time = np.asarray(trajectory.time, dtype=float) - float(trajectory.time[0])
     T = float(time[-1])
@@ -183,6 +171,44 @@ def joint_space(
     return JointSpace(joined, units, metadata)
 
 
+def _foot_columns(trajectory, root: str, feet: bool, in_double: np.ndarray) -> dict:
+    """Each foot's columns by role {"stance" | "swing": {name with "{side}": (values,
+    unit)}}: its contact, the ground's force on it and (feet) the ground's torque on a flat
+    stance foot (the root's hinge torque: no drive)."""
+    rear, front = foot_forces(trajectory, root)
+    size = rear.shape[0]
+    out = {}
+    for role, force, contact in (("stance", rear, np.ones(size)),
+                                 ("swing", front, in_double.astype(float))):  # fmt: skip
+        columns = {"contact_{side}": (contact, ""),
+                   "ground_force_{side}_x_N": (force.real, "N"),
+                   "ground_force_{side}_y_N": (force.imag, "N")}  # fmt: skip
+        if feet:
+            ground = np.asarray(trajectory.torques)[:, 0] if role == "stance" else np.zeros(size)
+            columns["ground_torque_{side}_N_m"] = (ground, "N m")
+        out[role] = columns
+    return out
+
+
+def _checked_sides(sides, robot) -> tuple[str, str]:
+    """``sides`` (None: the robot's, or right, left), refused by name when they are not two
+    different names or not the robot's."""
+    if sides is None:
+        sides = tuple(robot["sides"]) if robot else ("right", "left")
+    if (not isinstance(sides, tuple | list) or len(sides) != 2 or sides[0] == sides[1]
+            or not all(isinstance(s, str) and s.isidentifier() for s in sides)):  # fmt: skip
+        raise DefinitionError(
+            f"`sides`: two different names for the legs (letters, digits, _), the first in "
+            f"stance in step 0, got {sides!r}"
+        )
+    if robot and tuple(sides) != tuple(robot["sides"]):
+        raise DefinitionError(
+            f"`sides`: the plan is of a robot whose {robot['sides'][0]} leg is in stance in the "
+            f"planned step; give sides={tuple(robot['sides'])!r} (or None), got {sides!r}"
+        )
+    return tuple(sides)
+
+
 def _rate(time: np.ndarray) -> float:
     """The samples' rate, Hz (the median step: a phase's last step may be shorter)."""
     return float(round(1.0 / float(np.median(np.diff(time))), 6))
@@ -227,18 +253,8 @@ class _StepColumns:
         tau = np.zeros((psi.shape[0], len(all_drives)))
         for r, key in enumerate(drives):
             tau[:, all_drives.index(key)] = torques @ D[r]
-        rear, front = foot_forces(trajectory, names[0])
         size = psi.shape[0]
-        feet = {}
-        for role, force, contact in (("stance", rear, np.ones(size)),
-                                     ("swing", front, in_double.astype(float))):  # fmt: skip
-            columns = {"contact_{side}": (contact, ""),
-                       "ground_force_{side}_x_N": (force.real, "N"),
-                       "ground_force_{side}_y_N": (force.imag, "N")}  # fmt: skip
-            if body.stance.foot is not None:
-                ground = torques[:, 0] if role == "stance" else np.zeros(size)
-                columns["ground_torque_{side}_N_m"] = (ground, "N m")
-            feet[role] = columns
+        feet = _foot_columns(trajectory, names[0], body.stance.foot is not None, in_double)
         levers = LinkPoint(body.stance.thigh, 1.0).levers(linkage)
         ahead = sum((lever * np.exp(1j * psi[:, k])).real for k, lever in levers)
         ahead = ahead + (linkage.links[0].origin or 0j).real
@@ -246,14 +262,12 @@ class _StepColumns:
         gains = None
         model_gains = gains_from(trajectory, names)
         if model_gains is not None:
-            m = len(keys)
-            full = np.zeros((size, len(all_drives), 2 * m))
+            gains = np.zeros((size, len(all_drives), 2 * len(keys)))
             rows = [all_drives.index(key) for key in drives]
-            full[:, rows, :] = joint_gains(model_gains, A, basis, D)
+            gains[:, rows, :] = joint_gains(model_gains, A, basis, D)
             if "swing_ankle" in keys and body.swing.foot is None:  # the level sole's PD
                 r, i = all_drives.index("swing_ankle"), keys.index("swing_ankle")
-                full[:, r, i], full[:, r, m + i] = SWING_ANKLE_KP, SWING_ANKLE_KD
-            gains = full
+                gains[:, r, i], gains[:, r, len(keys) + i] = SWING_ANKLE_KP, SWING_ANKLE_KD
         return cls(keys, all_drives, psi @ A.T + b, dpsi @ A.T, ddpsi @ A.T, tau, feet, phase,
                    (float(ahead[0]), float(ahead[-1])), gains, head, (A, b, planned))  # fmt: skip
 
@@ -332,7 +346,7 @@ def _encoders_in_file_terms(metadata, robot, step: _StepColumns, sides, columns)
                 f"the robot's encoder of {key} ({robot['joints'][lookup]}) is not the file's "
                 f"joint {key} in another sense: read the plan with its sidecar"
             )
-        offset = float(math.pi - (math.pi - (-sense * zero - sign * b[row])) % (2 * math.pi))
+        offset = float(wrapped(-sense * zero - sign * b[row]))
         entry["urdf_joint"] = robot["joints"][lookup]
         entry["urdf_sign"] = sign
         entry["urdf_zero_rad"] = offset

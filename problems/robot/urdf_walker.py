@@ -39,7 +39,7 @@ import math
 import re
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +50,7 @@ from model.mjcf_in import mjcf_to_urdf
 from model.points import LinkPoint
 from model.urdf import UrdfLinkage, from_urdf
 from planner.errors import DefinitionError
+from problems.human.joints import wrapped
 
 #: a side's name guessed from a thigh link's name
 _SIDE_PATTERNS = (("right", re.compile(r"(^|[^a-z])(right|r)([^a-z]|$)", re.I)),
@@ -101,9 +102,8 @@ class UrdfWalker:
         on feet (the ground's torque) is left out."""
 
         def effort(joint: str) -> float:
-            values = [self.limits.get(f"{side}_{joint}", {}).get("effort") for side in self.sides]
-            values = [v for v in values if v is not None]
-            return min(values) if values else float(default)
+            value = self._effort(joint)
+            return float(default) if value is None else value
 
         names = self.linkage.names
         roles = {"stance_shank": "ankle", "stance_thigh": "knee", "swing_thigh": "hip",
@@ -146,7 +146,12 @@ class UrdfWalker:
     def hip_limit(self) -> float | None:
         """The hips' URDF effort (the smaller side's), N m, or None: the bound of the
         physical stance hip (``walking_step(hip_limit=...)``)."""
-        values = [self.limits.get(f"{side}_hip", {}).get("effort") for side in self.sides]
+        return self._effort("hip")
+
+    def _effort(self, joint: str) -> float | None:
+        """The smaller of the two sides' URDF efforts of ``joint`` (the legs swap every step),
+        N m, or None when neither side gives one."""
+        values = [self.limits.get(f"{side}_{joint}", {}).get("effort") for side in self.sides]
         values = [v for v in values if v is not None]
         return min(values) if values else None
 
@@ -172,7 +177,11 @@ def read_urdf_walker(path: str | Path, **options) -> UrdfWalker:
         text = path.read_text(encoding="utf-8")
     except OSError as error:
         raise DefinitionError(f"`urdf`: cannot read {str(path)!r} ({error.strerror})") from None
-    if text.lstrip().startswith("<mujoco") or "\n<mujoco" in text[:2000]:
+    try:
+        root = ET.fromstring(text).tag
+    except ET.ParseError as error:
+        raise DefinitionError(f"`urdf`: {str(path)!r} is not XML ({error})") from None
+    if root == "mujoco":
         text = mjcf_to_urdf(text)
     return walker_from_urdf(text, **options)
 
@@ -196,13 +205,27 @@ def _geometry(robot: UrdfLinkage) -> dict[str, tuple[complex, complex, complex]]
     return out
 
 
-def _described(name: str, parent: str | None, source: Link, start: complex, end: complex,
-               com: complex, origin: complex | None = None) -> Link:  # fmt: skip
-    """``source``'s rigid body as a link from ``start`` to ``end`` (zero-pose points)."""
-    vector = end - start
-    local = (com - start) / vector
-    return Link(name, parent, abs(vector), source.mass, local.real, source.inertia, local.imag,
-                origin=origin, rerooted=not 0.0 <= local.real <= 1.0)  # fmt: skip
+@dataclass
+class _Plan:
+    """The walking tree as it is described: its links in order, each one's angle at the
+    robot's zero pose (``zero``, rad) and the URDF link each one is (``plan_of`` {URDF link:
+    plan link})."""
+
+    links: list = field(default_factory=list)
+    zero: dict = field(default_factory=dict)
+    plan_of: dict = field(default_factory=dict)
+
+    def describe(self, name: str, parent: str | None, source: Link, start: complex,
+                 end: complex, com: complex) -> None:  # fmt: skip
+        """``source``'s rigid body as the link ``name`` from ``start`` to ``end`` (zero-pose
+        points x + j z), its centre of mass at ``com``."""
+        vector = end - start
+        local = (com - start) / vector
+        self.links.append(Link(name, parent, abs(vector), source.mass, local.real,
+                               source.inertia, local.imag,
+                               rerooted=not 0.0 <= local.real <= 1.0))  # fmt: skip
+        self.zero[name] = cmath.phase(vector)
+        self.plan_of[source.name] = name
 
 
 def _legs(robot: UrdfLinkage, legs: Mapping[str, str] | None) -> tuple[str, dict[str, list[str]]]:
@@ -343,45 +366,60 @@ def walker_from_urdf(
     swing_side = next(s for s in order if s != stance_side)
     geometry = _geometry(robot)
     _mirrored(robot, sides_legs, geometry)
-    source = {link.name: link for link in robot.linkage.links}
     stance, swing = sides_legs[stance_side], sides_legs[swing_side]
-    feet = len(stance) == 3
+    plan = _Plan()
+    points = _legs_described(plan, robot, geometry, stance, swing, sole)
+    hip = geometry[stance[0]][0]
+    far = _upper_body_described(plan, robot, geometry, trunk, hip, set(stance) | set(swing))
+    linkage = Linkage(plan.links, gravity=gravity)
+    joints, encoders = _encoders(robot, linkage, plan, (stance_side, swing_side), (stance, swing))
+    return UrdfWalker(linkage, points, (stance_side, swing_side), joints, encoders, robot,
+                      cmath.phase(far - hip), _limits(text, joints))  # fmt: skip
+
+
+def _legs_described(plan: _Plan, robot, geometry, stance, swing, sole):
+    """The stance leg from the ground up (each link from its end to its start; a foot from
+    its toe mark to the ankle) and the swing leg from the hip down (a foot from the ankle to
+    its toe mark); returns the feet's contacts (feet) or None (point feet)."""
+    source = {link.name: link for link in robot.linkage.links}
     roles = ("thigh", "shank", "foot")
-    built: list[Link] = []
-    points = None
-    # the stance leg from the ground up: each link from its end to its start
+    feet = len(stance) == 3
     if feet:
         heel, toe = _marks(robot, stance[2], sole, geometry)
-        start, _, com = geometry[stance[2]]
-        built.append(_described("stance_foot", None, source[stance[2]], toe, start, com))
-    for k, role in reversed(list(enumerate(roles[:2]))):
+        ankle, _, com = geometry[stance[2]]
+        plan.describe("stance_foot", None, source[stance[2]], toe, ankle, com)
+    for k in (1, 0):
         start, end, com = geometry[stance[k]]
-        parent = built[-1].name if built else None
-        built.append(_described(f"stance_{role}", parent, source[stance[k]], end, start, com))
-    hip = geometry[stance[0]][0]
+        parent = plan.links[-1].name if plan.links else None
+        plan.describe(f"stance_{roles[k]}", parent, source[stance[k]], end, start, com)
     for k, role in enumerate(roles[: len(swing)]):
         start, end, com = geometry[swing[k]]
         parent = "stance_thigh" if k == 0 else f"swing_{roles[k - 1]}"
         if role == "foot":
-            swing_heel, swing_toe = _marks(robot, swing[2], sole, geometry)
-            end = swing_toe
-        built.append(_described(f"swing_{role}", parent, source[swing[k]], start, end, com))
-    if feet:
-        points = {
-            "stance_toe": LinkPoint("stance_foot", 0.0, 0.0, name="stance_toe"),
-            "stance_heel": _point("stance_foot", toe, geometry[stance[2]][0], heel),
-            "swing_heel": _point("swing_foot", geometry[swing[2]][0], swing_toe, swing_heel),
-            "swing_toe": LinkPoint("swing_foot", 1.0, 0.0, name="swing_toe"),
-        }
-    # the upper body: the trunk from the hip, the links above it as they are
+            swing_heel, end = _marks(robot, swing[2], sole, geometry)
+        plan.describe(f"swing_{role}", parent, source[swing[k]], start, end, com)
+    if not feet:
+        return None
+    return {
+        "stance_toe": LinkPoint("stance_foot", 0.0, 0.0, name="stance_toe"),
+        "stance_heel": _point("stance_foot", toe, geometry[stance[2]][0], heel),
+        "swing_heel": _point("swing_foot", geometry[swing[2]][0], end, swing_heel),
+        "swing_toe": LinkPoint("swing_foot", 1.0, 0.0, name="swing_toe"),
+    }
+
+
+def _upper_body_described(plan: _Plan, robot, geometry, trunk: str, hip: complex,
+                          leg_links: set) -> complex:  # fmt: skip
+    """The trunk from the hip to its farthest point (its ends or a frame it carries: a merged
+    torso's head camera, the line a pelvis-rooted humanoid's trunk is drawn and leans by),
+    the links above it as they are (those hinged on the trunk at their points on its new
+    line); returns that farthest point."""
     start, end, com = geometry[trunk]
-    # its line from the hip to its farthest point: its ends or a frame it carries (a merged
-    # torso's head camera: the line a pelvis-rooted humanoid's trunk is drawn and leans by)
     marks = [point for owner, point in robot.frames.values() if owner == trunk]
     far = max((start, end, *marks), key=lambda p: abs(p - hip))
-    built.append(_described(trunk, "stance_thigh", source[trunk], hip, far, com))
-    trunk_turn = cmath.exp(1j * cmath.phase(far - hip))
-    leg_links = set(stance) | set(swing)
+    source = {link.name: link for link in robot.linkage.links}
+    plan.describe(trunk, "stance_thigh", source[trunk], hip, far, com)
+    trunk_turn = cmath.exp(1j * plan.zero[trunk])
     for link in robot.linkage.links:
         if link.name == trunk or link.name in leg_links:
             continue
@@ -392,16 +430,11 @@ def walker_from_urdf(
             )
         if link.parent == trunk:
             where = (geometry[link.name][0] - hip) / trunk_turn
-            built.append(Link(link.name, trunk, link.length, link.mass, link.com, link.inertia,
-                              link.com_lateral, origin=_origin(where, abs(far - hip)),
-                              merged=link.merged, rerooted=link.rerooted))  # fmt: skip
-        else:
-            built.append(link)
-    linkage = Linkage(built, gravity=gravity)
-    joints, encoders = _encoders(robot, linkage, geometry, trunk, stance, swing,
-                                 (stance_side, swing_side), hip, far, sole)  # fmt: skip
-    return UrdfWalker(linkage, points, (stance_side, swing_side), joints, encoders, robot,
-                      cmath.phase(far - hip), _limits(text, joints))  # fmt: skip
+            link = replace(link, origin=None if abs(where - abs(far - hip)) < 1e-12 else where)
+        plan.links.append(link)
+        plan.zero[link.name] = robot.offsets[robot.linkage.index(link.name)]
+        plan.plan_of[link.name] = link.name
+    return far
 
 
 def _limits(text: str, joints: Mapping[str, str]) -> dict[str, dict[str, float]]:
@@ -416,11 +449,6 @@ def _limits(text: str, joints: Mapping[str, str]) -> dict[str, dict[str, float]]
     return out
 
 
-def _origin(where: complex, length: float) -> complex | None:
-    """A child's hinge on the trunk: None at its end (the paper's form)."""
-    return None if abs(where - length) < 1e-12 else where
-
-
 def _point(link: str, start: complex, end: complex, point: complex) -> LinkPoint:
     """``point`` (zero pose) on ``link`` (stance_foot, swing_foot) described from ``start``
     to ``end``, named ``<side>_heel``."""
@@ -428,48 +456,27 @@ def _point(link: str, start: complex, end: complex, point: complex) -> LinkPoint
     return LinkPoint(link, local.real, local.imag, name=link.replace("foot", "heel"))
 
 
-def _encoders(robot, linkage, geometry, trunk, stance, swing, sides, hip, far, sole=None):
-    """Each physical joint's URDF name and encoder in the plan's links (see UrdfWalker)."""
-    zero = {}  # each plan link's angle at the robot's zero pose
-    for role, members, upward in (("stance", stance, True), ("swing", swing, False)):
-        for k, link in enumerate(members):
-            name = f"{role}_{('thigh', 'shank', 'foot')[k]}"
-            start, end, _ = geometry[link]
-            if name.endswith("foot"):
-                end = _marks(robot, link, sole, geometry)[1]
-            zero[name] = cmath.phase(start - end if upward else end - start)
-    zero[trunk] = cmath.phase(far - hip)
-    for link in linkage.links:
-        if link.name not in zero:
-            zero[link.name] = robot.offsets[robot.linkage.index(link.name)]
-    plan_of = {}
-    for role, members in (("stance", stance), ("swing", swing)):
-        for k, link in enumerate(members):
-            plan_of[link] = f"{role}_{('thigh', 'shank', 'foot')[k]}"
-    plan_of[trunk] = trunk
+def _encoders(robot, linkage: Linkage, plan: _Plan, sides, legs):
+    """Each physical joint's URDF name and encoder in the plan's links (see UrdfWalker):
+    the legs' by side and joint, the upper body's by the link they move."""
     joints, encoders = {}, {}
-    robot_names = robot.linkage.names
-    for side, members in zip(sides, (stance, swing), strict=True):
+    names = robot.linkage.names
+
+    def encoder(link: str) -> tuple[str, tuple[str, str, float, float]]:
+        i = names.index(link)
+        child, parent = plan.plan_of[link], plan.plan_of[names[robot.linkage.parents[i]]]
+        zero = float(wrapped(plan.zero[child] - plan.zero[parent]))
+        return robot.joints[i], (parent, child, robot.senses[i], zero)
+
+    for side, members in zip(sides, legs, strict=True):
         for k, link in enumerate(members):
-            i = robot_names.index(link)
-            parent = robot_names[robot.linkage.parents[i]]
-            key = f"{side}_{LEG_JOINTS[k]}"
-            joints[key] = robot.joints[i]
-            child_plan, parent_plan = plan_of[link], plan_of.get(parent, parent)
-            encoders[key] = (parent_plan, child_plan, robot.senses[i],
-                             _wrapped(zero[child_plan] - zero[parent_plan]))  # fmt: skip
+            joints[f"{side}_{LEG_JOINTS[k]}"], encoders[f"{side}_{LEG_JOINTS[k]}"] = encoder(link)
+    legs_and_trunk = {plan.plan_of[link] for members in legs for link in members}
     for link in linkage.links:
-        if link.name in plan_of.values() or link.parent is None:
+        if link.parent is None or link.name in legs_and_trunk or link.parent == "stance_thigh":
             continue
-        i = robot_names.index(link.name)
-        joints[link.name] = robot.joints[i]
-        encoders[link.name] = (link.parent, link.name, robot.senses[i],
-                               _wrapped(zero[link.name] - zero[link.parent]))  # fmt: skip
+        joints[link.name], encoders[link.name] = encoder(link.name)
     return joints, encoders
-
-
-def _wrapped(angle: float) -> float:
-    return math.pi - (math.pi - angle) % (2 * math.pi)
 
 
 def urdf_angles(walker: UrdfWalker, psi: np.ndarray) -> dict[str, np.ndarray]:
@@ -480,7 +487,7 @@ def urdf_angles(walker: UrdfWalker, psi: np.ndarray) -> dict[str, np.ndarray]:
     out = {}
     for key, (parent, child, sense, zero) in walker.encoders.items():
         difference = psi[..., names.index(child)] - psi[..., names.index(parent)] - zero
-        out[walker.joints[key]] = sense * (math.pi - np.mod(math.pi - difference, 2 * math.pi))
+        out[walker.joints[key]] = sense * wrapped(difference)
     return out
 
 
