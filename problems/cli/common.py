@@ -249,6 +249,21 @@ def angles(text: str) -> tuple[float, ...]:
     return values
 
 
+def speeds_option(text: str) -> tuple[float, ...]:
+    """A comma-separated list of speeds, m/s (each a finite number >= 0)."""
+    try:
+        values = tuple(float(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"give speeds in m/s separated by commas, e.g. 0,1.0,1.4,0.6,0; got {text!r}"
+        ) from None
+    if len(values) < 2 or not all(math.isfinite(v) and v >= 0 for v in values):
+        raise argparse.ArgumentTypeError(
+            f"give two or more speeds >= 0 m/s, e.g. 0,1.0,0; got {text!r}"
+        )
+    return values
+
+
 def formats_option(text: str) -> tuple[str, ...]:
     items = tuple(dict.fromkeys(f.strip().lower().lstrip(".") for f in text.split(",") if f))
     unknown = [f for f in items if f not in FORMATS]

@@ -34,6 +34,7 @@ from problems.cli.common import (
     print_runs,
     print_verification,
     sample_grid,
+    speeds_option,
     write_joint_space,
     write_step_files,
     write_walk_pictures,
@@ -162,6 +163,33 @@ def _add_step_options(walk: argparse.ArgumentParser) -> None:
         metavar="S",
         help="distance between the feet at heel strike, m (default: "
         f"{WALKING_DEFAULTS['step_length']:g})",
+    )
+    walk.add_argument(
+        "--speeds",
+        type=speeds_option,
+        default=None,
+        metavar="V0,V1,..",
+        help="plan a walk through these speeds, m/s (0: quiet standing, first or last; e.g. "
+        "0,1.0,1.4,0.6,0): each speed's periodic step, the steps between them (as many as the "
+        "limits need), one file sequence.csv of every step, verified step by step, and "
+        "sequence.png, walk.png, walk.gif; each step's length and time follow its speed "
+        "(0.5 sqrt(v) m in 0.5 sqrt(v) / v s)",
+    )
+    walk.add_argument(
+        "--steps-at-speed",
+        type=positive_count,
+        default=8,
+        metavar="K",
+        help="with --speeds: periodic steps walked at each speed between its transitions "
+        "(default: 8)",
+    )
+    walk.add_argument(
+        "--max-transition-steps",
+        type=positive_count,
+        default=6,
+        metavar="K",
+        help="with --speeds: the most steps a transition may take (default: 6); the fewest "
+        "that solve within the limits and verify are taken",
     )
     walk.add_argument(
         "--step-time-s",
@@ -305,6 +333,10 @@ def _add_output_options(walk: argparse.ArgumentParser) -> None:
 
 
 def run(args, out: TextIO, report: Reporter) -> int:
+    if args.speeds is not None:
+        from problems.cli.walk_sequence import run_sequence
+
+        return run_sequence(args, out, report, _checked_options, step_options)
     args.walker = _robot(args)
     if args.preset == "six-link-feet" or (args.walker is not None and args.walker.feet):
         return run_feet(args, out, report)
@@ -443,6 +475,13 @@ def _checked_options(args):
 
 def _step(args, linkage, mesh, sole):
     """The walking step the options ask for."""
+    options = step_options(args, linkage, mesh, sole)
+    return walking_step(linkage, args.step_length_m, args.step_time_s, **options)
+
+
+def step_options(args, linkage, mesh, sole) -> dict:
+    """walking_step's keyword arguments from the options (all but the step's length and
+    time): the mesh, friction, limits, feet, objective, the robot's ranges."""
     extra = {}
     if sole[0] is not None:
         extra["foot"] = sole
@@ -454,10 +493,7 @@ def _step(args, linkage, mesh, sole):
     if walker is not None:  # the robot's knees and stance hip within their URDF limits
         extra["knee_range"] = walker.joint_range("knee", WALKING_DEFAULTS["knee_range"])
         extra["hip_limit"] = walker.hip_limit()
-    return walking_step(
-        linkage,
-        args.step_length_m,
-        args.step_time_s,
+    return dict(
         **mesh,
         formulation=args.formulation,
         mu=args.mu,

@@ -30,7 +30,11 @@ every gait, at every sample
     (``foot``: -heel Fy <= M <= toe Fy), N m, and its range as a fact of the report;
     ``knees`` and ``posture``, rad;
 walking step (``metadata["gait"]["problem"] == "walking_step"``)
-  * ``periodic angles``: psi(0) = the leg swap of psi(T) (mod 2 pi), rad;
+  * ``periodic angles``: psi(0) = the leg swap of psi(T) (mod 2 pi), rad; a step of a
+    sequence (``next_state``: the next step's first state) checks ``join angles`` instead,
+    and its impact against that state (so a sequence's joins are verified step by step);
+    a step that starts from quiet standing (``start`` "standing") checks ``standing feet``
+    (the swing foot at the stance foot at t = 0, m) and ``standing at rest`` (dpsi(0), rad/s);
   * ``landing``: the swing foot at (step_length, 0) at T, m; ``heel strike``: it comes down
     at ``touchdown_speed`` or faster, m/s;
   * ``impact momentum``: across heel strike, from x(T) before and x(0) (relabelled back)
@@ -753,9 +757,13 @@ def _verify_walking(add, kin: _Kinematics, settings, trajectory, weight) -> None
     swap = swap_legs(linkage)
     foot_link, foot_offset = _foot(kin, settings)
     source = list(swap.source)
+    # The state after heel strike, in the next step's labels: this step's own x(0) when it
+    # repeats (periodic), the next step's first state in a sequence (``next_state``).
+    psi_next, dpsi_next, join = _next_state(settings, psi, dpsi)
     # Angles: the next step starts from the swapped pose of this step's end.
     swapped, _ = swap.map_state(psi[-1], dpsi[-1])
-    add("periodic angles", -np.abs(_wrap(psi[0] - swapped)), "rad", where="t = 0 vs swap(T)")
+    where = "t = 0 vs swap(T)" if join == "periodic" else "the next step's t = 0 vs swap(T)"
+    add(f"{join} angles", -np.abs(_wrap(psi_next - swapped)), "rad", where=where)
     landing, approach, _ = kin.point(foot_link, foot_offset, psi[-1:], dpsi[-1:])
     speed = float(settings.get("touchdown_speed") or 0.0)
     add(
@@ -773,8 +781,8 @@ def _verify_walking(add, kin: _Kinematics, settings, trajectory, weight) -> None
     # After heel strike, in this step's labels: rates relabelled back from x(0); the old
     # stance foot (H0) moves like the new swing foot does at t = 0.
     dpsi_plus = np.empty(n)
-    dpsi_plus[source] = dpsi[0]
-    _, lift, _ = kin.point(foot_link, foot_offset, psi[:1], dpsi[:1])
+    dpsi_plus[source] = dpsi_next
+    _, lift, _ = kin.point(foot_link, foot_offset, psi_next[None], dpsi_next[None])
     base = complex(lift[0])
     _, foot_after, _ = kin.point(foot_link, foot_offset, psi[-1:], dpsi_plus[None])
     add("foot at rest", -np.array([abs(foot_after[0] + base)]), "m/s", where="after impact")
@@ -812,6 +820,28 @@ def _verify_walking(add, kin: _Kinematics, settings, trajectory, weight) -> None
     height = kin.point(foot_link, foot_offset, psi)[0].imag
     s = (times - times[0]) / (times[-1] - times[0])
     add("clearance", height - _clearance_profile(settings, s), "m")
+    if settings.get("start") == "standing":
+        # Quiet standing at t = 0: both feet on the ground at one point, the body at rest.
+        foot, _, _ = kin.point(foot_link, foot_offset, psi[:1], dpsi[:1])
+        add("standing feet", -np.abs([foot[0].real, foot[0].imag]), "m", where="t = 0")
+        add("standing at rest", -np.abs(dpsi[0]), "rad/s", where="t = 0")
+
+
+def _next_state(settings, psi: np.ndarray, dpsi: np.ndarray):
+    """(psi (n,), dpsi (n,), what they are) after this step's heel strike and leg swap: the
+    step's own first state when it is periodic, ``settings["next_state"]`` (2n,) (the next
+    step's first state in a sequence of steps) when that is given."""
+    n = psi.shape[1]
+    given = settings.get("next_state")
+    if given is None:
+        return psi[0], dpsi[0], "periodic"
+    x = np.asarray(given, dtype=float).reshape(-1)
+    if x.shape != (2 * n,) or not np.all(np.isfinite(x)):
+        raise DefinitionError(
+            f"`settings['next_state']`: the next step's first state (psi, dpsi), {2 * n} finite "
+            f"numbers, got {x.size}"
+        )
+    return x[:n], x[n:], "join"
 
 
 def _held_impact(

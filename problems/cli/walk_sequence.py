@@ -1,0 +1,135 @@
+"""'walk --speeds': plan a walk through commanded speeds (start, speed changes, stop) as one
+verified file of every step, with its pictures."""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+from pathlib import Path
+from typing import TextIO
+
+from planner.accuracy_check import AccuracyWarning
+from planner.errors import AnthropoidError
+from planner.trajectory import Trajectory
+from problems.cli.common import (
+    CommandFailed,
+    Reporter,
+    UsageError,
+    new_folder,
+    output_set,
+    preset_linkage,
+)
+from problems.walking.step import WALKING_DEFAULTS
+
+#: options of the single step that a sequence does not take (its steps follow the speeds)
+_REFUSED = (("feedback", "--feedback", "the closed loop of a sequence is not built yet"),
+            ("urdf", "--urdf", "a robot's sequence is not built yet"))  # fmt: skip
+
+
+def _check(args, checked_options):
+    """(the mesh, the sole) of the options (``checked_options``: walk's own check), each
+    option a sequence cannot take refused by name."""
+    if args.preset not in ("six-link", "five-link"):
+        raise UsageError(
+            f"--speeds: plans point-foot steps (--preset six-link or five-link); got --preset "
+            f"{args.preset} (a sequence on feet is not built yet)"
+        )
+    for field, option, why in _REFUSED:
+        if getattr(args, field, None):
+            raise UsageError(f"--speeds with {option}: {why}; drop {option}")
+    if args.double_support_s > 0:
+        raise UsageError("--speeds with --double-support-s: transitions join single supports; "
+                         "drop --double-support-s")  # fmt: skip
+    for option, field, default in (("--step-length-m", "step_length_m", "step_length"),
+                                   ("--step-time-s", "step_time_s", "step_time")):  # fmt: skip
+        if getattr(args, field) != WALKING_DEFAULTS[default]:
+            raise UsageError(f"--speeds with {option}: each step's length and time follow its "
+                             f"speed; drop {option}")  # fmt: skip
+    mesh, _, target, sole = checked_options(args)
+    if target is not None:
+        raise UsageError("--speeds with --accuracy NUMBER: give a preset or -N")
+    return mesh, sole
+
+
+def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_options) -> int:
+    """Plan, verify from the file read back, draw, write as a set (``checked_options``,
+    ``step_options``: walk's, which reads its options into walking_step's arguments)."""
+    from problems.library.sequence import checked_speeds, plan_sequence, verify_sequence
+
+    mesh, sole = _check(args, checked_options)
+    try:
+        speeds = checked_speeds(args.speeds)
+    except AnthropoidError as error:
+        raise UsageError(f"--speeds: {error}") from None
+    linkage = preset_linkage(args.preset)
+    options = step_options(args, linkage, mesh, sole)
+    options.pop("double_support", None)
+    output = output_set(str(args.output_dir or new_folder("walk")), "walk")
+    clock = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", AccuracyWarning)
+        try:
+            sequence = plan_sequence(speeds, linkage, steps_at_speed=args.steps_at_speed,
+                                     max_steps=args.max_transition_steps,
+                                     progress=report.step, **options)  # fmt: skip
+        except AnthropoidError as error:
+            raise CommandFailed(f"the walk through {args.speeds}: {error}") from error
+    seconds = time.perf_counter() - clock
+    _print_plan(sequence, seconds, caught, out)
+    with output:
+        path = output.path("sequence.csv")
+        trajectory = sequence.trajectory(args.rate_hz)
+        trajectory.save(path)
+        check = verify_sequence(Trajectory.load(path), linkage)
+        print(f"verification of sequence.csv read back (numpy, every step, each heel strike "
+              f"against the next step's first row): {check}", file=out)  # fmt: skip
+        if not check.ok:
+            raise CommandFailed("sequence.csv failed its verification; nothing written")
+        if not args.no_plots:
+            _pictures(sequence, trajectory, output, args, report)
+        paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
+    for written in paths:
+        print(f"wrote {written}", file=out)
+    return 0
+
+
+def _print_plan(sequence, seconds: float, caught, out) -> None:
+    kinds = [step.kind for step in sequence.steps]
+    print(f"walk through {' -> '.join(f'{v:g}' for v in sequence.speeds)} m/s: "
+          f"{len(kinds)} steps in {sequence.duration:.2f} s ({kinds.count('gait')} periodic, "
+          f"{len(kinds) - kinds.count('gait')} in transitions), planned in {seconds:.1f} s",
+          file=out)  # fmt: skip
+    print(f"  {'transition':<16} {'steps':>5} {'tried':>12} {'iterations':>10}  peak |M| N m "
+          "(hinge)", file=out)  # fmt: skip
+    for t in sequence.transitions:
+        peaks = t.peak_torques()
+        worst = max(peaks, key=peaks.get)
+        tried = ",".join(str(k) for k, _ in t.attempts)
+        label = f"{t.speeds[0]:g} -> {t.speeds[1]:g} m/s"
+        print(f"  {label:<16} {t.steps:>5} {tried:>12} {t.iterations:>10}  "
+              f"{peaks[worst]:.1f} ({worst})", file=out)  # fmt: skip
+        for k, why in t.attempts[:-1]:
+            print(f"    {k} step(s) failed: {why[:150]}", file=out)
+    for warning in caught:
+        print(f"  warning: {str(warning.message)[:200]}", file=out)
+
+
+def _pictures(sequence, trajectory, output, args, report) -> None:
+    from problems.library.plots import sequence_figure
+    from problems.walking import plots as walking_plots
+
+    problem = sequence.steps[0].gait.problem
+    hip = problem.biped.upper_body[0]
+    motion = sequence.world(rate_hz=30.0 if args.quick else 60.0)
+    with report.working("plotting sequence.png"):
+        limit = max(problem.torque_limit.values())
+        figure = sequence_figure(trajectory, sequence.world(rate_hz=200.0), hip, limit)
+        walking_plots.save_figure(figure, output.path("sequence.png"))
+    with report.working("plotting walk.png"):
+        walking_plots.save_figure(walking_plots.world_strip(motion, frames_per_step=2),
+                                  output.path("walk.png"))  # fmt: skip
+    if not args.no_gif:
+        with report.working(f"writing walk.gif ({len(sequence.steps)} steps)"):
+            walking_plots.animate_walk(motion, Path(output.path("walk.gif")),
+                                       fps=15.0 if args.quick else 25.0, window=3.0)  # fmt: skip

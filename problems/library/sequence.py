@@ -1,0 +1,379 @@
+"""A walker's day as one plan: quiet standing, walks at commanded speeds, the steps between
+them, standing again; one file of every step, verified step by step from that file.
+
+:func:`plan_sequence` takes the commanded speeds (e.g. 0, 1.0, 1.4, 0.6, 0 m/s: 0 is quiet
+standing, allowed at the ends), plans the periodic point-foot gait of each speed
+(:func:`problems.walking_step` at :func:`problems.walking.footed.step_at_speed`, each
+warm-started from the one before), and between each pair the transition
+(:func:`problems.library.transition.plan_transition`: as many steps as the limits need);
+each speed's gait is walked ``steps_at_speed`` times between its transitions.
+
+:meth:`WalkSequence.trajectory` is the whole walk at ``rate_hz`` on one time axis, in the
+model's labels (the stance leg is always ``stance_*``: the legs swap at every heel strike),
+with the channels ``step`` (its index from 0), ``phase`` (t / T within the step), ``speed``
+(the step's own length / time, m/s: 0 for a step that ends at rest) and ``foothold_x`` (the
+stance foot's world x, m). A step's last sample (just before its heel strike) shares its
+instant with the next step's first (just after): the table keeps the one after, the one before
+goes into the sidecar (``metadata["sequence"]["steps"][j]["before_impact"]``: x, ddpsi, M
+and the ground force), with each step's settings, so :func:`verify_sequence` checks every step
+from the file alone: the physics at every sample, and each heel strike against the next
+step's first row (``join angles``, ``impact momentum``, ``foot at rest``: the states at
+every boundary equal after the impact map). Before its first row and after its last the
+walker stands: both rows are at rest and their torques hold it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from model.linkage import Linkage
+from model.linkage_trajectory import LinkageTrajectory
+from model.rerooting import swap_legs
+from planner.errors import DefinitionError, check_integer, check_real
+from planner.trajectory import Trajectory
+from problems.gait.problem import RATE_HZ
+from problems.gait.verification import GaitReport, verify_gait
+from problems.library.transition import MAX_STEPS, STANDING, Transition, plan_transition
+from problems.walking.footed import step_at_speed
+from problems.walking.step import WalkingGait, WorldMotion, walking_step, world_motion
+
+FORMAT = "anthropoid-planner walk sequence"
+VERSION = 1
+#: the kinds of steps a sequence holds
+KINDS = ("start", "gait", "change", "stop")
+#: periodic steps walked at each commanded speed between its transitions
+STEPS_AT_SPEED = 8
+
+
+def checked_speeds(speeds: Sequence[float]) -> tuple[float, ...]:
+    """The commanded speeds, m/s: at least two, >= 0, 0 (standing) only first or last, no two
+    neighbours equal."""
+    try:
+        values = tuple(check_real(f"speeds[{k}]", v) for k, v in enumerate(speeds))
+    except TypeError as error:
+        raise DefinitionError(f"`speeds`: a list of speeds in m/s, got {speeds!r}") from error
+    if len(values) < 2:
+        raise DefinitionError(f"`speeds`: two or more (e.g. 0,1.0,0), got {list(values)}")
+    for k, v in enumerate(values):
+        if v < 0 or (v == 0 and 0 < k < len(values) - 1):
+            raise DefinitionError(
+                f"`speeds[{k}]`: {v:g} m/s; speeds are >= 0, and 0 (standing) only first or "
+                "last (to stop and start again, plan two sequences)"
+            )
+    for k, (a, b) in enumerate(itertools.pairwise(values)):
+        if a == b:
+            raise DefinitionError(
+                f"`speeds[{k + 1}]`: {b:g} m/s repeats the speed before it; give each speed "
+                "once (steps_at_speed sets how long it is walked)"
+            )
+    return values
+
+
+@dataclass(frozen=True, eq=False)
+class SequenceStep:
+    """One step of a sequence: ``kind`` (:data:`KINDS`), the solved ``gait`` (its problem a
+    WalkingStep: length, time, settings), ``start`` s on the sequence's clock, ``foothold``
+    m (the stance foot's world x)."""
+
+    kind: str
+    gait: WalkingGait
+    start: float
+    foothold: float
+
+    @property
+    def speed(self) -> float:
+        """The step's own length / time, m/s (0 for a step that ends at rest)."""
+        problem = self.gait.problem
+        return problem.step_length / problem.step_time
+
+
+@dataclass(frozen=True, eq=False)
+class WalkSequence:
+    """A planned sequence (see the module): the commanded ``speeds``, each speed's periodic
+    ``gaits`` ({speed: WalkingGait}), the ``transitions`` between them, and every step in
+    order (``steps``)."""
+
+    speeds: tuple[float, ...]
+    gaits: dict[float, WalkingGait]
+    transitions: tuple[Transition, ...]
+    steps: tuple[SequenceStep, ...]
+
+    @property
+    def linkage(self) -> Linkage:
+        return self.steps[0].gait.problem.linkage
+
+    @property
+    def duration(self) -> float:
+        last = self.steps[-1]
+        return last.start + last.gait.duration
+
+    @cached_property
+    def _trajectory(self) -> LinkageTrajectory:
+        return _stitched(self, RATE_HZ)
+
+    def trajectory(self, rate_hz: float = RATE_HZ) -> LinkageTrajectory:
+        """The whole walk at ``rate_hz`` (see the module for its channels and sidecar)."""
+        return self._trajectory if rate_hz == RATE_HZ else _stitched(self, rate_hz)
+
+    def world(self, rate_hz: float = 100.0) -> WorldMotion:
+        """The walk in world coordinates (:func:`problems.walking.step.world_motion`)."""
+        return sequence_world(self.trajectory(rate_hz), self.steps[0].gait.problem)
+
+    def verify(self) -> SequenceReport:
+        """:func:`verify_sequence` of :meth:`trajectory` (what the file holds)."""
+        return verify_sequence(self.trajectory(), self.linkage)
+
+
+def _step_settings(gait: WalkingGait) -> dict[str, Any]:
+    """The step's settings a verification reads (the law, a guess, left out)."""
+    settings = gait.problem.settings()
+    settings.pop("law", None)
+    return settings
+
+
+def _stitched(sequence: WalkSequence, rate_hz: float) -> LinkageTrajectory:
+    """One trajectory of every step (each step's samples but its last, the last step's all)."""
+    names = sequence.linkage.names
+    keys = ("t", "psi", "dpsi", "ddpsi", "M", "F", "step", "phase", "speed", "foothold")
+    columns: dict[str, list] = {key: [] for key in keys}
+    described = []
+    last = len(sequence.steps) - 1
+    for j, step in enumerate(sequence.steps):
+        exported = LinkageTrajectory.of(step.gait.exported(rate_hz))
+        keep = slice(None) if j == last else slice(0, -1)
+        local = np.asarray(exported.time, dtype=float)
+        count = local[keep].size
+        columns["t"].append(step.start + local[keep])
+        for key, values in (("psi", exported.psi), ("dpsi", exported.dpsi),
+                            ("ddpsi", exported.ddpsi), ("M", exported.torques),
+                            ("F", exported.ground_reaction)):  # fmt: skip
+            columns[key].append(np.asarray(values)[keep])
+        columns["step"].append(np.full(count, float(j)))
+        columns["phase"].append(local[keep] / local[-1])
+        columns["speed"].append(np.full(count, step.speed))
+        columns["foothold"].append(np.full(count, step.foothold))
+        problem = step.gait.problem
+        before = {"t": step.start + float(local[-1]),
+                  "x": [*np.asarray(exported.psi)[-1], *np.asarray(exported.dpsi)[-1]],
+                  "ddpsi": np.asarray(exported.ddpsi)[-1].tolist(),
+                  "M": np.asarray(exported.torques)[-1].tolist(),
+                  "F": [float(np.real(exported.ground_reaction[-1])),
+                        float(np.imag(exported.ground_reaction[-1]))]}  # fmt: skip
+        before["x"] = [float(v) for v in before["x"]]
+        described.append({
+            "index": j, "kind": step.kind, "start_s": step.start, "foothold_m": step.foothold,
+            "step_length_m": problem.step_length, "step_time_s": problem.step_time,
+            "speed_m_s": step.speed, "before_impact": before, "settings": _step_settings(step.gait),
+        })  # fmt: skip
+    stacked = {key: np.concatenate(parts) for key, parts in columns.items()}
+    metadata = {
+        "sequence": {
+            "format": FORMAT, "version": VERSION, "commanded_speeds_m_s": list(sequence.speeds),
+            "rate_hz": rate_hz, "steps": described,
+            "transitions": [_transition_summary(t) for t in sequence.transitions],
+            "labels": "the model's: the legs swap at every heel strike (stance_* is the stance "
+                      "leg of the row's step); a step's row before its heel strike is "
+                      "before_impact",
+            "standing": "before the first row and after the last the walker stands at rest, "
+                        "holding those rows' torques",
+        },
+        "gait": {**_step_settings(sequence.steps[0].gait), "problem": "walk_sequence"},
+    }  # fmt: skip
+    trajectory = LinkageTrajectory.from_linkage(
+        stacked["t"], stacked["psi"], stacked["dpsi"], stacked["M"], names,
+        ddpsi=stacked["ddpsi"], ground_reaction=stacked["F"], metadata=metadata,
+    )  # fmt: skip
+    for key, unit in (("step", "1"), ("phase", "1"), ("speed", "m/s"), ("foothold", "m")):
+        name = "foothold_x" if key == "foothold" else key
+        trajectory = trajectory.with_extra(name, stacked[key], unit)
+    return trajectory
+
+
+def _transition_summary(transition: Transition) -> dict[str, Any]:
+    return {
+        "from_m_s": transition.speeds[0], "to_m_s": transition.speeds[1],
+        "steps": transition.steps, "iterations": transition.iterations,
+        "peak_torques_N_m": transition.peak_torques(),
+        "attempts": [{"steps": k, "outcome": why} for k, why in transition.attempts],
+    }  # fmt: skip
+
+
+def plan_sequence(
+    speeds: Sequence[float],
+    linkage: Linkage | None = None,
+    *,
+    steps_at_speed: int = STEPS_AT_SPEED,
+    max_steps: int = MAX_STEPS,
+    progress: Callable[[str], None] | None = None,
+    **step_options,
+) -> WalkSequence:
+    """The walk through ``speeds`` m/s (see the module): each speed's periodic gait walked
+    ``steps_at_speed`` times (>= 1), transitions of up to ``max_steps`` steps between them;
+    ``step_options`` as for :func:`problems.walking_step` (limits, mesh, ...), the same for
+    every step. Every step is verified at every exported sample (the transitions' as they
+    are planned, the whole walk again by :meth:`WalkSequence.verify`)."""
+    speeds = checked_speeds(speeds)
+    repeats = check_integer("steps_at_speed", steps_at_speed, 1)
+    say = progress or (lambda _: None)
+    gaits: dict[float, WalkingGait] = {}
+    previous = None
+    for v in sorted({v for v in speeds if v > 0}):
+        length, duration = step_at_speed(v)
+        step = walking_step(linkage, length, duration, **step_options)
+        ocp = step.ocp if previous is None else step.ocp.guess(previous.solution)
+        gaits[v] = previous = step.solve(ocp, progress=False)
+        say(f"gait at {v:g} m/s: {length:.3f} m in {duration:.3f} s, verified")
+    ends = [STANDING if v == 0 else gaits[v] for v in speeds]
+    transitions = []
+    for a, b in itertools.pairwise(ends):
+        label = f"{speeds[len(transitions)]:g} -> {speeds[len(transitions) + 1]:g} m/s"
+        transition = plan_transition(
+            a, b, steps=None, max_steps=max_steps,
+            progress=lambda line, label=label: say(f"{label}: {line}"), **step_options,
+        )  # fmt: skip
+        transitions.append(transition)
+    pieces: list[tuple[str, WalkingGait]] = []
+    for k, transition in enumerate(transitions):
+        if k == 0 and speeds[0] > 0:
+            pieces += [("gait", gaits[speeds[0]])] * repeats
+        kind = "start" if speeds[k] == 0 else "stop" if speeds[k + 1] == 0 else "change"
+        pieces += [(kind, gait) for gait in transition.gaits]
+        if speeds[k + 1] > 0:
+            pieces += [("gait", gaits[speeds[k + 1]])] * repeats
+    steps, clock, foothold = [], 0.0, 0.0
+    for kind, gait in pieces:
+        steps.append(SequenceStep(kind, gait, clock, foothold))
+        clock += gait.duration
+        foothold += gait.problem.step_length
+    return WalkSequence(speeds, gaits, tuple(transitions), tuple(steps))
+
+
+@dataclass(frozen=True)
+class SequenceReport:
+    """Each step's :class:`GaitReport` (``reports``, in order) and the steps' kinds."""
+
+    reports: tuple[GaitReport, ...]
+    kinds: tuple[str, ...]
+
+    @property
+    def ok(self) -> bool:
+        return all(report.ok for report in self.reports)
+
+    def worst(self, name: str) -> float:
+        """The worst margin of check ``name`` over every step that has it."""
+        margins = [c.margin for r in self.reports for c in r.checks if c.name == name]
+        return min(margins) if margins else math.nan
+
+    def __str__(self) -> str:
+        failed = [j for j, r in enumerate(self.reports) if not r.ok]
+        head = (f"{len(self.reports)} steps verified: all checks passed" if not failed else
+                f"{len(failed)} of {len(self.reports)} steps failed: {failed}")  # fmt: skip
+        lines = [head]
+        for name in ("dynamics", "join angles", "impact momentum", "foot at rest"):
+            lines.append(f"  worst {name}: {self.worst(name):+.3e}")
+        for j in failed:
+            lines.append(f"step {j} ({self.kinds[j]}):\n{self.reports[j]}")
+        return "\n".join(lines)
+
+
+def _step_rows(trajectory: LinkageTrajectory, described: dict, j: int):
+    """Step j's samples from the whole walk's rows and its pre-impact sample."""
+    step = np.asarray(trajectory.extras["step"][0])
+    rows = np.flatnonzero(step == j)
+    n = len(trajectory.link_names)
+    before = described["before_impact"]
+    x = np.asarray(before["x"], dtype=float)
+    time = np.asarray(trajectory.time)[rows] - described["start_s"]
+    psi, dpsi = np.asarray(trajectory.psi)[rows], np.asarray(trajectory.dpsi)[rows]
+    ddpsi, torques = np.asarray(trajectory.ddpsi)[rows], np.asarray(trajectory.torques)[rows]
+    force = np.asarray(trajectory.ground_reaction)[rows]
+    if time.size and abs(time[-1] - (before["t"] - described["start_s"])) < 1e-12:
+        # the last step keeps its final sample in the table
+        time, psi, dpsi, ddpsi, torques, force = (a[:-1] for a in (time, psi, dpsi, ddpsi,
+                                                                    torques, force))  # fmt: skip
+    return LinkageTrajectory.from_linkage(
+        np.append(time, before["t"] - described["start_s"]),
+        np.vstack([psi, x[:n]]), np.vstack([dpsi, x[n:]]),
+        np.vstack([torques, before["M"]]), trajectory.link_names,
+        ddpsi=np.vstack([ddpsi, before["ddpsi"]]),
+        ground_reaction=np.append(force, complex(*before["F"])),
+        metadata={"gait": described["settings"]},
+    )  # fmt: skip
+
+
+def verify_sequence(trajectory: Trajectory, linkage: Linkage, **options) -> SequenceReport:
+    """Every step of a walk sequence checked from its samples (``WalkSequence.trajectory``
+    or the file it was saved to, read back): :func:`problems.verify_gait` of each step (its
+    rows and its pre-impact sample from the sidecar), its heel strike against the next
+    step's first row; the last step's against its own end at rest when the walk ends
+    standing; the first step's start at rest when it starts standing. ``options`` go to
+    :func:`problems.verify_gait` (``tolerance``, ...)."""
+    trajectory = LinkageTrajectory.of(trajectory)
+    meta = trajectory.metadata.get("sequence")
+    if not meta or meta.get("format") != FORMAT or "step" not in trajectory.extras:
+        raise DefinitionError(
+            "`trajectory`: not a walk sequence (its metadata has no 'sequence' of format "
+            f"{FORMAT!r}, or it has no 'step' channel); plan one with plan_sequence"
+        )
+    steps = meta["steps"]
+    first_rows = {}
+    step_column = np.asarray(trajectory.extras["step"][0])
+    x_all = np.hstack([np.asarray(trajectory.psi), np.asarray(trajectory.dpsi)])
+    for j in range(len(steps)):
+        rows = np.flatnonzero(step_column == j)
+        if rows.size == 0:
+            raise DefinitionError(f"`trajectory`: step {j} has no rows")
+        first_rows[j] = x_all[rows[0]]
+    speeds = meta["commanded_speeds_m_s"]
+    reports = []
+    for j, described in enumerate(steps):
+        settings: dict[str, Any] = {}
+        if j + 1 < len(steps):
+            settings["next_state"] = first_rows[j + 1].tolist()
+        elif speeds[-1] == 0:
+            n = len(trajectory.link_names)
+            x = np.asarray(described["before_impact"]["x"], dtype=float)
+            swapped, _ = swap_legs(linkage).map_state(x[:n], x[n:])
+            settings["next_state"] = [*np.asarray(swapped).tolist(), *([0.0] * n)]
+        if j == 0 and speeds[0] == 0:
+            settings["start"] = STANDING
+        piece = _step_rows(trajectory, described, j)
+        reports.append(verify_gait(piece, linkage, settings=settings, **options))
+    return SequenceReport(tuple(reports), tuple(s["kind"] for s in steps))
+
+
+def sequence_world(trajectory: Trajectory, problem) -> WorldMotion:
+    """A walk sequence's trajectory in world coordinates (``problem``: a WalkingStep of the
+    walker, for its biped and dynamics)."""
+    trajectory = LinkageTrajectory.of(trajectory)
+    step = np.asarray(trajectory.extras["step"][0]).astype(int)
+    footholds_x = np.asarray(trajectory.extras["foothold_x"][0])
+    count = int(step.max()) + 1
+    footholds = np.zeros(count + 1, dtype=complex)
+    for j in range(count):
+        footholds[j] = footholds_x[np.flatnonzero(step == j)[0]]
+    meta = trajectory.metadata.get("sequence", {}).get("steps")
+    footholds[count] = footholds[count - 1] + (meta[-1]["step_length_m"] if meta else 0.0)
+    states = np.hstack([np.asarray(trajectory.psi), np.asarray(trajectory.dpsi)])
+    return world_motion(problem.biped, problem.dynamics, np.asarray(trajectory.time), states,
+                        step, footholds, problem.corners)  # fmt: skip
+
+
+__all__ = [
+    "KINDS",
+    "STEPS_AT_SPEED",
+    "SequenceReport",
+    "SequenceStep",
+    "WalkSequence",
+    "checked_speeds",
+    "plan_sequence",
+    "sequence_world",
+    "verify_sequence",
+]

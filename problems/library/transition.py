@@ -1,0 +1,293 @@
+"""The steps between gaits: from one periodic gait (or quiet standing) to another (or to
+standing at rest), planned as one multi-phase problem of as many steps as the limits need.
+
+A transition of k steps is k single supports on point feet (:func:`problems.walking_step`'s
+rows: friction, clearance, knees, ground, centre of pressure, posture, torque bounds), joined
+by the heel strike and leg swap (``WalkingStep.step_map``: x_{j+1}(0) = Delta(x_j(T_j))),
+solved together (:class:`planner.Phases`), so the change is shared among the steps. Its ends:
+
+* from a gait a: x_1(0) = a's x(0), the state right after a's heel strike: a step of a ends
+  and the transition's first step starts there (the join a -> transition is a's own impact);
+* into a gait b: x_k(T_k) = b's x(T), the state before b's heel strike: the impact that ends
+  the transition is b's own, so the next step of b starts at b's x(0) exactly;
+* from quiet standing: at t = 0 both feet on the ground at one point (the planar picture of
+  feet side by side), the body at rest (dpsi = 0, ddpsi = 0: the standing torques hold the
+  pose statically and the plan's torques start from them); the pose itself is planned, its
+  centre of pressure on the sole like every other instant;
+* to standing at rest: the last step sets the swing foot down beside the stance foot with
+  dpsi = ddpsi = 0 (no impact: the foot lands at rest, ``touchdown_speed`` 0 for that step).
+
+Rows that only read an end's fixed state (lift off at a fixed start; landing, heel strike and
+impulse at a fixed end) are left out: the gait whose state it is satisfied them already.
+
+Step j of k (1..k) walks at v_j = v_a + (v_b - v_a) j / k with the step length and time of
+:func:`problems.walking.footed.step_at_speed` (standing is v = 0: its step has length 0 and
+the time of the ramp's first speed). ``steps=None`` finds k: 1, 2, ... ``max_steps``, the
+first whose problem solves within the limits and whose every step passes its verification
+(a faster change needs larger torques; the limits decide how many steps it takes).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import casadi as ca
+import numpy as np
+
+from planner.errors import AnthropoidError, DefinitionError, check_integer
+from planner.phases_solution import PhasesSolution
+from planner.problem import Phases
+from planner.transcription import Transcription
+from problems.gait.problem import RATE_HZ, rate_scales, solve_and_hold, total_iterations
+from problems.gait.verification import GaitReport, GaitVerificationError, verify_gait
+from problems.walking.footed import step_at_speed
+from problems.walking.step import PINNED, WalkingGait, WalkingStep, walking_step
+
+#: an end of a transition that is quiet standing, not a gait
+STANDING = "standing"
+#: the largest number of steps a transition's search tries by default
+MAX_STEPS = 6
+#: IPOPT iterations a try of the search may take: a transition that solves takes 20-70 (the
+#: six-link walker, 0-1.4 m/s); an infeasible count runs to IPOPT's infeasibility detection
+#: (about 600), which this cuts short; a count that needs more is taken as failed, and the
+#: next count tried.
+SEARCH_ITERATIONS = 300
+#: the rows a fixed start or end makes constants (the gait there satisfied them already)
+START_ROWS = ("lift off",)
+END_ROWS = ("landing", "heel strike", "impulse")
+
+
+def _speed(end) -> float:
+    return 0.0 if isinstance(end, str) else float(end.speed)
+
+
+def _checked_end(field: str, end):
+    if isinstance(end, str):
+        if end != STANDING:
+            raise DefinitionError(f"`{field}`: a WalkingGait or {STANDING!r}, got {end!r}")
+        return end
+    problem = getattr(end, "problem", None)
+    if not isinstance(end, WalkingGait) or not isinstance(problem, WalkingStep):
+        raise DefinitionError(
+            f"`{field}`: a solved periodic walking step (WalkingGait of problems.walking_step) "
+            f"or {STANDING!r}, got {type(end).__name__}"
+        )
+    if problem.double_support > 0:
+        raise DefinitionError(
+            f"`{field}`: transitions join single-support steps; this gait has a "
+            f"{problem.double_support:g} s double support (plan it with double_support=0)"
+        )
+    return end
+
+
+@dataclass(frozen=True, eq=False)
+class Transition:
+    """A planned transition: ``start`` and ``end`` (gaits or :data:`STANDING`), its steps
+    (``gaits``: one :class:`WalkingGait` per step, each its phase of ``solution`` with the
+    step's own problem), ``reports`` (each step's verification against the next step's first
+    state, or the end's), ``attempts`` ((step count, outcome) of the search)."""
+
+    start: object
+    end: object
+    gaits: tuple[WalkingGait, ...]
+    solution: PhasesSolution
+    reports: tuple[GaitReport, ...]
+    attempts: tuple[tuple[int, str], ...]
+
+    @property
+    def steps(self) -> int:
+        return len(self.gaits)
+
+    @property
+    def speeds(self) -> tuple[float, float]:
+        """(from, to), m/s (standing is 0)."""
+        return _speed(self.start), _speed(self.end)
+
+    @property
+    def duration(self) -> float:
+        return math.fsum(gait.duration for gait in self.gaits)
+
+    def peak_torques(self) -> dict[str, float]:
+        """The largest |M| of each hinge over the transition's exported samples, N m."""
+        names = self.gaits[0].problem.linkage.names
+        peaks = np.max([np.max(np.abs(g.exported().torques), axis=0) for g in self.gaits], 0)
+        return dict(zip(names, peaks.tolist(), strict=True))
+
+    @property
+    def iterations(self) -> int:
+        return total_iterations(self.solution)
+
+
+def _ramp(start, end, k: int) -> list[tuple[float, float, float]]:
+    """(speed m/s, step length m, step time s) of each of k steps from ``start`` to ``end``."""
+    v_a, v_b = _speed(start), _speed(end)
+    first = abs(v_b - v_a) / k
+    plan = []
+    for j in range(1, k + 1):
+        v = v_a + (v_b - v_a) * j / k
+        if j == k and not isinstance(end, str):
+            length, duration = end.problem.step_length, end.problem.step_time
+        elif v > 0:
+            length, duration = step_at_speed(v)
+        else:
+            length, duration = 0.0, step_at_speed(first)[1]
+        plan.append((v, length, duration))
+    return plan
+
+
+def _open(ocp, drop):
+    """The step's OCP without its periodicity and without the rows named in ``drop``."""
+    rows = tuple(c for c in ocp.constraints if c.name not in drop)
+    return replace(ocp, periodicity=None, constraints=rows)
+
+
+def _at_rest(step: WalkingStep, ocp, at: str):
+    """Quiet standing at ``at`` ("start" or "end"): the swing foot on the ground at the
+    stance foot, dpsi = 0 and ddpsi = 0 (the pose held statically)."""
+    n = step.linkage.n
+    position = step.foot.function("position")
+    leg = step.biped.leg_length
+    ocp = ocp.boundary(
+        "feet together", lambda p: ca.vertcat(*position(p.x[:n])), at=at,
+        lower=[0.0, 0.0], upper=[0.0, 0.0], scale=leg,
+    )  # fmt: skip
+    rest = [0.0] * n
+    ocp = ocp.initial(dpsi=rest) if at == "start" else ocp.final(dpsi=rest)
+    scale = rate_scales(step.time_unit)["ddpsi"]  # the accelerations' nominal size
+    return ocp.boundary("at rest", lambda p: p.ddpsi, at=at, lower=0.0, upper=0.0, scale=scale)
+
+
+def transition_problem(start, end, steps: int, linkage=None, **step_options) -> tuple:
+    """(Phases, the k WalkingSteps) of a transition of ``steps`` steps (see the module)."""
+    start, end = _checked_end("start", start), _checked_end("end", end)
+    k = check_integer("steps", steps, 1)
+    if isinstance(start, str) and isinstance(end, str):
+        raise DefinitionError("`start`, `end`: a transition from standing to standing is no walk")
+    if not isinstance(start, str):
+        linkage = start.problem.linkage
+    elif not isinstance(end, str):
+        linkage = end.problem.linkage
+    n = linkage.n
+    phases, problems = None, []
+    guesses = [g for g in (start, end) if not isinstance(g, str)]
+    for j, (speed, length, duration) in enumerate(_ramp(start, end, k)):
+        last = j == k - 1
+        options = dict(step_options)
+        if last and isinstance(end, str):
+            options["touchdown_speed"] = 0.0  # the foot sets down at rest
+        guide = length if length > 0 else _ramp(start, end, k)[0][1] or 0.5
+        step = walking_step(linkage, guide, duration, **options)
+        drop = set(START_ROWS if j == 0 else ()) | set(END_ROWS if last else ())
+        ocp = _open(step.ocp, drop)
+        if j == 0:
+            if isinstance(start, str):
+                ocp = _at_rest(step, ocp, "start")
+            else:
+                x = start.segments()[0][0].states[0]
+                ocp = ocp.initial(psi=x[:n].tolist(), dpsi=x[n:].tolist())
+        if last:
+            if isinstance(end, str):
+                ocp = _at_rest(step, ocp, "end")
+                step = replace(step, step_length=0.0)
+            else:
+                x = end.segments()[0][0].states[-1]
+                ocp = ocp.final(psi=x[:n].tolist(), dpsi=x[n:].tolist())
+        nearest = min(guesses, key=lambda g: abs(g.speed - speed))
+        ocp = ocp.guess(nearest.solution)
+        step = replace(step, ocp=ocp)
+        name = f"step {j + 1}"
+        if phases is None:
+            phases = Phases.sequence((name, ocp))
+        else:
+            phases = phases.then(name, ocp, mapping=problems[-1].step_map)
+        problems.append(step)
+    return phases, tuple(problems)
+
+
+def _verify_steps(gaits, start, end, rate_hz: float) -> tuple[GaitReport, ...]:
+    """Each step's samples verified, its impact against the next step's first state (the
+    end's: a gait b's x(0), or the standing pose relabelled at rest)."""
+    reports = []
+    for j, gait in enumerate(gaits):
+        trajectory = gait.exported(rate_hz)
+        settings: dict = {}
+        if j + 1 < len(gaits):
+            settings["next_state"] = gaits[j + 1].solution.states[0].tolist()
+        elif isinstance(end, str):
+            x = gait.solution.states[-1]
+            n = x.size // 2
+            psi, _ = gait.problem.biped.swap.map_state(x[:n], x[n:])
+            settings["next_state"] = [*np.asarray(psi).tolist(), *([0.0] * n)]
+        else:
+            settings["next_state"] = end.segments()[0][0].states[0].tolist()
+        if j == 0 and isinstance(start, str):
+            settings["start"] = STANDING
+        report = verify_gait(trajectory, gait.problem.linkage, settings=settings)
+        report.raise_if_failed()
+        reports.append(report)
+    return tuple(reports)
+
+
+def plan_transition(
+    start,
+    end,
+    linkage=None,
+    *,
+    steps: int | None = None,
+    max_steps: int = MAX_STEPS,
+    rate_hz: float = RATE_HZ,
+    progress: Callable[[str], None] | None = None,
+    options: dict | None = None,
+    **step_options,
+) -> Transition:
+    """The transition from ``start`` to ``end`` (each a solved periodic :class:`WalkingGait`
+    on point feet without a double support, or :data:`STANDING`) in ``steps`` steps, or in
+    the fewest of 1..``max_steps`` that solve and verify (``steps=None``); ``step_options``
+    as for :func:`problems.walking_step` (limits, mesh; the same for every step and best the
+    same as the gaits'); ``options``: IPOPT's (a search's tries are capped at
+    :data:`SEARCH_ITERATIONS` unless ``max_iter`` is given). Every step is verified at every
+    exported sample at ``rate_hz``, its impact against the next step's first state.
+
+    Raises :class:`planner.AnthropoidError` naming each count tried and why it failed when
+    none does."""
+    counts = [check_integer("steps", steps, 1)] if steps is not None else None
+    if counts is None:
+        counts = list(range(1, check_integer("max_steps", max_steps, 1) + 1))
+    attempts = []
+    for k in counts:
+        phases, problems = transition_problem(start, end, k, linkage, **step_options)
+        ipopt = dict(options or {})
+        if steps is None:
+            ipopt.setdefault("max_iter", SEARCH_ITERATIONS)
+        solve_options = {"progress": False, "options": ipopt}
+        try:
+            solution = solve_and_hold(Transcription(phases), solve_options, True, rate_hz, PINNED)
+            if not solution.success:
+                raise AnthropoidError(f"IPOPT: {solution.status}")
+            gaits = tuple(
+                WalkingGait(problem, part, math.nan)
+                for problem, part in zip(problems, solution.phases, strict=True)
+            )
+            reports = _verify_steps(gaits, start, end, rate_hz)
+        except (AnthropoidError, GaitVerificationError) as error:
+            attempts.append((k, str(error).splitlines()[0][:300]))
+            if progress is not None:
+                progress(f"{k} step(s): failed ({attempts[-1][1][:120]})")
+            continue
+        attempts.append((k, "solved and verified"))
+        if progress is not None:
+            progress(f"{k} step(s): solved and verified, {total_iterations(solution)} "
+                     "iterations")  # fmt: skip
+        return Transition(start, end, gaits, solution, reports, tuple(attempts))
+    v_a, v_b = _speed(start), _speed(end)
+    tried = "; ".join(f"{k} step(s): {why}" for k, why in attempts)
+    raise AnthropoidError(
+        f"no transition from {v_a:g} to {v_b:g} m/s within the limits in {counts[0]}.."
+        f"{counts[-1]} steps ({tried}); allow more steps (max_steps), larger torque limits, or "
+        "a smaller speed change"
+    )
+
+
+__all__ = ["MAX_STEPS", "STANDING", "Transition", "plan_transition", "transition_problem"]

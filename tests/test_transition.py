@@ -1,0 +1,174 @@
+"""problems.library.transition and .sequence: the steps between gaits and whole walks.
+
+Oracles: the joins against the model's impact-and-swap map evaluated on the solved states
+(x_{j+1}(0) = Delta(x_j(T)) to 1e-8; the ends equal the gaits' own states); every step against
+the independent numpy verification (the impact's angular momentum balances about the landing
+foot and every hinge, written without the model); a corrupted join in the file caught by that
+verification; the step-count search against forced counts; quiet standing at the ends (rest,
+feet together, the standing torques the static inverse dynamics, checked by the
+verification's dynamics residual at that sample).
+"""
+
+import itertools
+
+import numpy as np
+import pytest
+
+from model.linkage_trajectory import LinkageTrajectory
+from planner.errors import AnthropoidError, DefinitionError
+from planner.trajectory import Trajectory
+from problems.__main__ import main
+from problems.library import STANDING, plan_sequence, plan_transition, verify_sequence
+from problems.walking.footed import step_at_speed
+from problems.walking.step import walking_step
+
+
+def _gait(speed):
+    length, duration = step_at_speed(speed)
+    return walking_step(None, length, duration).solve(progress=False)
+
+
+@pytest.fixture(scope="module")
+def gaits():
+    return {v: _gait(v) for v in (1.0, 1.4)}
+
+
+@pytest.fixture(scope="module")
+def sequence():
+    return plan_sequence([0, 1.0, 0], steps_at_speed=2)
+
+
+def _joins_hold(transition, start_state=None, end_state=None):
+    n = transition.gaits[0].problem.linkage.n
+    states = [g.solution.states for g in transition.gaits]
+    for j in range(transition.steps - 1):
+        mapped = np.asarray(transition.gaits[j].problem.step_map(states[j][-1])).reshape(-1)
+        np.testing.assert_allclose(states[j + 1][0], mapped, atol=1e-8)
+    if start_state is not None:
+        np.testing.assert_allclose(states[0][0], start_state, atol=1e-9)
+    if end_state is not None:
+        np.testing.assert_allclose(states[-1][-1], end_state, atol=1e-9)
+    return n
+
+
+def test_a_speed_change_joins_both_gaits_through_the_impact_map(gaits):
+    a, b = gaits[1.0], gaits[1.4]
+    transition = plan_transition(a, b)
+    assert transition.speeds == (1.0, 1.4)
+    # one step cannot take the body from 1.0 to 1.4 m/s within 150 N m and the sole's centre
+    # of pressure: the search says so and takes two
+    assert [k for k, _ in transition.attempts] == [1, 2] and transition.steps == 2
+    assert transition.attempts[-1][1] == "solved and verified"
+    _joins_hold(transition, a.solution.states[0], b.solution.states[-1])
+    # b's own heel strike ends the transition: the next step of b starts at b's x(0)
+    last = transition.gaits[-1]
+    after = np.asarray(last.problem.step_map(last.solution.states[-1])).reshape(-1)
+    np.testing.assert_allclose(after, b.solution.states[0], atol=1e-6)
+    assert all(report.ok for report in transition.reports)
+    for report in transition.reports:
+        assert report["join angles"].margin > -1e-9
+        assert report["impact momentum"].passed
+    peaks = transition.peak_torques()
+    assert max(peaks.values()) <= 150.0 + 1e-6
+
+
+def test_a_forced_count_that_cannot_be_walked_is_refused_with_each_try(gaits):
+    with pytest.raises(AnthropoidError, match=r"no transition from 1 to 1\.4 m/s.*1 step"):
+        plan_transition(gaits[1.0], gaits[1.4], steps=1, options={"max_iter": 150})
+    with pytest.raises(DefinitionError, match="standing to standing"):
+        plan_transition(STANDING, STANDING, steps=1)
+    with pytest.raises(DefinitionError, match="`end`"):
+        plan_transition(gaits[1.0], "sitting", steps=1)
+
+
+def test_a_walk_starts_and_ends_in_quiet_standing(sequence):
+    steps = sequence.steps
+    kinds = [s.kind for s in steps]
+    assert kinds[0] == "start" and kinds[-1] == "stop" and kinds.count("gait") == 2
+    first, last = steps[0].gait, steps[-1].gait
+    n = first.problem.linkage.n
+    x0, xT = first.solution.states[0], last.solution.states[-1]
+    np.testing.assert_allclose(x0[n:], 0.0, atol=1e-12)
+    np.testing.assert_allclose(xT[n:], 0.0, atol=1e-12)
+    for gait, x in ((first, x0), (last, xT)):  # the swing foot beside the stance foot
+        foot = np.asarray(gait.problem.foot.function("position")(x[:n])).reshape(-1)
+        np.testing.assert_allclose(foot, 0.0, atol=1e-9)
+    assert last.problem.step_length == 0.0
+    # footholds advance by each step's length; the clock by each step's time
+    for before, after in itertools.pairwise(steps):
+        assert after.foothold == pytest.approx(before.foothold + before.gait.problem.step_length)
+        assert after.start == pytest.approx(before.start + before.gait.duration)
+
+
+def test_the_file_verifies_step_by_step_and_a_wrong_join_fails(sequence, tmp_path):
+    trajectory = sequence.trajectory()
+    assert np.all(np.diff(trajectory.time) > 0)
+    path = trajectory.save(tmp_path / "sequence.csv")
+    back = Trajectory.load(path)
+    report = verify_sequence(back, sequence.linkage)
+    assert report.ok, str(report)
+    assert len(report.reports) == len(sequence.steps)
+    assert report.worst("join angles") > -1e-9 and report.worst("dynamics") > -1e-6
+    assert report.reports[0]["standing at rest"].passed
+    # a step's first row 0.01 rad/s off in one rate: the impact before it no longer conserves
+    # the momenta, the verification names it
+    back = LinkageTrajectory.of(back)
+    step = np.asarray(back.extras["step"][0])
+    row = int(np.flatnonzero(step == 2)[0])
+    dpsi = np.array(back.dpsi)
+    dpsi[row, 1] += 0.01
+    wrong = LinkageTrajectory.from_linkage(
+        back.time, back.psi, dpsi, back.torques, back.link_names, ddpsi=back.ddpsi,
+        ground_reaction=back.ground_reaction, metadata=back.metadata,
+    )  # fmt: skip
+    for name in ("step", "phase", "speed", "foothold_x"):
+        wrong = wrong.with_extra(name, back.extras[name][0], back.extras[name][1])
+    broken = verify_sequence(wrong, sequence.linkage)
+    assert not broken.ok and not broken.reports[1].ok
+    assert not broken.reports[1]["impact momentum"].passed
+    # and the file's next-state joins of the other steps still pass
+    assert broken.reports[0].ok
+
+
+def test_speeds_are_checked():
+    for speeds, message in (([1.0], "two or more"), ([0, 1.0, 0, 1.0], "only first or last"),
+                            ([0, 1.0, 1.0], "repeats"), ([0, -1.0], ">= 0")):  # fmt: skip
+        with pytest.raises(DefinitionError, match=message):
+            plan_sequence(speeds)
+
+
+def test_the_command_writes_one_verified_file_of_the_walk(tmp_path, capsys):
+    folder = tmp_path / "walk"
+    status = main(["walk", "--speeds", "0,1.0,0", "--steps-at-speed", "1", "--no-gif",
+                   "--output-dir", str(folder)])  # fmt: skip
+    printed = capsys.readouterr().out
+    assert status == 0, printed
+    assert "walk through 0 -> 1 -> 0 m/s" in printed and "all checks passed" in printed
+    back = LinkageTrajectory.of(Trajectory.load(folder / "sequence.csv"))
+    meta = back.metadata["sequence"]
+    assert [s["kind"] for s in meta["steps"]].count("gait") == 1
+    assert meta["transitions"][0]["steps"] == len([s for s in meta["steps"]
+                                                   if s["kind"] == "start"])  # fmt: skip
+    assert verify_sequence(back, plan_linkage()).ok
+    assert (folder / "sequence.png").is_file() and (folder / "walk.png").is_file()
+    assert not (folder / "walk.gif").exists()
+
+
+def plan_linkage():
+    from model.presets import six_link_anthropoid
+
+    return six_link_anthropoid()
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--speeds", "1,0,1"], "only first or last"),
+    (["--speeds", "0,1", "--feedback"], "--feedback"),
+    (["--speeds", "0,1", "--step-time-s", "0.6"], "--step-time-s"),
+    (["--speeds", "0,1", "--preset", "six-link-feet"], "point-foot"),
+    (["--speeds", "0,x"], "separated by commas"),
+])  # fmt: skip
+def test_the_commands_wrong_options_are_refused_by_name(tmp_path, capsys, extra, message):
+    status = main(["walk", *extra, "--output-dir", str(tmp_path / "w")])
+    captured = capsys.readouterr()
+    assert status == 2 and message in captured.err + captured.out
+    assert not (tmp_path / "w").exists()
