@@ -140,11 +140,14 @@ def test_speeds_are_checked():
 def test_the_command_writes_one_verified_file_of_the_walk(tmp_path, capsys):
     folder = tmp_path / "walk"
     status = main(["walk", "--speeds", "0,1.0,0", "--steps-at-speed", "1", "--no-gif",
-                   "--output-dir", str(folder)])  # fmt: skip
+                   "--feedback", "--output-dir", str(folder)])  # fmt: skip
     printed = capsys.readouterr().out
     assert status == 0, printed
     assert "walk through 0 -> 1 -> 0 m/s" in printed and "all checks passed" in printed
+    planned = next(line for line in printed.splitlines() if "as planned" in line)
+    assert planned.count("stood") == (2 if "MuJoCo:" not in printed else 1), printed
     back = LinkageTrajectory.of(Trajectory.load(folder / "sequence.csv"))
+    assert "K_stance_thigh__psi_torso" in back.extras and "feedback" in back.metadata
     meta = back.metadata["sequence"]
     assert [s["kind"] for s in meta["steps"]].count("gait") == 1
     assert meta["transitions"][0]["steps"] == len([s for s in meta["steps"]
@@ -162,7 +165,7 @@ def plan_linkage():
 
 @pytest.mark.parametrize("extra, message", [
     (["--speeds", "1,0,1"], "only first or last"),
-    (["--speeds", "0,1", "--feedback"], "--feedback"),
+    (["--speeds", "0,1", "--urdf", "x.urdf"], "--urdf"),
     (["--speeds", "0,1", "--step-time-s", "0.6"], "--step-time-s"),
     (["--speeds", "0,1", "--preset", "six-link-feet"], "point-foot"),
     (["--speeds", "0,x"], "separated by commas"),

@@ -20,11 +20,11 @@ from problems.cli.common import (
     output_set,
     preset_linkage,
 )
+from problems.library.closed_loop import STAND as STAND_S
 from problems.walking.step import WALKING_DEFAULTS
 
 #: options of the single step that a sequence does not take (its steps follow the speeds)
-_REFUSED = (("feedback", "--feedback", "the closed loop of a sequence is not built yet"),
-            ("urdf", "--urdf", "a robot's sequence is not built yet"))  # fmt: skip
+_REFUSED = (("urdf", "--urdf", "a robot's sequence is not built yet"),)
 
 
 def _check(args, checked_options):
@@ -77,21 +77,89 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
             raise CommandFailed(f"the walk through {args.speeds}: {error}") from error
     seconds = time.perf_counter() - clock
     _print_plan(sequence, seconds, caught, out)
+    feedback = None
+    if args.feedback:
+        from problems.library.closed_loop import design_sequence_feedback
+
+        with report.working("designing the walk's feedback (a finite-horizon LQR along it)"):
+            feedback = design_sequence_feedback(sequence, control_rate_hz=args.rate_hz)
     with output:
         path = output.path("sequence.csv")
         trajectory = sequence.trajectory(args.rate_hz)
+        if feedback is not None:
+            from problems.library.closed_loop import with_sequence_gains
+
+            trajectory = with_sequence_gains(feedback, trajectory)
         trajectory.save(path)
         check = verify_sequence(Trajectory.load(path), linkage)
         print(f"verification of sequence.csv read back (numpy, every step, each heel strike "
               f"against the next step's first row): {check}", file=out)  # fmt: skip
         if not check.ok:
             raise CommandFailed("sequence.csv failed its verification; nothing written")
+        mujoco_run = None
+        if feedback is not None:
+            mujoco_run = _closed_loop(feedback, sequence, args, report, out)
         if not args.no_plots:
             _pictures(sequence, trajectory, output, args, report)
+            if mujoco_run is not None and mujoco_run.run.time.size:
+                from problems.walking import plots as walking_plots
+
+                problem = sequence.steps[0].gait.problem
+                motion = mujoco_run.run.world(problem.dynamics, rate_hz=30.0)
+                with report.working("plotting mujoco_walk.png"):
+                    title = "the walk in MuJoCo, closed loop"
+                    strip = walking_plots.world_strip(motion, frames_per_step=2, title=title)
+                    walking_plots.save_figure(strip, output.path("mujoco_walk.png"))
         paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
     for written in paths:
         print(f"wrote {written}", file=out)
     return 0
+
+
+def _closed_loop(feedback, sequence, args, report, out):
+    """The walk under its law in the product's simulation and in MuJoCo (when installed): as
+    planned, the body 10 % heavier, a 10 N s forward push in the middle of the first
+    transition step that changes speed (else of the first periodic step); a table; returns
+    MuJoCo's run as planned (None without MuJoCo)."""
+    from problems.library.closed_loop import SequenceDisturbances, simulate_sequence
+
+    kinds = [step.kind for step in sequence.steps]
+    push_step = kinds.index("change") if "change" in kinds else kinds.index("gait")
+    pushed = SequenceDisturbances(push=10.0, push_step=push_step)
+    cases = {"as planned": SequenceDisturbances(),
+             "mass +10 %": SequenceDisturbances(mass_scale=1.1),
+             f"push 10 N s, step {push_step}": pushed}  # fmt: skip
+    try:
+        from problems.library.mujoco_sequence import run_sequence_in_mujoco
+        from problems.walking.mujoco import import_mujoco
+
+        import_mujoco()
+    except AnthropoidError as error:
+        run_sequence_in_mujoco = None
+        print(f"MuJoCo: {error}", file=out)
+    print(f"closed loop ({len(kinds)} steps, then {STAND_S:g} s standing when the walk ends at "
+          "rest):", file=out)  # fmt: skip
+    print(f"  {'case':<22} {'product simulation':<28} {'MuJoCo':<28}", file=out)
+    planned_run = None
+    for label, disturbances in cases.items():
+        with report.working(f"walking it closed loop: {label}"):
+            product = simulate_sequence(feedback, disturbances, ground_mu=args.ground_friction)
+            mujoco = None
+            if run_sequence_in_mujoco is not None:
+                mujoco = run_sequence_in_mujoco(feedback, disturbances,
+                                                ground_mu=args.ground_friction)  # fmt: skip
+                planned_run = planned_run or mujoco
+        print(f"  {label:<22} {_outcome(product):<28} "
+              f"{'-' if mujoco is None else _outcome(mujoco):<28}", file=out)  # fmt: skip
+        for name, run in (("product", product), ("MuJoCo", mujoco)):
+            if run is not None and run.fell is not None:
+                print(f"    {name}: {run.fell[:160]}", file=out)
+    return planned_run
+
+
+def _outcome(run) -> str:
+    stood = ", stood" if run.stood else ""
+    return f"{run.walked}/{run.planned} steps{stood}" + ("" if run.fell is None else " (fell)")
 
 
 def _print_plan(sequence, seconds: float, caught, out) -> None:

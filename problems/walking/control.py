@@ -119,6 +119,11 @@ class GaitReference(TimedReference):
             for part in parts
         )
 
+    @property
+    def hip_range(self) -> tuple[float, float]:
+        """The hip's x over the stance foot, m, where s = 0 and s = 1."""
+        return self._start, self._start + self._span
+
     def phase(self, psi) -> float:
         """s of the angles psi (n,): the hip's progress, 0 at the start, 1 at heel strike
         (or where the rear foot lifts, after a double support)."""

@@ -197,25 +197,10 @@ def periodic_riccati(a_list, b_list, jump, q, r):
     repeats; a stage whose B_k is None is an event (x -> A_k x, no cost, zero gain).
     Returns (gains (K, m, nx): u_k = -K_k x_k, P(0) (nx, nx), steps run)."""
     cost = np.asarray(q, dtype=float).copy()
-    count = len(a_list)
-    inputs = next(b.shape[1] for b in b_list if b is not None)
-    gains = np.zeros((count, inputs, cost.shape[0]))
     cycles = 0
     while True:
         cycles += 1
-        p = jump.T @ cost @ jump
-        for k in range(count - 1, -1, -1):
-            a, b = a_list[k], b_list[k]
-            if b is None:  # an event inside the step: x -> A x, no input, no cost
-                p = a.T @ p @ a
-                p = 0.5 * (p + p.T)
-                continue
-            gain = np.linalg.solve(r + b.T @ p @ b, b.T @ p @ a)
-            closed = a - b @ gain
-            # Joseph form: stays symmetric positive definite in floating point
-            p = q + gain.T @ r @ gain + closed.T @ p @ closed
-            p = 0.5 * (p + p.T)
-            gains[k] = gain
+        gains, p = riccati_sweep(a_list, b_list, jump.T @ cost @ jump, q, r)
         change = np.abs(p - cost).max() / np.abs(p).max()
         cost = p
         if change < RICCATI_TOLERANCE:
@@ -225,6 +210,30 @@ def periodic_riccati(a_list, b_list, jump, q, r):
                 f"periodic_lqr: P(0) still changes by {change:.1e} after {RICCATI_CYCLES} "
                 "steps; the plan's orbit may not be stabilisable with these drives"
             )
+
+
+def riccati_sweep(a_list, b_list, p_end, q, r):
+    """One backward pass of the discrete Riccati recursion of x_{k+1} = A_k x_k + B_k u_k
+    (k < K) with the stage cost x' Q x + u' R u, from the cost-to-go ``p_end`` (nx, nx) at
+    x_K; a stage whose B_k is None is an event (x -> A_k x, no input, no cost, zero gain).
+    Returns (gains (K, m, nx): u_k = -K_k x_k, the cost-to-go P_0 (nx, nx) at x_0)."""
+    count = len(a_list)
+    inputs = next(b.shape[1] for b in b_list if b is not None)
+    gains = np.zeros((count, inputs, p_end.shape[0]))
+    p = np.asarray(p_end, dtype=float)
+    for k in range(count - 1, -1, -1):
+        a, b = a_list[k], b_list[k]
+        if b is None:  # an event inside the step: x -> A x, no input, no cost
+            p = a.T @ p @ a
+            p = 0.5 * (p + p.T)
+            continue
+        gain = np.linalg.solve(r + b.T @ p @ b, b.T @ p @ a)
+        closed = a - b @ gain
+        # Joseph form: stays symmetric positive definite in floating point
+        p = q + gain.T @ r @ gain + closed.T @ p @ closed
+        p = 0.5 * (p + p.T)
+        gains[k] = gain
+    return gains, p
 
 
 def periodic_lqr(
@@ -277,17 +286,24 @@ def double_support_lqr(
     return out[0], out[1]
 
 
+def weight_matrices(n: int, weights: LqrWeights, passive=()):
+    """(the driven hinges' indices, Q (2n, 2n), R (m, m)): Bryson's rule for n hinges, the
+    ``passive`` ones (indices) without an input."""
+    active = [i for i in range(n) if i not in set(passive)]
+    if not active:
+        raise DefinitionError("`passive`: every hinge is passive; there is nothing to control")
+    q = np.diag(np.r_[np.full(n, weights.angle**-2.0), np.full(n, weights.rate**-2.0)])
+    r = np.eye(len(active)) * weights.torque**-2.0
+    return active, q, r
+
+
 def lqr_along(along: Linearisation, weights: LqrWeights, passive=()):
     """The periodic LQR of a linearised periodic plan with Bryson's weights (module
     docstring); passive hinges (indices) get no input. Returns (gains (K, n, 2n) with zero
     rows for passive hinges, P(0) (2n, 2n), Riccati steps run)."""
     n = along.states[0].shape[0] // 2
-    active = [i for i in range(n) if i not in set(passive)]
-    if not active:
-        raise DefinitionError("`passive`: every hinge is passive; there is nothing to control")
+    active, q, r = weight_matrices(n, weights, passive)
     b_list = [None if b is None else b[:, active] for b in along.inputs]
-    q = np.diag(np.r_[np.full(n, weights.angle**-2.0), np.full(n, weights.rate**-2.0)])
-    r = np.eye(len(active)) * weights.torque**-2.0
     gains, cost, cycles = periodic_riccati(along.states, b_list, along.jump, q, r)
     full = np.zeros((len(along.times), n, 2 * n))
     full[:, active, :] = gains

@@ -24,6 +24,7 @@ What differs from the product's own simulation, and how the controller copes:
 from __future__ import annotations
 
 import contextlib
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -256,121 +257,153 @@ def run_in_mujoco(
                      foot_kp, foot_kd, preload, unstable)  # fmt: skip
 
 
-def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, foot_kp,
-          foot_kd, preload, unstable) -> MujocoRun:  # fmt: skip
-    """The control loop of :func:`run_in_mujoco`."""
-    step = feedback.step
-    biped = step.biped
-    linkage = step.linkage
-    n = linkage.n
-    reference = feedback.reference
-    controller = feedback.controller
-    swap = biped.swap
-    children = np.zeros((n, n))
-    for child, parent in enumerate(linkage.parents):
-        if parent >= 0:
-            children[parent, child] = 1.0
-    subtree = np.ascontiguousarray(linkage.ancestry().T)
-    swing_index = linkage.index(biped.swing_shank)
-    actuators = {model.actuator(a).name: a for a in range(model.nu)}
-    motor_ids = [actuators[f"M_{name}"] for name in linkage.names[1:]]
-    feet = mjcf.feet
-    foot_geoms = {}
-    for label, (link, end) in {
-        "A": (biped.stance_shank, "start"),
-        "B": (biped.swing_shank, "end"),
-    }.items():
-        names = [f"{link}_heel", f"{link}_toe"] if feet else [f"{link}_{end}"]
-        foot_geoms[label] = {model.geom(g).id for g in names}
-    grounds = {g for g in range(model.ngeom) if model.geom(g).name.startswith("ground")}
-    ankle_ids = {}
-    if feet:
-        ankle_ids = {
-            "A": actuators[f"M_ankle_{biped.stance_shank}"],
-            "B": actuators[f"M_ankle_{biped.swing_shank}"],
-        }
-    start = reference.states[0]
-    if disturbances.initial is not None:
-        start = start + np.asarray(disturbances.initial, dtype=float)
-    data.qpos[:] = mjcf.qpos(start[:n], (0.0, -preload), np.zeros(len(feet)) if feet else None)
-    data.qvel[:] = mjcf.qvel(start[n:], (0.0, 0.0), np.zeros(len(feet)) if feet else None)
-    mujoco.mj_forward(model, data)
-    period = 1.0 / feedback.control_rate_hz
-    substeps = max(1, round(period / model.opt.timestep))
-    torso = model.body(biped.upper_body[0] if biped.upper_body else biped.stance_thigh).id
+class WalkerIo:
+    """The MuJoCo walker seen as the plan sees it: the state in a step's labels for either
+    stance foot (MuJoCo does not swap legs: "A" is the plan's first stance foot, "B" the
+    other), the plan's hinge torques put on MuJoCo's motors (mapped back through the leg swap
+    when "B" stands; the stance ankle's motor gives the plan's ankle torque, the swing
+    ankle's holds its foot flat), the feet's ground forces and positions."""
 
-    def normal_force(geoms) -> float:
-        return contact_normal_force(mujoco, model, data, grounds, geoms)
-
-    def ankle_position(label) -> complex:
-        if feet:
-            body = model.body(f"foot_{biped.stance_shank if label == 'A' else biped.swing_shank}")
-            x = data.xpos[body.id]
-        else:
-            gid = next(iter(foot_geoms[label]))
-            x = data.geom_xpos[gid]
-        return complex(x[0], x[2])
-
-    records = []
-    times, states = [], []
-    stance = "A"
-    t_step, clock = 0.0, 0.0
-    fell = None
-    stance_start = ankle_position(stance)
-    peak_normal, tracking, peak_torque, slip = 0.0, 0.0, 0.0, 0.0
-    pushed = disturbances.push == 0.0
-    lowest = min(0.0, disturbances.ground_rise) - 0.02
-    limit = disturbances.torque_limit
-    # every motor's limit: the plan's for its hinge, the stance ankle's for both ankles
-    drive_limits = np.full(model.nu, np.inf)
-    for name in linkage.names[1:]:
-        drive_limits[actuators[f"M_{name}"]] = step.torque_limit.get(name, np.inf)
-    for ankle in ankle_ids.values():
-        drive_limits[ankle] = step.torque_limit.get(biped.stance_shank, np.inf)
-    if limit is not None:
-        drive_limits = np.minimum(drive_limits, limit)
-    while len(records) < steps:
-        coordinates = mjcf.model_coordinates(data.qpos)
-        rates = mjcf.model_coordinates(data.qvel)
-        psi_a, dpsi_a = coordinates[2:], rates[2:]
-        if stance == "A":
-            psi, dpsi = psi_a, dpsi_a
-        else:
-            psi, dpsi = swap.map_state(psi_a, dpsi_a)
-        x = np.r_[psi, dpsi]
-        if open_loop:
-            torques = reference.at_time(t_step)[1]
-        else:
-            torques = controller.torques(t_step, x)
+    def __init__(self, mujoco, model, data, mjcf, step, limit: float | None) -> None:
+        self.mujoco, self.model, self.data, self.mjcf = mujoco, model, data, mjcf
+        biped = step.biped
+        linkage = step.linkage
+        self.biped, self.linkage, self.n = biped, linkage, linkage.n
+        n = self.n
+        self.children = np.zeros((n, n))
+        for child, parent in enumerate(linkage.parents):
+            if parent >= 0:
+                self.children[parent, child] = 1.0
+        self.subtree = np.ascontiguousarray(linkage.ancestry().T)
+        self.swing_index = linkage.index(biped.swing_shank)
+        actuators = {model.actuator(a).name: a for a in range(model.nu)}
+        self.motor_ids = [actuators[f"M_{name}"] for name in linkage.names[1:]]
+        self.feet = mjcf.feet
+        self.foot_geoms = {}
+        for label, (link, end) in {"A": (biped.stance_shank, "start"),
+                                   "B": (biped.swing_shank, "end")}.items():  # fmt: skip
+            names = [f"{link}_heel", f"{link}_toe"] if self.feet else [f"{link}_{end}"]
+            self.foot_geoms[label] = {model.geom(g).id for g in names}
+        self.grounds = {g for g in range(model.ngeom) if model.geom(g).name.startswith("ground")}
+        self.ankle_ids = {}
+        if self.feet:
+            self.ankle_ids = {"A": actuators[f"M_ankle_{biped.stance_shank}"],
+                              "B": actuators[f"M_ankle_{biped.swing_shank}"]}  # fmt: skip
+        # every motor's limit: the plan's for its hinge, the stance ankle's for both ankles
+        self.drive_limits = np.full(model.nu, np.inf)
+        for name in linkage.names[1:]:
+            self.drive_limits[actuators[f"M_{name}"]] = step.torque_limit.get(name, np.inf)
+        for ankle in self.ankle_ids.values():
+            self.drive_limits[ankle] = step.torque_limit.get(biped.stance_shank, np.inf)
         if limit is not None:
-            torques = np.clip(torques, -limit, limit)
-        tracking = max(tracking, reference.tracking(x))
+            self.drive_limits = np.minimum(self.drive_limits, limit)
+        self.limit = limit
+
+    def place(self, start: np.ndarray, preload: float) -> None:
+        """The walker at the plan's state ``start`` (2n,), ``preload`` m into the ground."""
+        n, feet, mjcf = self.n, self.feet, self.mjcf
+        self.data.qpos[:] = mjcf.qpos(start[:n], (0.0, -preload),
+                                      np.zeros(len(feet)) if feet else None)  # fmt: skip
+        self.data.qvel[:] = mjcf.qvel(start[n:], (0.0, 0.0), np.zeros(len(feet)) if feet else None)
+        self.mujoco.mj_forward(self.model, self.data)
+
+    def state(self, stance: str) -> np.ndarray:
+        """x = (psi, dpsi) (2n,) in the labels of a step on foot ``stance``."""
+        coordinates = self.mjcf.model_coordinates(self.data.qpos)
+        rates = self.mjcf.model_coordinates(self.data.qvel)
+        psi, dpsi = coordinates[2:], rates[2:]
+        if stance != "A":
+            psi, dpsi = self.biped.swap.map_state(psi, dpsi)
+        return np.r_[psi, dpsi]
+
+    def drive(self, torques: np.ndarray, stance: str, foot_kp: float, foot_kd: float) -> float:
+        """Put the plan's hinge torques (n,), in the labels of a step on ``stance``, on the
+        motors (each within its limit); returns the largest motor command, N m."""
+        data = self.data
+        if self.limit is not None:
+            torques = np.clip(torques, -self.limit, self.limit)
         if stance == "A":
             hinge = torques
         else:
             # the plan's torques, swapped back: generalised forces on the bodies, less the
             # ground's torque on the stance shank (the ankle motor's), summed over subtrees
-            forces = torques - children @ torques
-            bodies = np.zeros(n)
-            bodies[list(swap.source)] = forces
-            bodies[swing_index] -= torques[0]
-            hinge = subtree @ bodies
-        if limit is not None:  # the drives saturate: every motor, ankles included
-            hinge = np.clip(hinge, -limit, limit)
-        data.ctrl[motor_ids] = hinge[1:]
-        if feet:
-            feet_angles = mjcf.feet_angles(data.qpos)
-            feet_rates = mjcf.feet_angles(data.qvel)
+            forces = torques - self.children @ torques
+            bodies = np.zeros(self.n)
+            bodies[list(self.biped.swap.source)] = forces
+            bodies[self.swing_index] -= torques[0]
+            hinge = self.subtree @ bodies
+        if self.limit is not None:  # the drives saturate: every motor, ankles included
+            hinge = np.clip(hinge, -self.limit, self.limit)
+        data.ctrl[self.motor_ids] = hinge[1:]
+        if self.feet:
+            feet_angles = self.mjcf.feet_angles(data.qpos)
+            feet_rates = self.mjcf.feet_angles(data.qvel)
             swing = "B" if stance == "A" else "A"
             which = 1 if swing == "B" else 0
-            data.ctrl[ankle_ids[stance]] = -torques[0]
-            data.ctrl[ankle_ids[swing]] = (
+            data.ctrl[self.ankle_ids[stance]] = -torques[0]
+            data.ctrl[self.ankle_ids[swing]] = (
                 -foot_kp * feet_angles[which] - foot_kd * feet_rates[which]
             )
         # the drives give at most their limits: after the leg swap the plan's torques map onto
         # other hinges (sums over subtrees), which can ask for more than the law's own clip
-        np.clip(data.ctrl, -drive_limits, drive_limits, out=data.ctrl)
-        peak_torque = max(peak_torque, float(np.abs(data.ctrl).max()))
+        np.clip(data.ctrl, -self.drive_limits, self.drive_limits, out=data.ctrl)
+        return float(np.abs(data.ctrl).max())
+
+    def normal_force(self, label: str) -> float:
+        """The ground's normal force on foot ``label`` now, N."""
+        return contact_normal_force(self.mujoco, self.model, self.data, self.grounds,
+                                    self.foot_geoms[label])  # fmt: skip
+
+    def ankle_position(self, label: str) -> complex:
+        """Foot ``label``'s ankle (x, height) now, m (complex)."""
+        if self.feet:
+            biped = self.biped
+            link = biped.stance_shank if label == "A" else biped.swing_shank
+            x = self.data.xpos[self.model.body(f"foot_{link}").id]
+        else:
+            x = self.data.geom_xpos[next(iter(self.foot_geoms[label]))]
+        return complex(x[0], x[2])
+
+    def lowest_hinge(self, dynamics) -> float:
+        """The lowest hinge's height but the stance foot's, m (nan when the state is not
+        finite): a knee, hip or head near the ground has fallen."""
+        if not np.all(np.isfinite(self.data.qpos)):
+            return math.nan
+        hip = self.mjcf.model_coordinates(self.data.qpos)
+        hinges = dynamics.hinge_positions(hip[2:]) + complex(hip[0], hip[1])
+        return float(np.min(hinges.imag[1:]))
+
+
+def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, foot_kp,
+          foot_kd, preload, unstable) -> MujocoRun:  # fmt: skip
+    """The control loop of :func:`run_in_mujoco`."""
+    step = feedback.step
+    reference = feedback.reference
+    controller = feedback.controller
+    io = WalkerIo(mujoco, model, data, mjcf, step, disturbances.torque_limit)
+    start = reference.states[0]
+    if disturbances.initial is not None:
+        start = start + np.asarray(disturbances.initial, dtype=float)
+    io.place(start, preload)
+    period = 1.0 / feedback.control_rate_hz
+    substeps = max(1, round(period / model.opt.timestep))
+    biped = step.biped
+    torso = model.body(biped.upper_body[0] if biped.upper_body else biped.stance_thigh).id
+    records = []
+    times, states = [], []
+    stance = "A"
+    t_step, clock = 0.0, 0.0
+    fell = None
+    stance_start = io.ankle_position(stance)
+    peak_normal, tracking, peak_torque, slip = 0.0, 0.0, 0.0, 0.0
+    pushed = disturbances.push == 0.0
+    lowest = min(0.0, disturbances.ground_rise) - 0.02
+    while len(records) < steps:
+        x = io.state(stance)
+        psi = x[: io.n]
+        torques = reference.at_time(t_step)[1] if open_loop else controller.torques(t_step, x)
+        tracking = max(tracking, reference.tracking(x))
+        peak_torque = max(peak_torque, io.drive(torques, stance, foot_kp, foot_kd))
         if (
             not pushed
             and len(records) == disturbances.push_step
@@ -392,14 +425,11 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
         clock += period
         times.append(clock)
         states.append(data.qpos.copy())
-        stance_geoms = foot_geoms[stance]
-        peak_normal = max(peak_normal, normal_force(stance_geoms))
-        position = ankle_position(stance)
+        peak_normal = max(peak_normal, io.normal_force(stance))
+        position = io.ankle_position(stance)
         slip = max(slip, abs(position.real - stance_start.real))
-        hip = mjcf.model_coordinates(data.qpos)
-        hinges = feedback.plant.dynamics.hinge_positions(hip[2:]) + complex(hip[0], hip[1])
         # 2 cm under the lowest ground there is: a knee, hip or head that low has fallen
-        if np.min(hinges.imag[1:]) < lowest or not np.all(np.isfinite(data.qpos)):
+        if not io.lowest_hinge(feedback.plant.dynamics) >= lowest:
             fell = f"step {len(records)}, t = {t_step:.3f} s: a body point went under the ground"
             break
         if t_step > 2.0 * step.step_time:
@@ -407,8 +437,8 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
             break
         swing = "B" if stance == "A" else "A"
         s = reference.phase(psi)
-        if s > 0.5 and normal_force(foot_geoms[swing]) > TOUCHDOWN_FORCE:
-            landing = ankle_position(swing)
+        if s > 0.5 and io.normal_force(swing) > TOUCHDOWN_FORCE:
+            landing = io.ankle_position(swing)
             if landing.real - stance_start.real < 0.25 * step.step_length:
                 fell = (
                     f"step {len(records)}, t = {t_step:.3f} s: the swing foot came down "

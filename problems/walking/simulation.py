@@ -50,6 +50,9 @@ STRIKE_TOLERANCE = 1e-12
 #: slip: the plan itself runs along the cone's edge (right after heel strike), and the held
 #: torques of a digital controller cross it by round-off
 CONE_SLACK = 1e-3
+#: m: how far from the ground the swing foot of a walk's last step may be when it stands
+#: (point feet: it rests beside the stance foot, unloaded)
+STAND_HEIGHT = 0.005
 
 
 class Controller(Protocol):
@@ -409,6 +412,8 @@ def simulate_walking(
     torso: str | None = None,
     check_contacts: bool = True,
     lift_off=None,
+    plant: Plant | None = None,
+    stand: float | None = None,
 ) -> WalkingRun:
     """Simulate ``steps`` steps from the planned start state ``start`` (2n,).
 
@@ -435,6 +440,14 @@ def simulate_walking(
         rear foot lifts where the plan's double support ends. A rear foot that carries less
         than the plan's ``UNLOADED`` part of the weight and leaves its friction cone lifts
         there too (it rolls off); loaded, it slips and the run falls.
+    plant : the :class:`Plant` to simulate (its linkage ``linkage``, or the disturbed one;
+        ``disturbances.mass_scale`` is then not applied again), to reuse its generated
+        functions over many calls; default one built here.
+    stand : s: the last step ends in quiet standing: its swing foot comes down beside the
+        stance foot at rest, unloaded (no impact, no leg swap); the run goes on ``stand`` s past
+        the planned step time on the stance foot and ends standing, unless the swing foot
+        goes more than :data:`STAND_HEIGHT` into the ground (from half the step on) or is
+        more than that off it after the planned time; ``lift_off`` must be None.
 
     Returns
     -------
@@ -447,12 +460,19 @@ def simulate_walking(
     step_time = check_positive("step_time", step_time, "s")
     step_length = check_positive("step_length", step_length, "m")
     factor = check_positive("max_step_factor", max_step_factor)
-    plant_linkage = (
-        linkage
-        if disturbances.mass_scale == 1.0
-        else scaled_linkage(linkage, disturbances.mass_scale)
-    )
-    plant = Plant(plant_linkage, mu, substeps)
+    if plant is None:
+        plant_linkage = (
+            linkage
+            if disturbances.mass_scale == 1.0
+            else scaled_linkage(linkage, disturbances.mass_scale)
+        )
+        plant = Plant(plant_linkage, mu, substeps)
+    plant_linkage = plant.dynamics.linkage
+    if stand is not None:
+        if lift_off is not None:
+            raise DefinitionError("`stand`: the last step ends standing; give no lift_off")
+        check_positive("stand", stand, "s")
+        factor = max(factor, (step_time + stand) / step_time + 1.0)
     n = plant.n
     x = np.asarray(start, dtype=float).copy()
     if x.shape != (2 * n,):
@@ -485,6 +505,8 @@ def simulate_walking(
 
     for index in range(steps):
         controller.start_step(index, x)
+        standing = stand is not None and index == steps - 1
+        guard = lift_off
         log = _StepLog()
         logs.append(log)
         t = 0.0
@@ -546,9 +568,9 @@ def simulate_walking(
                 fell = f"step {index}, t = {t:.3f} s: the state is not finite"
                 break
             if strike is not None:  # the double support ends when the lift-off guard crosses
-                if lift_off(x_next) >= 0.0:
+                if guard(x_next) >= 0.0:
                     tau, x = locate_event(
-                        plant.advance_double, x, torques, period, lambda y: -lift_off(y)
+                        plant.advance_double, x, torques, period, lambda y, guard=guard: -guard(y)
                     )
                     t += tau
                     break
@@ -557,15 +579,27 @@ def simulate_walking(
                 continue
             height = foot_height(plant, x_next, foothold, ground)
             ahead = complex(plant.foot.position(x_next[:n])).real
+            if standing:
+                x, t = x_next, t + period
+                problem = _standing_problem(height, t, step_time)
+                if problem is not None:
+                    fell = f"step {index}, t = {t:.3f} s: {problem}"
+                    break
+                if t >= step_time + stand - 1e-12:  # stood: the run ends here
+                    foot = complex(plant.foot.position(x[:n]))
+                    velocity = complex(plant.foot.velocity(x[:n], x[n:]))
+                    strike = (t, x.copy(), np.zeros(2), foot, velocity)
+                    break
+                continue
             if height <= 0.0 and ahead > STRIKE_AHEAD * step_length:
                 tau, x_minus = locate_strike(plant, x, torques, period, foothold, ground)
                 _, impulse, lift = (
                     np.asarray(v).ravel()
-                    for v in plant.dynamics.impact(plant.foot, root_pinned=lift_off is not None)(
+                    for v in plant.dynamics.impact(plant.foot, root_pinned=guard is not None)(
                         x_minus[:n], x_minus[n:]
                     )
                 )
-                if lift_off is not None:
+                if guard is not None:
                     lift = np.array([0.0, 0.0])  # the rear foot stays: nothing to lift
                 problem = _impact_problem(impulse, lift, plant.swing_contact)
                 if problem is not None and check_contacts:
@@ -579,7 +613,7 @@ def simulate_walking(
                     complex(plant.foot.velocity(x_minus[:n], x_minus[n:])),
                 )
                 t += tau
-                if lift_off is None:
+                if guard is None:
                     break
                 # a double support begins: both feet held through the impact, the controller
                 # goes on from the strike's instant
@@ -610,6 +644,8 @@ def simulate_walking(
         clock += t
         foothold = foothold + landing
         footholds.append(foothold)
+        if standing:  # both feet stay down, in this step's labels
+            break
         x = np.asarray(plant.step_map(x_minus) if lift_off is None else plant.swap_map(x)).ravel()
     time = np.concatenate([np.asarray(log.time) for log in logs if log.time])
     states = np.vstack([np.asarray(log.states) for log in logs if log.states])
@@ -714,6 +750,16 @@ def locate_event(advance, x, torques, period: float, value):
         else:
             high, v_high, state = tau, v_tau, s_tau
     return high, state
+
+
+def _standing_problem(height: float, t: float, step_time: float) -> str | None:
+    """What is wrong with the swing foot of a step that ends standing, or None: in the
+    ground (from half the step on), or off it past the planned step time."""
+    if t >= 0.5 * step_time and height < -STAND_HEIGHT:
+        return f"the swing foot is {-1000 * height:.1f} mm in the ground before it stands"
+    if t >= step_time and height > STAND_HEIGHT:
+        return f"the swing foot stays {1000 * height:.1f} mm above the ground beside the other"
+    return None
 
 
 def _cone_problem(contact: Contact, who: str, force, slack) -> str | None:
