@@ -1,7 +1,7 @@
 """A walker's day (issue #35, second and third parts): the walk 0 -> 1.0 -> 1.4 -> 0.6 -> 0
 m/s planned as one file, its transitions' step counts and torque peaks, its verification.
 
-    python examples/benchmarks/walk_sequence.py [--write]  # about a minute
+    python examples/benchmarks/walk_sequence.py [--write]  # about two minutes
 
 Table 1: the walk (``problems.library.plan_sequence``, 8 periodic steps at each speed, the
 six-link walker on point feet, 150 N m limits): steps in all and of each kind, its duration,
@@ -9,6 +9,12 @@ the seconds to plan it (the three periodic gaits, then each transition's search)
 verification from the file read back (``verify_sequence``: every step's physics, each heel
 strike against the next step's first row): the worst join-angle, impact-momentum and dynamics
 margins.
+
+Table 3: the walk under its finite-horizon LQR (``design_sequence_feedback``) from standing to
+1 s of standing after the last step, in the product's hybrid simulation and in MuJoCo (``pip
+install ".[mujoco]"``): as planned, the body 10 % heavier and lighter, a 10 N s push forward
+and back in the middle of the first step of the 1.0 -> 1.4 m/s change, a start 0.02 rad off
+on every angle; seconds of each run.
 
 Table 2: each transition: the step counts tried (the fewest that solve within the limits and
 verify is taken; a try is capped at 300 IPOPT iterations), the count taken, IPOPT's
@@ -29,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from planner.errors import AnthropoidError
 from planner.trajectory import Trajectory
 from problems.library import STANDING, plan_sequence, plan_transition, verify_sequence
 
@@ -79,7 +86,61 @@ def main(argv=None) -> int:
         print(f"| {label} | {tried} | {transition.steps} | {transition.iterations} | "
               f"{search:.1f} | {peak:.1f} | {joined:.1f} | {peak / joined:.2f} |")  # fmt: skip
     print()
+    closed_loop_table(sequence)
     return 0 if report.ok else 1
+
+
+def closed_loop_table(sequence) -> None:
+    """Table 3: the walk under its finite-horizon LQR in both simulations."""
+    from problems.library.closed_loop import (
+        SequenceDisturbances,
+        design_sequence_feedback,
+        simulate_sequence,
+    )
+
+    try:
+        from problems.library.mujoco_sequence import run_sequence_in_mujoco
+        from problems.walking.mujoco import import_mujoco
+
+        import_mujoco()
+    except AnthropoidError:  # the extra is optional: the column says so
+        run_sequence_in_mujoco = None
+    clock = time.perf_counter()
+    feedback = design_sequence_feedback(sequence)
+    design = time.perf_counter() - clock
+    kinds = [step.kind for step in sequence.steps]
+    change = kinds.index("change")
+    print(f"Table 3: the walk in closed loop (finite-horizon LQR along all {len(kinds)} steps, "
+          f"designed in {design:.1f} s), then 1 s standing\n")  # fmt: skip
+    print("| case | product simulation | s | MuJoCo | s |")
+    print("|---|---|---|---|---|")
+    cases = {"as planned": SequenceDisturbances(),
+             "mass +10 %": SequenceDisturbances(mass_scale=1.1),
+             "mass -10 %": SequenceDisturbances(mass_scale=0.9),
+             f"push +10 N s mid step {change} (1.0 -> 1.4 m/s)":
+                 SequenceDisturbances(push=10.0, push_step=change),
+             f"push -10 N s mid step {change}": SequenceDisturbances(push=-10.0, push_step=change),
+             "start 0.02 rad off": SequenceDisturbances(initial=np.r_[np.full(6, 0.02),
+                                                                      np.zeros(6)])}  # fmt: skip
+    for label, disturbances in cases.items():
+        clock = time.perf_counter()
+        product = simulate_sequence(feedback, disturbances)
+        product_s = time.perf_counter() - clock
+        mujoco, mujoco_s = None, 0.0
+        if run_sequence_in_mujoco is not None:
+            clock = time.perf_counter()
+            mujoco = run_sequence_in_mujoco(feedback, disturbances)
+            mujoco_s = time.perf_counter() - clock
+        walked = "not installed" if mujoco is None else _outcome(mujoco)
+        print(f"| {label} | {_outcome(product)} | {product_s:.1f} | {walked} | {mujoco_s:.1f} |")
+    print()
+
+
+def _outcome(run) -> str:
+    if run.fell is not None:
+        reason = run.fell.split(": ", 1)[-1].replace("|", "")  # no pipe in a table's cell
+        return f"fell at step {run.walked}: {reason[:70]}"
+    return f"{run.walked}/{run.planned} steps" + (", stood" if run.stood else "")
 
 
 if __name__ == "__main__":

@@ -32,10 +32,10 @@ from problems.walking.mujoco import (
     MujocoRun,
     MujocoStep,
     WalkerIo,
+    advance,
     disturbed_model,
     import_mujoco,
     instability_reports,
-    push_torso,
     walker_mjcf,
 )
 from problems.walking.simulation import Disturbances
@@ -144,16 +144,12 @@ def _walk_sequence(mujoco, model, data, mjcf, feedback, disturbances, stand, foo
             tracking = max(tracking, float(np.abs(x[: io.n] - planned).max()))
             peak_torque = max(peak_torque, io.drive(torques, stance, *foot_gains))
             push_now = not pushed and t_step >= disturbances.push_at * problem.step_time
-            if push_now:
-                push_torso(mujoco, model, data, torso, disturbances.push, period)
-                pushed = True
-            for _ in range(substeps):
-                mujoco.mj_step(model, data)
-            if unstable:
-                fell = f"step {j} ({step.kind}), t = {t_step:.3f} s: MuJoCo: {unstable[0].strip()}"
+            pushed = pushed or push_now
+            push = (torso, disturbances.push, period) if push_now else None
+            report = advance(mujoco, model, data, substeps, unstable, push)
+            if report is not None:
+                fell = f"step {j} ({step.kind}), t = {t_step:.3f} s: MuJoCo: {report}"
                 break
-            if push_now:
-                data.qfrc_applied[:] = 0.0
             t_step += period
             clock += period
             times.append(clock)

@@ -176,6 +176,19 @@ def push_torso(mujoco, model, data, torso: int, impulse: float, period: float) -
                       data.qfrc_applied)  # fmt: skip
 
 
+def advance(mujoco, model, data, substeps: int, unstable: list, push=None) -> str | None:
+    """One control period of MuJoCo (``substeps`` steps), with ``push`` (torso body id,
+    impulse N s, period s: :func:`push_torso`) over it when given; MuJoCo's instability
+    report (``unstable``: :func:`instability_reports`' list) or None."""
+    if push is not None:
+        push_torso(mujoco, model, data, *push)
+    for _ in range(substeps):
+        mujoco.mj_step(model, data)
+    if push is not None:
+        data.qfrc_applied[:] = 0.0
+    return unstable[0].strip() if unstable else None
+
+
 def with_terrain(xml: str, edge: float, rise: float) -> str:
     """The walker's MJCF with its ground plane replaced by two boxes: the ground as planned up
     to x = edge, ``rise`` m higher (or lower) after it."""
@@ -404,23 +417,14 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
         torques = reference.at_time(t_step)[1] if open_loop else controller.torques(t_step, x)
         tracking = max(tracking, reference.tracking(x))
         peak_torque = max(peak_torque, io.drive(torques, stance, foot_kp, foot_kd))
-        if (
-            not pushed
-            and len(records) == disturbances.push_step
-            and (t_step >= disturbances.push_at * step.step_time)
-        ):
-            push_torso(mujoco, model, data, torso, disturbances.push, period)
-            pushed = True
-            push_active = True
-        else:
-            push_active = False
-        for _ in range(substeps):
-            mujoco.mj_step(model, data)
-        if unstable:
-            fell = f"step {len(records)}, t = {t_step:.3f} s: MuJoCo: {unstable[0].strip()}"
+        push_now = (not pushed and len(records) == disturbances.push_step
+                    and t_step >= disturbances.push_at * step.step_time)  # fmt: skip
+        pushed = pushed or push_now
+        push = (torso, disturbances.push, period) if push_now else None
+        report = advance(mujoco, model, data, substeps, unstable, push)
+        if report is not None:
+            fell = f"step {len(records)}, t = {t_step:.3f} s: MuJoCo: {report}"
             break
-        if push_active:
-            data.qfrc_applied[:] = 0.0
         t_step += period
         clock += period
         times.append(clock)

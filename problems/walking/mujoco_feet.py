@@ -27,11 +27,11 @@ from problems.walking.mujoco import (
     TOUCHDOWN_FORCE,
     MujocoRun,
     MujocoStep,
+    advance,
     contact_normal_force,
     disturbed_model,
     import_mujoco,
     instability_reports,
-    push_torso,
 )
 from problems.walking.simulation import Disturbances, disturbances_for, largest_push
 
@@ -155,15 +155,11 @@ def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preloa
         saturated += bool(np.any(np.abs(data.ctrl[motors]) >= limit))
         push_now = (not pushed and len(records) == disturbances.push_step
                     and t_step >= disturbances.push_at * step.step_time)  # fmt: skip
-        if push_now:
-            push_torso(mujoco, model, data, torso, disturbances.push, period)
-            pushed = True
-        for _ in range(substeps):
-            mujoco.mj_step(model, data)
-        if push_now:
-            data.qfrc_applied[:] = 0.0
-        if unstable:
-            fell = f"step {len(records)}, t = {t_step:.3f} s: MuJoCo: {unstable[0].strip()}"
+        pushed = pushed or push_now
+        push = (torso, disturbances.push, period) if push_now else None
+        report = advance(mujoco, model, data, substeps, unstable, push)
+        if report is not None:
+            fell = f"step {len(records)}, t = {t_step:.3f} s: MuJoCo: {report}"
             break
         t_step += period
         clock += period
