@@ -104,94 +104,123 @@ def run_sequence_in_mujoco(
                               (foot_kp, foot_kd), preload, unstable)  # fmt: skip
 
 
+class _SequenceWalk:
+    """The control loop of :func:`run_sequence_in_mujoco`: :meth:`step` walks one step of the
+    walk, :meth:`result` says how the walk ended."""
+
+    def __init__(self, mujoco, model, data, mjcf, feedback, disturbances, foot_gains,
+                 unstable) -> None:  # fmt: skip
+        self.mujoco, self.model, self.data, self.mjcf = mujoco, model, data, mjcf
+        self.feedback, self.disturbances = feedback, disturbances
+        self.foot_gains, self.unstable = foot_gains, unstable
+        first = feedback.sequence.steps[0].gait.problem
+        self.dynamics = first.dynamics
+        self.io = WalkerIo(mujoco, model, data, mjcf, first, None)
+        self.period = 1.0 / feedback.control_rate_hz
+        self.substeps = max(1, round(self.period / model.opt.timestep))
+        biped = first.biped
+        self.torso = model.body(biped.upper_body[0] if biped.upper_body else biped.stance_thigh).id
+        passive = biped.stance_shank in first.passive
+        self.sole = None if passive or not mjcf.feet else (first.foot_sole or (0.05, 0.15))
+        self.records, self.times, self.states, self.hip_x = [], [], [], []
+        self.stance, self.clock = "A", 0.0
+        self.stance_start = 0j
+
+    def place(self, start: np.ndarray, preload: float) -> None:
+        self.io.place(start, preload)
+        self.stance_start = self.io.ankle_position(self.stance)
+
+    def _torques(self, j: int, t: float, x: np.ndarray) -> np.ndarray:
+        """Step j's law, the stance ankle within what the sole carries now."""
+        torques = self.feedback.law(j, t, x)
+        if self.sole is not None:
+            normal = self.io.normal_force(self.stance)
+            torques[0] = np.clip(torques[0], -SOLE_USE * self.sole[0] * normal,
+                                 SOLE_USE * self.sole[1] * normal)  # fmt: skip
+        return torques
+
+    def step(self, j: int, last_stop: bool, stand: float) -> str | None:
+        """Walk step j (the walk's last, ending standing for ``stand`` s, when ``last_stop``);
+        why it fell, or None."""
+        io, step = self.io, self.feedback.sequence.steps[j]
+        problem, reference = step.gait.problem, self.feedback.references[j]
+        where = f"step {j} ({step.kind})"
+        horizon = problem.step_time + stand if last_stop else 2.0 * problem.step_time
+        t, peak_normal, peak_torque, slip, tracking = 0.0, 0.0, 0.0, 0.0, 0.0
+        pushed = self.disturbances.push == 0.0 or j != self.disturbances.push_step
+        swing = "B" if self.stance == "A" else "A"
+        while True:
+            x = io.state(self.stance)
+            torques = self._torques(j, t, x)
+            planned = reference.at_time(t)[0][: io.n]
+            tracking = max(tracking, float(np.abs(x[: io.n] - planned).max()))
+            peak_torque = max(peak_torque, io.drive(torques, self.stance, *self.foot_gains))
+            push_now = not pushed and t >= self.disturbances.push_at * problem.step_time
+            pushed = pushed or push_now
+            push = (self.torso, self.disturbances.push, self.period) if push_now else None
+            report = advance(self.mujoco, self.model, self.data, self.substeps, self.unstable,
+                             push)  # fmt: skip
+            if report is not None:
+                return f"{where}, t = {t:.3f} s: MuJoCo: {report}"
+            t += self.period
+            self._record()
+            peak_normal = max(peak_normal, io.normal_force(self.stance))
+            slip = max(slip, abs(io.ankle_position(self.stance).real - self.stance_start.real))
+            if not io.lowest_hinge(self.dynamics) >= -0.02:
+                return f"{where}, t = {t:.3f} s: a body point went under the ground"
+            if t >= horizon - 1e-12:
+                if not last_stop:
+                    return f"{where}: no touchdown within twice the step time"
+                break
+            if last_stop or t <= 0.5 * problem.step_time:
+                continue
+            if io.normal_force(swing) > TOUCHDOWN_FORCE:
+                ahead = io.ankle_position(swing).real - self.stance_start.real
+                if ahead < 0.25 * problem.step_length:
+                    return f"{where}, t = {t:.3f} s: the swing foot came down {ahead:+.3f} m " \
+                           "from the stance foot"  # fmt: skip
+                break
+        landing = io.ankle_position(swing)
+        self.records.append(MujocoStep(j, t, landing.real - self.stance_start.real, slip,
+                                       peak_normal, tracking, peak_torque))  # fmt: skip
+        if not last_stop:
+            self.stance, self.stance_start = swing, landing
+        return None
+
+    def _record(self) -> None:
+        self.clock += self.period
+        self.times.append(self.clock)
+        self.states.append(self.data.qpos.copy())
+        self.hip_x.append(float(self.mjcf.model_coordinates(self.data.qpos)[0]))
+
+    def result(self, fell: str | None, ends_standing: bool) -> SequenceMujocoRun:
+        rest_speed = float("nan")
+        if fell is None and ends_standing and len(self.hip_x) > 2:
+            rest_speed = abs(self.hip_x[-1] - self.hip_x[-2]) / self.period
+        stood = fell is None and ends_standing and rest_speed < REST_SPEED
+        if fell is None and ends_standing and not stood:
+            fell = f"the walk ended with the hip still moving at {rest_speed:.3f} m/s"
+        run = MujocoRun(tuple(self.records), fell, np.asarray(self.times),
+                        np.asarray(self.states), self.mjcf)  # fmt: skip
+        return SequenceMujocoRun(run, len(self.feedback.sequence.steps), stood, rest_speed)
+
+
 def _walk_sequence(mujoco, model, data, mjcf, feedback, disturbances, stand, foot_gains,
                    preload, unstable) -> SequenceMujocoRun:  # fmt: skip
     """The control loop of :func:`run_sequence_in_mujoco`."""
+    walk = _SequenceWalk(mujoco, model, data, mjcf, feedback, disturbances, foot_gains, unstable)
     steps = feedback.sequence.steps
-    first = steps[0].gait.problem
-    io = WalkerIo(mujoco, model, data, mjcf, first, None)
     start = steps[0].gait.solution.states[0].copy()
     if disturbances.initial is not None:
         start = start + np.asarray(disturbances.initial, dtype=float)
-    io.place(start, preload)
-    period = 1.0 / feedback.control_rate_hz
-    substeps = max(1, round(period / model.opt.timestep))
-    biped = first.biped
-    torso = model.body(biped.upper_body[0] if biped.upper_body else biped.stance_thigh).id
+    walk.place(start, preload)
     ends_standing = feedback.sequence.speeds[-1] == 0
-    passive = first.biped.stance_shank in first.passive
-    sole = None if passive or not mjcf.feet else (first.foot_sole or (0.05, 0.15))
-    records, times, states = [], [], []
-    stance, clock, fell = "A", 0.0, None
-    stance_start = io.ankle_position(stance)
-    hip_x = []
-    for j, step in enumerate(steps):
-        problem = step.gait.problem
-        last_stop = ends_standing and j == len(steps) - 1
-        horizon = problem.step_time + stand if last_stop else 2.0 * problem.step_time
-        t_step, peak_normal, peak_torque, slip, tracking = 0.0, 0.0, 0.0, 0.0, 0.0
-        reference = feedback.references[j]
-        pushed = disturbances.push == 0.0 or j != disturbances.push_step
-        landed = False
-        while True:
-            x = io.state(stance)
-            torques = feedback.law(j, t_step, x)
-            if sole is not None:  # the stance ankle within what the sole can take now
-                normal = io.normal_force(stance)
-                torques[0] = np.clip(torques[0], -SOLE_USE * sole[0] * normal,
-                                     SOLE_USE * sole[1] * normal)  # fmt: skip
-            planned = reference.at_time(t_step)[0][: io.n]
-            tracking = max(tracking, float(np.abs(x[: io.n] - planned).max()))
-            peak_torque = max(peak_torque, io.drive(torques, stance, *foot_gains))
-            push_now = not pushed and t_step >= disturbances.push_at * problem.step_time
-            pushed = pushed or push_now
-            push = (torso, disturbances.push, period) if push_now else None
-            report = advance(mujoco, model, data, substeps, unstable, push)
-            if report is not None:
-                fell = f"step {j} ({step.kind}), t = {t_step:.3f} s: MuJoCo: {report}"
-                break
-            t_step += period
-            clock += period
-            times.append(clock)
-            states.append(data.qpos.copy())
-            hip_x.append(float(mjcf.model_coordinates(data.qpos)[0]))
-            peak_normal = max(peak_normal, io.normal_force(stance))
-            slip = max(slip, abs(io.ankle_position(stance).real - stance_start.real))
-            if not io.lowest_hinge(feedback.sequence.steps[0].gait.problem.dynamics) >= -0.02:
-                fell = f"step {j} ({step.kind}), t = {t_step:.3f} s: a body point went under " \
-                       "the ground"  # fmt: skip
-                break
-            if t_step >= horizon - 1e-12:
-                if not last_stop:
-                    fell = f"step {j} ({step.kind}): no touchdown within twice the step time"
-                break
-            swing = "B" if stance == "A" else "A"
-            if last_stop or t_step <= 0.5 * problem.step_time:
-                continue
-            if io.normal_force(swing) > TOUCHDOWN_FORCE:
-                landing = io.ankle_position(swing)
-                if landing.real - stance_start.real < 0.25 * problem.step_length:
-                    fell = (f"step {j} ({step.kind}), t = {t_step:.3f} s: the swing foot came "
-                            f"down {landing.real - stance_start.real:+.3f} m from the stance "
-                            "foot")  # fmt: skip
-                    break
-                landed = True
-                break
+    fell = None
+    for j in range(len(steps)):
+        fell = walk.step(j, ends_standing and j == len(steps) - 1, stand)
         if fell is not None:
             break
-        landing = io.ankle_position("B" if stance == "A" else "A")
-        records.append(MujocoStep(j, t_step, landing.real - stance_start.real, slip,
-                                  peak_normal, tracking, peak_torque))  # fmt: skip
-        if landed:
-            stance, stance_start = ("B" if stance == "A" else "A"), landing
-    rest_speed = float("nan")
-    if fell is None and ends_standing and len(hip_x) > 2:
-        rest_speed = abs(hip_x[-1] - hip_x[-2]) / period
-    stood = fell is None and ends_standing and rest_speed < REST_SPEED
-    if fell is None and ends_standing and not stood:
-        fell = f"the walk ended with the hip still moving at {rest_speed:.3f} m/s"
-    run = MujocoRun(tuple(records), fell, np.asarray(times), np.asarray(states), mjcf)
-    return SequenceMujocoRun(run, len(steps), stood, rest_speed)
+    return walk.result(fell, ends_standing)
 
 
 __all__ = ["REST_SPEED", "SequenceMujocoRun", "run_sequence_in_mujoco"]
