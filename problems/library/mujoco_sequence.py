@@ -34,6 +34,7 @@ from problems.walking.mujoco import (
     WalkerIo,
     advance,
     disturbed_model,
+    due_push,
     import_mujoco,
     instability_reports,
     walker_mjcf,
@@ -147,7 +148,7 @@ class _SequenceWalk:
         where = f"step {j} ({step.kind})"
         horizon = problem.step_time + stand if last_stop else 2.0 * problem.step_time
         t, peak_normal, peak_torque, slip, tracking = 0.0, 0.0, 0.0, 0.0, 0.0
-        pushed = self.disturbances.push == 0.0 or j != self.disturbances.push_step
+        pushed = self.disturbances.push == 0.0
         swing = "B" if self.stance == "A" else "A"
         while True:
             x = io.state(self.stance)
@@ -155,9 +156,8 @@ class _SequenceWalk:
             planned = reference.at_time(t)[0][: io.n]
             tracking = max(tracking, float(np.abs(x[: io.n] - planned).max()))
             peak_torque = max(peak_torque, io.drive(torques, self.stance, *self.foot_gains))
-            push_now = not pushed and t >= self.disturbances.push_at * problem.step_time
-            pushed = pushed or push_now
-            push = (self.torso, self.disturbances.push, self.period) if push_now else None
+            pushed, push = due_push(self.disturbances, pushed, j, t, problem.step_time,
+                                    self.torso, self.period)  # fmt: skip
             report = advance(self.mujoco, self.model, self.data, self.substeps, self.unstable,
                              push)  # fmt: skip
             if report is not None:

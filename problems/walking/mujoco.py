@@ -176,6 +176,15 @@ def push_torso(mujoco, model, data, torso: int, impulse: float, period: float) -
                       data.qfrc_applied)  # fmt: skip
 
 
+def due_push(disturbances, pushed: bool, step: int, t: float, step_time: float, torso: int,
+             period: float):  # fmt: skip
+    """(pushed, push): whether the push of ``disturbances`` (on step ``push_step`` at
+    ``push_at`` of ``step_time``) is done after this period, and the push to give over it
+    ((torso, impulse N s, period s) for :func:`advance`, or None), at t s into step ``step``."""
+    now = not pushed and step == disturbances.push_step and t >= disturbances.push_at * step_time
+    return pushed or now, ((torso, disturbances.push, period) if now else None)
+
+
 def advance(mujoco, model, data, substeps: int, unstable: list, push=None) -> str | None:
     """One control period of MuJoCo (``substeps`` steps), with ``push`` (torso body id,
     impulse N s, period s: :func:`push_torso`) over it when given; MuJoCo's instability
@@ -417,10 +426,8 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
         torques = reference.at_time(t_step)[1] if open_loop else controller.torques(t_step, x)
         tracking = max(tracking, reference.tracking(x))
         peak_torque = max(peak_torque, io.drive(torques, stance, foot_kp, foot_kd))
-        push_now = (not pushed and len(records) == disturbances.push_step
-                    and t_step >= disturbances.push_at * step.step_time)  # fmt: skip
-        pushed = pushed or push_now
-        push = (torso, disturbances.push, period) if push_now else None
+        pushed, push = due_push(disturbances, pushed, len(records), t_step, step.step_time,
+                                torso, period)  # fmt: skip
         report = advance(mujoco, model, data, substeps, unstable, push)
         if report is not None:
             fell = f"step {len(records)}, t = {t_step:.3f} s: MuJoCo: {report}"

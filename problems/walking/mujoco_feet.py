@@ -30,6 +30,7 @@ from problems.walking.mujoco import (
     advance,
     contact_normal_force,
     disturbed_model,
+    due_push,
     import_mujoco,
     instability_reports,
 )
@@ -153,10 +154,8 @@ def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preloa
         command = float(np.abs(data.ctrl[motors]).max())
         peak_torque = max(peak_torque, command)
         saturated += bool(np.any(np.abs(data.ctrl[motors]) >= limit))
-        push_now = (not pushed and len(records) == disturbances.push_step
-                    and t_step >= disturbances.push_at * step.step_time)  # fmt: skip
-        pushed = pushed or push_now
-        push = (torso, disturbances.push, period) if push_now else None
+        pushed, push = due_push(disturbances, pushed, len(records), t_step, step.step_time,
+                                torso, period)  # fmt: skip
         report = advance(mujoco, model, data, substeps, unstable, push)
         if report is not None:
             fell = f"step {len(records)}, t = {t_step:.3f} s: MuJoCo: {report}"
