@@ -17,6 +17,7 @@ from model import LinkageTrajectory
 from planner.trajectory import Trajectory
 from problems.library import plan_sequence, verify_sequence
 from problems.library.closed_loop import (
+    LEAST_LOAD,
     SequenceDisturbances,
     design_sequence_feedback,
     simulate_sequence,
@@ -60,6 +61,7 @@ def test_the_file_holds_the_law(walk, tmp_path):
     laws = [entry["law"]["indexed_by"] for entry in back.metadata["sequence"]["steps"]]
     assert "time" in laws and "phase" in laws  # the start's first step moves its hip back
     rng = np.random.default_rng(3)
+    plain = dataclasses.replace(feedback, contact=None)  # the file's law without the model
     for j in range(len(sequence.steps)):
         for row in rng.choice(np.flatnonzero(steps == j)[:-2], 3, replace=False):
             x_row = np.r_[back.psi[row], back.dpsi[row]]
@@ -67,7 +69,7 @@ def test_the_file_holds_the_law(walk, tmp_path):
             x = x_row + np.r_[np.zeros(n), rng.normal(0.0, 0.05, n)]
             from_file = back.torques[row] + gains[row] @ (x_row - x)
             local = back.time[row] - sequence.steps[j].start
-            expected = feedback.law(j, local, x)
+            expected = plain.law(j, local, x)
             np.testing.assert_allclose(from_file, expected, atol=1e-6)
 
 
@@ -98,3 +100,37 @@ def test_the_walk_in_mujoco_stands_at_the_end_and_falls_without_gains(walk):
     open_loop = dataclasses.replace(feedback, gains=tuple(np.zeros_like(g) for g in feedback.gains))
     fell = run_sequence_in_mujoco(open_loop)
     assert not fell.completed and fell.fell is not None
+
+
+def test_the_contact_aware_law_keeps_the_predicted_force_loaded_and_in_its_cone(walk):
+    """The scaled torques against the ground force computed another way (the model's forward
+    dynamics and ground reaction, not the plant's generated observation), and alpha the
+    largest: where it is below 1 one contact row is at its bound."""
+    sequence, feedback = walk
+    plant = feedback.contact
+    dynamics = sequence.steps[0].gait.problem.dynamics
+    n = dynamics.n
+    weight = plant.biped.total_mass * dynamics.linkage.gravity
+    rng = np.random.default_rng(5)
+    scaled = 0
+    for j in (1, 2, len(sequence.steps) - 2):
+        reference = feedback.references[j]
+        for t in np.linspace(0.0, 0.9 * reference.duration, 12):
+            x_ref, feedforward = reference.at_time(t)
+            x = x_ref + np.r_[rng.normal(0, 0.03, n), rng.normal(0, 0.6, n)]
+            torques = feedback.law(j, t, x)
+            full = dataclasses.replace(feedback, contact=None).law(j, t, x)
+            ddpsi = dynamics.forward_dynamics(x[:n], x[n:], torques)
+            force = dynamics.ground_reaction(x[:n], x[n:], ddpsi)
+            rows = [force.imag - LEAST_LOAD * weight, plant.mu * force.imag - abs(force.real)]
+            ff = np.clip(feedforward, -feedback.limits, feedback.limits)
+            ddpsi0 = dynamics.forward_dynamics(x[:n], x[n:], ff)
+            f0 = dynamics.ground_reaction(x[:n], x[n:], ddpsi0)
+            safe0 = f0.imag >= LEAST_LOAD * weight and plant.mu * f0.imag >= abs(f0.real)
+            if not np.allclose(torques, full):
+                scaled += 1
+                if safe0:  # alpha the largest: a row at its bound
+                    assert min(rows) == pytest.approx(0.0, abs=1e-6 * weight)
+            if safe0:
+                assert min(rows) >= -1e-6 * weight
+    assert scaled > 0  # the perturbations reach the contact's limits somewhere

@@ -14,7 +14,8 @@ Table 3: the walk under its finite-horizon LQR (``design_sequence_feedback``) fr
 1 s of standing after the last step, in the product's hybrid simulation and in MuJoCo (``pip
 install ".[mujoco]"``): as planned, the body 10 % heavier and lighter, a 10 N s push forward
 and back in the middle of the first step of the 1.0 -> 1.4 m/s change, a start 0.02 rad off
-on every angle; seconds of each run.
+on every angle; and the backward push again under the law without its contact scaling
+(``contact_aware=False``); seconds of each run.
 
 Table 2: each transition: the step counts tried (the fewest that solve within the limits and
 verify is taken; a try is capped at 300 IPOPT iterations), the count taken, IPOPT's
@@ -122,14 +123,18 @@ def closed_loop_table(sequence) -> None:
              f"push -10 N s mid step {change}": SequenceDisturbances(push=-10.0, push_step=change),
              "start 0.02 rad off": SequenceDisturbances(initial=np.r_[np.full(6, 0.02),
                                                                       np.zeros(6)])}  # fmt: skip
-    for label, disturbances in cases.items():
+    plain = design_sequence_feedback(sequence, contact_aware=False)
+    runs = [(label, feedback, disturbances) for label, disturbances in cases.items()]
+    runs.append((f"push -10 N s mid step {change}, law without the contact scaling", plain,
+                 cases[f"push -10 N s mid step {change}"]))  # fmt: skip
+    for label, law, disturbances in runs:
         clock = time.perf_counter()
-        product = simulate_sequence(feedback, disturbances)
+        product = simulate_sequence(law, disturbances)
         product_s = time.perf_counter() - clock
         mujoco, mujoco_s = None, 0.0
         if run_sequence_in_mujoco is not None:
             clock = time.perf_counter()
-            mujoco = run_sequence_in_mujoco(feedback, disturbances)
+            mujoco = run_sequence_in_mujoco(law, disturbances)
             mujoco_s = time.perf_counter() - clock
         walked = "not installed" if mujoco is None else _outcome(mujoco)
         print(f"| {label} | {_outcome(product)} | {product_s:.1f} | {walked} | {mujoco_s:.1f} |")

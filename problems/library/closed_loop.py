@@ -11,14 +11,21 @@ the periodic recursion of one period at that pose), or, for a walk that ends wal
 gait's periodic LQR. The steps of a transition thus get gains that know the gait they lead
 into; the repeated periodic steps far from a transition get the periodic gains.
 
-The law, per step j, by the time t since its start (the simulation restarts the clock at
-every heel strike: an early or late strike starts the next step's law there):
+The law, per step j, indexed by tau: the step's phase s (the hip's progress over the stance
+foot, as the periodic step's controller uses) where its plan's hip always advances, else the
+time t since the step began (a start shifts the weight back first, a stop may too: a phase
+would not increase there). A step begins at the swing foot's touchdown, so an early or late
+strike starts the next step's law where it happens:
 
-    M = clip(M_ff,j(t) + K_j(t) (x_ref,j(t) - x), -limit, limit),
+    M = clip(M_ff,j(tau) + alpha K_j(tau) (x_ref,j(tau) - x), -limit, limit),
 
-held at the last sample past the step's planned end. A transition's hip may move back for a
-moment (a start shifts the weight back first), so a phase measured on the hip, as the
-periodic step's controller uses, would not increase along it; the time is the index here.
+held at its last sample past the step's planned end. alpha in [0, 1] is the largest that
+keeps the stance foot's ground force, as the plan's model predicts it, loaded and in the
+friction cone (:func:`contact_limited`; 1 when the feedback does not endanger the contact;
+``contact_aware=False``: always 1). Measured on the walk 0 -> 1.0 -> 1.4 -> 0.6 -> 0 m/s:
+without it a 10 N s push backwards in the speed-up fells the walker in both simulations (the
+correction pulls the stance foot off the ground); with it both walk on
+(examples/benchmarks/walk_sequence.py).
 
 The simulation (:func:`simulate_sequence`): each step by :func:`problems.walking.simulation
 .simulate_walking` (the same plant, contact checks, impact and leg swap), the state carried
@@ -56,6 +63,9 @@ from problems.walking.simulation import (
 
 #: the seconds a walk that ends at rest is simulated standing after its last landing
 STAND = 1.0
+#: the least normal force the feedback leaves on the stance foot, a fraction of the weight
+#: (0.02 and 0.1 walk the same cases of examples/benchmarks/walk_sequence.py)
+LEAST_LOAD = 0.05
 #: the simulated ground's friction coefficient: the plans run along their own cone (mu 0.8)
 #: right after a heel strike, so the feedback needs a little more (as the periodic step's
 #: closed loop: ``walk --ground-friction``)
@@ -80,6 +90,7 @@ class SequenceFeedback:
 
     phased: tuple = ()
     phases: tuple = ()
+    contact: object = None
 
     def law(self, j: int, t: float, x: np.ndarray) -> np.ndarray:
         """Step j's torques at t s since its start in state x (2n,), N m (clipped): by the
@@ -99,8 +110,11 @@ class SequenceFeedback:
             gain = (1.0 - w) * table[k] + w * table[k + 1]
         else:
             gain = table[k]
-        torques = feedforward + gain @ (x_ref - x)
-        return np.clip(torques, -self.limits, self.limits)
+        torques = np.clip(feedforward + gain @ (x_ref - x), -self.limits, self.limits)
+        if self.contact is not None:
+            feedforward = np.clip(feedforward, -self.limits, self.limits)
+            torques = contact_limited(self.contact, x, feedforward, torques)
+        return torques
 
 
 def with_sequence_gains(feedback: SequenceFeedback, trajectory):
@@ -141,6 +155,11 @@ def with_sequence_gains(feedback: SequenceFeedback, trajectory):
         "design": "finite-horizon LQR along the whole walk (Bryson's weights), from standing's "
                   "stationary LQR (or the last gait's periodic one) backwards through every "
                   "heel strike",
+        "contact": None if feedback.contact is None else (
+            "the feedback part K (x_ref - x) is scaled by the largest alpha in [0, 1] that "
+            f"keeps the stance foot's ground force, as the model predicts it from x and the "
+            f"torques, at Fy >= {LEAST_LOAD:g} of the weight and inside the friction cone of "
+            f"mu = {feedback.contact.mu:g} (the plan's): it needs the model"),
         "weights": feedback.weights.as_metadata(),
         "limits_N_m": [float(v) for v in feedback.limits],
         "control_rate_hz": feedback.control_rate_hz,
@@ -155,8 +174,11 @@ def design_sequence_feedback(
     *,
     weights: LqrWeights | None = None,
     control_rate_hz: float = 1000.0,
+    contact_aware: bool = True,
 ) -> SequenceFeedback:
-    """The finite-horizon LQR along ``sequence`` (see the module)."""
+    """The finite-horizon LQR along ``sequence`` (see the module); ``contact_aware``: the
+    law scales its feedback down where the plan's model predicts it would unload the stance
+    foot or take it out of its friction cone (:func:`contact_limited`)."""
     weights = weights or LqrWeights()
     period = 1.0 / check_positive("control_rate_hz", control_rate_hz, "Hz")
     steps = sequence.steps
@@ -211,7 +233,31 @@ def design_sequence_feedback(
         phases.append(grid)
     return SequenceFeedback(sequence, tuple(references), tuple(a.times for a in alongs),
                             tuple(gains), limits, weights, float(control_rate_hz),
-                            tuple(phased), tuple(phases))  # fmt: skip
+                            tuple(phased), tuple(phases),
+                            plant if contact_aware else None)  # fmt: skip
+
+
+def contact_limited(plant: Plant, x: np.ndarray, feedforward: np.ndarray, torques: np.ndarray):
+    """``torques`` with their feedback part (``torques - feedforward``) scaled by the largest
+    alpha in [0, 1] that keeps the stance foot's ground force, as the plan's model predicts it
+    (``plant.observe``: linear in the torques), pressing (Fy >= :data:`LEAST_LOAD` of the
+    weight) and inside the plan's friction cone (``plant.mu``): the drives do not pull the
+    foot off the ground or make it slip to correct an error (alpha 0 keeps the plan's own
+    torques, whose force the plan held in the cone). A row the plan's torques already miss
+    here (the body is off its plan) restricts alpha only when the feedback makes it worse."""
+    weight = plant.biped.total_mass * plant.dynamics.linkage.gravity
+    before = np.asarray(plant.observe(x, feedforward)[0]).ravel()
+    after = np.asarray(plant.observe(x, torques)[0]).ravel()
+    alpha = 1.0
+    rows0 = np.array([before[1] - LEAST_LOAD * weight, plant.mu * before[1] - before[0],
+                      plant.mu * before[1] + before[0]])  # fmt: skip
+    rows1 = np.array([after[1] - LEAST_LOAD * weight, plant.mu * after[1] - after[0],
+                      plant.mu * after[1] + after[0]])  # fmt: skip
+    for g0, g1 in zip(rows0, rows1, strict=True):
+        if g1 >= 0.0 or g1 >= g0:
+            continue  # the full feedback keeps this row, or does not make it worse
+        alpha = min(alpha, g0 / (g0 - g1) if g0 > 0.0 else 0.0)
+    return feedforward + alpha * (torques - feedforward)
 
 
 class SequenceController:
