@@ -18,7 +18,13 @@ from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import AnthropoidError, DefinitionError
 from planner.trajectory import Trajectory
 from problems.__main__ import main
-from problems.library import STANDING, plan_sequence, plan_transition, verify_sequence
+from problems.library import (
+    STANDING,
+    build_library,
+    plan_sequence,
+    plan_transition,
+    verify_sequence,
+)
 from problems.walking.footed import step_at_speed
 from problems.walking.step import walking_step
 
@@ -175,3 +181,21 @@ def test_the_commands_wrong_options_are_refused_by_name(tmp_path, capsys, extra,
     captured = capsys.readouterr()
     assert status == 2 and message in captured.err + captured.out
     assert not (tmp_path / "w").exists()
+
+
+def test_a_walk_from_a_library_walks_its_gaits(tmp_path, capsys):
+    library = build_library([0.9, 1.0, 1.1], multipliers=False)
+    sequence = plan_sequence([0, 1.0, 0], library=library, steps_at_speed=1)
+    gait = sequence.gaits[1.0]
+    own = library.gaits[1]  # the grid speed's gait, as the file holds it
+    exported = gait.exported(library.rate_hz)
+    np.testing.assert_allclose(exported.time, own.time, atol=1e-12)
+    np.testing.assert_allclose(exported.psi, own.psi, atol=1e-6)
+    np.testing.assert_allclose(exported.torques, own.torques, atol=1e-3)
+    assert sequence.verify().ok
+    path = library.save(tmp_path / "library.npz")
+    status = main(["walk", "--speeds", "0,1.5,0", "--library", str(path),
+                   "--output-dir", str(tmp_path / "w")])  # fmt: skip
+    assert status == 2 and "outside the library's 0.9..1.1 m/s" in capsys.readouterr().err
+    with pytest.raises(DefinitionError, match="outside the library"):
+        plan_sequence([0, 1.5, 0], library=library)

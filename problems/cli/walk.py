@@ -176,6 +176,14 @@ def _add_step_options(walk: argparse.ArgumentParser) -> None:
         "(0.5 sqrt(v) m in 0.5 sqrt(v) / v s)",
     )
     walk.add_argument(
+        "--library",
+        default=None,
+        metavar="PATH",
+        help="with --speeds: a gait library (python -m problems library) whose walker and "
+        "build options the walk takes (the step options here are not used), each speed's "
+        "gait solved from the library's blend there (the speeds within its grid)",
+    )
+    walk.add_argument(
         "--steps-at-speed",
         type=positive_count,
         default=8,

@@ -62,16 +62,28 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
         speeds = checked_speeds(args.speeds)
     except AnthropoidError as error:
         raise UsageError(f"--speeds: {error}") from None
-    linkage = preset_linkage(args.preset)
+    library = _library(args.library)
+    if library is not None:
+        low, high = float(library.speeds[0]), float(library.speeds[-1])
+        outside = [v for v in speeds if v > 0 and not low - 1e-12 <= v <= high + 1e-12]
+        if outside:
+            raise UsageError(
+                f"--speeds: {outside[0]:g} m/s is outside the library's {low:g}..{high:g} m/s "
+                "(--library); command speeds within it or build a wider library"
+            )
+    linkage = preset_linkage(args.preset) if library is None else library.linkage
     options = step_options(args, linkage, mesh, sole)
     options.pop("double_support", None)
+    if library is not None:  # the library's walker and its own build options
+        options = {}
     output = output_set(str(args.output_dir or new_folder("walk")), "walk")
     clock = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", AccuracyWarning)
         try:
-            sequence = plan_sequence(speeds, linkage, steps_at_speed=args.steps_at_speed,
-                                     max_steps=args.max_transition_steps,
+            sequence = plan_sequence(speeds, None if library else linkage,
+                                     steps_at_speed=args.steps_at_speed,
+                                     max_steps=args.max_transition_steps, library=library,
                                      progress=report.step, **options)  # fmt: skip
         except AnthropoidError as error:
             raise CommandFailed(f"the walk through {args.speeds}: {error}") from error
@@ -114,6 +126,18 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
     for written in paths:
         print(f"wrote {written}", file=out)
     return 0
+
+
+def _library(path):
+    """The GaitLibrary of --library, or None."""
+    if path is None:
+        return None
+    from problems.library import GaitLibrary
+
+    try:
+        return GaitLibrary.load(path)
+    except (OSError, AnthropoidError, ValueError, KeyError) as error:
+        raise UsageError(f"--library {path}: cannot read a gait library there ({error})") from None
 
 
 def _closed_loop(feedback, sequence, args, report, out):

@@ -158,7 +158,7 @@ class GaitLibrary:
         plan where the blend is only close to one."""
         length, duration = step_at_speed(speed)
         step = walking_step(self.linkage, length, duration, **step_options)
-        return step.solve(step.ocp.guess(self.at(speed)))
+        return step.solve(step.ocp.guess(self.at(speed)), progress=False)
 
     # ---- the file ---------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:

@@ -205,31 +205,56 @@ def _transition_summary(transition: Transition) -> dict[str, Any]:
     }  # fmt: skip
 
 
+def _gaits(speeds, linkage, library, say, step_options) -> dict[float, WalkingGait]:
+    """Each commanded speed's periodic gait: solved from its neighbour's solution, or from
+    the library's blend."""
+    gaits: dict[float, WalkingGait] = {}
+    previous = None
+    for v in sorted({v for v in speeds if v > 0}):
+        length, duration = step_at_speed(v)
+        if library is not None:
+            gaits[v] = library.solve_at(v, **step_options)
+            say(f"gait at {v:g} m/s from the library: {length:.3f} m in {duration:.3f} s, "
+                "verified")  # fmt: skip
+            continue
+        step = walking_step(linkage, length, duration, **step_options)
+        ocp = step.ocp if previous is None else step.ocp.guess(previous.solution)
+        gaits[v] = previous = step.solve(ocp, progress=False)
+        say(f"gait at {v:g} m/s: {length:.3f} m in {duration:.3f} s, verified")
+    return gaits
+
+
 def plan_sequence(
     speeds: Sequence[float],
     linkage: Linkage | None = None,
     *,
     steps_at_speed: int = STEPS_AT_SPEED,
     max_steps: int = MAX_STEPS,
+    library=None,
     progress: Callable[[str], None] | None = None,
     **step_options,
 ) -> WalkSequence:
     """The walk through ``speeds`` m/s (see the module): each speed's periodic gait walked
     ``steps_at_speed`` times (>= 1), transitions of up to ``max_steps`` steps between them;
     ``step_options`` as for :func:`problems.walking_step` (limits, mesh, ...), the same for
-    every step. Every step is verified at every exported sample (the transitions' as they
-    are planned, the whole walk again by :meth:`WalkSequence.verify`)."""
+    every step. ``library``: a :class:`problems.library.GaitLibrary` whose walker and build
+    options the walk takes, each speed's gait solved from the library's blend there
+    (:meth:`GaitLibrary.solve_at`: a grid speed's own gait, or the step between two of them
+    solved exactly); the speeds must lie within its grid. Every step is verified at every
+    exported sample (the transitions' as they are planned, the whole walk again by
+    :meth:`WalkSequence.verify`)."""
     speeds = checked_speeds(speeds)
     repeats = check_integer("steps_at_speed", steps_at_speed, 1)
     say = progress or (lambda _: None)
-    gaits: dict[float, WalkingGait] = {}
-    previous = None
-    for v in sorted({v for v in speeds if v > 0}):
-        length, duration = step_at_speed(v)
-        step = walking_step(linkage, length, duration, **step_options)
-        ocp = step.ocp if previous is None else step.ocp.guess(previous.solution)
-        gaits[v] = previous = step.solve(ocp, progress=False)
-        say(f"gait at {v:g} m/s: {length:.3f} m in {duration:.3f} s, verified")
+    if library is not None:
+        if linkage is not None and linkage is not library.linkage:
+            raise DefinitionError(
+                "`linkage`: a walk from a library walks the library's walker; give one of "
+                "linkage and library"
+            )
+        linkage = library.linkage
+        step_options = {**library.settings.get("options", {}), **step_options}
+    gaits = _gaits(speeds, linkage, library, say, step_options)
     ends = [STANDING if v == 0 else gaits[v] for v in speeds]
     transitions = []
     for a, b in itertools.pairwise(ends):
