@@ -248,6 +248,10 @@ def animate_walk(
     if window is not None:
         window = check_positive("window", window, "m")
     view = x1 - x0 if window is None or window >= x1 - x0 else window
+    if view < x1 - x0:  # following: the ground's margin of the view, not of the whole walk
+        top = y1 - 0.08 * max(x1 - x0, y1)
+        pad = 0.08 * max(view, top)
+        y0, y1 = -pad, top + pad
     width = 6.0
     figure = Figure(figsize=(width, width * (y1 - y0) / view + 0.6), dpi=dpi,
                     layout="constrained")  # fmt: skip
