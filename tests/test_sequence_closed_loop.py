@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from model import LinkageTrajectory
+from planner.errors import DefinitionError
 from planner.trajectory import Trajectory
 from problems.library import plan_sequence, verify_sequence
 from problems.library.closed_loop import (
@@ -134,3 +135,16 @@ def test_the_contact_aware_law_keeps_the_predicted_force_loaded_and_in_its_cone(
             if safe0:
                 assert min(rows) >= -1e-6 * weight
     assert scaled > 0  # the perturbations reach the contact's limits somewhere
+
+
+def test_bad_closed_loop_inputs_are_refused_by_name(walk):
+    from problems.walking.simulation import simulate_walking
+
+    with pytest.raises(DefinitionError, match="`push_at`: a fraction in \\[0, 1\\)"):
+        SequenceDisturbances(push=10.0, push_at=1.5)
+    _, feedback = walk
+    first = feedback.sequence.steps[0].gait
+    with pytest.raises(DefinitionError, match="`stand`: the last step ends standing"):
+        simulate_walking(first.solution.states[0], None, linkage=first.problem.linkage,
+                         step_time=0.5, step_length=0.5, mu=1.0, stand=1.0,
+                         lift_off=lambda x: -1.0)  # fmt: skip

@@ -85,6 +85,8 @@ def test_a_forced_count_that_cannot_be_walked_is_refused_with_each_try(gaits):
         plan_transition(STANDING, STANDING, steps=1)
     with pytest.raises(DefinitionError, match="`end`"):
         plan_transition(gaits[1.0], "sitting", steps=1)
+    with pytest.raises(DefinitionError, match=r"`support`: a fraction of the weight in \[0, 1\)"):
+        plan_transition(gaits[1.0], gaits[1.4], steps=1, support=1.2)
 
 
 def test_a_walk_starts_and_ends_in_quiet_standing(sequence):
@@ -175,6 +177,7 @@ def plan_linkage():
     (["--speeds", "0,1", "--step-time-s", "0.6"], "--step-time-s"),
     (["--speeds", "0,1", "--preset", "six-link-feet"], "point-foot"),
     (["--speeds", "0,x"], "separated by commas"),
+    (["--speeds", "0,1", "--library", "no_such_library.npz"], "cannot read a gait library"),
 ])  # fmt: skip
 def test_the_commands_wrong_options_are_refused_by_name(tmp_path, capsys, extra, message):
     status = main(["walk", *extra, "--output-dir", str(tmp_path / "w")])

@@ -71,6 +71,7 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
     )
     _add_body_options(walk)
     _add_step_options(walk)
+    _add_sequence_options(walk)
     _add_mesh_options(walk)
     _add_output_options(walk)
 
@@ -154,16 +155,8 @@ def _add_mesh_options(walk: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_step_options(walk: argparse.ArgumentParser) -> None:
-    """walk's options of the step: its length and time, friction, limits, feet, objective."""
-    walk.add_argument(
-        "--step-length-m",
-        type=positive("m", 2.0),
-        default=WALKING_DEFAULTS["step_length"],
-        metavar="S",
-        help="distance between the feet at heel strike, m (default: "
-        f"{WALKING_DEFAULTS['step_length']:g})",
-    )
+def _add_sequence_options(walk: argparse.ArgumentParser) -> None:
+    """walk's options of a walk through speeds (--speeds and what goes with it)."""
     walk.add_argument(
         "--speeds",
         type=speeds_option,
@@ -198,6 +191,18 @@ def _add_step_options(walk: argparse.ArgumentParser) -> None:
         metavar="K",
         help="with --speeds: the most steps a transition may take (default: 6); the fewest "
         "that solve within the limits and verify are taken",
+    )
+
+
+def _add_step_options(walk: argparse.ArgumentParser) -> None:
+    """walk's options of the step: its length and time, friction, limits, feet, objective."""
+    walk.add_argument(
+        "--step-length-m",
+        type=positive("m", 2.0),
+        default=WALKING_DEFAULTS["step_length"],
+        metavar="S",
+        help="distance between the feet at heel strike, m (default: "
+        f"{WALKING_DEFAULTS['step_length']:g})",
     )
     walk.add_argument(
         "--step-time-s",

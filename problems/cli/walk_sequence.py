@@ -23,9 +23,6 @@ from problems.cli.common import (
 from problems.library.closed_loop import STAND as STAND_S
 from problems.walking.step import WALKING_DEFAULTS
 
-#: options of the single step that a sequence does not take (its steps follow the speeds)
-_REFUSED = (("urdf", "--urdf", "a robot's sequence is not built yet"),)
-
 
 def _check(args, checked_options):
     """(the mesh, the sole) of the options (``checked_options``: walk's own check), each
@@ -35,9 +32,8 @@ def _check(args, checked_options):
             f"--speeds: plans point-foot steps (--preset six-link or five-link); got --preset "
             f"{args.preset} (a sequence on feet is not built yet)"
         )
-    for field, option, why in _REFUSED:
-        if getattr(args, field, None):
-            raise UsageError(f"--speeds with {option}: {why}; drop {option}")
+    if getattr(args, "urdf", None):
+        raise UsageError("--speeds with --urdf: a robot's sequence is not built yet; drop --urdf")
     if args.double_support_s > 0:
         raise UsageError("--speeds with --double-support-s: transitions join single supports; "
                          "drop --double-support-s")  # fmt: skip
@@ -88,7 +84,7 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
         except AnthropoidError as error:
             raise CommandFailed(f"the walk through {args.speeds}: {error}") from error
     seconds = time.perf_counter() - clock
-    _print_plan(sequence, seconds, caught, out)
+    _print_plan(sequence, seconds, caught, args.rate_hz, out)
     feedback = None
     if args.feedback:
         from problems.library.closed_loop import design_sequence_feedback
@@ -186,7 +182,9 @@ def _outcome(run) -> str:
     return f"{run.walked}/{run.planned} steps{stood}" + ("" if run.fell is None else " (fell)")
 
 
-def _print_plan(sequence, seconds: float, caught, out) -> None:
+def _print_plan(sequence, seconds: float, caught, rate_hz: float, out) -> None:
+    """The walk's steps and each transition's tries, iterations (every solve) and torque
+    peak over the samples the file holds (at ``rate_hz``)."""
     kinds = [step.kind for step in sequence.steps]
     print(f"walk through {' -> '.join(f'{v:g}' for v in sequence.speeds)} m/s: "
           f"{len(kinds)} steps in {sequence.duration:.2f} s ({kinds.count('gait')} periodic, "
@@ -195,7 +193,7 @@ def _print_plan(sequence, seconds: float, caught, out) -> None:
     print(f"  {'transition':<16} {'steps':>5} {'tried':>12} {'iterations':>10}  peak |M| N m "
           "(hinge)", file=out)  # fmt: skip
     for t in sequence.transitions:
-        peaks = t.peak_torques()
+        peaks = t.peak_torques(rate_hz)
         worst = max(peaks, key=peaks.get)
         tried = ",".join(str(k) for k, _ in t.attempts)
         label = f"{t.speeds[0]:g} -> {t.speeds[1]:g} m/s"

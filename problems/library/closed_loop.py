@@ -57,7 +57,7 @@ from problems.walking.simulation import (
     Disturbances,
     Plant,
     WalkingRun,
-    scaled_linkage,
+    disturbed_plant,
     simulate_walking,
 )
 
@@ -169,6 +169,19 @@ def with_sequence_gains(feedback: SequenceFeedback, trajectory):
     return out.with_metadata(sequence=sequence)
 
 
+def _phase_index(gait, problem, times, rate_hz: float) -> tuple:
+    """(GaitReference, the phases (K,) of the control instants ``times``) of a step whose
+    hip advances all along, else (None, None): that step's law goes by the time."""
+    try:
+        reference = GaitReference(gait.exported(rate_hz), problem.dynamics,
+                                  problem.biped.stance_thigh)  # fmt: skip
+    except DefinitionError:  # the hip stalls or goes back somewhere
+        return None, None
+    n = reference.n
+    grid = np.array([reference.phase(reference.at_time(t)[0][:n]) for t in times])
+    return (reference, grid) if np.all(np.diff(grid) > 0) else (None, None)
+
+
 def design_sequence_feedback(
     sequence: WalkSequence,
     *,
@@ -219,18 +232,11 @@ def design_sequence_feedback(
         full[:, active, :] = table
         gains[j] = full
     limits = np.array([first.torque_limit[name] for name in first.linkage.names])
-    phased, phases = [], []
+    indexed: dict[int, tuple] = {}  # a repeated gait's phase index, once
     for step, along in zip(steps, alongs, strict=True):
-        try:
-            reference = GaitReference(step.gait.exported(control_rate_hz), first.dynamics,
-                                      first.biped.stance_thigh)  # fmt: skip
-        except DefinitionError:  # the hip stalls or goes back somewhere: by the time
-            phased.append(None)
-            phases.append(None)
-            continue
-        grid = np.array([reference.phase(reference.at_time(t)[0][:n]) for t in along.times])
-        phased.append(reference if np.all(np.diff(grid) > 0) else None)
-        phases.append(grid)
+        if id(step.gait) not in indexed:
+            indexed[id(step.gait)] = _phase_index(step.gait, first, along.times, control_rate_hz)
+    phased, phases = zip(*(indexed[id(step.gait)] for step in steps), strict=True)
     return SequenceFeedback(sequence, tuple(references), tuple(a.times for a in alongs),
                             tuple(gains), limits, weights, float(control_rate_hz),
                             tuple(phased), tuple(phases),
@@ -336,10 +342,7 @@ def simulate_sequence(
     steps = sequence.steps
     first = steps[0].gait.problem
     linkage = first.linkage
-    if disturbances.mass_scale != 1.0:
-        plant = Plant(scaled_linkage(linkage, disturbances.mass_scale), ground_mu, substeps)
-    else:
-        plant = Plant(linkage, ground_mu, substeps)
+    plant = disturbed_plant(linkage, ground_mu, substeps, disturbances.mass_scale)
     controller = SequenceController(feedback)
     x = steps[0].gait.solution.states[0].copy()
     if disturbances.initial is not None:

@@ -40,7 +40,13 @@ from planner.errors import DefinitionError, check_integer, check_real
 from planner.trajectory import Trajectory
 from problems.gait.problem import RATE_HZ
 from problems.gait.verification import GaitReport, verify_gait
-from problems.library.transition import MAX_STEPS, STANDING, Transition, plan_transition
+from problems.library.transition import (
+    MAX_STEPS,
+    STANDING,
+    Transition,
+    plan_transition,
+    standing_after,
+)
 from problems.walking.footed import step_at_speed
 from problems.walking.step import WalkingGait, WorldMotion, walking_step, world_motion
 
@@ -177,7 +183,7 @@ def _stitched(sequence: WalkSequence, rate_hz: float) -> LinkageTrajectory:
         "sequence": {
             "format": FORMAT, "version": VERSION, "commanded_speeds_m_s": list(sequence.speeds),
             "rate_hz": rate_hz, "steps": described,
-            "transitions": [_transition_summary(t) for t in sequence.transitions],
+            "transitions": [_transition_summary(t, rate_hz) for t in sequence.transitions],
             "labels": "the model's: the legs swap at every heel strike (stance_* is the stance "
                       "leg of the row's step); a step's row before its heel strike is "
                       "before_impact",
@@ -196,11 +202,11 @@ def _stitched(sequence: WalkSequence, rate_hz: float) -> LinkageTrajectory:
     return trajectory
 
 
-def _transition_summary(transition: Transition) -> dict[str, Any]:
+def _transition_summary(transition: Transition, rate_hz: float) -> dict[str, Any]:
     return {
         "from_m_s": transition.speeds[0], "to_m_s": transition.speeds[1],
         "steps": transition.steps, "iterations": transition.iterations,
-        "peak_torques_N_m": transition.peak_torques(),
+        "peak_torques_N_m": transition.peak_torques(rate_hz),
         "attempts": [{"steps": k, "outcome": why} for k, why in transition.attempts],
     }  # fmt: skip
 
@@ -357,16 +363,14 @@ def verify_sequence(trajectory: Trajectory, linkage: Linkage, **options) -> Sequ
             raise DefinitionError(f"`trajectory`: step {j} has no rows")
         first_rows[j] = x_all[rows[0]]
     speeds = meta["commanded_speeds_m_s"]
+    swap = swap_legs(linkage)
     reports = []
     for j, described in enumerate(steps):
         settings: dict[str, Any] = {}
         if j + 1 < len(steps):
             settings["next_state"] = first_rows[j + 1].tolist()
         elif speeds[-1] == 0:
-            n = len(trajectory.link_names)
-            x = np.asarray(described["before_impact"]["x"], dtype=float)
-            swapped, _ = swap_legs(linkage).map_state(x[:n], x[n:])
-            settings["next_state"] = [*np.asarray(swapped).tolist(), *([0.0] * n)]
+            settings["next_state"] = standing_after(swap, described["before_impact"]["x"])
         if j == 0 and speeds[0] == 0:
             settings["start"] = STANDING
         piece = _step_rows(trajectory, described, j)

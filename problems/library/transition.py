@@ -44,7 +44,7 @@ from planner.phases_solution import PhasesSolution
 from planner.problem import Phases
 from planner.transcription import Transcription
 from problems.gait.problem import RATE_HZ, rate_scales, solve_and_hold, total_iterations
-from problems.gait.verification import GaitReport, GaitVerificationError, verify_gait
+from problems.gait.verification import GaitReport, verify_gait
 from problems.walking.footed import step_at_speed
 from problems.walking.step import PINNED, WalkingGait, WalkingStep, walking_step
 
@@ -118,10 +118,12 @@ class Transition:
     def duration(self) -> float:
         return math.fsum(gait.duration for gait in self.gaits)
 
-    def peak_torques(self) -> dict[str, float]:
-        """The largest |M| of each hinge over the transition's exported samples, N m."""
+    def peak_torques(self, rate_hz: float = RATE_HZ) -> dict[str, float]:
+        """The largest |M| of each hinge over the transition's samples exported at ``rate_hz``
+        (what a file written at that rate holds), N m."""
         names = self.gaits[0].problem.linkage.names
-        peaks = np.max([np.max(np.abs(g.exported().torques), axis=0) for g in self.gaits], 0)
+        peaks = np.max([np.max(np.abs(g.exported(rate_hz).torques), axis=0)
+                        for g in self.gaits], 0)  # fmt: skip
         return dict(zip(names, peaks.tolist(), strict=True))
 
     @property
@@ -179,7 +181,7 @@ def _supported(step: WalkingStep, ocp, least: float):
 
 
 def transition_problem(
-    start, end, steps: int, linkage=None, *, support: float = SUPPORT, **step_options
+    start, end, steps: int, *, support: float = SUPPORT, **step_options
 ) -> tuple:
     """(Phases, the k WalkingSteps) of a transition of ``steps`` steps (see the module);
     ``support``: the stance foot's least normal force, a fraction of the weight."""
@@ -190,19 +192,18 @@ def transition_problem(
         raise DefinitionError(f"`support`: a fraction of the weight in [0, 1), got {support!r}")
     if isinstance(start, str) and isinstance(end, str):
         raise DefinitionError("`start`, `end`: a transition from standing to standing is no walk")
-    if not isinstance(start, str):
-        linkage = start.problem.linkage
-    elif not isinstance(end, str):
-        linkage = end.problem.linkage
+    guesses = [g for g in (start, end) if not isinstance(g, str)]
+    linkage = guesses[0].problem.linkage  # the walker of the gaits it joins
     n = linkage.n
     phases, problems = None, []
-    guesses = [g for g in (start, end) if not isinstance(g, str)]
-    for j, (speed, length, duration) in enumerate(_ramp(start, end, k)):
+    ramp = _ramp(start, end, k)
+    for j, (speed, length, duration) in enumerate(ramp):
         last = j == k - 1
         options = dict(step_options)
         if last and isinstance(end, str):
             options["touchdown_speed"] = 0.0  # the foot sets down at rest
-        guide = length if length > 0 else _ramp(start, end, k)[0][1] or 0.5
+        # the law guesses a step of some length: a stop's last one lands at 0
+        guide = length if length > 0 else ramp[0][1] or 0.5
         step = walking_step(linkage, guide, duration, **options)
         drop = set(START_ROWS if j == 0 else ()) | set(END_ROWS if last else ())
         ocp = _supported(step, _open(step.ocp, drop), support)
@@ -231,6 +232,16 @@ def transition_problem(
     return phases, tuple(problems)
 
 
+def standing_after(swap, x_end) -> list[float]:
+    """The state (2n,) a walk that ends at rest stands in after its last step, in the next
+    step's labels (what its heel strike is checked against): the last pose relabelled
+    (``swap``: :func:`model.swap_legs`), the rates 0 (the foot sets down at rest)."""
+    x_end = np.asarray(x_end, dtype=float)
+    n = x_end.size // 2
+    psi, _ = swap.map_state(x_end[:n], x_end[n:])
+    return [*np.asarray(psi, dtype=float).tolist(), *([0.0] * n)]
+
+
 def _verify_steps(gaits, start, end, rate_hz: float) -> tuple[GaitReport, ...]:
     """Each step's samples verified, its impact against the next step's first state (the
     end's: a gait b's x(0), or the standing pose relabelled at rest)."""
@@ -241,10 +252,8 @@ def _verify_steps(gaits, start, end, rate_hz: float) -> tuple[GaitReport, ...]:
         if j + 1 < len(gaits):
             settings["next_state"] = gaits[j + 1].solution.states[0].tolist()
         elif isinstance(end, str):
-            x = gait.solution.states[-1]
-            n = x.size // 2
-            psi, _ = gait.problem.biped.swap.map_state(x[:n], x[n:])
-            settings["next_state"] = [*np.asarray(psi).tolist(), *([0.0] * n)]
+            settings["next_state"] = standing_after(gait.problem.biped.swap,
+                                                    gait.solution.states[-1])  # fmt: skip
         else:
             settings["next_state"] = end.segments()[0][0].states[0].tolist()
         if j == 0 and isinstance(start, str):
@@ -258,7 +267,6 @@ def _verify_steps(gaits, start, end, rate_hz: float) -> tuple[GaitReport, ...]:
 def plan_transition(
     start,
     end,
-    linkage=None,
     *,
     steps: int | None = None,
     max_steps: int = MAX_STEPS,
@@ -282,7 +290,7 @@ def plan_transition(
         counts = list(range(1, check_integer("max_steps", max_steps, 1) + 1))
     attempts = []
     for k in counts:
-        phases, problems = transition_problem(start, end, k, linkage, **step_options)
+        phases, problems = transition_problem(start, end, k, **step_options)
         ipopt = dict(options or {})
         if steps is None:
             ipopt.setdefault("max_iter", SEARCH_ITERATIONS)
@@ -296,7 +304,7 @@ def plan_transition(
                 for problem, part in zip(problems, solution.phases, strict=True)
             )
             reports = _verify_steps(gaits, start, end, rate_hz)
-        except (AnthropoidError, GaitVerificationError) as error:
+        except AnthropoidError as error:  # a failed solve, hold or verification
             attempts.append((k, str(error).splitlines()[0][:300]))
             if progress is not None:
                 progress(f"{k} step(s): failed ({attempts[-1][1][:120]})")
@@ -315,4 +323,11 @@ def plan_transition(
     )
 
 
-__all__ = ["MAX_STEPS", "STANDING", "Transition", "plan_transition", "transition_problem"]
+__all__ = [
+    "MAX_STEPS",
+    "STANDING",
+    "Transition",
+    "plan_transition",
+    "standing_after",
+    "transition_problem",
+]

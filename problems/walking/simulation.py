@@ -375,6 +375,12 @@ def _map_jacobian(mapping: ca.Function) -> ca.Function:
     return ca.Function(f"{mapping.name()}_jacobian", [x], [ca.jacobian(mapping(x), x)])
 
 
+def disturbed_plant(linkage: Linkage, mu: float | None, substeps: int, mass_scale: float):
+    """The :class:`Plant` of ``linkage`` with its masses and inertias times ``mass_scale``."""
+    scaled = linkage if mass_scale == 1.0 else scaled_linkage(linkage, mass_scale)
+    return Plant(scaled, mu, substeps)
+
+
 def scaled_linkage(linkage: Linkage, scale: float) -> Linkage:
     """The same tree with every mass and moment of inertia times ``scale``."""
     links = [
@@ -461,12 +467,7 @@ def simulate_walking(
     step_length = check_positive("step_length", step_length, "m")
     factor = check_positive("max_step_factor", max_step_factor)
     if plant is None:
-        plant_linkage = (
-            linkage
-            if disturbances.mass_scale == 1.0
-            else scaled_linkage(linkage, disturbances.mass_scale)
-        )
-        plant = Plant(plant_linkage, mu, substeps)
+        plant = disturbed_plant(linkage, mu, substeps, disturbances.mass_scale)
     plant_linkage = plant.dynamics.linkage
     if stand is not None:
         if lift_off is not None:
@@ -586,9 +587,7 @@ def simulate_walking(
                     fell = f"step {index}, t = {t:.3f} s: {problem}"
                     break
                 if t >= step_time + stand - 1e-12:  # stood: the run ends here
-                    foot = complex(plant.foot.position(x[:n]))
-                    velocity = complex(plant.foot.velocity(x[:n], x[n:]))
-                    strike = (t, x.copy(), np.zeros(2), foot, velocity)
+                    strike = _stood(plant, t, x)
                     break
                 continue
             if height <= 0.0 and ahead > STRIKE_AHEAD * step_length:
@@ -750,6 +749,15 @@ def locate_event(advance, x, torques, period: float, value):
         else:
             high, v_high, state = tau, v_tau, s_tau
     return high, state
+
+
+def _stood(plant: Plant, t: float, x: np.ndarray) -> tuple:
+    """The strike record of a step that ended standing at t: no impact, the resting foot
+    where it is (the step's length) and how it moves."""
+    n = plant.n
+    foot = complex(plant.foot.position(x[:n]))
+    velocity = complex(plant.foot.velocity(x[:n], x[n:]))
+    return (t, x.copy(), np.zeros(2), foot, velocity)
 
 
 def _standing_problem(height: float, t: float, step_time: float) -> str | None:
