@@ -1472,20 +1472,22 @@ def test_stagings_that_killed_runs_left_are_removed_by_the_next_run(
 
 
 def test_a_run_stopped_by_sigterm_leaves_nothing(tmp_path):
-    """SIGTERM while the files are staged (the GIF takes seconds): exit 143, one line, no
-    staging folder, no output folder."""
+    """SIGTERM while the files are staged (a 241-frame GIF takes seconds): exit 143, one line,
+    no staging folder, no output folder. A 2 s run's GIF (61 frames) was written within the
+    0.3 s this test used to wait on a fast CI machine, and the run ended with 0."""
     import signal
     import time
 
     folder = tmp_path / "out"
-    argv = [sys.executable, "-m", "problems", "torques", "--duration-s", "2", "--gif",
+    argv = [sys.executable, "-m", "problems", "torques", "--duration-s", "8", "--gif",
             "--output-dir", str(folder)]  # fmt: skip
     process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while not any(p.name.startswith(".out.partial-") for p in tmp_path.iterdir()):
         assert process.poll() is None and time.monotonic() < deadline, "it never staged"
         time.sleep(0.02)
-    time.sleep(0.3)  # into the writing
+    time.sleep(0.05)  # into the writing
+    assert process.poll() is None, "the run ended before it could be stopped"
     process.send_signal(signal.SIGTERM)
     _, err = process.communicate(timeout=120)
     assert process.returncode == 143, err
