@@ -1,8 +1,8 @@
 """The gait library (issue #35, first part): building it over speed, and how far a blended
-gait is from a solved one at the grid's spacing.
+gait is from a solved one at the grid's spacing, on point feet and on feet.
 
-    python examples/benchmarks/gait_library.py [--write]  # about 1 min
-    python examples/benchmarks/gait_library.py --quick    # table 2 only
+    python examples/benchmarks/gait_library.py [--write]  # about 3 min
+    python examples/benchmarks/gait_library.py --quick    # tables 2 and 4 only
 
 Table 1: the point-foot library of 20 speeds from 0.4 to 1.8 m/s (``build_library``), with
 each closed loop's Floquet multipliers (the phase-indexed law's return map at its fixed point,
@@ -30,6 +30,8 @@ import numpy as np
 
 from problems import verify_gait
 from problems.library import build_library
+from problems.library.build import _feet_gait
+from problems.walking.footed import footed_step_at
 
 
 def build_table() -> None:
@@ -89,13 +91,68 @@ def blend_table() -> None:
     print()
 
 
+def feet_build_table() -> None:
+    print("Table 3: a library on feet of 11 speeds, 0.6 to 1.6 m/s\n")
+    print("| seconds | s per gait | iterations: middle (law) | warm (median) | warm (max) |")
+    print("|---|---|---|---|---|")
+    speeds = np.round(np.linspace(0.6, 1.6, 11), 6)
+    start = time.perf_counter()
+    library = build_library(speeds, feet=True)
+    seconds = time.perf_counter() - start
+    iterations = [g.iterations for g in library.gaits]
+    middle = iterations[len(iterations) // 2]
+    warm = iterations[: len(iterations) // 2] + iterations[len(iterations) // 2 + 1 :]
+    print(f"| {seconds:.1f} | {seconds / speeds.size:.2f} | {middle} | "
+          f"{statistics.median(warm):g} | {max(warm)} |\n")  # fmt: skip
+
+
+def _single_support_residual(library, trajectory) -> float:
+    rows = np.asarray(trajectory.extras["double_support"][0]) < 0.5
+    psi, dpsi, ddpsi = (np.asarray(getattr(trajectory, k))[rows] for k in ("psi", "dpsi",
+                                                                          "ddpsi"))  # fmt: skip
+    expected = library.dynamics.inverse_dynamics(psi, dpsi, ddpsi)
+    return float(np.max(np.abs(np.asarray(trajectory.torques)[rows] - expected)))
+
+
+def feet_blend_table() -> None:
+    print("Table 4: blends on feet midway between gaits, against the step solved there\n")
+    print("| spacing m/s | speed | single support residual N m | ratio | whole step residual "
+          "N m | drive torque RMS / max N m | solve_at iterations | from the law |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|")
+    cold = footed_step_at(1.0).solve()
+    law_iterations = cold.to_trajectory(1000.0).metadata.get("iterations")
+    rows = []
+    for spacing in (0.2, 0.1, 0.05):
+        library = build_library([1.0 - spacing / 2, 1.0 + spacing / 2], feet=True)
+        blended = library.at(1.0)
+        report = verify_gait(blended, library.linkage)
+        solved = library.solve_at(1.0)
+        a, b = library.gaits
+        tau = np.linspace(0.0, 3.0, 1201)
+        blend = 0.5 * (a.on_grid(tau)["torques"] + b.on_grid(tau)["torques"])
+        reference = _feet_gait(solved, 1.0, False).on_grid(tau)["torques"]
+        gap = (blend - reference)[:, 1:]  # the drives (the root's is the ground's torque)
+        rows.append((spacing, _single_support_residual(library, blended),
+                     -report["dynamics"].margin, float(np.sqrt(np.mean(gap**2))),
+                     float(np.abs(gap).max()),
+                     solved.to_trajectory(1000.0).metadata.get("iterations")))  # fmt: skip
+    finest = rows[-1][1]
+    for spacing, single, whole, rms, peak, iterations in rows:
+        print(f"| {spacing:g} | 1.0 | {single:.3f} | {single / finest:.1f} | {whole:.2f} | "
+              f"{rms:.3f} / {peak:.3f} | {iterations} | {law_iterations} |")  # fmt: skip
+    print()
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="table 2 only")
+    parser.add_argument("--quick", action="store_true", help="tables 2 and 4 only")
     args = parser.parse_args(argv)
     if not args.quick:
         build_table()
     blend_table()
+    if not args.quick:
+        feet_build_table()
+    feet_blend_table()
     return 0
 
 

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from typing import TextIO
 
 import numpy as np
 
+from planner.accuracy_check import AccuracyWarning
 from problems.cli.common import Reporter, UsageError, output_set
 from problems.cli.study import value_list
 from problems.library import GaitLibrary, build_library
@@ -18,18 +20,22 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
     parser = commands.add_parser(
         "library",
         parents=[common],
-        help="periodic point-foot steps over speed with their feedback, in one file",
+        help="periodic steps over speed (point feet or feet) with their feedback, in one file",
         description=(
-            "Plan a periodic walking step on point feet at each speed (step length 0.5 "
-            "(v / 1 m/s)^(1/2) m, time length / v), from the middle of the grid outward, each "
-            "warm-started from its neighbour, verify each at every exported sample, design its "
-            "periodic LQR and compute its closed loop's Floquet multipliers; write them to "
-            "library.npz (problems.library.GaitLibrary: numpy alone reads it) and print the "
-            "table."
+            "Plan a periodic walking step on point feet (or with --feet on feet: flat foot, "
+            "heel rise, double support) at each speed (step length 0.5 (v / 1 m/s)^(1/2) m, "
+            "time length / v), from the middle of the grid outward, each warm-started from its "
+            "neighbour, verify each at every exported sample, design its feedback (point feet: "
+            "the periodic LQR and its closed loop's Floquet multipliers; feet: the joint PD "
+            "they walk with in MuJoCo); write them to library.npz "
+            "(problems.library.GaitLibrary: numpy alone reads it) and print the table."
         ),
     )
     parser.add_argument("--speeds-mps", type=value_list("m/s", upper=3.0), required=True,
                         metavar="V", help="the speeds, m/s: a,b,c or start:stop:count")  # fmt: skip
+    parser.add_argument("--feet", action="store_true",
+                        help="steps on feet (the six-link scene on Winter's feet, "
+                        "problems.footed_step; about 3 s a gait)")  # fmt: skip
     parser.add_argument("--no-multipliers", action="store_true",
                         help="skip the Floquet multipliers (0.9 s a gait of fixed-point "
                         "search)")  # fmt: skip
@@ -43,16 +49,29 @@ def run(args, out: TextIO, report: Reporter) -> int:
         raise UsageError("--speeds-mps: two or more speeds (a library blends neighbours)")
     output = output_set(args.output_dir, "library")
     with report.working(f"planning {len(speeds)} steps from {speeds[0]:g} to {speeds[-1]:g} m/s"):
-        library = build_library(speeds, multipliers=not args.no_multipliers,
-                                progress=report.step)  # fmt: skip
-    print("| speed m/s | step m in s | IPOPT iterations | peak abs M N m | largest abs "
-          "multiplier |", file=out)  # fmt: skip
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", AccuracyWarning)
+            library = build_library(speeds, feet=args.feet,
+                                    multipliers=not args.no_multipliers,
+                                    progress=report.step)  # fmt: skip
+    for warning in caught:  # one line each, not Python's two with a source line
+        report.warn(f"a gait of the library: {warning.message}")
+    last = "contact phases s" if args.feet else "largest abs multiplier"
+    print(f"| speed m/s | step m in s | IPOPT iterations | peak abs M N m | {last} |", file=out)
     print("|---|---|---|---|---|", file=out)
     for gait in library.gaits:
-        largest = np.max(np.abs(gait.multipliers))
-        print(f"| {gait.speed:.3f} | {gait.step_length:.3f} in {gait.step_time:.3f} | "
-              f"{gait.iterations} | {np.max(np.abs(gait.torques)):.1f} | "
-              f"{'-' if np.isnan(largest) else f'{largest:.3f}'} |", file=out)  # fmt: skip
+        if args.feet:
+            said = ", ".join(f"{name} {duration:.3f}" for name, duration in gait.segments)
+        else:
+            largest = np.max(np.abs(gait.multipliers))
+            said = "-" if np.isnan(largest) else f"{largest:.3f}"
+        # the drives' torques: on feet the root's is the ground's torque on the stance foot
+        drives = gait.torques[:, 1:] if args.feet else gait.torques
+        print(
+            f"| {gait.speed:.3f} | {gait.step_length:.3f} in {gait.step_time:.3f} | "
+            f"{gait.iterations} | {np.max(np.abs(drives)):.1f} | {said} |",
+            file=out,
+        )
     with output:
         path = library.save(output.path("library.npz"))
         back = GaitLibrary.load(path)  # read back: the file a controller loads

@@ -131,9 +131,15 @@ def _library(path):
     from problems.library import GaitLibrary
 
     try:
-        return GaitLibrary.load(path)
+        library = GaitLibrary.load(path)
     except (OSError, AnthropoidError, ValueError, KeyError) as error:
         raise UsageError(f"--library {path}: cannot read a gait library there ({error})") from None
+    if library.feet:
+        raise UsageError(
+            f"--library {path}: its gaits walk on feet; --speeds plans a walk on point feet "
+            "only so far: build one with `python -m problems library` without --feet"
+        )
+    return library
 
 
 def _closed_loop(feedback, sequence, args, report, out):

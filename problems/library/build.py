@@ -1,5 +1,8 @@
-"""Building a gait library: one periodic step on point feet per speed, planned, verified at
-every exported sample, given its periodic LQR and its closed loop's Floquet multipliers.
+"""Building a gait library: one periodic step per speed, on point feet or on feet, planned,
+verified at every exported sample, given its feedback (on point feet the periodic LQR and its
+closed loop's Floquet multipliers; on feet the joint PD of
+:class:`problems.walking.feet_control.FeetLaw`, the law the step on feet walks with in MuJoCo:
+the footed cycle has no return map in the product yet, so no multipliers).
 
 The speeds are solved in order from the middle of the grid outward; each step after the first
 starts from its neighbour's solution (:meth:`planner.OCP.guess`: re-gridded in normalised time;
@@ -19,11 +22,13 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from model.linkage import Linkage
+from model.linkage_naming import root_contact
 from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import AnthropoidError, DefinitionError, check_positive
 from problems.library.library import GaitLibrary, LibraryGait
 from problems.walking.feedback import design_feedback, gains_from
-from problems.walking.footed import step_at_speed
+from problems.walking.feet_control import FeetLaw
+from problems.walking.footed import footed_step_at, step_at_speed
 from problems.walking.linearisation import fixed_point
 from problems.walking.step import walking_step
 
@@ -49,30 +54,34 @@ def build_library(
     speeds: Sequence[float],
     linkage: Linkage | None = None,
     *,
+    feet: bool = False,
     multipliers: bool = True,
     progress: Callable[[str], None] | None = None,
     **step_options,
 ) -> GaitLibrary:
-    """The library of periodic steps on point feet at ``speeds`` m/s (increasing; each step's
-    length and time from :func:`problems.walking.footed.step_at_speed`), of ``linkage``
-    (default the six-link scene), ``step_options`` as for :func:`problems.walking_step`;
-    ``multipliers``: compute each closed loop's Floquet multipliers (the return map's
-    eigenvalues at its fixed point); ``progress``: called with a line per gait."""
+    """The library of periodic steps at ``speeds`` m/s (increasing; each step's length and
+    time from :func:`problems.walking.footed.step_at_speed`) on point feet
+    (:func:`problems.walking_step`; ``linkage`` default the six-link scene) or, with ``feet``,
+    on feet (:func:`problems.footed_step`; default ``model.presets.anthropoid_with_feet``),
+    ``step_options`` as for that function; ``multipliers``: compute each point-foot closed
+    loop's Floquet multipliers (the return map's eigenvalues at its fixed point; none on
+    feet); ``progress``: called with a line per gait."""
     speeds = [check_positive(f"speeds[{k}]", v, "m/s") for k, v in enumerate(speeds)]
     if not speeds or any(b <= a for a, b in itertools.pairwise(speeds)):
         raise DefinitionError(f"`speeds`: one or more, strictly increasing, got {speeds}")
+    if not isinstance(feet, bool):
+        raise DefinitionError(f"`feet`: True (steps on feet) or False (point feet), got {feet!r}")
     gaits: dict[int, LibraryGait] = {}
     solved: dict[int, object] = {}
     for k in _order(len(speeds)):
         clock = time.perf_counter()
-        length, duration = step_at_speed(speeds[k])
-        step = walking_step(linkage, length, duration, **step_options)
+        step = _step(speeds[k], linkage, feet, step_options)
         neighbours = [j for j in (k - 1, k + 1) if j in solved]
         gait = None
         if neighbours:
             warm = solved[min(neighbours, key=lambda j: abs(speeds[j] - speeds[k]))]
             try:
-                gait = step.solve(step.ocp.guess(warm.solution), progress=False)
+                gait = step.solve(step.problem.guess(warm.solution), progress=False)
             except AnthropoidError:  # a failed solve, hold or verification
                 gait = None  # from the law, below
         if gait is None:
@@ -83,7 +92,7 @@ def build_library(
                     f"the library's step at {speeds[k]:g} m/s: {error}"
                 ) from error
         solved[k] = gait
-        gaits[k] = _library_gait(gait, speeds[k], multipliers)
+        gaits[k] = (_feet_gait if feet else _library_gait)(gait, speeds[k], multipliers)
         if progress is not None:
             progress(f"{speeds[k]:.3f} m/s: {gaits[k].iterations} iterations, "
                      f"{time.perf_counter() - clock:.2f} s")  # fmt: skip
@@ -92,10 +101,68 @@ def build_library(
         tuple(gaits[k] for k in range(len(speeds))),
         first.problem.linkage,
         RATE_HZ,
-        {"feet": "points", "step_at_speed": "length 0.5 sqrt(v / 1 m/s) m, time length / v",
+        {"feet": "feet" if feet else "points",
+         "step_at_speed": "length 0.5 sqrt(v / 1 m/s) m, time length / v",
          "options": {k: v for k, v in step_options.items() if isinstance(v, int | float | str)},
          "order": "from the middle outward, each warm-started from its neighbour"},
     )  # fmt: skip
+
+
+def _step(speed: float, linkage: Linkage | None, feet: bool, options: dict):
+    """The periodic step at ``speed`` m/s, on point feet or on feet."""
+    if feet:
+        return footed_step_at(speed, linkage=linkage, **options)
+    length, duration = step_at_speed(speed)
+    return walking_step(linkage, length, duration, **options)
+
+
+def _feet_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
+    """One step on feet's samples, verification, contact phases and joint PD gains (no
+    multipliers: see the module)."""
+    law = FeetLaw(gait, rate_hz=RATE_HZ)
+    profile = law.channels(gait.to_trajectory(RATE_HZ))
+    linked = LinkageTrajectory.of(profile)
+    n = len(linked.link_names)
+    root = f"F_{root_contact(linked.link_names)}_"  # the stance foot's: from the motion
+    contacts = [key for key in profile.extras if key.startswith("F_") and not key.startswith(root)]
+    extras = {key: np.asarray(profile.extras[key][0], dtype=float)
+              for key in (*contacts, "double_support")}  # fmt: skip
+    names = gait.problem.sequence
+    settings = dict(profile.metadata.get("gait", {}))
+    settings["before_events"] = _before_events(gait, settings.get("before_events") or [], n)
+    return LibraryGait(
+        speed=float(speed),
+        step_length=float(gait.problem.step_length),
+        step_time=float(gait.problem.step_time),
+        time=np.asarray(profile.time, dtype=float) - float(profile.time[0]),
+        psi=np.asarray(linked.psi), dpsi=np.asarray(linked.dpsi),
+        ddpsi=np.asarray(linked.ddpsi), torques=np.asarray(linked.torques),
+        phase=np.asarray(profile.extras["phase"][0]),
+        gains=gains_from(profile, linked.link_names), multipliers=np.full(2 * n, np.nan + 0j),
+        iterations=int(profile.metadata.get("iterations") or 0),
+        settings=settings,
+        segments=tuple(zip(names, gait.durations(), strict=True)),
+        extras=extras, law=_law(profile.metadata.get("feedback", {})),
+    )  # fmt: skip
+
+
+def _before_events(gait, events: list, n: int) -> list:
+    """The exported state before each phase's end (``{"t", "x"}``) with the accelerations
+    ``ddpsi`` and torques ``torques`` there too, from the phase's consistent motion at its
+    end: what a blend needs to reach an impact's instant without extrapolating (the samples
+    stop up to one sample period short of it)."""
+    completed = []
+    for event, (solution, _) in zip(events, gait.segments()[:-1], strict=True):
+        _, xdot, controls = solution.motion(np.array([float(solution.T)]))
+        completed.append({**event, "ddpsi": np.asarray(xdot)[0, n:].tolist(),
+                          "torques": np.asarray(controls)[0, :n].tolist()})  # fmt: skip
+    return completed
+
+
+def _law(feedback: dict) -> dict:
+    """The feedback's description as the library file keeps it: its words and numbers, not
+    the per-sample tables the gains arrays already hold."""
+    return {key: value for key, value in feedback.items() if key not in ("state", "gains")}
 
 
 def _library_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
@@ -123,7 +190,7 @@ def _library_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
         torques=np.asarray(linked.torques), phase=np.asarray(profile.extras["phase"][0]),
         gains=gains_from(profile, linked.link_names), multipliers=values,
         iterations=int(profile.metadata.get("iterations") or 0),
-        settings=settings,
+        settings=settings, law=_law(profile.metadata.get("feedback", {})),
     )  # fmt: skip
 
 

@@ -253,6 +253,12 @@ def plan_sequence(
     repeats = check_integer("steps_at_speed", steps_at_speed, 1)
     say = progress or (lambda _: None)
     if library is not None:
+        if library.feet:
+            raise DefinitionError(
+                "`library`: its gaits walk on feet; a walk through speeds is planned on point "
+                "feet only so far (its transitions are single supports): give a point-foot "
+                "library (build_library(..., feet=False))"
+            )
         if linkage is not None and linkage is not library.linkage:
             raise DefinitionError(
                 "`linkage`: a walk from a library walks the library's walker; give one of "
