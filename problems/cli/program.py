@@ -20,6 +20,7 @@ from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from problems.cli import (
     compare_gait,
     demo,
+    drives,
     equations,
     library,
     simulate,
@@ -66,8 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", metavar="<command>", parser_class=Parser)
     commands.required = True
 
-    for command in (walk, study, library, compare_gait, track_gait, equations, torques, simulate,
-                    demo):  # fmt: skip
+    for command in (walk, study, library, drives, compare_gait, track_gait, equations, torques,
+                    simulate, demo):  # fmt: skip
         command.add_parser(commands, common, limits)
     return parser
 
@@ -76,6 +77,7 @@ COMMANDS = {
     "walk": walk.run,
     "study": study.run,
     "library": library.run,
+    "drives": drives.run,
     "compare-gait": compare_gait.run,
     "track-gait": track_gait.run,
     "equations": equations.run,
