@@ -202,3 +202,34 @@ def test_a_walk_from_a_library_walks_its_gaits(tmp_path, capsys):
     assert status == 2 and "outside the library's 0.9..1.1 m/s" in capsys.readouterr().err
     with pytest.raises(DefinitionError, match="outside the library"):
         plan_sequence([0, 1.5, 0], library=library)
+
+
+def test_the_drives_read_a_walk_through_speeds_step_by_step(sequence):
+    """drives on the walk's file (problems.drives): every step read whole with the sides
+    alternating, the sample before each heel strike included, and the drives' power equal to
+    the hinges' power in the model's view at every row (power through the joint map)."""
+    from model import Linkage, LinkageTrajectory
+    from problems.drives import drive_requirements
+    from problems.drives.requirements import plan_of
+    from problems.gait.problem import joint_rates
+
+    trajectory = LinkageTrajectory.of(sequence.trajectory(1000.0))
+    linkage = Linkage.from_parameters(trajectory.metadata["model"])  # the file names its walker
+    assert linkage.names == sequence.steps[0].gait.problem.linkage.names
+    plan = plan_of(trajectory, "walk", 1.0)
+    assert len(plan.steps) == len(sequence.steps)
+    column = np.asarray(trajectory.extras["step"][0]).astype(int)
+    for j, (time, tau, dq) in enumerate(plan.steps):
+        rows = np.flatnonzero(column == j)
+        # the step ends at its heel strike's instant: the next step's first row
+        if j + 1 < len(plan.steps):
+            assert time[-1] == pytest.approx(plan.steps[j + 1][0][0], abs=1e-9)
+        drives = sum(tau[d] * dq[d] for d in tau)[: rows.size]
+        rates = joint_rates(linkage, np.asarray(trajectory.dpsi)[rows])
+        hinges = np.sum(np.asarray(trajectory.torques)[rows] * rates, axis=1)
+        np.testing.assert_allclose(drives, hinges, atol=1e-9 * np.max(np.abs(hinges)))
+    need = drive_requirements(trajectory)
+    assert need.plans[0].speed == pytest.approx(
+        sum(s.gait.problem.step_length for s in sequence.steps)
+        / (trajectory.time[-1] - trajectory.time[0]), rel=1e-9)  # fmt: skip
+    assert need["right_knee"].peak_torque > 0.0

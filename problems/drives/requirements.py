@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import DefinitionError, DefinitionTypeError
 from planner.trajectory import Trajectory
 from problems.robot.joint_space import joint_space
@@ -41,10 +42,11 @@ from problems.robot.joint_space import joint_space
 @dataclass(frozen=True)
 class Plan:
     """One plan of a duty cycle as the drives see it: ``name``, ``share`` of the cycle's time,
-    ``steps``: the stride's two steps, each (time (K,) s from the stride's start, torques
-    {drive: (K,)} N m, speeds {drive: (K,)} rad/s) with every sample of the step (both ends:
-    the state before the heel strike ends a step, the one after it starts the next);
-    ``step_time`` s, ``speed`` m/s (step length / step time)."""
+    ``steps``: its steps (a periodic step: the stride's two; a walk through speeds: every
+    step), each (time (K,) s from the plan's start, torques {drive: (K,)} N m, speeds
+    {drive: (K,)} rad/s) with every sample of the step (both ends: the state before the heel
+    strike ends a step, the one after it starts the next); ``step_time`` s (the mean),
+    ``speed`` m/s (distance over time)."""
 
     name: str
     share: float
@@ -167,7 +169,10 @@ class DriveRequirements:
 def plan_of(trajectory: Trajectory, name: str, share: float) -> Plan:
     """A planned step's exported samples (the model's view, as ``walk`` writes them) as the
     drives see one stride of it (:func:`problems.robot.joint_space`): the step with the
-    first side's leg in stance, then with the other's, each whole."""
+    first side's leg in stance, then with the other's, each whole. A walk through speeds
+    (``sequence.csv``, ``metadata["sequence"]``): every step, the sides alternating."""
+    if "sequence" in (trajectory.metadata or {}):
+        return _sequence_plan(trajectory, name, share)
     first = joint_space(trajectory, steps=1)
     sides = tuple(first.metadata["sides"])
     second = joint_space(trajectory, steps=1, sides=(sides[1], sides[0]))
@@ -189,6 +194,61 @@ def plan_of(trajectory: Trajectory, name: str, share: float) -> Plan:
         step_time=float(meta["step_time_s"]),
         speed=float(meta["step_length_m"]) / float(meta["step_time_s"]),
     )
+
+
+def _sequence_plan(trajectory: Trajectory, name: str, share: float) -> Plan:
+    """A walk through speeds (``problems.library.WalkSequence.trajectory``: a ``step``
+    column, each step's settings in ``metadata["sequence"]["steps"]``) as the drives see it:
+    step j with the right leg in stance for even j, each step whole."""
+    model = LinkageTrajectory.of(trajectory)
+    described = trajectory.metadata["sequence"]["steps"]
+    if "model" not in trajectory.metadata:
+        raise DefinitionError(
+            "`trajectory`: a walk through speeds without its walker (metadata['model']); "
+            "write it again with this version (python -m problems walk --speeds ...)"
+        )
+    column = np.asarray(model.extras["step"][0]).astype(int)
+    time = np.asarray(model.time, dtype=float)
+    force = np.asarray(model.ground_reaction)
+    steps, distance = [], 0.0
+    for j, entry in enumerate(described):
+        rows = np.flatnonzero(column == j)
+        before = entry.get("before_impact")  # the state before its heel strike, if any
+        times, forces = time[rows], force[rows]
+        if before and float(before["t"]) <= times[-1] + 1e-12:
+            before = None  # the file's last row is it (the walk's last step)
+        if before:
+            times = np.append(times, float(before["t"]))
+            forces = np.append(forces, complex(*before["F"]))
+        psi, dpsi, torques, ddpsi = _with_end(model, rows, before)
+        local = LinkageTrajectory.from_linkage(
+            times, psi, dpsi, torques, model.link_names, ddpsi=ddpsi, ground_reaction=forces,
+            metadata={"gait": entry["settings"], "model": trajectory.metadata["model"]},
+        )  # fmt: skip
+        sides = ("right", "left") if j % 2 == 0 else ("left", "right")
+        columns = joint_space(local, steps=1, sides=sides).columns
+        drives = [c[len("tau_") : -len("_N_m")] for c in columns if c.startswith("tau_")]
+        steps.append((
+            np.asarray(columns["t_s"], dtype=float) + time[rows[0]] - time[0],
+            {d: np.asarray(columns[f"tau_{d}_N_m"], dtype=float) for d in drives},
+            {d: np.asarray(columns[f"dq_{d}_rad_s"], dtype=float) for d in drives},
+        ))  # fmt: skip
+        distance += float(entry["step_length_m"])
+    duration = float(time[-1] - time[0])
+    return Plan(name=name, share=share, steps=tuple(steps), step_time=duration / len(steps),
+                speed=distance / duration)  # fmt: skip
+
+
+def _with_end(model: LinkageTrajectory, rows: np.ndarray, before) -> tuple:
+    """(psi, dpsi, torques, ddpsi) of a step's rows, with the sample before its heel strike
+    (``before_impact``: {"t", "x", "ddpsi", "M", "F"} or None) appended."""
+    arrays = [np.asarray(a)[rows] for a in (model.psi, model.dpsi, model.torques, model.ddpsi)]
+    if before:
+        n = arrays[0].shape[1]
+        x = np.asarray(before["x"], dtype=float)
+        ends = (x[:n], x[n:], np.asarray(before["M"]), np.asarray(before["ddpsi"]))
+        arrays = [np.vstack([a, end]) for a, end in zip(arrays, ends, strict=True)]
+    return tuple(arrays)
 
 
 def _shares(count: int, shares: Sequence[float] | None) -> list[float]:
@@ -251,8 +311,8 @@ def _requirement(drive: str, plans: Sequence[Plan]) -> DriveRequirement:
         peaks["speed"] = max(peaks["speed"], float(np.max(np.abs(speed))))
         peaks["power"] = max(peaks["power"], float(np.max(power)))
         peaks["braking"] = max(peaks["braking"], float(-np.min(power)))
-        positive_work.append(0.5 * integrals["positive"])  # a stride is two steps
-        negative_work.append(0.5 * integrals["negative"])
+        positive_work.append(integrals["positive"] / len(plan.steps))
+        negative_work.append(integrals["negative"] / len(plan.steps))
     return DriveRequirement(
         drive=drive,
         peak_torque=peaks["torque"],

@@ -191,6 +191,8 @@ def _stitched(sequence: WalkSequence, rate_hz: float) -> LinkageTrajectory:
                         "holding those rows' torques",
         },
         "gait": {**_step_settings(sequence.steps[0].gait), "problem": "walk_sequence"},
+        # the walker the file is of, as every planned file states it (Linkage.from_parameters)
+        "model": sequence.steps[0].gait.problem.linkage.parameters(),
     }  # fmt: skip
     trajectory = LinkageTrajectory.from_linkage(
         stacked["t"], stacked["psi"], stacked["dpsi"], stacked["M"], names,
