@@ -149,3 +149,123 @@ def test_the_command_writes_the_table_a_drive_engineer_reads(point_foot_plan, tm
     code = main(["drives", str(tmp_path / "none.csv"), "--output-dir", str(tmp_path / "y")])
     assert code == 2
     assert "PLAN: no file" in capsys.readouterr().err
+
+
+# ---- drive models and selection (issue #36, parts 2 and 3) --------------------------------
+MOTORS_CSV = """name,torque_constant_mNm_A,resistance_ohm,rotor_inertia_gcm2,continuous_torque_mNm,peak_torque_mNm,voltage_V,max_speed_rpm,mass_g,source
+small,50,1.0,100,300,1500,48,8000,400,test data
+large,100,0.5,500,900,4000,48,6000,900,test data
+"""  # noqa: E501
+GEARBOXES_CSV = """name,ratio,efficiency,inertia_gcm2,continuous_torque_Nm,peak_torque_Nm,max_input_speed_rpm,mass_g,source
+n50,50,0.8,10,40,120,8000,500,test data
+n100,100,0.8,10,60,180,8000,700,test data
+"""  # noqa: E501
+
+
+def _drive(kt=0.1, resistance=1.0, rotor=1e-5, ratio=100.0, eta=0.8, gear_inertia=0.0):
+    from problems.drives.catalogue import Drive, Gearbox, Motor
+
+    motor = Motor("m", kt, resistance, rotor, 1.0, 5.0, 48.0, 1000.0, 0.5)
+    return Drive(motor, Gearbox("g", ratio, eta, gear_inertia, 60.0, 180.0, 1000.0, 0.7))
+
+
+def test_the_motor_side_of_one_operating_point_by_hand():
+    """tau 40 N m at 2 rad/s, 10 rad/s^2 through 100:1 at 80 %, k_t 0.1, R 1 ohm, J 1e-5:
+    tau_m = 1e-5 100 10 + 40 / 80 = 0.51 N m; i = 5.1 A; u = 5.1 + 0.1 200 = 25.1 V; copper
+    26.01 W; electrical 128.01 W. Back-driven (-40 N m at 2 rad/s): the load 40 0.8 / 100 =
+    0.32 N m against the motor, tau_m = 0.01 - 0.32 = -0.31 N m."""
+    motor = _drive().at_motor(40.0, 2.0, 10.0)
+    assert motor["torque"] == pytest.approx(0.51)
+    assert motor["current"] == pytest.approx(5.1)
+    assert motor["voltage"] == pytest.approx(25.1)
+    assert motor["copper"] == pytest.approx(26.01)
+    assert motor["power"] == pytest.approx(128.01)
+    assert _drive().at_motor(-40.0, 2.0, 10.0)["torque"] == pytest.approx(-0.31)
+    # the electrical power is the copper losses plus the mechanical power at the motor
+    rng = np.random.default_rng(3)
+    tau, dq, ddq = rng.normal(0, 50, 200), rng.normal(0, 5, 200), rng.normal(0, 50, 200)
+    m = _drive(gear_inertia=2e-6).at_motor(tau, dq, ddq)
+    np.testing.assert_allclose(m["power"], m["copper"] + m["torque"] * m["speed"], rtol=1e-12)
+
+
+def test_the_catalogue_layout_is_read_and_checked(tmp_path):
+    from problems.drives.catalogue import read_gearboxes, read_motors
+
+    (tmp_path / "m.csv").write_text(MOTORS_CSV)
+    (tmp_path / "g.csv").write_text(GEARBOXES_CSV)
+    small, large = read_motors(tmp_path / "m.csv")
+    assert small.torque_constant == pytest.approx(0.05)
+    assert small.rotor_inertia == pytest.approx(1e-5, rel=1e-12)
+    assert large.max_speed == pytest.approx(6000 * math.pi / 30)
+    assert large.mass == pytest.approx(0.9)
+    assert read_gearboxes(tmp_path / "g.csv")[1].ratio == 100.0
+    (tmp_path / "bad.csv").write_text(MOTORS_CSV.replace("1.0,100,300", "1.0,x,300"))
+    with pytest.raises(DefinitionError, match=r"row 2, column 'rotor_inertia_gcm2': expected"):
+        read_motors(tmp_path / "bad.csv")
+    (tmp_path / "neg.csv").write_text(MOTORS_CSV.replace("48,8000", "-48,8000"))
+    with pytest.raises(DefinitionError, match=r"row 2 \(small\), column 'voltage_V'.*> 0"):
+        read_motors(tmp_path / "neg.csv")
+    (tmp_path / "short.csv").write_text("name,ratio\nx,3\n")
+    with pytest.raises(DefinitionError, match="missing the columns"):
+        read_gearboxes(tmp_path / "short.csv")
+
+
+def test_selection_takes_the_lightest_that_meets_every_limit_and_refuses_by_name(tmp_path):
+    """The sinusoidal duty (30 N m, 4 rad/s): each combination's checks by hand, the
+    lightest fitting chosen; a duty no drive carries refused naming the limit."""
+    from problems.drives.catalogue import read_gearboxes, read_motors
+    from problems.drives.selection import DriveSelectionError, require, select
+
+    (tmp_path / "m.csv").write_text(MOTORS_CSV)
+    (tmp_path / "g.csv").write_text(GEARBOXES_CSV)
+    motors, gearboxes = read_motors(tmp_path / "m.csv"), read_gearboxes(tmp_path / "g.csv")
+    duty = DriveRequirements.of([_sinusoid("sine", 1.0, 30.0, 4.0)])
+    chosen = select(duty, motors, gearboxes)
+    best = chosen.best("x")
+    # small + n50: 30 N m / (50 0.8) = 0.75 N m peak at the motor (1.5 allowed), RMS 0.53
+    # (0.3 continuous: too hot); small + n100: RMS 0.265 <= 0.3, speed 400 rad/s <= 838
+    assert best.drive.name == "small + n100" and best.drive.mass == pytest.approx(1.1)
+    checks = {c.limit: c for c in best.checks}
+    assert checks["motor peak torque"].need == pytest.approx(30.0 / 80.0, rel=1e-3)
+    assert checks["speed"].need == pytest.approx(400.0, rel=1e-6)
+    assert checks["gearbox peak torque"].margin == pytest.approx(1 - 30.0 / 180.0, rel=1e-6)
+    assert all(c.margin >= 0 for c in best.checks)
+    by_energy = select(duty, motors, gearboxes, rank="energy").best("x")
+    assert by_energy.energy_per_step <= best.energy_per_step
+    heavy = DriveRequirements.of([_sinusoid("sine", 1.0, 300.0, 4.0)])
+    refused = select(heavy, motors, gearboxes).refused["x"]
+    # 300 N m: the RMS 212 N m against the largest rated 60 N m binds (-254 %), before the
+    # peak 300 against 180 N m (-67 %)
+    assert "no catalogue drive fits" in refused
+    assert "misses its gearbox rated torque: needs 212 N m, has 60 N m (254 % over)" in refused
+    with pytest.raises(DriveSelectionError, match="gearbox rated torque"):
+        require(select(heavy, motors, gearboxes))
+
+
+def test_the_command_chooses_the_drives_or_writes_nothing(point_foot_plan, tmp_path, capsys):
+    """The default step's hips need 58 V from the test catalogue's 48 V motors (refused, by
+    name, nothing written); with a 96 V motor added every drive is chosen and written."""
+    from problems.__main__ import main
+
+    plan = tmp_path / "torques.csv"
+    point_foot_plan.save(plan)
+    (tmp_path / "m.csv").write_text(MOTORS_CSV)
+    (tmp_path / "g.csv").write_text(GEARBOXES_CSV)
+    folder = tmp_path / "chosen"
+    argv = ["drives", str(plan), "--gearboxes", str(tmp_path / "g.csv"), "-q"]
+    code = main([*argv, "--motors", str(tmp_path / "m.csv"), "--output-dir", str(folder)])
+    err = capsys.readouterr().err
+    assert code == 1 and not folder.exists()
+    assert "right_hip: no catalogue drive fits" in err and "misses its voltage" in err
+    (tmp_path / "m96.csv").write_text(MOTORS_CSV + "large96,120,1.0,500,900,4000,96,6000,"
+                                      "950,test data\n")  # fmt: skip
+    code = main([*argv, "--motors", str(tmp_path / "m96.csv"), "--output-dir", str(folder)])
+    assert code == 0, capsys.readouterr().err
+    with (folder / "selection.csv").open() as handle:
+        rows = {row["drive"]: row for row in csv.DictReader(handle)}
+    assert rows["right_hip"]["motor"] == "large96" and rows["neck"]["motor"] == "small"
+    assert all(float(r["voltage_margin"]) >= 0 for r in rows.values())
+    assert (folder / "requirements.png").is_file()
+    code = main(["drives", str(plan), "--motors", str(tmp_path / "m.csv"), "--output-dir",
+                 str(tmp_path / "x")])  # fmt: skip
+    assert code == 2 and "give both catalogues" in capsys.readouterr().err

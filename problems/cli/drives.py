@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TextIO
 
 from planner.errors import AnthropoidError, DefinitionError
-from problems.cli.common import Reporter, UsageError, output_set
+from problems.cli.common import CommandFailed, Reporter, UsageError, output_set
 
 
 def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.ArgumentParser) -> None:
@@ -27,7 +27,8 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
             "and RMS torque and speed, peak power given and absorbed, mean positive and "
             "negative power, work per step of each plan; write requirements.csv (one row per "
             "drive; the duty cycle in requirements.json) and requirements.png (each drive's "
-            "torque over its speed) and print the tables."
+            "torque over its speed) and print the tables. With --motors and --gearboxes "
+            "(catalogue CSVs), choose each drive's motor and gearbox (selection.csv)."
         ),
     )
     parser.add_argument("plans", nargs="+", metavar="PLAN",
@@ -36,6 +37,19 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
                         help="each plan's share of the duty cycle's time, in the order given "
                         "(a library's gaits count one each), normalised to sum 1 (default: "
                         "equal)")  # fmt: skip
+    parser.add_argument("--motors", metavar="CSV",
+                        help="a motor catalogue (layout: problems.drives.catalogue); with "
+                        "--gearboxes, each drive's lightest (--rank) motor and gearbox that "
+                        "meet its duty, every limit's margin, in selection.csv")  # fmt: skip
+    parser.add_argument("--gearboxes", metavar="CSV", help="a gearbox catalogue (with --motors)")
+    parser.add_argument("--rank", choices=("mass", "energy"), default="mass",
+                        help="order of the drives that fit: mass (motor and gearbox) or the "
+                        "electrical energy per step (default: mass)")  # fmt: skip
+    parser.add_argument(
+        "--no-regeneration",
+        action="store_true",
+        help="braking energy is dissipated, not recovered (--rank energy)",
+    )
     parser.add_argument("--no-plots", action="store_true", help="no requirements.png")
     parser.add_argument("--output-dir", default="drives", metavar="DIR",
                         help="folder for the files (default: drives)")  # fmt: skip
@@ -81,11 +95,72 @@ def _plans(paths: list[str]) -> tuple[list, list[str]]:
     return plans, names
 
 
+def _catalogue(args):
+    """(motors, gearboxes) of --motors and --gearboxes, or None without them."""
+    from problems.drives.catalogue import read_gearboxes, read_motors
+
+    if (args.motors is None) != (args.gearboxes is None):
+        raise UsageError("--motors and --gearboxes: give both catalogues (or neither)")
+    if args.motors is None:
+        return None
+    try:
+        motors = read_motors(args.motors)
+    except DefinitionError as error:
+        raise UsageError(f"--motors: {error}") from None
+    try:
+        gearboxes = read_gearboxes(args.gearboxes)
+    except DefinitionError as error:
+        raise UsageError(f"--gearboxes: {error}") from None
+    return motors, gearboxes
+
+
+def _selected(requirements, catalogue, args, out):
+    """The catalogue's drives for each joint, printed; None without a catalogue. A joint no
+    drive fits fails the run (nothing written), naming the limit its closest drive misses."""
+    if catalogue is None:
+        return None
+    from problems.drives.selection import select
+
+    selection = select(requirements, *catalogue, rank=args.rank,
+                       regenerate=not args.no_regeneration)  # fmt: skip
+    print(f"\nchosen from the catalogues (by {args.rank}; margins: 1 - need / capacity):",
+          file=out)  # fmt: skip
+    print(selection.table(), file=out)
+    refused = selection.refused
+    if refused:
+        raise CommandFailed("; ".join(refused.values()) + "; nothing written")
+    return selection
+
+
+def _write_selection(selection, path) -> None:
+    """selection.csv: per joint the chosen drive, its mass and energy per step, and each
+    limit's need, capacity and margin."""
+    rows = []
+    for drive in selection.ranked:
+        best = selection.best(drive)
+        row = {"drive": drive, "motor": best.drive.motor.name,
+               "gearbox": best.drive.gearbox.name, "mass_kg": best.drive.mass,
+               "energy_per_step_J": best.energy_per_step,
+               "candidates_that_fit": len(selection.ranked[drive])}  # fmt: skip
+        for check in best.checks:
+            key = check.limit.replace(" ", "_")
+            unit = check.unit.replace(" ", "_").replace("/", "_")
+            row[f"{key}_need_{unit}"] = check.need
+            row[f"{key}_capacity_{unit}"] = check.capacity
+            row[f"{key}_margin"] = check.margin
+        rows.append(row)
+    with path.open("w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
 def run(args, out: TextIO, report: Reporter) -> int:
     from problems.drives import drive_requirements
     from problems.drives.requirements import describe
 
     plans, names = _plans(args.plans)
+    catalogue = _catalogue(args)
     output = output_set(args.output_dir, "drives")
     with report.working(f"reading {len(plans)} planned step(s) as the drives see them"):
         try:
@@ -98,6 +173,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
     print(requirements.table(), file=out)
     print("\nwork per step, J (positive / negative):", file=out)
     print(requirements.work_table(), file=out)
+    selection = _selected(requirements, catalogue, args, out)
     with output:
         rows = [r.row() for r in requirements.drives]
         with output.path("requirements.csv").open("w", newline="") as handle:
@@ -107,12 +183,17 @@ def run(args, out: TextIO, report: Reporter) -> int:
         output.path("requirements.json").write_text(
             json.dumps(describe(requirements), indent=1) + "\n"
         )
+        chosen = None
+        if selection is not None:
+            _write_selection(selection, output.path("selection.csv"))
+            chosen = {d: selection.best(d).drive for d in selection.ranked}
         if not args.no_plots:
             from problems.drives import requirements_figure
             from problems.walking.plots import save_figure
 
             with report.working("plotting requirements.png"):
-                save_figure(requirements_figure(requirements), output.path("requirements.png"))
+                figure = requirements_figure(requirements, chosen=chosen)
+                save_figure(figure, output.path("requirements.png"))
         written = output.commit({"argv": list(sys.argv[1:])})
     for path in written:
         print(f"wrote {path}", file=out)

@@ -46,13 +46,21 @@ class Plan:
     step), each (time (K,) s from the plan's start, torques {drive: (K,)} N m, speeds
     {drive: (K,)} rad/s) with every sample of the step (both ends: the state before the heel
     strike ends a step, the one after it starts the next); ``step_time`` s (the mean),
-    ``speed`` m/s (distance over time)."""
+    ``speed`` m/s (distance over time); ``accelerations`` per step {drive: ddq (K,)}
+    rad/s^2 (what a drive's own inertia needs)."""
 
     name: str
     share: float
     steps: tuple[tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]], ...]
     step_time: float
     speed: float
+    accelerations: tuple[dict[str, np.ndarray], ...] = ()
+
+    def acceleration(self, k: int, drive: str) -> np.ndarray:
+        """Step k's ddq (K,) rad/s^2 of ``drive`` (zeros where the plan has none)."""
+        if not self.accelerations:
+            return np.zeros_like(self.steps[k][2][drive])
+        return self.accelerations[k][drive]
 
     @property
     def drives(self) -> list[str]:
@@ -176,16 +184,11 @@ def plan_of(trajectory: Trajectory, name: str, share: float) -> Plan:
     first = joint_space(trajectory, steps=1)
     sides = tuple(first.metadata["sides"])
     second = joint_space(trajectory, steps=1, sides=(sides[1], sides[0]))
-    steps = []
+    steps, accelerations = [], []
     for index, view in enumerate((first, second)):
-        columns = view.columns
-        drives = [c[len("tau_") : -len("_N_m")] for c in columns if c.startswith("tau_")]
-        time = np.asarray(columns["t_s"], dtype=float)
-        steps.append((
-            time - time[0] + index * float(time[-1] - time[0]),
-            {d: np.asarray(columns[f"tau_{d}_N_m"], dtype=float) for d in drives},
-            {d: np.asarray(columns[f"dq_{d}_rad_s"], dtype=float) for d in drives},
-        ))  # fmt: skip
+        step, ddq = _step_of(view.columns, index * float(view.time[-1] - view.time[0]))
+        steps.append(step)
+        accelerations.append(ddq)
     meta = first.metadata
     return Plan(
         name=name,
@@ -193,7 +196,19 @@ def plan_of(trajectory: Trajectory, name: str, share: float) -> Plan:
         steps=tuple(steps),
         step_time=float(meta["step_time_s"]),
         speed=float(meta["step_length_m"]) / float(meta["step_time_s"]),
+        accelerations=tuple(accelerations),
     )
+
+
+def _step_of(columns: dict, start: float) -> tuple[tuple, dict]:
+    """((time from ``start`` s, torques, speeds), accelerations) of one step's joint-space
+    columns (``problems.robot.joint_space``), each {drive: (K,)}."""
+    drives = [c[len("tau_") : -len("_N_m")] for c in columns if c.startswith("tau_")]
+    time = np.asarray(columns["t_s"], dtype=float)
+    step = (time - time[0] + start,
+            {d: np.asarray(columns[f"tau_{d}_N_m"], dtype=float) for d in drives},
+            {d: np.asarray(columns[f"dq_{d}_rad_s"], dtype=float) for d in drives})  # fmt: skip
+    return step, {d: np.asarray(columns[f"ddq_{d}_rad_s2"], dtype=float) for d in drives}
 
 
 def _sequence_plan(trajectory: Trajectory, name: str, share: float) -> Plan:
@@ -210,7 +225,7 @@ def _sequence_plan(trajectory: Trajectory, name: str, share: float) -> Plan:
     column = np.asarray(model.extras["step"][0]).astype(int)
     time = np.asarray(model.time, dtype=float)
     force = np.asarray(model.ground_reaction)
-    steps, distance = [], 0.0
+    steps, accelerations, distance = [], [], 0.0
     for j, entry in enumerate(described):
         rows = np.flatnonzero(column == j)
         before = entry.get("before_impact")  # the state before its heel strike, if any
@@ -226,17 +241,14 @@ def _sequence_plan(trajectory: Trajectory, name: str, share: float) -> Plan:
             metadata={"gait": entry["settings"], "model": trajectory.metadata["model"]},
         )  # fmt: skip
         sides = ("right", "left") if j % 2 == 0 else ("left", "right")
-        columns = joint_space(local, steps=1, sides=sides).columns
-        drives = [c[len("tau_") : -len("_N_m")] for c in columns if c.startswith("tau_")]
-        steps.append((
-            np.asarray(columns["t_s"], dtype=float) + time[rows[0]] - time[0],
-            {d: np.asarray(columns[f"tau_{d}_N_m"], dtype=float) for d in drives},
-            {d: np.asarray(columns[f"dq_{d}_rad_s"], dtype=float) for d in drives},
-        ))  # fmt: skip
+        step, ddq = _step_of(joint_space(local, steps=1, sides=sides).columns,
+                             float(time[rows[0]] - time[0]))  # fmt: skip
+        steps.append(step)
+        accelerations.append(ddq)
         distance += float(entry["step_length_m"])
     duration = float(time[-1] - time[0])
     return Plan(name=name, share=share, steps=tuple(steps), step_time=duration / len(steps),
-                speed=distance / duration)  # fmt: skip
+                speed=distance / duration, accelerations=tuple(accelerations))  # fmt: skip
 
 
 def _with_end(model: LinkageTrajectory, rows: np.ndarray, before) -> tuple:
