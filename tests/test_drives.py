@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from planner.errors import DefinitionError
-from problems.drives import DriveRequirements, Plan, drive_requirements
+from problems.drives import DriveRequirements, DriveStep, Plan, drive_requirements
 from problems.drives.requirements import plan_of
 from problems.gait.problem import joint_rates
 
@@ -41,7 +41,7 @@ def test_the_drives_power_is_the_hinges_power_at_every_sample(which, request):
     trajectory = request.getfixturevalue(which)
     model = LinkageTrajectory.of(trajectory)
     plan = plan_of(trajectory, "step", 1.0)
-    time, tau, dq = plan.steps[0]  # the step as planned: the first side's leg in stance
+    time, tau, dq, _ = plan.steps[0]  # the step as planned: the first side's leg in stance
     np.testing.assert_allclose(time, model.time - model.time[0], atol=1e-12)
     drives = sum(tau[d] * dq[d] for d in plan.drives)
     linkage = model_linkage(trajectory)
@@ -54,7 +54,7 @@ def test_the_drives_power_is_the_hinges_power_at_every_sample(which, request):
     scale = np.max(np.abs(hinges))
     np.testing.assert_allclose(drives, hinges, atol=1e-9 * scale)
     # the mirrored step: the same power (the legs' roles swapped)
-    _, tau2, dq2 = plan.steps[1]
+    _, tau2, dq2, _ = plan.steps[1]
     np.testing.assert_allclose(sum(tau2[d] * dq2[d] for d in plan.drives), hinges,
                                atol=1e-9 * scale)  # fmt: skip
 
@@ -72,8 +72,8 @@ def _sinusoid(name, share, amplitude, speed_amplitude, periods=2, samples=4001):
     for k in range(2):
         time = np.linspace(0.0, 0.5, samples) + 0.5 * k
         omega = 2 * math.pi * periods / 0.5
-        steps.append((time, {"x": amplitude * np.sin(omega * time)},
-                      {"x": speed_amplitude * np.cos(omega * time)}))  # fmt: skip
+        steps.append(DriveStep(time, {"x": amplitude * np.sin(omega * time)},
+                               {"x": speed_amplitude * np.cos(omega * time)}))  # fmt: skip
     return Plan(name, share, tuple(steps), 0.5, 1.0)
 
 

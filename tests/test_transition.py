@@ -219,11 +219,11 @@ def test_the_drives_read_a_walk_through_speeds_step_by_step(sequence):
     plan = plan_of(trajectory, "walk", 1.0)
     assert len(plan.steps) == len(sequence.steps)
     column = np.asarray(trajectory.extras["step"][0]).astype(int)
-    for j, (time, tau, dq) in enumerate(plan.steps):
+    for j, (time, tau, dq, _) in enumerate(plan.steps):
         rows = np.flatnonzero(column == j)
         # the step ends at its heel strike's instant: the next step's first row
         if j + 1 < len(plan.steps):
-            assert time[-1] == pytest.approx(plan.steps[j + 1][0][0], abs=1e-9)
+            assert time[-1] == pytest.approx(plan.steps[j + 1].time[0], abs=1e-9)
         drives = sum(tau[d] * dq[d] for d in tau)[: rows.size]
         rates = joint_rates(linkage, np.asarray(trajectory.dpsi)[rows])
         hinges = np.sum(np.asarray(trajectory.torques)[rows] * rates, axis=1)

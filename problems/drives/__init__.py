@@ -9,6 +9,7 @@ from problems.drives.plots import requirements_figure
 from problems.drives.requirements import (
     DriveRequirement,
     DriveRequirements,
+    DriveStep,
     Plan,
     drive_requirements,
 )
@@ -19,6 +20,7 @@ __all__ = [
     "DriveRequirement",
     "DriveRequirements",
     "DriveSelectionError",
+    "DriveStep",
     "Gearbox",
     "Motor",
     "Plan",

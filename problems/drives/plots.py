@@ -57,8 +57,8 @@ def requirements_figure(
         ax.fill_between([-speed, 0.0], 0.0, torque, color="0.92", lw=0)
         ax.fill_between([0.0, speed], -torque, 0.0, color="0.92", lw=0)
         for plan, colour in zip(requirements.plans, colours, strict=True):
-            for k, (_, tau, dq) in enumerate(plan.steps):  # no line across a heel strike
-                ax.plot(dq[drive], tau[drive], color=colour, lw=0.8,
+            for k, step in enumerate(plan.steps):  # no line across a heel strike
+                ax.plot(step.speeds[drive], step.torques[drive], color=colour, lw=0.8,
                         label=plan.name if k == 0 else None)  # fmt: skip
         box_x = [-need.peak_speed, need.peak_speed, need.peak_speed, -need.peak_speed,
                  -need.peak_speed]  # fmt: skip

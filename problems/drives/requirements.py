@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -39,41 +39,48 @@ from planner.trajectory import Trajectory
 from problems.robot.joint_space import joint_space
 
 
+class DriveStep(NamedTuple):
+    """One step as the drives see it, every sample of it (both ends: the state before the
+    heel strike ends a step, the one after it starts the next): ``time`` (K,) s from the
+    plan's start, and per drive {drive: (K,)} its ``torques`` N m, ``speeds`` rad/s and
+    ``accelerations`` rad/s^2 (None: not known, taken as 0)."""
+
+    time: np.ndarray
+    torques: dict[str, np.ndarray]
+    speeds: dict[str, np.ndarray]
+    accelerations: dict[str, np.ndarray] | None = None
+
+    def acceleration(self, drive: str) -> np.ndarray:
+        """ddq (K,) rad/s^2 of ``drive`` (zeros where the step has none)."""
+        if self.accelerations is None:
+            return np.zeros_like(self.speeds[drive])
+        return self.accelerations[drive]
+
+
 @dataclass(frozen=True)
 class Plan:
     """One plan of a duty cycle as the drives see it: ``name``, ``share`` of the cycle's time,
-    ``steps``: its steps (a periodic step: the stride's two; a walk through speeds: every
-    step), each (time (K,) s from the plan's start, torques {drive: (K,)} N m, speeds
-    {drive: (K,)} rad/s) with every sample of the step (both ends: the state before the heel
-    strike ends a step, the one after it starts the next); ``step_time`` s (the mean),
-    ``speed`` m/s (distance over time); ``accelerations`` per step {drive: ddq (K,)}
-    rad/s^2 (what a drive's own inertia needs)."""
+    ``steps`` (:class:`DriveStep`: a periodic step's stride, its two steps; a walk through
+    speeds, every step), ``step_time`` s (the mean), ``speed`` m/s (distance over time)."""
 
     name: str
     share: float
-    steps: tuple[tuple[np.ndarray, dict[str, np.ndarray], dict[str, np.ndarray]], ...]
+    steps: tuple[DriveStep, ...]
     step_time: float
     speed: float
-    accelerations: tuple[dict[str, np.ndarray], ...] = ()
-
-    def acceleration(self, k: int, drive: str) -> np.ndarray:
-        """Step k's ddq (K,) rad/s^2 of ``drive`` (zeros where the plan has none)."""
-        if not self.accelerations:
-            return np.zeros_like(self.steps[k][2][drive])
-        return self.accelerations[k][drive]
 
     @property
     def drives(self) -> list[str]:
-        return list(self.steps[0][1])
+        return list(self.steps[0].torques)
 
     @property
     def duration(self) -> float:
-        return float(sum(time[-1] - time[0] for time, _, _ in self.steps))
+        return float(sum(step.time[-1] - step.time[0] for step in self.steps))
 
     def samples(self, drive: str) -> tuple[np.ndarray, np.ndarray]:
-        """(speeds, torques) (M,) of ``drive`` at every sample of the stride."""
-        return (np.concatenate([dq[drive] for _, _, dq in self.steps]),
-                np.concatenate([tau[drive] for _, tau, _ in self.steps]))  # fmt: skip
+        """(speeds, torques) (M,) of ``drive`` at every sample of the plan."""
+        return (np.concatenate([step.speeds[drive] for step in self.steps]),
+                np.concatenate([step.torques[drive] for step in self.steps]))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -184,11 +191,8 @@ def plan_of(trajectory: Trajectory, name: str, share: float) -> Plan:
     first = joint_space(trajectory, steps=1)
     sides = tuple(first.metadata["sides"])
     second = joint_space(trajectory, steps=1, sides=(sides[1], sides[0]))
-    steps, accelerations = [], []
-    for index, view in enumerate((first, second)):
-        step, ddq = _step_of(view.columns, index * float(view.time[-1] - view.time[0]))
-        steps.append(step)
-        accelerations.append(ddq)
+    steps = [_step_of(view.columns, index * float(view.time[-1] - view.time[0]))
+             for index, view in enumerate((first, second))]  # fmt: skip
     meta = first.metadata
     return Plan(
         name=name,
@@ -196,19 +200,20 @@ def plan_of(trajectory: Trajectory, name: str, share: float) -> Plan:
         steps=tuple(steps),
         step_time=float(meta["step_time_s"]),
         speed=float(meta["step_length_m"]) / float(meta["step_time_s"]),
-        accelerations=tuple(accelerations),
     )
 
 
-def _step_of(columns: dict, start: float) -> tuple[tuple, dict]:
-    """((time from ``start`` s, torques, speeds), accelerations) of one step's joint-space
-    columns (``problems.robot.joint_space``), each {drive: (K,)}."""
+def _step_of(columns: dict, start: float) -> DriveStep:
+    """One step's joint-space columns (``problems.robot.joint_space``) as a
+    :class:`DriveStep`, its time from ``start`` s."""
     drives = [c[len("tau_") : -len("_N_m")] for c in columns if c.startswith("tau_")]
     time = np.asarray(columns["t_s"], dtype=float)
-    step = (time - time[0] + start,
-            {d: np.asarray(columns[f"tau_{d}_N_m"], dtype=float) for d in drives},
-            {d: np.asarray(columns[f"dq_{d}_rad_s"], dtype=float) for d in drives})  # fmt: skip
-    return step, {d: np.asarray(columns[f"ddq_{d}_rad_s2"], dtype=float) for d in drives}
+
+    def per_drive(prefix: str, unit: str) -> dict[str, np.ndarray]:
+        return {d: np.asarray(columns[f"{prefix}_{d}_{unit}"], dtype=float) for d in drives}
+
+    return DriveStep(time - time[0] + start, per_drive("tau", "N_m"), per_drive("dq", "rad_s"),
+                     per_drive("ddq", "rad_s2"))  # fmt: skip
 
 
 def _sequence_plan(trajectory: Trajectory, name: str, share: float) -> Plan:
@@ -225,7 +230,7 @@ def _sequence_plan(trajectory: Trajectory, name: str, share: float) -> Plan:
     column = np.asarray(model.extras["step"][0]).astype(int)
     time = np.asarray(model.time, dtype=float)
     force = np.asarray(model.ground_reaction)
-    steps, accelerations, distance = [], [], 0.0
+    steps, distance = [], 0.0
     for j, entry in enumerate(described):
         rows = np.flatnonzero(column == j)
         before = entry.get("before_impact")  # the state before its heel strike, if any
@@ -241,14 +246,12 @@ def _sequence_plan(trajectory: Trajectory, name: str, share: float) -> Plan:
             metadata={"gait": entry["settings"], "model": trajectory.metadata["model"]},
         )  # fmt: skip
         sides = ("right", "left") if j % 2 == 0 else ("left", "right")
-        step, ddq = _step_of(joint_space(local, steps=1, sides=sides).columns,
-                             float(time[rows[0]] - time[0]))  # fmt: skip
-        steps.append(step)
-        accelerations.append(ddq)
+        steps.append(_step_of(joint_space(local, steps=1, sides=sides).columns,
+                              float(time[rows[0]] - time[0])))  # fmt: skip
         distance += float(entry["step_length_m"])
     duration = float(time[-1] - time[0])
     return Plan(name=name, share=share, steps=tuple(steps), step_time=duration / len(steps),
-                speed=distance / duration, accelerations=tuple(accelerations))  # fmt: skip
+                speed=distance / duration)  # fmt: skip
 
 
 def _with_end(model: LinkageTrajectory, rows: np.ndarray, before) -> tuple:
@@ -343,8 +346,8 @@ def _requirement(drive: str, plans: Sequence[Plan]) -> DriveRequirement:
 def _stride_integrals(plan: Plan, drive: str) -> dict[str, float]:
     """int tau^2, dq^2, max(tau dq, 0) and min(tau dq, 0) dt over ``plan``'s stride."""
     integrals = {"torque": 0.0, "speed": 0.0, "positive": 0.0, "negative": 0.0}
-    for time, torques, speeds in plan.steps:  # trapezoids within each step
-        tau, dq = torques[drive], speeds[drive]
+    for step in plan.steps:  # trapezoids within each step
+        tau, dq, time = step.torques[drive], step.speeds[drive], step.time
         integrands = {"torque": tau**2, "speed": dq**2, "positive": np.maximum(tau * dq, 0.0),
                       "negative": np.minimum(tau * dq, 0.0)}  # fmt: skip
         for key, values in integrands.items():
@@ -381,6 +384,7 @@ def describe(requirements: DriveRequirements) -> dict[str, Any]:
 __all__ = [
     "DriveRequirement",
     "DriveRequirements",
+    "DriveStep",
     "Plan",
     "describe",
     "drive_requirements",

@@ -80,9 +80,9 @@ def evaluate(drive: Drive, plans: Sequence[Plan], name: str, regenerate: bool = 
     energy = 0.0
     for plan in plans:
         integrals = {"output": 0.0, "motor": 0.0, "energy": 0.0}
-        for k, (time, torques, speeds) in enumerate(plan.steps):
-            tau, dq = torques[name], speeds[name]
-            motor = drive.at_motor(tau, dq, plan.acceleration(k, name))
+        for step in plan.steps:
+            tau, dq, time = step.torques[name], step.speeds[name], step.time
+            motor = drive.at_motor(tau, dq, step.acceleration(name))
             power = motor["power"] if regenerate else np.maximum(motor["power"], 0.0)
             integrals["output"] += float(np.trapezoid(tau**2, time))
             integrals["motor"] += float(np.trapezoid(motor["torque"] ** 2, time))
@@ -187,13 +187,15 @@ def select(
     if unknown:
         raise DefinitionError(f"`drives`: {unknown} are not among {list(requirements.names)}")
     combinations = [Drive(m, g) for m in motors for g in gearboxes]
+
+    def order(candidate: Candidate) -> tuple[float, float]:
+        mass, energy = candidate.drive.mass, candidate.energy_per_step
+        return (mass, energy) if rank == "mass" else (energy, mass)
+
     ranked, closest = {}, {}
     for name in names:
         candidates = [evaluate(d, requirements.plans, name, regenerate) for d in combinations]
-        fitting = [c for c in candidates if c.fits]
-        key = (lambda c: (c.drive.mass, c.energy_per_step)) if rank == "mass" else (
-            lambda c: (c.energy_per_step, c.drive.mass))  # fmt: skip
-        ranked[name] = tuple(sorted(fitting, key=key))
+        ranked[name] = tuple(sorted((c for c in candidates if c.fits), key=order))
         misses = [c for c in candidates if not c.fits]
         closest[name] = max(misses, key=lambda c: c.binding.margin) if misses else None
     return Selection(ranked, closest, rank)

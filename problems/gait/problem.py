@@ -521,7 +521,9 @@ class Gait:
         """:func:`problems.verify_gait` on the trajectory at ``rate_hz`` (default 1 kHz, what
         the files hold; None: the nodes) (``options``: ``tolerance``, ``settings``
         overrides, ...)."""
-        return verify_gait(self.to_trajectory(rate_hz), self.problem.linkage, **options)
+        # the samples made once per rate (:meth:`exported`): the solve's own verification,
+        # the summary and the files read the same ones
+        return verify_gait(self.exported(rate_hz), self.problem.linkage, **options)
 
     def exported(self, rate_hz: float | None = RATE_HZ) -> Trajectory:
         """:meth:`to_trajectory` at ``rate_hz``, made once (what the files hold at that rate)."""

@@ -117,19 +117,30 @@ def _step(speed: float, linkage: Linkage | None, feet: bool, options: dict):
 
 
 def _feet_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
-    """One step on feet's samples, verification, contact phases and joint PD gains (no
-    multipliers: see the module)."""
-    law = FeetLaw(gait, rate_hz=RATE_HZ)
-    profile = law.channels(gait.to_trajectory(RATE_HZ))
+    """One step on feet's samples, verification, contact phases and joint PD gains
+    (``multipliers`` is not used: the footed cycle has no return map, see the module)."""
+    profile = FeetLaw(gait, rate_hz=RATE_HZ).channels(gait.exported(RATE_HZ))
     linked = LinkageTrajectory.of(profile)
-    n = len(linked.link_names)
     root = f"F_{root_contact(linked.link_names)}_"  # the stance foot's: from the motion
     contacts = [key for key in profile.extras if key.startswith("F_") and not key.startswith(root)]
-    extras = {key: np.asarray(profile.extras[key][0], dtype=float)
-              for key in (*contacts, "double_support")}  # fmt: skip
-    names = gait.problem.sequence
     settings = dict(profile.metadata.get("gait", {}))
-    settings["before_events"] = _before_events(gait, settings.get("before_events") or [], n)
+    settings["before_events"] = _before_events(
+        gait, settings.get("before_events") or [], len(linked.link_names)
+    )
+    return _sampled_gait(
+        gait, speed, profile, np.full(2 * len(linked.link_names), np.nan + 0j), settings,
+        segments=tuple(zip(gait.problem.sequence, gait.durations(), strict=True)),
+        extras={key: np.asarray(profile.extras[key][0], dtype=float)
+                for key in (*contacts, "double_support")},
+    )  # fmt: skip
+
+
+def _sampled_gait(gait, speed, profile, multipliers, settings, **on_feet) -> LibraryGait:
+    """The :class:`LibraryGait` of ``gait`` at ``speed`` m/s from ``profile`` (its samples at
+    :data:`RATE_HZ` with the feedback's phase and gains, ``problems.walking.feedback
+    .with_gains``), its ``multipliers`` (2n,) and ``settings``; ``on_feet``: the segments
+    and extras of a step on feet."""
+    linked = LinkageTrajectory.of(profile)
     return LibraryGait(
         speed=float(speed),
         step_length=float(gait.problem.step_length),
@@ -138,11 +149,9 @@ def _feet_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
         psi=np.asarray(linked.psi), dpsi=np.asarray(linked.dpsi),
         ddpsi=np.asarray(linked.ddpsi), torques=np.asarray(linked.torques),
         phase=np.asarray(profile.extras["phase"][0]),
-        gains=gains_from(profile, linked.link_names), multipliers=np.full(2 * n, np.nan + 0j),
+        gains=gains_from(profile, linked.link_names), multipliers=multipliers,
         iterations=int(profile.metadata.get("iterations") or 0),
-        settings=settings,
-        segments=tuple(zip(names, gait.durations(), strict=True)),
-        extras=extras, law=_law(profile.metadata.get("feedback", {})),
+        settings=settings, law=_law(profile.metadata.get("feedback", {})), **on_feet,
     )  # fmt: skip
 
 
@@ -166,12 +175,11 @@ def _law(feedback: dict) -> dict:
 
 
 def _library_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
-    """One gait's samples, verification, gains and multipliers."""
+    """One point-foot gait's samples, verification, periodic LQR gains and (with
+    ``multipliers``) its closed loop's Floquet multipliers."""
     feedback = design_feedback(gait)
-    profile = feedback.channels(gait.to_trajectory(RATE_HZ))
-    linked = LinkageTrajectory.of(profile)
-    n = len(linked.link_names)
-    values = np.full(2 * n, np.nan + 0j)
+    profile = feedback.channels(gait.exported(RATE_HZ))
+    values = np.full(2 * gait.problem.linkage.n, np.nan + 0j)
     if multipliers:
         step = feedback.step
         loop = fixed_point(feedback.plant, feedback.controller, feedback.reference.states[0],
@@ -179,19 +187,7 @@ def _library_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
                            control_rate_hz=feedback.control_rate_hz,
                            tolerance=FIXED_POINT_TOLERANCE)  # fmt: skip
         values = np.asarray(loop.multipliers, dtype=complex)
-    settings = profile.metadata.get("gait", {})
-    time_ = np.asarray(profile.time, dtype=float) - float(profile.time[0])
-    return LibraryGait(
-        speed=float(speed),
-        step_length=float(gait.problem.step_length),
-        step_time=float(gait.problem.step_time),
-        time=time_, psi=np.asarray(linked.psi), dpsi=np.asarray(linked.dpsi),
-        ddpsi=np.asarray(linked.ddpsi),
-        torques=np.asarray(linked.torques), phase=np.asarray(profile.extras["phase"][0]),
-        gains=gains_from(profile, linked.link_names), multipliers=values,
-        iterations=int(profile.metadata.get("iterations") or 0),
-        settings=settings, law=_law(profile.metadata.get("feedback", {})),
-    )  # fmt: skip
+    return _sampled_gait(gait, speed, profile, values, profile.metadata.get("gait", {}))
 
 
 __all__ = ["RATE_HZ", "build_library"]

@@ -105,42 +105,52 @@ class LibraryGait:
         index = np.clip(index, 0, durations.size - 1)
         return index + (self.time - starts[index]) / durations[index], index
 
-    def on_grid(self, tau: np.ndarray) -> dict[str, np.ndarray]:
-        """Every array at phase coordinates ``tau`` (M,) (:meth:`phase_coordinate`: t / T in
-        [0, 1] for a step of one phase), linear between the samples of the same contact
-        phase and never across an impact: a phase's end takes what
+    def on_grid(self, tau: np.ndarray, names: tuple[str, ...] | None = None) -> dict:
+        """Every array (or those ``names`` of ``psi``, ``dpsi``, ``ddpsi``, ``torques``,
+        ``gains``, ``phase``) at phase coordinates ``tau`` (M,) (:meth:`phase_coordinate`:
+        t / T in [0, 1] for a step of one phase), linear between the samples of the same
+        contact phase and never across an impact: a phase's end takes what
         ``settings["before_events"]`` holds there (the state, and on feet its accelerations
-        and torques) and its other arrays on along their last slope."""
+        and torques) and its other arrays on along their last slope; ``extras`` {name: (M,)}
+        too when every array is asked for."""
         own, index = self.phase_coordinate()
         target = np.clip(np.floor(tau).astype(int), 0, self.durations.size - 1)
         events = self.settings.get("before_events") or []
-        n = self.psi.shape[1]
-        arrays = {name: getattr(self, name) for name in ("psi", "dpsi", "ddpsi", "torques",
-                                                         "gains", "phase")}  # fmt: skip
-        arrays.update({f"extra:{key}": column for key, column in self.extras.items()})
+        asked = names or ("psi", "dpsi", "ddpsi", "torques", "gains", "phase")
+        arrays = {name: getattr(self, name) for name in asked}
+        if names is None:
+            arrays.update({f"extra:{key}": column for key, column in self.extras.items()})
         out = {name: np.empty((tau.size, *values.shape[1:])) for name, values in arrays.items()}
         for p in np.unique(target):
             rows, into = index == p, target == p
-            x = own[rows]
+            event = events[p] if p < len(events) else None
             for name, values in arrays.items():
-                flat = values[rows].reshape(int(rows.sum()), -1)
-                x_end = x
-                end = _at_event(events[p], name, n) if p < len(events) else None
-                if end is not None:  # up to the phase's end, where its event comes
-                    x_end, flat = np.append(x, p + 1.0), np.vstack([flat, end])
-                elif p < len(events) and x.size >= 2:
-                    # the rest has no sample at the impact's instant: on along the last
-                    # slope (held at its last value, the blend just before a heel strike
-                    # missed the equations of motion by 25 N m at 0.1 m/s spacing)
-                    slope = (flat[-1] - flat[-2]) / (x[-1] - x[-2])
-                    end = flat[-1] + slope * (p + 1.0 - x[-1])
-                    x_end, flat = np.append(x, p + 1.0), np.vstack([flat, end])
-                columns = [np.interp(tau[into], x_end, flat[:, j]) for j in range(flat.shape[1])]
+                x, flat = _to_phase_end(own[rows], values[rows].reshape(int(rows.sum()), -1),
+                                        event, name, p)  # fmt: skip
+                columns = [np.interp(tau[into], x, flat[:, j]) for j in range(flat.shape[1])]
                 out[name][into] = np.stack(columns, axis=1).reshape(
                     (int(into.sum()), *values.shape[1:])
                 )
-        out["extras"] = {key: out.pop(f"extra:{key}") for key in self.extras}
+        if names is None:
+            out["extras"] = {key: out.pop(f"extra:{key}") for key in self.extras}
         return out
+
+
+def _to_phase_end(x: np.ndarray, flat: np.ndarray, event: dict | None, name: str, p: int):
+    """(coordinates, values) of one array's samples in contact phase ``p`` (``x`` (K,),
+    ``flat`` (K, columns)), carried to the phase's end p + 1 where an ``event`` (its
+    ``before_events`` entry) ends it: with the entry's value there (:func:`_at_event`), or on
+    along the last slope (held at the last value, the blend just before a heel strike
+    missed the equations of motion by 25 N m at 0.1 m/s spacing); as they are without one."""
+    if event is None:
+        return x, flat
+    end = _at_event(event, name)
+    if end is None:
+        if x.size < 2:
+            return x, flat
+        slope = (flat[-1] - flat[-2]) / (x[-1] - x[-2])
+        end = flat[-1] + slope * (p + 1.0 - x[-1])
+    return np.append(x, p + 1.0), np.vstack([flat, end])
 
 
 @dataclass(frozen=True)
@@ -189,15 +199,7 @@ class GaitLibrary:
         (see the module), as a trajectory with its gains (``K_<hinge>__<state>``) and
         settings (``metadata["gait"]``, its step length, time and the state before each
         impact blended; ``library``: which gaits and weight)."""
-        i, j, w = self.bracket(speed)
-        a, b = self.gaits[i], self.gaits[j]
-        names = [name for name, _ in a.segments]
-        if names != [name for name, _ in b.segments]:
-            raise DefinitionError(
-                f"`speed`: the gaits at {a.speed:g} and {b.speed:g} m/s walk other contact "
-                f"phases ({names} against {[n for n, _ in b.segments]}); they do not blend"
-            )
-        durations = (1.0 - w) * a.durations + w * b.durations
+        a, b, w, durations = self._bracketed(speed)
         times, tau = _phase_grid(durations, self.rate_hz)
         left, right = a.on_grid(tau), b.on_grid(tau)
         blend = {name: (1.0 - w) * left[name] + w * right[name] for name in left
@@ -235,6 +237,20 @@ class GaitLibrary:
             with_gains(trajectory, self.linkage.names, blend["phase"], blend["gains"], law)
         )
 
+    def _bracketed(self, speed: float) -> tuple[LibraryGait, LibraryGait, float, np.ndarray]:
+        """(a, b, w, durations): the gaits around ``speed`` (:meth:`bracket`), the weight of
+        b and the blended contact phases' durations (P,) s; refused where a and b walk other
+        contact phases."""
+        i, j, w = self.bracket(speed)
+        a, b = self.gaits[i], self.gaits[j]
+        names = [name for name, _ in a.segments]
+        if names != [name for name, _ in b.segments]:
+            raise DefinitionError(
+                f"`speed`: the gaits at {a.speed:g} and {b.speed:g} m/s walk other contact "
+                f"phases ({names} against {[n for n, _ in b.segments]}); they do not blend"
+            )
+        return a, b, w, (1.0 - w) * a.durations + w * b.durations
+
     def _stance_force(self, blend: dict, extras: dict) -> np.ndarray:
         """The ground's force on the stance foot (K,) complex, N, of the blended motion:
         Newton's law on the whole body less the other contacts' blended forces (what a
@@ -261,9 +277,7 @@ class GaitLibrary:
             step = walking_step(self.linkage, length, duration, **step_options)
             return step.solve(step.ocp.guess(self.at(speed)), progress=False)
         step = footed_step_at(speed, linkage=self.linkage, **step_options)
-        i, j, w = self.bracket(speed)
-        a, b = self.gaits[i], self.gaits[j]
-        durations = (1.0 - w) * a.durations + w * b.durations
+        a, b, w, durations = self._bracketed(speed)
         if tuple(step.sequence) != tuple(name for name, _ in a.segments):
             raise DefinitionError(
                 f"`step_options`: the step walks {list(step.sequence)}, the library's gaits "
@@ -273,9 +287,9 @@ class GaitLibrary:
         def piece(p: int):
             def source(t):
                 tau = p + np.clip(np.asarray(t, dtype=float) / durations[p], 0.0, 1.0)
-                left, right = a.on_grid(tau), b.on_grid(tau)
-                return tuple((1.0 - w) * left[name] + w * right[name]
-                             for name in ("psi", "dpsi", "ddpsi", "torques"))  # fmt: skip
+                names = ("psi", "dpsi", "ddpsi", "torques")  # what a guess reads, not the gains
+                left, right = a.on_grid(tau, names), b.on_grid(tau, names)
+                return tuple((1.0 - w) * left[name] + w * right[name] for name in names)
 
             return source
 
@@ -356,11 +370,11 @@ class GaitLibrary:
                    float(description["rate_hz"]), description["settings"])  # fmt: skip
 
 
-def _at_event(event: dict, name: str, n: int) -> np.ndarray | None:
+def _at_event(event: dict, name: str) -> np.ndarray | None:
     """``name``'s value at a phase's end from its ``before_events`` entry, or None."""
     if name in ("psi", "dpsi"):
-        x = np.asarray(event["x"], dtype=float)
-        return x[:n] if name == "psi" else x[n:]
+        x = np.asarray(event["x"], dtype=float)  # (psi, dpsi)
+        return x[: x.size // 2] if name == "psi" else x[x.size // 2 :]
     if name in ("ddpsi", "torques") and name in event:
         return np.asarray(event[name], dtype=float)
     return None
