@@ -462,169 +462,41 @@ def simulate_walking(
     disturbances = disturbances or Disturbances()
     steps = check_integer("steps", steps, 1)
     rate = check_positive("control_rate_hz", control_rate_hz, "Hz")
-    period = 1.0 / rate
     step_time = check_positive("step_time", step_time, "s")
     step_length = check_positive("step_length", step_length, "m")
     factor = check_positive("max_step_factor", max_step_factor)
     if plant is None:
         plant = disturbed_plant(linkage, mu, substeps, disturbances.mass_scale)
-    plant_linkage = plant.dynamics.linkage
     if stand is not None:
         if lift_off is not None:
             raise DefinitionError("`stand`: the last step ends standing; give no lift_off")
         check_positive("stand", stand, "s")
         factor = max(factor, (step_time + stand) / step_time + 1.0)
-    n = plant.n
-    x = np.asarray(start, dtype=float).copy()
-    if x.shape != (2 * n,):
-        raise DefinitionError(f"`start`: the state (psi, dpsi) has {2 * n} entries, got {x.shape}")
-    if disturbances.initial is not None:
-        initial = np.asarray(disturbances.initial, dtype=float)
-        if initial.shape != (2 * n,):
-            raise DefinitionError(
-                f"`disturbances.initial`: (psi, dpsi) error with {2 * n} entries, got "
-                f"{initial.shape}"
-            )
-        x = x + initial
-    torso = torso or (
-        plant.biped.upper_body[0] if plant.biped.upper_body else plant.biped.stance_thigh
-    )
-    limit = disturbances.torque_limit
-    slack = CONE_SLACK * plant.biped.total_mass * plant_linkage.gravity
-    unloaded = UNLOADED * plant.biped.total_mass * plant_linkage.gravity
+    x = _first_state(start, disturbances, plant.n)
+    weight = plant.biped.total_mass * plant.dynamics.linkage.gravity
+    walk = _Walk(
+        plant=plant, controller=controller, disturbances=disturbances, reference=reference,
+        check_contacts=check_contacts, lift_off=lift_off, stand=stand, steps=steps,
+        step_time=step_time, step_length=step_length, period=1.0 / rate, factor=factor,
+        torso=torso or (plant.biped.upper_body[0] if plant.biped.upper_body
+                        else plant.biped.stance_thigh),
+        slack=CONE_SLACK * weight, unloaded=UNLOADED * weight,
+    )  # fmt: skip
     records: list[StepRecord] = []
     logs: list[_StepLog] = []
     foothold = 0j
     footholds = [foothold]
     fell = None
     clock = 0.0
-    push_time = disturbances.push_at * step_time
-
-    def ground(world_x: float) -> float:
-        edge = (disturbances.ground_from - 0.5) * step_length
-        return disturbances.ground_rise if world_x >= edge else 0.0
-
     for index in range(steps):
         controller.start_step(index, x)
         standing = stand is not None and index == steps - 1
-        guard = lift_off
-        log = _StepLog()
-        logs.append(log)
-        t = 0.0
-        pushed = index != disturbances.push_step or disturbances.push == 0.0
-        strike = None  # (t, x-, impulse, landing, velocity) once the swing foot has landed
-        while True:
-            if t > factor * step_time:
-                fell = (
-                    f"step {index}: no heel strike within {factor:g} x the step time"
-                    if strike is None
-                    else f"step {index}: the double support does not end within {factor:g} x "
-                    "the step time"
-                )
-                break
-            if not pushed and t >= push_time - 1e-12:
-                x = np.concatenate(
-                    [x[:n], plant.push_velocity(x, complex(disturbances.push), torso)]
-                )
-                pushed = True
-            torques = np.asarray(controller.torques(t, x), dtype=float)
-            if limit is not None:
-                torques = np.clip(torques, -limit, limit)
-            if strike is None:
-                reaction, heights = (np.asarray(v).ravel() for v in plant.observe(x, torques))
-                front = None
-            else:
-                reaction, front, heights = (
-                    np.asarray(v).ravel() for v in plant.observe_double(x, torques)
-                )
-            stance = _cone_problem(plant.stance_contact, "the stance foot", reaction, slack)
-            if stance is not None and front is not None and reaction[1] < unloaded:
-                # The rear foot, unloaded as the plan's lift-off defines it, leaves the
-                # cone: it rolls off, as a foot does. The legs swap now, a little early.
-                break
-            problem = (
-                stance
-                or _ground_problem(heights, foothold, ground)
-                or (
-                    None
-                    if front is None
-                    else _cone_problem(plant.swing_contact, "the front foot", front, slack)
-                )
-            )
-            log.time.append(clock + t)
-            log.states.append(x.copy())
-            log.torques.append(torques)
-            log.peak = max(log.peak, float(np.abs(torques).max()))
-            if reference is not None:
-                log.tracking = max(log.tracking, reference.tracking(x))
-            log.normal = min(log.normal, reaction[1])
-            if reaction[1] > 0:
-                log.friction = max(log.friction, abs(reaction[0]) / (plant.mu * reaction[1]))
-            if problem is not None and check_contacts:
-                fell = f"step {index}, t = {t:.3f} s: {problem}"
-                break
-            advance = plant.advance if strike is None else plant.advance_double
-            x_next = np.asarray(advance(x, torques, period)).ravel()
-            if not np.all(np.isfinite(x_next)):
-                fell = f"step {index}, t = {t:.3f} s: the state is not finite"
-                break
-            if strike is not None:  # the double support ends when the lift-off guard crosses
-                if guard(x_next) >= 0.0:
-                    tau, x = locate_event(
-                        plant.advance_double, x, torques, period, lambda y, guard=guard: -guard(y)
-                    )
-                    t += tau
-                    break
-                x = x_next
-                t += period
-                continue
-            height = foot_height(plant, x_next, foothold, ground)
-            ahead = complex(plant.foot.position(x_next[:n])).real
-            if standing:
-                x, t = x_next, t + period
-                problem = _standing_problem(height, t, step_time)
-                if problem is not None:
-                    fell = f"step {index}, t = {t:.3f} s: {problem}"
-                    break
-                if t >= step_time + stand - 1e-12:  # stood: the run ends here
-                    strike = _stood(plant, t, x)
-                    break
-                continue
-            if height <= 0.0 and ahead > STRIKE_AHEAD * step_length:
-                tau, x_minus = locate_strike(plant, x, torques, period, foothold, ground)
-                _, impulse, lift = (
-                    np.asarray(v).ravel()
-                    for v in plant.dynamics.impact(plant.foot, root_pinned=guard is not None)(
-                        x_minus[:n], x_minus[n:]
-                    )
-                )
-                if guard is not None:
-                    lift = np.array([0.0, 0.0])  # the rear foot stays: nothing to lift
-                problem = _impact_problem(impulse, lift, plant.swing_contact)
-                if problem is not None and check_contacts:
-                    fell = f"heel strike of step {index}: {problem}"
-                    break
-                strike = (
-                    t + tau,
-                    x_minus,
-                    impulse,
-                    complex(plant.foot.position(x_minus[:n])),
-                    complex(plant.foot.velocity(x_minus[:n], x_minus[n:])),
-                )
-                t += tau
-                if guard is None:
-                    break
-                # a double support begins: both feet held through the impact, the controller
-                # goes on from the strike's instant
-                x = np.asarray(plant.strike_held(x_minus)).ravel()
-                if hasattr(controller, "touchdown"):
-                    controller.touchdown(t, x)
-                continue
-            x = x_next
-            t += period
+        logs.append(_StepLog())
+        x, t, strike, fell = _one_step(walk, index, x, foothold, clock, logs[-1], standing)
         if fell is not None:
             break
         t_strike, x_minus, impulse, landing, velocity = strike
+        log = logs[-1]
         records.append(
             StepRecord(
                 index=index,
@@ -646,6 +518,27 @@ def simulate_walking(
         if standing:  # both feet stay down, in this step's labels
             break
         x = np.asarray(plant.step_map(x_minus) if lift_off is None else plant.swap_map(x)).ravel()
+    return _run_of(records, fell, logs, footholds, x)
+
+
+def _first_state(start, disturbances: Disturbances, n: int) -> np.ndarray:
+    """The first step's state: ``start`` (2n,) plus the disturbances' initial error."""
+    x = np.asarray(start, dtype=float).copy()
+    if x.shape != (2 * n,):
+        raise DefinitionError(f"`start`: the state (psi, dpsi) has {2 * n} entries, got {x.shape}")
+    if disturbances.initial is not None:
+        initial = np.asarray(disturbances.initial, dtype=float)
+        if initial.shape != (2 * n,):
+            raise DefinitionError(
+                f"`disturbances.initial`: (psi, dpsi) error with {2 * n} entries, got "
+                f"{initial.shape}"
+            )
+        x = x + initial
+    return x
+
+
+def _run_of(records, fell, logs, footholds, x) -> WalkingRun:
+    """The :class:`WalkingRun` of the steps' records and logs (``x`` the last state)."""
     time = np.concatenate([np.asarray(log.time) for log in logs if log.time])
     states = np.vstack([np.asarray(log.states) for log in logs if log.states])
     torques_all = np.vstack([np.asarray(log.torques) for log in logs if log.torques])
@@ -660,6 +553,166 @@ def simulate_walking(
         np.asarray(footholds),
         None if fell else x,
     )
+
+
+@dataclass(frozen=True)
+class _Walk:
+    """What every step of :func:`simulate_walking` shares (its arguments, checked)."""
+
+    plant: Plant
+    controller: Controller
+    disturbances: Disturbances
+    reference: object
+    check_contacts: bool
+    lift_off: object
+    stand: float | None
+    steps: int
+    step_time: float
+    step_length: float
+    period: float
+    factor: float
+    torso: str
+    slack: float
+    unloaded: float
+
+    def ground(self, world_x: float) -> float:
+        """The ground's height at ``world_x`` m (a step up from ``ground_from``)."""
+        edge = (self.disturbances.ground_from - 0.5) * self.step_length
+        return self.disturbances.ground_rise if world_x >= edge else 0.0
+
+
+def _one_step(walk: _Walk, index: int, x, foothold: complex, clock: float, log: _StepLog,
+              standing: bool):  # fmt: skip
+    """Step ``index`` from state ``x`` (its foot at ``foothold``, ``clock`` s into the run),
+    each control instant in ``log``: (the state where it ended, its duration s, the strike
+    (t, x-, impulse, landing, velocity) or None, why it fell or None). ``standing``: the
+    last step of a run that ends standing."""
+    plant, d, period, n = walk.plant, walk.disturbances, walk.period, walk.plant.n
+    guard = walk.lift_off
+    t = 0.0
+    pushed = index != d.push_step or d.push == 0.0
+    strike = None  # (t, x-, impulse, landing, velocity) once the swing foot has landed
+    while True:
+        if t > walk.factor * walk.step_time:
+            return (
+                x,
+                t,
+                strike,
+                (
+                    f"step {index}: no heel strike within {walk.factor:g} x the step time"
+                    if strike is None
+                    else f"step {index}: the double support does not end within {walk.factor:g} x "
+                    "the step time"
+                ),
+            )
+        if not pushed and t >= d.push_at * walk.step_time - 1e-12:
+            x = np.concatenate([x[:n], plant.push_velocity(x, complex(d.push), walk.torso)])
+            pushed = True
+        torques, problem, rolled_off = _control(walk, t, x, strike, foothold, clock, log)
+        if rolled_off:  # the rear foot rolls off: the legs swap now, a little early
+            return x, t, strike, None
+        if problem is not None and walk.check_contacts:
+            return x, t, strike, f"step {index}, t = {t:.3f} s: {problem}"
+        advance = plant.advance if strike is None else plant.advance_double
+        x_next = np.asarray(advance(x, torques, period)).ravel()
+        if not np.all(np.isfinite(x_next)):
+            return x, t, strike, f"step {index}, t = {t:.3f} s: the state is not finite"
+        if strike is not None:  # the double support ends when the lift-off guard crosses
+            if guard(x_next) >= 0.0:
+                tau, x = locate_event(
+                    plant.advance_double, x, torques, period, lambda y, guard=guard: -guard(y)
+                )
+                return x, t + tau, strike, None
+            x, t = x_next, t + period
+            continue
+        height = foot_height(plant, x_next, foothold, walk.ground)
+        if standing:
+            x, t = x_next, t + period
+            problem = _standing_problem(height, t, walk.step_time)
+            if problem is not None:
+                return x, t, strike, f"step {index}, t = {t:.3f} s: {problem}"
+            if t >= walk.step_time + walk.stand - 1e-12:  # stood: the run ends here
+                return x, t, _stood(plant, t, x), None
+            continue
+        ahead = complex(plant.foot.position(x_next[:n])).real
+        if height <= 0.0 and ahead > STRIKE_AHEAD * walk.step_length:
+            tau, strike, problem = _heel_strike(walk, x, torques, t, foothold, guard is not None)
+            if problem is not None and walk.check_contacts:
+                return x, t, None, f"heel strike of step {index}: {problem}"
+            t += tau
+            if guard is None:
+                return x, t, strike, None
+            # a double support begins: both feet held through the impact, the controller
+            # goes on from the strike's instant
+            x = np.asarray(plant.strike_held(strike[1])).ravel()
+            if hasattr(walk.controller, "touchdown"):
+                walk.controller.touchdown(t, x)
+            continue
+        x = x_next
+        t += period
+
+
+def _control(walk: _Walk, t: float, x, strike, foothold: complex, clock: float, log: _StepLog):
+    """The controller's torques at t s of the step in state x, the contacts they make
+    checked and the instant logged: (torques (n,), the contact problem or None, whether the
+    rear foot of a double support rolls off: unloaded as the plan's lift-off defines it and
+    out of its cone, it lifts, as a foot does; that instant is not logged)."""
+    plant = walk.plant
+    torques = np.asarray(walk.controller.torques(t, x), dtype=float)
+    limit = walk.disturbances.torque_limit
+    if limit is not None:
+        torques = np.clip(torques, -limit, limit)
+    if strike is None:
+        reaction, heights = (np.asarray(v).ravel() for v in plant.observe(x, torques))
+        front = None
+    else:
+        reaction, front, heights = (np.asarray(v).ravel() for v in plant.observe_double(x, torques))
+    stance = _cone_problem(plant.stance_contact, "the stance foot", reaction, walk.slack)
+    if stance is not None and front is not None and reaction[1] < walk.unloaded:
+        return torques, None, True
+    problem = (
+        stance
+        or _ground_problem(heights, foothold, walk.ground)
+        or (
+            None
+            if front is None
+            else _cone_problem(plant.swing_contact, "the front foot", front, walk.slack)
+        )
+    )
+    log.time.append(clock + t)
+    log.states.append(x.copy())
+    log.torques.append(torques)
+    log.peak = max(log.peak, float(np.abs(torques).max()))
+    if walk.reference is not None:
+        log.tracking = max(log.tracking, walk.reference.tracking(x))
+    log.normal = min(log.normal, reaction[1])
+    if reaction[1] > 0:
+        log.friction = max(log.friction, abs(reaction[0]) / (plant.mu * reaction[1]))
+    return torques, problem, False
+
+
+def _heel_strike(walk: _Walk, x, torques, t: float, foothold: complex, held: bool):
+    """The swing foot's landing within the control period from x: (tau s into the period,
+    the strike (t, x-, impulse, landing, velocity), the impact's contact problem or None).
+    ``held``: the rear foot stays pinned through the impact (a double support follows: no
+    lift-off to check)."""
+    plant, n = walk.plant, walk.plant.n
+    tau, x_minus = locate_strike(plant, x, torques, walk.period, foothold, walk.ground)
+    _, impulse, lift = (
+        np.asarray(v).ravel()
+        for v in plant.dynamics.impact(plant.foot, root_pinned=held)(x_minus[:n], x_minus[n:])
+    )
+    if held:
+        lift = np.array([0.0, 0.0])  # the rear foot stays: nothing to lift
+    problem = _impact_problem(impulse, lift, plant.swing_contact)
+    strike = (
+        t + tau,
+        x_minus,
+        impulse,
+        complex(plant.foot.position(x_minus[:n])),
+        complex(plant.foot.velocity(x_minus[:n], x_minus[n:])),
+    )
+    return tau, strike, problem
 
 
 def largest_push(
