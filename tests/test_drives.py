@@ -41,7 +41,8 @@ def test_the_drives_power_is_the_hinges_power_at_every_sample(which, request):
     trajectory = request.getfixturevalue(which)
     model = LinkageTrajectory.of(trajectory)
     plan = plan_of(trajectory, "step", 1.0)
-    time, tau, dq, _ = plan.steps[0]  # the step as planned: the first side's leg in stance
+    first = plan.steps[0]  # the step as planned: the first side's leg in stance
+    time, tau, dq = first.time, first.torques, first.speeds
     np.testing.assert_allclose(time, model.time - model.time[0], atol=1e-12)
     drives = sum(tau[d] * dq[d] for d in plan.drives)
     linkage = model_linkage(trajectory)
@@ -54,7 +55,7 @@ def test_the_drives_power_is_the_hinges_power_at_every_sample(which, request):
     scale = np.max(np.abs(hinges))
     np.testing.assert_allclose(drives, hinges, atol=1e-9 * scale)
     # the mirrored step: the same power (the legs' roles swapped)
-    _, tau2, dq2, _ = plan.steps[1]
+    tau2, dq2 = plan.steps[1].torques, plan.steps[1].speeds
     np.testing.assert_allclose(sum(tau2[d] * dq2[d] for d in plan.drives), hinges,
                                atol=1e-9 * scale)  # fmt: skip
 
@@ -97,6 +98,7 @@ def test_the_duty_cycle_weights_each_plan_by_its_share_of_the_time():
     assert need.rms_torque == pytest.approx(math.sqrt(0.75 * 20**2 / 2 + 0.25 * 40**2 / 2),
                                             rel=1e-6)  # fmt: skip
     assert need.peak_torque == pytest.approx(40.0) and need.peak_speed == pytest.approx(6.0)
+    assert need.peaks_at == dict.fromkeys(("torque", "speed", "power", "braking"), "fast")
     assert need.mean_positive_power == pytest.approx(
         (0.75 * 20 * 2 + 0.25 * 40 * 6) / (2 * math.pi), rel=1e-5
     )
@@ -269,3 +271,55 @@ def test_the_command_chooses_the_drives_or_writes_nothing(point_foot_plan, tmp_p
     code = main(["drives", str(plan), "--motors", str(tmp_path / "m.csv"), "--output-dir",
                  str(tmp_path / "x")])  # fmt: skip
     assert code == 2 and "give both catalogues" in capsys.readouterr().err
+
+
+def test_bad_drive_inputs_are_refused_naming_the_field(point_foot_plan, tmp_path, capsys):
+    from problems.__main__ import main
+    from problems.drives.catalogue import read_gearboxes, read_motors
+    from problems.drives.selection import select
+
+    plan = tmp_path / "torques.csv"
+    point_foot_plan.save(plan)
+    out = str(tmp_path / "out")
+    for shares, said in (("1,x", "expected numbers a,b,c, got '1,x'"),
+                         ("1,-2", "shares are fractions of time >= 0, got '1,-2'")):  # fmt: skip
+        assert main(["drives", str(plan), "--shares", shares, "--output-dir", out]) == 2
+        assert said in capsys.readouterr().err
+    garbage = tmp_path / "garbage.csv"
+    garbage.write_text("not,a,plan\n1,2,3\n")
+    assert main(["drives", str(garbage), "--output-dir", out]) == 2
+    assert f"PLAN {garbage}: cannot read a planned step there" in capsys.readouterr().err
+    (tmp_path / "short.csv").write_text("name,ratio\nx,3\n")
+    (tmp_path / "g.csv").write_text(GEARBOXES_CSV)
+    code = main(["drives", str(plan), "--motors", str(tmp_path / "short.csv"), "--gearboxes",
+                 str(tmp_path / "g.csv"), "--output-dir", out])  # fmt: skip
+    assert code == 2 and "--motors: " in capsys.readouterr().err
+    (tmp_path / "slow.csv").write_text(GEARBOXES_CSV.replace("n50,50,0.8", "n50,0.5,0.8"))
+    with pytest.raises(DefinitionError, match=r"n50: the ratio must be >= 1 .* got 0.5 and 0.8"):
+        read_gearboxes(tmp_path / "slow.csv")
+    (tmp_path / "empty.csv").write_text(MOTORS_CSV.splitlines()[0] + "\n")
+    with pytest.raises(DefinitionError, match=r"empty\.csv: no rows"):
+        read_motors(tmp_path / "empty.csv")
+    with pytest.raises(DefinitionError, match="cannot read it"):
+        read_motors(tmp_path / "absent.csv")
+    (tmp_path / "m.csv").write_text(MOTORS_CSV)
+    motors, gearboxes = read_motors(tmp_path / "m.csv"), read_gearboxes(tmp_path / "g.csv")
+    duty = DriveRequirements.of([_sinusoid("sine", 1.0, 30.0, 4.0)])
+    with pytest.raises(DefinitionError, match=r"`rank`: one of \('mass', 'energy'\), got 'cost'"):
+        select(duty, motors, gearboxes, rank="cost")
+    with pytest.raises(DefinitionError, match="give at least one of each"):
+        select(duty, (), gearboxes)
+    with pytest.raises(DefinitionError, match=r"`drives`: \['knee'\] are not among \['x'\]"):
+        select(duty, motors, gearboxes, drives=["knee"])
+    with pytest.raises(DefinitionError, match="`plans`: give one or more planned steps"):
+        drive_requirements([])
+    with pytest.raises(DefinitionError, match="`names`: 2 names for 1 plans"):
+        drive_requirements(point_foot_plan, names=["a", "b"])
+    with pytest.raises(TypeError, match="`shares`: one number per plan, got '1'"):
+        drive_requirements(point_foot_plan, shares="1")
+    other = _sinusoid("other", 1.0, 1.0, 1.0)
+    other = Plan("other", 1.0, tuple(DriveStep(s.time, {"y": s.torques["x"]},
+                                               {"y": s.speeds["x"]}) for s in other.steps),
+                 0.5, 1.0)  # fmt: skip
+    with pytest.raises(DefinitionError, match="a duty cycle is one walker's"):
+        DriveRequirements.of([_sinusoid("sine", 0.5, 1.0, 1.0), other])

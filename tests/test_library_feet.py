@@ -160,3 +160,17 @@ def test_a_version_1_file_still_loads(built, tmp_path):
     np.savez(old, **arrays)
     loaded = GaitLibrary.load(old)
     assert not loaded.feet and loaded.gaits[0].segments == () and loaded.gaits[0].extras == {}
+
+
+def test_bad_library_inputs_are_refused_naming_the_field(library):
+    from problems.library import build_library
+
+    with pytest.raises(DefinitionError, match=r"`feet`: True \(steps on feet\) or False"):
+        build_library([1.0], feet="yes")
+    a, b = library.gaits[:2]
+    renamed = replace(b, segments=tuple(("toe", t) for _, t in b.segments))
+    mixed = GaitLibrary((a, renamed), library.linkage, library.rate_hz)
+    with pytest.raises(DefinitionError, match="walk other contact phases"):
+        mixed.at(0.95)
+    with pytest.raises(DefinitionError, match="`step_options`: the step walks"):
+        library.solve_at(0.95, phases="flat-footed")

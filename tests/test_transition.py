@@ -219,7 +219,8 @@ def test_the_drives_read_a_walk_through_speeds_step_by_step(sequence):
     plan = plan_of(trajectory, "walk", 1.0)
     assert len(plan.steps) == len(sequence.steps)
     column = np.asarray(trajectory.extras["step"][0]).astype(int)
-    for j, (time, tau, dq, _) in enumerate(plan.steps):
+    for j, step in enumerate(plan.steps):
+        time, tau, dq = step.time, step.torques, step.speeds
         rows = np.flatnonzero(column == j)
         # the step ends at its heel strike's instant: the next step's first row
         if j + 1 < len(plan.steps):
@@ -228,8 +229,11 @@ def test_the_drives_read_a_walk_through_speeds_step_by_step(sequence):
         rates = joint_rates(linkage, np.asarray(trajectory.dpsi)[rows])
         hinges = np.sum(np.asarray(trajectory.torques)[rows] * rates, axis=1)
         np.testing.assert_allclose(drives, hinges, atol=1e-9 * np.max(np.abs(hinges)))
-    need = drive_requirements(trajectory)
+    need = drive_requirements(trajectory, names=["walk"])
     assert need.plans[0].speed == pytest.approx(
         sum(s.gait.problem.step_length for s in sequence.steps)
         / (trajectory.time[-1] - trajectory.time[0]), rel=1e-9)  # fmt: skip
     assert need["right_knee"].peak_torque > 0.0
+    # where each peak is: the plan and the step, with its kind
+    kinds = {f"walk, step {j} ({step.kind})" for j, step in enumerate(sequence.steps)}
+    assert all(at in kinds for r in need.drives for at in r.peaks_at.values())

@@ -171,6 +171,8 @@ def run(args, out: TextIO, report: Reporter) -> int:
     shares = ", ".join(f"{p.name} {100 * p.share:.0f} %" for p in requirements.plans)
     print(f"duty cycle: {shares}", file=out)
     print(requirements.table(), file=out)
+    print("\nwhere the peaks are:", file=out)
+    print(requirements.peaks_table(), file=out)
     print("\nwork per step, J (positive / negative):", file=out)
     print(requirements.work_table(), file=out)
     selection = _selected(requirements, catalogue, args, out)

@@ -28,7 +28,7 @@ holds it).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -43,12 +43,14 @@ class DriveStep(NamedTuple):
     """One step as the drives see it, every sample of it (both ends: the state before the
     heel strike ends a step, the one after it starts the next): ``time`` (K,) s from the
     plan's start, and per drive {drive: (K,)} its ``torques`` N m, ``speeds`` rad/s and
-    ``accelerations`` rad/s^2 (None: not known, taken as 0)."""
+    ``accelerations`` rad/s^2 (None: not known, taken as 0); ``label`` which step it is
+    (``step 1``, ``step 10 (change)``)."""
 
     time: np.ndarray
     torques: dict[str, np.ndarray]
     speeds: dict[str, np.ndarray]
     accelerations: dict[str, np.ndarray] | None = None
+    label: str = ""
 
     def acceleration(self, drive: str) -> np.ndarray:
         """ddq (K,) rad/s^2 of ``drive`` (zeros where the step has none)."""
@@ -85,7 +87,9 @@ class Plan:
 
 @dataclass(frozen=True)
 class DriveRequirement:
-    """One drive's needs over the duty cycle (see the module); units N m, rad/s, W, J."""
+    """One drive's needs over the duty cycle (see the module); units N m, rad/s, W, J;
+    ``peaks_at`` where each peak is ({"torque", "speed", "power", "braking"}: "<plan>, <step
+    label>")."""
 
     drive: str
     peak_torque: float
@@ -98,6 +102,7 @@ class DriveRequirement:
     mean_negative_power: float
     positive_work_per_step: tuple[float, ...]
     negative_work_per_step: tuple[float, ...]
+    peaks_at: dict[str, str] = field(default_factory=dict)
 
     def row(self) -> dict[str, float | str]:
         """The requirement as one row of requirements.csv (duty-cycle columns; the work per
@@ -113,6 +118,8 @@ class DriveRequirement:
             "mean_positive_power_W": self.mean_positive_power,
             "mean_negative_power_W": self.mean_negative_power,
         }
+        for key, at in self.peaks_at.items():
+            row[f"peak_{key}_at"] = at
         for k, (positive, negative) in enumerate(
             zip(self.positive_work_per_step, self.negative_work_per_step, strict=True)
         ):
@@ -166,6 +173,16 @@ class DriveRequirements:
             )
         return "\n".join(lines)
 
+    def peaks_table(self) -> str:
+        """Where each drive's peaks are (plan and step), markdown."""
+        lines = ["| drive | peak torque at | peak speed at | peak power at | peak braking at |",
+                 "|---|---|---|---|---|"]  # fmt: skip
+        for r in self.drives:
+            cells = " | ".join(r.peaks_at.get(key, "") for key in ("torque", "speed", "power",
+                                                                   "braking"))  # fmt: skip
+            lines.append(f"| {r.drive} | {cells} |")
+        return "\n".join(lines)
+
     def work_table(self) -> str:
         """Positive / negative work per step of each drive in each plan (J), markdown."""
         header = " | ".join(f"{p.name} (+ / -)" for p in self.plans)
@@ -191,7 +208,7 @@ def plan_of(trajectory: Trajectory, name: str, share: float) -> Plan:
     first = joint_space(trajectory, steps=1)
     sides = tuple(first.metadata["sides"])
     second = joint_space(trajectory, steps=1, sides=(sides[1], sides[0]))
-    steps = [_step_of(view.columns, index * float(view.time[-1] - view.time[0]))
+    steps = [_step_of(view.columns, index * float(view.time[-1] - view.time[0]), f"step {index}")
              for index, view in enumerate((first, second))]  # fmt: skip
     meta = first.metadata
     return Plan(
@@ -203,9 +220,9 @@ def plan_of(trajectory: Trajectory, name: str, share: float) -> Plan:
     )
 
 
-def _step_of(columns: dict, start: float) -> DriveStep:
+def _step_of(columns: dict, start: float, label: str) -> DriveStep:
     """One step's joint-space columns (``problems.robot.joint_space``) as a
-    :class:`DriveStep`, its time from ``start`` s."""
+    :class:`DriveStep` named ``label``, its time from ``start`` s."""
     drives = [c[len("tau_") : -len("_N_m")] for c in columns if c.startswith("tau_")]
     time = np.asarray(columns["t_s"], dtype=float)
 
@@ -213,7 +230,7 @@ def _step_of(columns: dict, start: float) -> DriveStep:
         return {d: np.asarray(columns[f"{prefix}_{d}_{unit}"], dtype=float) for d in drives}
 
     return DriveStep(time - time[0] + start, per_drive("tau", "N_m"), per_drive("dq", "rad_s"),
-                     per_drive("ddq", "rad_s2"))  # fmt: skip
+                     per_drive("ddq", "rad_s2"), label)  # fmt: skip
 
 
 def _sequence_plan(trajectory: Trajectory, name: str, share: float) -> Plan:
@@ -246,8 +263,9 @@ def _sequence_plan(trajectory: Trajectory, name: str, share: float) -> Plan:
             metadata={"gait": entry["settings"], "model": trajectory.metadata["model"]},
         )  # fmt: skip
         sides = ("right", "left") if j % 2 == 0 else ("left", "right")
-        steps.append(_step_of(joint_space(local, steps=1, sides=sides).columns,
-                              float(time[rows[0]] - time[0])))  # fmt: skip
+        columns = joint_space(local, steps=1, sides=sides).columns
+        steps.append(_step_of(columns, float(time[rows[0]] - time[0]),
+                              f"step {j} ({entry['kind']})"))  # fmt: skip
         distance += float(entry["step_length_m"])
     duration = float(time[-1] - time[0])
     return Plan(name=name, share=share, steps=tuple(steps), step_time=duration / len(steps),
@@ -315,17 +333,21 @@ def _requirement(drive: str, plans: Sequence[Plan]) -> DriveRequirement:
     """One drive's needs over the plans (see the module)."""
     means = {"torque": 0.0, "speed": 0.0, "positive": 0.0, "negative": 0.0}
     peaks = {"torque": 0.0, "speed": 0.0, "power": 0.0, "braking": 0.0}
+    where = dict.fromkeys(peaks, "")
     positive_work, negative_work = [], []
     for plan in plans:
         integrals = _stride_integrals(plan, drive)
         for key in means:
             means[key] += plan.share * integrals[key] / plan.duration
-        speed, torque = plan.samples(drive)
-        power = torque * speed
-        peaks["torque"] = max(peaks["torque"], float(np.max(np.abs(torque))))
-        peaks["speed"] = max(peaks["speed"], float(np.max(np.abs(speed))))
-        peaks["power"] = max(peaks["power"], float(np.max(power)))
-        peaks["braking"] = max(peaks["braking"], float(-np.min(power)))
+        for step in plan.steps:
+            tau, dq = step.torques[drive], step.speeds[drive]
+            power = tau * dq
+            values = {"torque": float(np.max(np.abs(tau))), "speed": float(np.max(np.abs(dq))),
+                      "power": float(np.max(power)), "braking": float(-np.min(power))}  # fmt: skip
+            for key, value in values.items():
+                if value > peaks[key]:
+                    peaks[key] = value
+                    where[key] = ", ".join(part for part in (plan.name, step.label) if part)
         positive_work.append(integrals["positive"] / len(plan.steps))
         negative_work.append(integrals["negative"] / len(plan.steps))
     return DriveRequirement(
@@ -340,6 +362,7 @@ def _requirement(drive: str, plans: Sequence[Plan]) -> DriveRequirement:
         mean_negative_power=means["negative"],
         positive_work_per_step=tuple(positive_work),
         negative_work_per_step=tuple(negative_work),
+        peaks_at=where,
     )
 
 
