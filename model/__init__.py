@@ -20,6 +20,7 @@ from model.linkage_trajectory import LinkageTrajectory
 from model.mjcf import MjcfModel, to_mjcf
 from model.points import POINT_FUNCTIONS, LinkPoint, PointKinematics
 from model.rerooting import Rerooting, reroot, swap_legs
+from model.rotors import Rotor
 from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 
 __all__ = [
@@ -41,6 +42,7 @@ __all__ = [
     "MjcfModel",
     "PointKinematics",
     "Rerooting",
+    "Rotor",
     "linkage_system",
     "presets",
     "reroot",

@@ -40,6 +40,7 @@ from model.linkage import Linkage
 from model.linkage_system import linkage_system
 from model.numpy_tape import NumpyTape
 from model.points import LinkPoint, PointKinematics
+from model.rotors import Rotor, rotor_matrix
 from planner.errors import DefinitionError, DefinitionTypeError, check_states
 from planner.system import System
 
@@ -97,12 +98,17 @@ class Dynamics:
     pass (no Python loop over states).
     """
 
-    def __init__(self, linkage: Linkage, cse: bool | None = None) -> None:
+    def __init__(
+        self, linkage: Linkage, cse: bool | None = None, rotors: Sequence[Rotor] = ()
+    ) -> None:
         if not isinstance(linkage, Linkage):
             raise DefinitionTypeError(
                 f"`linkage`: must be a model.Linkage, got {type(linkage).__name__}"
             )
         self._linkage = linkage
+        # Geared motors' rotors (model.rotors): a constant J b b^T on the mass matrix.
+        self._rotors = tuple(rotors)
+        self._rotor_matrix = rotor_matrix(self._rotors, linkage.names)
         n = linkage.n
         depth = max(len(linkage.ancestors(i)) for i in range(n))
         # Common-subexpression elimination turns the path sums of deep trees back into
@@ -210,6 +216,17 @@ class Dynamics:
     @property
     def linkage(self) -> Linkage:
         return self._linkage
+
+    @property
+    def rotors(self) -> tuple[Rotor, ...]:
+        """The geared motors' rotors in the equations (``model.rotors``), () for none."""
+        return self._rotors
+
+    def _rotor_dm(self) -> ca.DM | None:
+        """sum J b b^T as a sparse DM (only its structural non-zeros), None without rotors."""
+        if not self._rotors:
+            return None
+        return ca.sparsify(ca.DM(self._rotor_matrix))
 
     @property
     def n(self) -> int:
@@ -513,6 +530,9 @@ class Dynamics:
             generalized = imag_of_conj_product(self._frames(), moment)
             if any(self._inertia):
                 generalized = generalized + self._inertia_dm * self._ddpsi
+            rotors = self._rotor_dm()
+            if rotors is not None:  # d/dt of dT_r/d(dpsi) = J b (b . ddpsi); b is constant
+                generalized = generalized + ca.mtimes(rotors, self._ddpsi)
             torque = self._subtree_sum(generalized)
             ground = Cx(subtree_force.re[0], subtree_force.im[0])
             return torque, ground
@@ -538,7 +558,11 @@ class Dynamics:
             if np.any(coefficient.imag):
                 sine = ca.mtimes(e.im, e.re.T) - ca.mtimes(e.re, e.im.T)
                 lower = lower - ca.DM(coefficient.imag) * sine
-            return ca.tril2symm(ca.project(lower, pattern) + ca.diag(ca.DM(diagonal)))
+            matrix = ca.project(lower, pattern) + ca.diag(ca.DM(diagonal))
+            rotors = self._rotor_dm()
+            if rotors is not None:  # J b b^T: a rotor between branches adds its entry
+                matrix = matrix + ca.tril(rotors)
+            return ca.tril2symm(matrix)
 
         return self._memo("mass_matrix", build)
 
@@ -585,6 +609,9 @@ class Dynamics:
         kinetic = 0.5 * (
             ca.dot(mass, velocity.abs2()) + ca.dot(self._inertia_dm, self._dpsi * self._dpsi)
         )
+        rotors = self._rotor_dm()
+        if rotors is not None:
+            kinetic = kinetic + 0.5 * ca.bilin(rotors, self._dpsi, self._dpsi)
         potential = self._linkage.gravity * ca.dot(mass, com.im)
         return [kinetic, potential]
 
@@ -744,7 +771,8 @@ class Dynamics:
         return fx + 1j * fy
 
     def __repr__(self) -> str:
-        return f"Dynamics({self._linkage!r}; built: {list(self.built)})"
+        rotors = f"; {len(self._rotors)} rotors" if self._rotors else ""
+        return f"Dynamics({self._linkage!r}{rotors}; built: {list(self.built)})"
 
 
 def _overflow_message(function: ca.Function, arrays, result) -> str:

@@ -111,15 +111,32 @@ class Drive:
 
     def at_motor(self, tau, dq, ddq) -> dict[str, np.ndarray]:
         """The motor's side at output torques ``tau`` N m, speeds ``dq`` rad/s and
-        accelerations ``ddq`` rad/s^2 (arrays of one shape): ``torque`` tau_m N m,
-        ``speed`` rad/s, ``current`` A, ``voltage`` V, ``power`` W (electrical, u i),
-        ``copper`` W (R i^2)."""
-        tau, dq, ddq = (np.asarray(v, dtype=float) for v in (tau, dq, ddq))
+        accelerations ``ddq`` rad/s^2 (arrays of one shape) of a plan made without the drive:
+        the rotor turns at N ddq on top (see :meth:`motor_side`)."""
+        ddq = np.asarray(ddq, dtype=float)
+        return self.motor_side(tau, dq, self.gearbox.ratio * ddq)
+
+    @property
+    def inertia(self) -> float:
+        """The rotor's and the gear input's inertia about the motor's axis, kg m^2."""
+        return self.motor.rotor_inertia + self.gearbox.inertia
+
+    def motor_side(self, tau_out, dq, rotor_acceleration) -> dict[str, np.ndarray]:
+        """The motor's side when the gear gives the links ``tau_out`` N m at the joint's
+        speed ``dq`` rad/s while the rotor accelerates at ``rotor_acceleration`` rad/s^2 (in
+        the joint's sense; arrays of one shape): ``torque`` tau_m N m, ``speed`` rad/s,
+        ``current`` A, ``voltage`` V, ``power`` W (electrical, u i), ``copper`` W (R i^2).
+
+        tau_m = J a_r + tau_out / (N eta) when the motor drives (tau_out dq >= 0), J a_r +
+        tau_out eta / N when the load drives it back: the gear's losses act on the torque it
+        passes, the rotor's inertia before it."""
+        tau, dq, acceleration = (
+            np.asarray(v, dtype=float) for v in (tau_out, dq, rotor_acceleration)
+        )
         ratio, eta = self.gearbox.ratio, self.gearbox.efficiency
         driving = tau * dq >= 0.0
         load = np.where(driving, tau / (ratio * eta), tau * eta / ratio)
-        inertia = self.motor.rotor_inertia + self.gearbox.inertia
-        torque = inertia * ratio * ddq + load
+        torque = self.inertia * acceleration + load
         speed = ratio * dq
         current = torque / self.motor.torque_constant
         voltage = self.motor.resistance * current + self.motor.torque_constant * speed

@@ -62,7 +62,7 @@ the plan claims (the cost).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from numbers import Real
 from typing import Any
@@ -174,9 +174,20 @@ class _Kinematics:
     its frame is start_i + c e^{j psi_i}; rates differentiate each exponential.
     """
 
-    def __init__(self, linkage: Linkage) -> None:
+    def __init__(self, linkage: Linkage, rotors: Sequence[Mapping] = ()) -> None:
         self.linkage = linkage
         self.n = linkage.n
+        # Geared motors' rotors (a gait planned with its drives: settings["rotors"]): the
+        # rate vector b of each (omega_r = b . dpsi) and its inertia J.
+        names = list(linkage.names)
+        self.rotors = []
+        for rotor in rotors:
+            b = np.zeros(self.n)
+            for link, weight in ((rotor["driven"], rotor["ratio"]),
+                                 (rotor["stator"], 1.0 - rotor["ratio"])):  # fmt: skip
+                if link is not None:
+                    b[names.index(link)] += weight
+            self.rotors.append((float(rotor["inertia"]), b))
         self.origins = [linkage.origin_in_parent(i) for i in range(self.n)]
         self.com = np.array([link.com_offset for link in linkage.links])
         self.mass = np.array([link.mass for link in linkage.links])
@@ -246,6 +257,12 @@ class _Kinematics:
             lever = position[:, part] - starts[:, i : i + 1]
             moment = np.sum((np.conj(lever) * force[:, part]).imag, axis=1)
             moment += ddpsi[:, part] @ self.inertia[part]
+            for inertia, b in self.rotors:
+                # A rotor's angular momentum J omega_r counts whole when its stator and its
+                # driven link are both in the part; geared across the cut, the ideal gear
+                # passes N (driven side) or 1 - N (stator side) of its rate of change: b's
+                # entries summed over the part.
+                moment += inertia * (ddpsi @ b) * np.sum(b[part])
             for link, point, f in applied:
                 if link in part:
                     moment -= (np.conj(point - starts[:, i]) * f).imag
@@ -254,12 +271,17 @@ class _Kinematics:
 
     def angular_momentum(self, psi, dpsi, base_velocity, about, links) -> float:
         """sum over ``links`` of (w_i - about) x m_i v_i + J_i dpsi_i, the base moving with
-        ``base_velocity`` (complex), about the fixed point ``about`` (complex)."""
+        ``base_velocity`` (complex), about the fixed point ``about`` (complex); each rotor's
+        J omega_r weighted by its rate vector's entries over ``links`` (as in
+        :meth:`inverse_dynamics`: whole when stator and driven are both in, N or 1 - N of it
+        across the gear)."""
         position, velocity, _ = self.coms(psi[None], dpsi[None])
         r = position[0] - about
         v = velocity[0] + base_velocity
         cross = (np.conj(r) * v).imag
-        return float(np.sum((self.mass * cross + self.inertia * dpsi)[list(links)]))
+        links = list(links)
+        rotors = sum(j * (dpsi @ b) * np.sum(b[links]) for j, b in self.rotors)  # as above
+        return float(np.sum((self.mass * cross + self.inertia * dpsi)[links]) + rotors)
 
 
 def _worst(margins: np.ndarray, times: np.ndarray) -> tuple[float, str]:
@@ -336,7 +358,7 @@ def verify_gait(
     ):
         if isinstance(value, bool) or not (isinstance(value, float | int) and 0 < value < 1):
             raise DefinitionError(f"`{name}`: must be a number in (0, 1), got {value!r}")
-    kin = _Kinematics(linkage)
+    kin = _Kinematics(linkage, merged.get("rotors") or ())
     times = trajectory.time
     weight = float(np.sum(kin.mass)) * linkage.gravity
     checks: list[Check] = []

@@ -60,6 +60,7 @@ import numpy as np
 from model.dynamics import Dynamics
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
+from model.rotors import Rotor
 from planner.errors import (
     DefinitionError,
     DefinitionTypeError,
@@ -337,6 +338,7 @@ class WalkingStep(WalkerFeet):
         clearance profile goes in as ``clearance_profile`` (:meth:`clearance_table`, sampled
         at ``times``, s, when given) with ``clearance`` None."""
         table = self.clearance_table(times)
+        rotors = [r.to_dict() for r in self.dynamics.rotors]  # a plan with its drives' rotors
         return {
             **({} if table is None else {"clearance_profile": table}),
             "problem": "walking_step",
@@ -360,6 +362,7 @@ class WalkingStep(WalkerFeet):
             "ground_points": list(self.ground_points),
             "ground_margin": self.ground_margin,
             "law": self.law.to_dict(),
+            **({"rotors": rotors} if rotors else {}),
         }
 
 
@@ -394,6 +397,7 @@ def walking_step(
     ground_points: Sequence[str] | None = None,
     ground_margin: float = 0.0,
     hip_limit: float | None = None,
+    rotors: Sequence[Rotor] = (),
 ) -> WalkingStep:
     """A periodic walking step of a biped (see the module docstring).
 
@@ -435,6 +439,9 @@ def walking_step(
     ground_margin : m (>= 0).
     hip_limit : the physical stance hip's |torque| bound, N m (the drive between the trunk and
         the stance thigh carries M_trunk + M_swing_thigh), or None (each hinge bounded alone).
+    rotors : geared motors' rotors in the equations of motion (``model.Rotor``: their
+        reflected inertia; :func:`problems.drives.drives_in_the_loop` mounts a walker's
+        drives), () for ideal torque sources.
     knee_range : (lower, upper) knee flexion psi_thigh - psi_shank, rad, both legs.
     posture : largest deviation of an upright link from the vertical, rad.
     upright : links kept near upright (default: every upper-body link).
@@ -496,7 +503,7 @@ def walking_step(
     # the law lands in (periodicity: the law starts from that pose with the legs swapped).
     lift = GUESS_LIFT * biped.leg_length
     law = biped.step_law(step_length, single_time, clearance=max(height, lift) + lift)
-    dynamics = Dynamics(linkage)
+    dynamics = Dynamics(linkage, rotors=rotors)
     step = WalkingStep(
         biped=biped,
         dynamics=dynamics,

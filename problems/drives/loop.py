@@ -1,0 +1,320 @@
+"""Drives in the loop: a walking step planned with its motors and gearboxes (issue #36, part 4).
+
+A plan for ideal torque sources asks any torque at any speed, for free. With the drives:
+
+* **inertia**: each drive's rotor (and gear input) spins N times as fast as its joint, on the
+  link that carries the motor: its reflected inertia enters the equations of motion
+  (:class:`model.Rotor`: J b b^T in absolute angles, b = N e_driven + (1 - N) e_stator);
+* **mass**: each motor and gearbox is a point mass at its joint, on that link (both legs:
+  the legs swap at every heel strike, so a walker's drives are symmetric);
+* **limits**, at every node, both efficiency branches (so the exact, non-smooth motor model
+  meets them too): the motor's peak torque (its current limit), the supply's voltage line
+  |R tau_m / k_t + k_t N dq| <= U, the gearbox's peak output torque and the speeds;
+* **objective** (``objective="electrical"``): the electrical energy of the step, the sum over
+  the drives of u i = R i^2 + tau_m N dq (copper losses plus mechanical power at the motor),
+  regeneration counted (a negative u i pays back) or not (only u i > 0 costs).
+
+Where the motors sit (:data:`MOUNTS`): the hip's on the trunk, the knee's on the thigh, the
+ankle's on the shank, the neck's on the trunk; each turns the other link of its joint. The
+joint's angle q and torque tau are the robot's (:func:`problems.robot.controller.joint_maps`:
+q = a . psi + const, tau = d . M); the motor's speed is N dq, its torque (in q's sense)
+
+    tau_m = J a_r + tau_out / (N eta)   (tau_out dq >= 0: the motor drives)
+    tau_m = J a_r + tau_out eta / N     (the load drives the motor back),
+
+with a_r = s (b . ddpsi) the rotor's absolute acceleration in q's sense (s = +-1: q grows as
+the driven link turns forward relative to the stator, or back) and tau_out = tau - N J a_r
+what the gear gives the links (the hinge torque of a model with rotors is the drive's whole
+torque, the part that accelerates the rotor included). The objective blends the two branches
+by tanh(tau_out dq / P_s) (P_s = :data:`SMOOTHING_W`); every number reported is the exact
+model's, at the exported samples (:func:`motor_report`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import casadi as ca
+import numpy as np
+
+from model.linkage import Link, Linkage
+from model.rotors import Rotor
+from planner.errors import DefinitionError
+from planner.ocp import DEFAULT_TERM
+from problems.drives.catalogue import Drive
+from problems.human.joints import Body, body_of
+from problems.robot.controller import joint_maps
+
+#: each physical drive's motor sits on this link of its joint (the other one it turns)
+MOUNTS = {"hip": "trunk", "knee": "thigh", "ankle": "shank", "neck": "trunk"}
+#: the power over which the objective's efficiency switches branch (tanh), W
+SMOOTHING_W = 1.0
+#: the weight of sum (M / limit)^2 (1/s) beside the electrical energy: keeps the NLP regular
+#: where a drive idles (no copper loss there to choose a torque), J per unit
+REGULARISATION_J = 1e-3
+
+
+@dataclass(frozen=True)
+class MountedDrive:
+    """One of the model's drives (``key``: stance_hip, swing_knee, neck, ...) with its
+    ``drive``, in the model's terms: dq = ``joint_row`` . dpsi, tau = ``torque_row`` . M, its
+    rotor (None for a point foot's swing ankle: no foot link for it to turn) and ``sense``
+    (+1 or -1: q grows as the rotor turns forward relative to the stator, or back)."""
+
+    key: str
+    joint: str
+    drive: Drive
+    joint_row: np.ndarray
+    torque_row: np.ndarray
+    rotor: Rotor | None
+    rate_row: np.ndarray
+    sense: float
+
+    def motor_expressions(self, M, dpsi, ddpsi, branch: str):
+        """(tau_m N m, tau_out N m, dq rad/s) as CasADi expressions of the hinge torques, the
+        rates and the accelerations; ``branch`` "drive" (1/eta), "back" (eta) or "smooth"."""
+        gearbox = self.drive.gearbox
+        ratio, eta, inertia = gearbox.ratio, gearbox.efficiency, self.drive.inertia
+        tau = ca.dot(ca.DM(self.torque_row), M)
+        dq = ca.dot(ca.DM(self.joint_row), dpsi)
+        rotor_acceleration = self.sense * ca.dot(ca.DM(self.rate_row), ddpsi)
+        tau_out = tau - ratio * inertia * rotor_acceleration
+        if branch == "drive":
+            factor = 1.0 / eta
+        elif branch == "back":
+            factor = eta
+        else:
+            switch = ca.tanh(tau_out * dq / SMOOTHING_W)
+            factor = 0.5 * (1.0 / eta + eta) + 0.5 * (1.0 / eta - eta) * switch
+        return inertia * rotor_acceleration + tau_out * factor / ratio, tau_out, dq
+
+
+def _joint_point(linkage: Linkage, stator: str, driven: str | None) -> complex:
+    """Where the joint between ``stator`` and ``driven`` sits on the stator, m in its frame."""
+    s = linkage.index(stator)
+    if driven is not None and linkage.parents[linkage.index(driven)] == s:
+        return linkage.origin_in_parent(linkage.index(driven))
+    if driven is None and linkage.parents[s] >= 0:  # a point foot's swing ankle: the far end
+        return complex(linkage.links[s].length)
+    if driven is not None and linkage.parents[s] != linkage.index(driven):
+        # siblings on one hinge (the swing hip: trunk and swing thigh on the stance thigh)
+        d = linkage.index(driven)
+        if (
+            linkage.parents[d] != linkage.parents[s]
+            or abs(linkage.origin_in_parent(d) - linkage.origin_in_parent(s)) > 1e-12
+        ):
+            raise DefinitionError(f"`drives`: {stator!r} and {driven!r} share no joint")
+    return 0j  # the stator's start: the joint with its parent (or with the ground)
+
+
+def _with_point_mass(link: Link, mass: float, point: complex) -> Link:
+    """``link`` carrying ``mass`` kg more at ``point`` (m, in its frame): the merged centre
+    of mass and the inertia about it (parallel axes)."""
+    total = link.mass + mass
+    com = (link.mass * link.com_offset + mass * point) / total
+    inertia = (
+        link.inertia + link.mass * abs(link.com_offset - com) ** 2 + mass * abs(point - com) ** 2
+    )
+    return replace(link, mass=total, com=com.real / link.length,
+                   com_lateral=com.imag / link.length, inertia=inertia)  # fmt: skip
+
+
+def _links_of(body: Body, key: str) -> tuple[str, str | None]:
+    """(stator, driven) of the model's drive ``key`` (:data:`MOUNTS`)."""
+    role, _, joint = key.partition("_")
+    leg = body.stance if role == "stance" else body.swing
+    parts = {"trunk": body.trunk, "thigh": leg.thigh, "shank": leg.shank, "foot": leg.foot}
+    stator = parts[MOUNTS[joint]]
+    other = {"hip": parts["thigh"], "knee": parts["shank"], "ankle": parts["foot"]}[joint]
+    return stator, other
+
+
+@dataclass(frozen=True)
+class DrivenWalker:
+    """A walker carrying its drives: ``linkage`` (the motors' masses on their links),
+    ``rotors`` (for :func:`problems.walking_step`), ``mounted`` (each of the model's drives)
+    and the ``drives`` by joint ({"hip": Drive, ...})."""
+
+    linkage: Linkage
+    rotors: tuple[Rotor, ...]
+    mounted: tuple[MountedDrive, ...]
+    drives: Mapping[str, Drive]
+
+
+def drives_in_the_loop(
+    linkage: Linkage, drives: Mapping[str, Drive], neutral_ankles=None
+) -> DrivenWalker:
+    """The walker ``linkage`` (a biped, point feet or feet) with ``drives`` {"hip", "knee",
+    "ankle", "neck": Drive} mounted as :data:`MOUNTS` says: both legs' motors as point masses
+    at their joints, the rotors of every drive the plan has (see the module)."""
+    unknown = sorted(set(drives) - set(MOUNTS))
+    if unknown:
+        raise DefinitionError(
+            f"`drives`: unknown joints {unknown}; give Drives for {sorted(MOUNTS)}"
+        )
+    body = body_of(linkage, neutral_ankles)
+    t = linkage.index(body.trunk)
+    head = next((i for i, p in enumerate(linkage.parents) if p == t), None)
+    keys, A, _, _, _, drive_keys, D = joint_maps(linkage, body, head, ankles=True)
+    missing = sorted({k.partition("_")[2] or k for k in drive_keys} - set(drives))
+    if missing:
+        raise DefinitionError(f"`drives`: the walker's plan has {missing} too; give a Drive each")
+    links = list(linkage.links)
+    every = [f"{r}_{j}" for r in ("stance", "swing") for j in ("hip", "knee", "ankle")]
+    every += ["neck"] if head is not None else []
+    mounted, rotors = [], []
+    names = linkage.names
+    for key in every:
+        joint = "neck" if key == "neck" else key.partition("_")[2]
+        if key == "neck":
+            stator, driven = body.trunk, names[head]
+        else:
+            stator, driven = _links_of(body, key)
+        s = linkage.index(stator)
+        links[s] = _with_point_mass(
+            links[s], drives[joint].mass, _joint_point(linkage, stator, driven)
+        )
+        if key not in drive_keys:
+            continue  # a point foot's swing ankle: its mass is there, nothing for it to turn
+        drive = drives[joint]
+        rotor = Rotor(stator, driven, drive.gearbox.ratio, drive.inertia, key)
+        row = A[keys.index(key)]
+        relative = np.zeros(linkage.n)
+        relative[s] -= 1.0
+        if driven is not None:
+            relative[linkage.index(driven)] += 1.0
+        sense = float(row @ relative / (relative @ relative))
+        if not np.allclose(row, sense * relative) or abs(abs(sense) - 1.0) > 1e-12:
+            raise DefinitionError(
+                f"`drives`: {key}'s angle is not the turn of {driven} on {stator}"
+            )
+        rotors.append(rotor)
+        mounted.append(MountedDrive(key, joint, drive, row, D[drive_keys.index(key)], rotor,
+                                    rotor.rate_vector(names), sense))  # fmt: skip
+    carried = Linkage(links, linkage.gravity)
+    return DrivenWalker(carried, tuple(rotors), tuple(mounted), dict(drives))
+
+
+def limit_rows(mounted: MountedDrive):
+    """(function of a planner Point, lower, upper) of one drive's limits at a node, each row
+    a fraction of its limit:
+    the motor's torque and the voltage on both efficiency branches, the gear's output torque,
+    the motor's speed (see the module)."""
+    motor, gearbox = mounted.drive.motor, mounted.drive.gearbox
+    speed = min(motor.max_speed, gearbox.max_input_speed)
+    k, resistance = motor.torque_constant, motor.resistance
+
+    def rows(p):
+        values = []
+        for branch in ("drive", "back"):
+            tau_m, tau_out, dq = mounted.motor_expressions(p.M, p.dpsi, p.ddpsi, branch)
+            voltage = resistance * tau_m / k + k * gearbox.ratio * dq
+            values += [tau_m / motor.peak_torque, voltage / motor.voltage]
+        values += [tau_out / gearbox.peak_torque, gearbox.ratio * dq / speed]
+        return ca.vertcat(*values)
+
+    return rows, [-1.0] * 6, [1.0] * 6
+
+
+def electrical_power(mounted: MountedDrive, p, regeneration: bool):
+    """The drive's electrical power u i, W, at a Point (smooth branches; without
+    regeneration only its positive part, smoothed over :data:`SMOOTHING_W`)."""
+    motor = mounted.drive.motor
+    tau_m, _, dq = mounted.motor_expressions(p.M, p.dpsi, p.ddpsi, "smooth")
+    current = tau_m / motor.torque_constant
+    power = motor.resistance * current**2 + tau_m * mounted.drive.gearbox.ratio * dq
+    if regeneration:
+        return power
+    return 0.5 * (power + ca.sqrt(power**2 + SMOOTHING_W**2))
+
+
+def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
+                regeneration: bool = True):  # fmt: skip
+    """A walking step (:func:`problems.walking_step` of ``walker.linkage`` with
+    ``rotors=walker.rotors``) held to its drives' limits at every node, its objective the
+    step's electrical energy (``objective="electrical"``; regenerated energy counted with
+    ``regeneration``) or kept as it is (``"kept"``)."""
+    if objective not in ("electrical", "kept"):
+        raise DefinitionError(f"`objective`: 'electrical' or 'kept', got {objective!r}")
+    if tuple(step.dynamics.rotors) != walker.rotors:
+        raise DefinitionError(
+            "`step`: plan it with the walker's rotors: walking_step(walker.linkage, ..., "
+            "rotors=walker.rotors)"
+        )
+    ocp = step.ocp
+    for mounted in walker.mounted:
+        rows, lower, upper = limit_rows(mounted)
+        ocp = ocp.constrain(f"drive {mounted.key}", rows, lower=lower, upper=upper)
+    if objective == "electrical":
+        limits = np.array([step.torque_limit[name] for name in walker.linkage.names])
+
+        def energy(p):
+            total = sum(electrical_power(m, p, regeneration) for m in walker.mounted)
+            return total + REGULARISATION_J * ca.sumsqr(p.M / ca.DM(limits))
+
+        ocp = ocp.minimize(integral=energy, name=DEFAULT_TERM)
+    return replace(step, ocp=ocp)
+
+
+def motor_report(
+    trajectory, walker: DrivenWalker, with_rotors: bool = True
+) -> dict[str, dict[str, np.ndarray]]:
+    """Each mounted drive's motor side at the samples of ``trajectory`` (a linkage
+    Trajectory with ddpsi and torques), exact (non-smooth) efficiency
+    (:meth:`Drive.motor_side`), plus ``tau_out`` (N m), ``dq`` (rad/s) and the limits'
+    ``margins`` {limit: (K,) in its unit, >= 0 when met}.
+
+    ``with_rotors``: the plan's torques include its rotors' (planned by :func:`with_drives`);
+    False for a plan made for ideal torque sources, whose torques all reach the links: the
+    motor then accelerates its rotor on top (what that plan's file asks of the drive)."""
+    psi_d = np.asarray(trajectory.dpsi, dtype=float)
+    ddpsi = np.asarray(trajectory.ddpsi, dtype=float)
+    M = np.asarray(trajectory.torques, dtype=float)
+    report = {}
+    for m in walker.mounted:
+        drive = m.drive
+        acceleration = m.sense * ddpsi @ m.rate_row
+        tau_out = M @ m.torque_row
+        if with_rotors:
+            tau_out = tau_out - drive.gearbox.ratio * drive.inertia * acceleration
+        dq = psi_d @ m.joint_row
+        side = drive.motor_side(tau_out, dq, acceleration)
+        speed = min(drive.motor.max_speed, drive.gearbox.max_input_speed)
+        side["tau_out"], side["dq"] = tau_out, dq
+        side["margins"] = {
+            "motor torque, N m": drive.motor.peak_torque - np.abs(side["torque"]),
+            "voltage, V": drive.motor.voltage - np.abs(side["voltage"]),
+            "gear torque, N m": drive.gearbox.peak_torque - np.abs(tau_out),
+            "motor speed, rad/s": speed - np.abs(side["speed"]),
+        }
+        report[m.key] = side
+    return report
+
+
+def energy_per_step(report, time) -> dict[str, float]:
+    """The electrical energy of the samples (trapezoid over ``time`` s), J: ``counted``
+    (regeneration pays back), ``drawn`` (only u i > 0), ``copper`` (R i^2)."""
+    time = np.asarray(time, dtype=float)
+
+    def integral(values):
+        return float(np.sum(0.5 * (values[1:] + values[:-1]) * np.diff(time)))
+
+    return {
+        "counted": sum(integral(r["power"]) for r in report.values()),
+        "drawn": sum(integral(np.maximum(r["power"], 0.0)) for r in report.values()),
+        "copper": sum(integral(r["copper"]) for r in report.values()),
+    }
+
+
+__all__ = [
+    "MOUNTS",
+    "DrivenWalker",
+    "MountedDrive",
+    "drives_in_the_loop",
+    "electrical_power",
+    "energy_per_step",
+    "limit_rows",
+    "motor_report",
+    "with_drives",
+]
