@@ -107,8 +107,8 @@ class Dynamics:
             )
         self._linkage = linkage
         # Geared motors' rotors (model.rotors): a constant J b b^T on the mass matrix.
+        self._rotor_matrix = rotor_matrix(rotors, linkage.names)
         self._rotors = tuple(rotors)
-        self._rotor_matrix = rotor_matrix(self._rotors, linkage.names)
         n = linkage.n
         depth = max(len(linkage.ancestors(i)) for i in range(n))
         # Common-subexpression elimination turns the path sums of deep trees back into

@@ -100,7 +100,7 @@ class Rotor:
 
 def rotor_matrix(rotors: Sequence[Rotor], names: Sequence[str]) -> np.ndarray:
     """sum over the rotors of J b b^T (n, n), kg m^2: what they add to the mass matrix."""
-    if isinstance(rotors, Rotor) or not all(isinstance(r, Rotor) for r in rotors):
+    if not isinstance(rotors, Sequence) or not all(isinstance(r, Rotor) for r in rotors):
         raise DefinitionTypeError("`rotors`: must be a sequence of model.Rotor")
     matrix = np.zeros((len(names), len(names)))
     for rotor in rotors:

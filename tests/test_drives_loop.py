@@ -1,0 +1,118 @@
+"""problems.drives.loop: a walking step planned with its drives (issue #36, part 4).
+
+Oracles: the whole body's centre of mass and kinetic energy with the motors as point masses
+at their joints (the model's hinge positions and velocities, not the merged links); the gait
+verifier's Euler-law equations with the rotors (and without them, which the plan must fail);
+the exact, non-smooth motor model at every exported sample against every limit; the
+electrical energy identity u i = R i^2 + tau_m omega_m integrated.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from model import Dynamics
+from model.presets import six_link_anthropoid
+from planner.errors import DefinitionError
+from problems.drives.catalogue import Drive, Gearbox, Motor
+from problems.drives.loop import drives_in_the_loop, energy_per_step, motor_report, with_drives
+
+RPM = math.pi / 30.0
+#: illustrative numbers (a 48 V motor through 80:1), not a product
+DRIVE = Drive(
+    Motor("m", 0.07, 0.3, 2e-5, 0.6, 2.0, 48.0, 6000 * RPM, 0.5),
+    Gearbox("g", 80.0, 0.8, 2e-6, 60.0, 160.0, 8000 * RPM, 0.4),
+)
+DRIVES = {"hip": DRIVE, "knee": DRIVE, "ankle": DRIVE, "neck": DRIVE}
+
+
+@pytest.fixture(scope="module")
+def walker():
+    return drives_in_the_loop(six_link_anthropoid(), DRIVES)
+
+
+@pytest.fixture(scope="module")
+def drive_plan(walker):
+    from problems import walking_step
+
+    step = walking_step(walker.linkage, N=20, rotors=walker.rotors)
+    return with_drives(step, walker).solve()
+
+
+def test_the_walker_carries_each_motor_at_its_joint(walker):
+    bare = six_link_anthropoid()
+    before, after = Dynamics(bare), Dynamics(walker.linkage)
+    rng = np.random.default_rng(4)
+    psi, dpsi = rng.normal(size=6), rng.normal(size=6) * 2
+    names = bare.names
+
+    def joints(dynamics, which, *state):
+        points = which(dynamics, *state)  # H0, then each link's end
+        end = {name: points[1 + i] for i, name in enumerate(names)}
+        # stance ankle (H0), stance knee, both hips, swing knee, swing ankle, neck
+        return [points[0], end["stance_shank"], end["stance_thigh"], end["stance_thigh"],
+                end["swing_thigh"], end["swing_shank"], end["torso"]]  # fmt: skip
+
+    carried = DRIVE.mass * 7
+    masses = np.array([link.mass for link in walker.linkage.links])
+    assert masses.sum() == pytest.approx(sum(link.mass for link in bare.links) + carried)
+    com = {}
+    for label, dynamics, linkage in (("before", before, bare), ("after", after, walker.linkage)):
+        com[label] = np.array([link.mass for link in linkage.links]) @ dynamics.com_positions(psi)
+    at_joints = sum(joints(before, Dynamics.hinge_positions, psi))
+    assert com["after"] == pytest.approx(com["before"] + DRIVE.mass * at_joints, abs=1e-12)
+    speeds = joints(before, Dynamics.hinge_velocities, psi, dpsi)
+    point_masses = 0.5 * DRIVE.mass * sum(abs(v) ** 2 for v in speeds)
+    assert after.energy(psi, dpsi)[0] == pytest.approx(
+        before.energy(psi, dpsi)[0] + point_masses, rel=1e-12
+    )
+    # a point foot's swing ankle has no rotor (no foot to turn); every other drive has one,
+    # turning q's way: the hip's q grows with the thigh, the knee's against the shank
+    keys = {m.key: m for m in walker.mounted}
+    legs = {f"{role}_{joint}" for role in ("stance", "swing") for joint in ("hip", "knee", "ankle")}
+    assert set(keys) == (legs - {"swing_ankle"}) | {"neck"}
+    assert keys["swing_hip"].sense == 1.0 and keys["stance_knee"].sense == -1.0
+    assert keys["stance_ankle"].rotor.driven is None
+
+
+def test_the_plan_with_its_drives_is_verified_with_its_rotors_and_fails_without(drive_plan):
+    from problems.gait.verification import verify_gait
+
+    assert drive_plan.verified
+    trajectory = drive_plan.exported()
+    assert len(trajectory.metadata["gait"]["rotors"]) == 6
+    report = verify_gait(trajectory, drive_plan.problem.linkage, settings={"rotors": []})
+    assert not report.ok
+    assert report.facts["dynamics residual"] > 1.0  # N m: the rotors' torques
+
+
+def test_every_exported_sample_is_within_the_drives_limits(drive_plan, walker):
+    trajectory = drive_plan.exported()
+    report = motor_report(trajectory, walker)
+    limits = {"motor torque, N m": 2.0, "voltage, V": 48.0, "gear torque, N m": 160.0,
+              "motor speed, rad/s": 6000 * RPM}  # fmt: skip
+    for key, side in report.items():
+        for limit, margin in side["margins"].items():
+            assert margin.min() >= -1e-6 * limits[limit], (key, limit, margin.min())
+    # some limit binds: the drives shape this plan
+    closest = min(side["margins"][k].min() / limits[k] for side in report.values() for k in limits)
+    assert closest < 1e-3
+    # u i = R i^2 + tau_m omega_m, integrated over the step
+    energy = energy_per_step(report, trajectory.time)
+    mechanical = sum(
+        np.trapezoid(side["torque"] * side["speed"], trajectory.time) for side in report.values()
+    )
+    assert energy["counted"] == pytest.approx(energy["copper"] + mechanical, rel=1e-12)
+    assert energy["drawn"] >= energy["counted"]
+
+
+def test_drives_for_every_joint_the_plan_has_are_required(walker):
+    with pytest.raises(DefinitionError, match=r"the walker's plan has \['neck'\] too"):
+        drives_in_the_loop(six_link_anthropoid(), {"hip": DRIVE, "knee": DRIVE, "ankle": DRIVE})
+    with pytest.raises(DefinitionError, match=r"unknown joints \['wrist'\]"):
+        drives_in_the_loop(six_link_anthropoid(), {**DRIVES, "wrist": DRIVE})
+    from problems import walking_step
+
+    with pytest.raises(DefinitionError, match="plan it with the walker's rotors"):
+        with_drives(walking_step(walker.linkage, N=10), walker)
