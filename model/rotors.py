@@ -112,9 +112,26 @@ def rotor_matrix(rotors: Sequence[Rotor], names: Sequence[str]) -> np.ndarray:
     return matrix
 
 
+def ground_moment_row(rotors: Sequence[Rotor], names: Sequence[str]) -> np.ndarray:
+    """c (n,): the moment the ground takes at the root's hinge is M_root + c . ddpsi, N m.
+
+    The root's hinge torque of a model with rotors is a generalised force: it holds each rotor's
+    inertial torque J (b . ddpsi) weighted by b's entries over the links (N for a rotor turning
+    the root from the ground, 1 - N for one on the root turning the ground, as a motor on a
+    stance shank turns a foot held flat). What passes between the body and the ground, the
+    moment whose centre of pressure a sole must hold, counts each rotor once if it rides on the
+    body (its stator a link) and not at all if it sits on the ground: Euler's law for the whole
+    body. c = sum J b ([stator is a link] - sum of b), zero for rotors between two links."""
+    row = np.zeros(len(names))
+    for rotor in rotors:
+        b = rotor.rate_vector(names)
+        row += rotor.inertia * b * ((rotor.stator is not None) - b.sum())
+    return row
+
+
 def rotors_of(entries) -> tuple[Rotor, ...]:
     """Rotors from their dicts (a gait's settings: ``Rotor.to_dict``), () for None."""
     return tuple(Rotor.from_dict(e) for e in (entries or ()))
 
 
-__all__ = ["Rotor", "rotor_matrix", "rotors_of"]
+__all__ = ["Rotor", "ground_moment_row", "rotor_matrix", "rotors_of"]

@@ -107,6 +107,28 @@ def test_every_exported_sample_is_within_the_drives_limits(drive_plan, walker):
     assert energy["drawn"] >= energy["counted"]
 
 
+def test_the_sole_holds_the_gear_output_not_the_rotors_torque(drive_plan, walker):
+    """The stance ankle's motor rides on the shank and turns the foot held flat: the ground
+    takes the gear's output, tau_out = tau - N J a_r (the motor report's, from the rotor's
+    rate vector and the joint's sense), not the hinge torque, which holds the rotor's inertia
+    too. The file's centre of pressure is -tau_out / Fy (the ankle's q is pi/2 - psi_shank),
+    and the sole's limits held it at the nodes."""
+    from model.linkage_naming import centre_of_pressure_name, root_contact
+
+    trajectory = drive_plan.exported()
+    ankle = motor_report(trajectory, walker)["stance_ankle"]
+    force = trajectory.ground_reaction.imag
+    loaded = force > 0
+    column = trajectory.extras[centre_of_pressure_name(root_contact(trajectory.link_names))]
+    column = np.asarray(column[0], dtype=float).ravel()  # (values, unit)
+    np.testing.assert_allclose(column[loaded], -ankle["tau_out"][loaded] / force[loaded],
+                               atol=1e-9)  # fmt: skip
+    hinge = trajectory.torques[:, 0]
+    assert np.max(np.abs(hinge + ankle["tau_out"])) > 0.5  # N m: the rotor's share
+    heel, toe = drive_plan.problem.foot_sole
+    assert column[loaded].min() >= -heel - 1e-6 and column[loaded].max() <= toe + 1e-6
+
+
 def test_drives_for_every_joint_the_plan_has_are_required(walker):
     with pytest.raises(DefinitionError, match=r"the walker's plan has \['neck'\] too"):
         drives_in_the_loop(six_link_anthropoid(), {"hip": DRIVE, "knee": DRIVE, "ankle": DRIVE})

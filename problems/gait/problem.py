@@ -34,6 +34,7 @@ import numpy as np
 from model import LinkageTrajectory
 from model.linkage import Linkage
 from model.linkage_naming import FORCES, centre_of_pressure_name, root_contact
+from model.rotors import ground_moment_row
 from planner.accuracy_check import ACCURACY_WARNING, check_accuracy_of
 from planner.errors import DefinitionError, check_positive, check_real
 from planner.phases_solution import PhasesSolution
@@ -491,10 +492,19 @@ class Gait:
         for name in contacts:
             trajectory = trajectory.with_extra(name, joined.extras[name][0], "N")
         root = root_contact(self.problem.linkage.names)
+        moment = self._ground_moment(joined.torques, joined.ddpsi)
         trajectory = trajectory.with_extra(
-            centre_of_pressure_name(root), centre_of_pressure(joined.torques[:, 0], force), "m"
+            centre_of_pressure_name(root), centre_of_pressure(moment, force), "m"
         )
         return trajectory
+
+    def _ground_moment(self, torques: np.ndarray, ddpsi: np.ndarray) -> np.ndarray:
+        """The moment the ground takes at the root (K,), N m: the root's torque, less what
+        a rotor geared to the ground holds of it (``model.rotors.ground_moment_row``)."""
+        dynamics = getattr(self.problem, "dynamics", None)
+        rotors = () if dynamics is None else dynamics.rotors
+        row = ground_moment_row(rotors, self.problem.linkage.names)
+        return torques[:, 0] + (ddpsi @ row if np.any(row) else 0.0)
 
     def centre_of_pressure(self, rate_hz: float | None = None) -> tuple[float, float]:
         """(least, largest) centre of pressure of the stance foot over the samples at
@@ -502,7 +512,8 @@ class Gait:
         trajectory = self.to_trajectory(rate_hz)
         force = trajectory.ground_reaction
         loaded = force.imag > 0
-        values = centre_of_pressure(trajectory.torques[:, 0], force)[loaded]
+        moment = self._ground_moment(trajectory.torques, trajectory.ddpsi)
+        values = centre_of_pressure(moment, force)[loaded]
         return (float(values.min()), float(values.max())) if values.size else (0.0, 0.0)
 
     @property

@@ -187,11 +187,21 @@ class _Kinematics:
                                  (rotor["stator"], 1.0 - rotor["ratio"])):  # fmt: skip
                 if link is not None:
                     b[names.index(link)] += weight
-            self.rotors.append((float(rotor["inertia"]), b))
+            self.rotors.append((float(rotor["inertia"]), b, float(rotor["stator"] is not None)))
         self.origins = [linkage.origin_in_parent(i) for i in range(self.n)]
         self.com = np.array([link.com_offset for link in linkage.links])
         self.mass = np.array([link.mass for link in linkage.links])
         self.inertia = np.array([link.inertia for link in linkage.links])
+
+    def ground_moment(self, ddpsi) -> np.ndarray | float:
+        """What the rotors add to the root's torque to make the moment the ground takes (K,),
+        N m: Euler's law for the whole body counts a rotor riding on it once (stator a link),
+        one on the ground not at all, where the generalised root torque weights each by its
+        rate vector's sum (:meth:`inverse_dynamics`)."""
+        total = 0.0
+        for inertia, b, on_body in self.rotors:
+            total = total + inertia * (np.atleast_2d(ddpsi) @ b) * (on_body - np.sum(b))
+        return total
 
     def starts(self, psi, dpsi=None, ddpsi=None):
         """(position, velocity, acceleration) of every start hinge, complex (K, n) each."""
@@ -257,7 +267,7 @@ class _Kinematics:
             lever = position[:, part] - starts[:, i : i + 1]
             moment = np.sum((np.conj(lever) * force[:, part]).imag, axis=1)
             moment += ddpsi[:, part] @ self.inertia[part]
-            for inertia, b in self.rotors:
+            for inertia, b, _ in self.rotors:
                 # A rotor's angular momentum J omega_r counts whole when its stator and its
                 # driven link are both in the part; geared across the cut, the ideal gear
                 # passes N (driven side) or 1 - N (stator side) of its rate of change: b's
@@ -280,7 +290,7 @@ class _Kinematics:
         v = velocity[0] + base_velocity
         cross = (np.conj(r) * v).imag
         links = list(links)
-        rotors = sum(j * (dpsi @ b) * np.sum(b[links]) for j, b in self.rotors)  # as above
+        rotors = sum(j * (dpsi @ b) * np.sum(b[links]) for j, b, _ in self.rotors)  # as above
         return float(np.sum((self.mass * cross + self.inertia * dpsi)[links]) + rotors)
 
 
@@ -623,7 +633,7 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
     if mu is not None:
         stance = Contact.at_root(kin.linkage, float(mu))
         add("friction cone", stance.cone_margin(reaction.real, reaction.imag), "N", weight)
-    moment = torques[:, 0]
+    moment = torques[:, 0] + kin.ground_moment(ddpsi)
     loaded = reaction.imag > 0.05 * weight
     if np.any(loaded):
         pressure = moment[loaded] / reaction.imag[loaded]

@@ -60,7 +60,7 @@ import numpy as np
 from model.dynamics import Dynamics
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
-from model.rotors import Rotor
+from model.rotors import Rotor, ground_moment_row
 from planner.errors import (
     DefinitionError,
     DefinitionTypeError,
@@ -788,6 +788,9 @@ def centre_of_pressure_rows(step: WalkingStep, p, fy):
     and its normal force Fy: the centre of pressure M / Fy within [-heel, toe] of the ankle."""
     heel, toe = step.foot_sole
     moment = p[f"M_{step.biped.stance_shank}"]
+    rotors = ground_moment_row(step.dynamics.rotors, step.linkage.names)
+    if np.any(rotors):  # the ankle motor's rotor: the sole takes the gear's output, not M
+        moment = moment + ca.dot(ca.DM(rotors), p.ddpsi)
     return ca.vertcat(moment + heel * fy, toe * fy - moment)
 
 
