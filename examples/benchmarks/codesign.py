@@ -1,0 +1,132 @@
+"""Gear ratios designed with the gait against the best catalogue pick (issue #36, part 5), in
+one run: the electrical energy per step drawn by the drives (regeneration not counted) at 0.8,
+1.0 and 1.2 m/s (point feet with a sole, ``step_at_speed``'s steps, Hermite-Simpson N = 20).
+
+    python examples/benchmarks/codesign.py [--write]   # about 4 min
+
+1. The catalogue pick with the motion planned for ideal torques: each speed's step planned for
+   the bare body and ideal torque sources (the product's default), the drives chosen from the
+   catalogue below by the least energy over the three speeds (``problems.drives.select``,
+   ``rank="energy"``, equal shares; right and left alike); its energy is that motion's, read
+   through the pick (its rotors accelerated on top), with each limit's worst margin there.
+2. The same pick with the drives in the loop: each step re-planned with the motors' masses,
+   their rotors and limits, minimising the electrical energy drawn (``problems.drives.loop``).
+3. The gear ratios of the hips, knees and ankles co-designed with the gait from the pick's
+   (``problems.drives.codesign_ratios``: each design's three steps planned with the drives in
+   the loop and verified; a compass search in log N): the motors and the gearboxes' other
+   data stay the pick's.
+
+The catalogue is illustrative (two 48 V motors, each in two windings, one gearbox family at five
+ratios), not products: no cited catalogue ships yet.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from model.presets import six_link_anthropoid
+from problems import walking_step
+from problems.drives import DriveRequirements, read_gearboxes, read_motors, select
+from problems.drives.codesign import codesign_ratios
+from problems.drives.loop import drives_in_the_loop, energy_per_step, motor_report
+from problems.drives.requirements import plan_of
+from problems.walking.footed import step_at_speed
+
+SPEEDS = (0.8, 1.0, 1.2)
+JOINTS = ("hip", "knee", "ankle", "neck")
+MOTORS = """name,torque_constant_mNm_A,resistance_ohm,rotor_inertia_gcm2,continuous_torque_mNm,peak_torque_mNm,voltage_V,max_speed_rpm,mass_g,source
+A 48 V,70,0.3,200,600,2000,48,6000,500,illustrative
+A 48 V fast winding,45,0.125,200,600,2000,48,9000,500,illustrative
+B 48 V,120,0.35,600,1200,4000,48,4000,900,illustrative
+B 48 V fast winding,80,0.16,600,1200,4000,48,6000,900,illustrative
+"""  # noqa: E501
+GEARBOXES = """name,ratio,efficiency,inertia_gcm2,continuous_torque_Nm,peak_torque_Nm,max_input_speed_rpm,mass_g,source
+G50,50,0.8,20,60,160,8000,400,illustrative
+G80,80,0.8,20,60,160,8000,400,illustrative
+G100,100,0.8,20,60,160,8000,400,illustrative
+G120,120,0.8,20,60,160,8000,400,illustrative
+G160,160,0.8,20,60,160,8000,400,illustrative
+"""  # noqa: E501
+LIMITS = ("motor torque, N m", "voltage, V", "gear torque, N m", "motor speed, rad/s")
+
+
+def _catalogue():
+    with tempfile.TemporaryDirectory() as folder:
+        (Path(folder) / "m.csv").write_text(MOTORS)
+        (Path(folder) / "g.csv").write_text(GEARBOXES)
+        return read_motors(Path(folder) / "m.csv"), read_gearboxes(Path(folder) / "g.csv")
+
+
+def main(argv=None) -> int:
+    linkage = six_link_anthropoid()
+    ideal = [walking_step(linkage, *step_at_speed(v), N=20).solve(progress=False) for v in SPEEDS]
+    plans = [plan_of(g.exported(), f"{v:g} m/s", 1.0 / len(SPEEDS))
+             for g, v in zip(ideal, SPEEDS, strict=True)]  # fmt: skip
+    motors, gearboxes = _catalogue()
+    selection = select(DriveRequirements.of(plans), motors, gearboxes, rank="energy",
+                       regenerate=False)  # fmt: skip
+    pick = {}
+    for joint in JOINTS:
+        best = selection.best("neck" if joint == "neck" else f"right_{joint}")
+        if best is None:
+            print(f"the catalogue has no drive for the {joint}: {selection.refused}")
+            return 1
+        pick[joint] = best.drive
+    print("The catalogue pick for the ideal-torque plans (least energy over the speeds): "
+          + "; ".join(f"{j} {d.name}" for j, d in pick.items()) + "\n")  # fmt: skip
+
+    walker = drives_in_the_loop(linkage, pick)
+    through = []
+    for gait in ideal:
+        trajectory = gait.exported()
+        report = motor_report(trajectory, walker, with_rotors=False)
+        worst = {k: min(float(r["margins"][k].min()) for r in report.values()) for k in LIMITS}
+        through.append((energy_per_step(report, trajectory.time)["drawn"], worst))
+    design = codesign_ratios(linkage, pick, SPEEDS, joints=("hip", "knee", "ankle"), N=20)
+
+    print("Electrical energy drawn per step, J (regeneration not counted), at every 1 kHz "
+          "sample of each plan\n")  # fmt: skip
+    print("| design | N hip | N knee | N ankle | " + " | ".join(f"{v:g} m/s" for v in SPEEDS)
+          + " | sum | within every limit |")  # fmt: skip
+    print("|---" * (6 + len(SPEEDS)) + "|")
+    ratios = [f"{pick[j].gearbox.ratio:g}" for j in ("hip", "knee", "ankle")]
+    misses = [f"{k} {v:+.3g}" for k, v in
+              {k: min(w[k] for _, w in through) for k in LIMITS}.items() if v < 0]  # fmt: skip
+    rows = [
+        ("catalogue pick, ideal-torque motion", ratios, [e for e, _ in through],
+         "no: " + ", ".join(misses) if misses else "yes"),
+        ("catalogue pick, drives in the loop", ratios, list(design.start.per_speed), "yes"),
+        ("co-designed ratios, drives in the loop",
+         [f"{design.best.ratios[j]:.0f}" for j in ("hip", "knee", "ankle")],
+         list(design.best.per_speed), "yes"),
+    ]  # fmt: skip
+    for label, n, energies, within in rows:
+        print(f"| {label} | " + " | ".join(n) + " | " + " | ".join(f"{e:.1f}" for e in energies)
+              + f" | {sum(energies):.1f} | {within} |")  # fmt: skip
+    change = 1.0 - design.best.energy / sum(e for e, _ in through)
+    again = 1.0 - design.best.energy / design.start.energy
+    print(f"\nCo-design against the pick with the ideal motion: {change:+.0%} energy; against the "
+          f"pick with the drives in the loop: {again:+.0%}. Search: {len(design.history)} "
+          f"designs ({len(design.history) * len(SPEEDS)} verified plans) in "
+          f"{design.seconds:.0f} s; the designs' energies near the best scatter by "
+          f"{_scatter(design):.1f} J (the plans' local optima)\n")  # fmt: skip
+    return 0
+
+
+def _scatter(design) -> float:
+    """The spread of the energies of the designs within a factor 1.1 of the best's ratios."""
+    near = [e for r, e in design.history
+            if all(abs(math.log(r[j] / design.best.ratios[j])) < math.log(1.1) for j in r)
+            and math.isfinite(e)]  # fmt: skip
+    return float(np.ptp(near)) if len(near) > 1 else 0.0
+
+
+if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
+    sys.exit(_tables.run(main, __file__))
