@@ -138,3 +138,67 @@ def test_drives_for_every_joint_the_plan_has_are_required(walker):
 
     with pytest.raises(DefinitionError, match="plan it with the walker's rotors"):
         with_drives(walking_step(walker.linkage, N=10), walker)
+
+
+MOTORS_CSV = """name,torque_constant_mNm_A,resistance_ohm,rotor_inertia_gcm2,continuous_torque_mNm,peak_torque_mNm,voltage_V,max_speed_rpm,mass_g,source
+fast,45,0.125,200,600,2000,48,9000,500,test data
+"""  # noqa: E501
+GEARBOXES_CSV = """name,ratio,efficiency,inertia_gcm2,continuous_torque_Nm,peak_torque_Nm,max_input_speed_rpm,mass_g,source
+n50,50,0.8,20,60,160,8000,400,test data
+n80,80,0.8,20,60,160,8000,400,test data
+"""  # noqa: E501
+
+
+def test_the_command_replans_a_step_with_the_chosen_drives(tmp_path, capsys):
+    """drives --replan: the file it writes stands on its own (read back, verified from its
+    sidecar's rotors and body), and the comparison it prints is the API's."""
+    from model import Linkage, LinkageTrajectory
+    from problems import walking_step
+    from problems.cli import main
+    from problems.gait.verification import verify_gait
+
+    plan = tmp_path / "torques.csv"
+    walking_step(N=20).solve().exported().save(plan)
+    (tmp_path / "m.csv").write_text(MOTORS_CSV)
+    (tmp_path / "g.csv").write_text(GEARBOXES_CSV)
+    folder = tmp_path / "out"
+    argv = ["drives", str(plan), "--motors", str(tmp_path / "m.csv"), "--gearboxes",
+            str(tmp_path / "g.csv"), "--rank", "energy", "--no-regeneration", "--no-plots",
+            "--replan", "-q", "--output-dir", str(folder)]  # fmt: skip
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "| as given |" in printed and "| re-planned with the drives |" in printed
+    written = LinkageTrajectory.load(folder / "replanned.csv")
+    assert len(written.metadata["gait"]["rotors"]) == 6
+    body = Linkage.from_parameters(written.metadata["model"])
+    bare = sum(link.mass for link in six_link_anthropoid().links)
+    assert sum(link.mass for link in body.links) == pytest.approx(bare + 7 * 0.9)  # 7 drives
+    assert verify_gait(written, body).ok
+    # the drawn energy printed for the re-plan is the file's, through the chosen drives
+    from problems.drives.replan import compare
+
+    for row in printed.splitlines():
+        if row.startswith("| re-planned with the drives |"):
+            drawn = float(row.split("|")[2])
+    walker = drives_in_the_loop(six_link_anthropoid(), _chosen(folder))
+    chosen = compare(written, walker, with_rotors=True)
+    assert chosen["energy"]["drawn"] == pytest.approx(drawn, abs=0.05)
+    assert all(value >= -1e-6 * 48 for value, _ in chosen["worst"].values())
+    # --replan needs the catalogues
+    assert main(["drives", str(plan), "--replan", "-q", "--output-dir", str(tmp_path / "x")]) == 2
+    assert "--replan: give one PLAN" in capsys.readouterr().err
+
+
+def _chosen(folder):
+    """The drives selection.csv names, rebuilt from the test catalogue."""
+    import csv
+
+    from problems.drives.catalogue import read_gearboxes, read_motors
+
+    motors = {m.name: m for m in read_motors(folder.parent / "m.csv")}
+    gearboxes = {g.name: g for g in read_gearboxes(folder.parent / "g.csv")}
+    with (folder / "selection.csv").open() as handle:
+        rows = {row["drive"]: row for row in csv.DictReader(handle)}
+    return {joint: Drive(motors[rows[key]["motor"]], gearboxes[rows[key]["gearbox"]])
+            for joint, key in (("hip", "right_hip"), ("knee", "right_knee"),
+                               ("ankle", "right_ankle"), ("neck", "neck"))}  # fmt: skip

@@ -1,6 +1,6 @@
 """Gear ratios designed with the gait against the best catalogue pick (issue #36, part 5), in
-one run: the electrical energy per step drawn by the drives (regeneration not counted) at 0.8,
-1.0 and 1.2 m/s (point feet with a sole, ``step_at_speed``'s steps, Hermite-Simpson N = 20).
+one run: the electrical energy per step drawn by the drives (regeneration not counted) at 0.6,
+0.8 and 1.0 m/s (point feet with a sole, ``step_at_speed``'s steps, Hermite-Simpson N = 20).
 
     python examples/benchmarks/codesign.py [--write]   # about 4 min
 
@@ -37,7 +37,7 @@ from problems.drives.loop import drives_in_the_loop, energy_per_step, motor_repo
 from problems.drives.requirements import plan_of
 from problems.walking.footed import step_at_speed
 
-SPEEDS = (0.8, 1.0, 1.2)
+SPEEDS = (0.6, 0.8, 1.0)
 JOINTS = ("hip", "knee", "ankle", "neck")
 MOTORS = """name,torque_constant_mNm_A,resistance_ohm,rotor_inertia_gcm2,continuous_torque_mNm,peak_torque_mNm,voltage_V,max_speed_rpm,mass_g,source
 A 48 V,70,0.3,200,600,2000,48,6000,500,illustrative

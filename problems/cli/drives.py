@@ -50,6 +50,12 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         action="store_true",
         help="braking energy is dissipated, not recovered (--rank energy)",
     )
+    parser.add_argument("--replan", action="store_true",
+                        help="with --motors and --gearboxes and one point-foot step: plan it "
+                        "again carrying the chosen drives (their masses, rotors and limits; the "
+                        "least electrical energy drawn, or net without --no-regeneration), "
+                        "write replanned.csv (verified) and print both plans through the "
+                        "drives: energy per step and each limit's worst margin")  # fmt: skip
     parser.add_argument("--no-plots", action="store_true", help="no requirements.png")
     parser.add_argument("--output-dir", default="drives", metavar="DIR",
                         help="folder for the files (default: drives)")  # fmt: skip
@@ -155,6 +161,40 @@ def _write_selection(selection, path) -> None:
         writer.writerows(rows)
 
 
+def _replanned(plans, selection, args, out, report):
+    """--replan: the one plan re-planned with the chosen drives in the loop, both compared
+    through them (printed); None without --replan."""
+    if not args.replan:
+        return None
+    if selection is None or len(plans) != 1:
+        raise UsageError(
+            "--replan: give one PLAN (a point-foot step) with --motors and --gearboxes"
+        )
+    from problems.drives.replan import compare, comparison_table, replan
+
+    chosen = {}
+    for joint in ("hip", "knee", "ankle", "neck"):
+        name = joint if joint == "neck" else f"right_{joint}"
+        if name in selection.ranked:
+            chosen[joint] = selection.best(name).drive
+    regeneration = not args.no_regeneration
+    with report.working("re-planning the step with the chosen drives in the loop"):
+        try:
+            gait, walker = replan(plans[0], chosen, regeneration=regeneration)
+        except DefinitionError as error:
+            raise UsageError(f"PLAN: {error}") from None
+        except AnthropoidError as error:
+            raise CommandFailed(
+                f"the re-plan with the chosen drives: {error}; nothing written"
+            ) from None
+    given = compare(plans[0], walker, with_rotors=False)
+    again = compare(gait.exported(), walker, with_rotors=True)
+    print("\nthe plan through the chosen drives, as given and re-planned with them (worst "
+          "margins: < 0 the drive cannot deliver it):", file=out)  # fmt: skip
+    print(comparison_table(given, again), file=out)
+    return gait
+
+
 def run(args, out: TextIO, report: Reporter) -> int:
     from problems.drives import drive_requirements
     from problems.drives.requirements import describe
@@ -176,6 +216,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
     print("\nwork per step, J (positive / negative):", file=out)
     print(requirements.work_table(), file=out)
     selection = _selected(requirements, catalogue, args, out)
+    replanned = _replanned(plans, selection, args, out, report)
     with output:
         rows = [r.row() for r in requirements.drives]
         with output.path("requirements.csv").open("w", newline="") as handle:
@@ -185,6 +226,8 @@ def run(args, out: TextIO, report: Reporter) -> int:
         output.path("requirements.json").write_text(
             json.dumps(describe(requirements), indent=1) + "\n"
         )
+        if replanned is not None:
+            replanned.exported().save(output.path("replanned.csv"))
         chosen = None
         if selection is not None:
             _write_selection(selection, output.path("selection.csv"))

@@ -1,0 +1,101 @@
+"""A planned step re-planned with the drives chosen for it (issue #36, part 4, the command's
+part): what the plan as written asks of those drives, and the plan they can deliver.
+
+:func:`replan` reads a point-foot walking step's file (its settings in the sidecar), plans the
+same step (length, time, friction, sole, knee range, posture, limits, touchdown) for the
+walker carrying the chosen drives (:mod:`problems.drives.loop`: their masses, rotors and limits,
+the least electrical energy), and compares the two through those drives at every sample: the
+electrical energy per step and each limit's worst margin (:func:`compare`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from model.linkage import Linkage
+from model.linkage_trajectory import LinkageTrajectory
+from planner.errors import DefinitionError
+from problems.drives.catalogue import Drive
+from problems.drives.loop import (
+    DrivenWalker,
+    drives_in_the_loop,
+    energy_per_step,
+    motor_report,
+    with_drives,
+)
+
+#: the walking step's settings a re-plan keeps (the rest: the product's defaults)
+KEPT = ("mu", "torque_limit", "passive", "knee_range", "posture", "hip_limit",
+        "touchdown_speed", "approach_time", "ground_margin")  # fmt: skip
+#: the limits compared (``motor_report``'s margins)
+LIMITS = ("motor torque, N m", "voltage, V", "gear torque, N m", "motor speed, rad/s")
+
+
+def _step_options(settings: Mapping[str, Any]) -> dict[str, Any]:
+    options = {key: settings[key] for key in KEPT if settings.get(key) is not None}
+    if isinstance(settings.get("clearance"), int | float):
+        options["clearance"] = float(settings["clearance"])
+    if settings.get("foot") is not None:
+        options["foot"] = tuple(float(v) for v in settings["foot"])
+    if "knee_range" in options:
+        options["knee_range"] = tuple(options["knee_range"])
+    if "passive" in options:
+        options["passive"] = tuple(options["passive"])
+    return options
+
+
+def replan(trajectory, drives: Mapping[str, Drive], *, regeneration: bool = False, **options):
+    """(gait, walker): the step of ``trajectory`` (a point-foot walking step's samples with
+    its settings, as ``walk`` writes them) planned with ``drives`` {"hip", "knee", "ankle",
+    "neck": Drive} in the loop, minimising the electrical energy (drawn only unless
+    ``regeneration``); ``options`` override the step's (N, ...). Raises
+    :class:`planner.AnthropoidError` when no plan is found or it fails its verification."""
+    from problems import walking_step
+
+    trajectory = LinkageTrajectory.of(trajectory)
+    settings = (trajectory.metadata or {}).get("gait") or {}
+    if settings.get("problem") != "walking_step" or settings.get("double_support"):
+        raise DefinitionError(
+            "`trajectory`: a re-plan with the drives takes a point-foot walking step without a "
+            f"double support (walk's torques.csv with its sidecar); this is "
+            f"{settings.get('problem')!r}"
+            + (" with a double support" if settings.get("double_support") else "")
+        )
+    if settings.get("rotors"):
+        raise DefinitionError("`trajectory`: this plan was made with drives already")
+    linkage = Linkage.from_parameters(trajectory.metadata["model"])
+    walker = drives_in_the_loop(linkage, drives)
+    step = walking_step(walker.linkage, float(settings["step_length"]),
+                        float(settings["step_time"]), rotors=walker.rotors,
+                        **{**_step_options(settings), **options})  # fmt: skip
+    step = with_drives(step, walker, regeneration=regeneration)
+    return step.solve(progress=False), walker
+
+
+def compare(trajectory, walker: DrivenWalker, with_rotors: bool) -> dict[str, Any]:
+    """Through the walker's drives at every sample of ``trajectory``: the electrical
+    ``energy`` J (counted, drawn, copper) and each limit's ``worst`` margin (its unit; the drive
+    where it is). ``with_rotors``: the plan was made with them (a re-plan)."""
+    report = motor_report(trajectory, walker, with_rotors=with_rotors)
+    worst = {}
+    for limit in LIMITS:
+        key = min(report, key=lambda k: float(report[k]["margins"][limit].min()))
+        worst[limit] = (float(report[key]["margins"][limit].min()), key)
+    return {"energy": energy_per_step(report, trajectory.time), "worst": worst}
+
+
+def comparison_table(given: Mapping[str, Any], replanned: Mapping[str, Any]) -> str:
+    """The plan as given and re-planned, through the chosen drives, as markdown."""
+    head = "| plan | energy drawn, J | net, J | copper, J | " + " | ".join(
+        f"worst {limit}" for limit in LIMITS) + " |"  # fmt: skip
+    lines = [head, "|---" * (4 + len(LIMITS)) + "|"]
+    for label, row in (("as given", given), ("re-planned with the drives", replanned)):
+        energy = row["energy"]
+        cells = [f"{energy['drawn']:.1f}", f"{energy['counted']:.1f}", f"{energy['copper']:.1f}"]
+        cells += [f"{value:+.3g} ({key})" for value, key in row["worst"].values()]
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+__all__ = ["KEPT", "LIMITS", "compare", "comparison_table", "replan"]
