@@ -16,15 +16,15 @@ one run: the electrical energy per step drawn by the drives (regeneration not co
    the loop and verified; a compass search in log N): the motors and the gearboxes' other
    data stay the pick's.
 
-The catalogue is illustrative (two 48 V motors, each in two windings, one gearbox family at five
-ratios), not products: no cited catalogue ships yet.
+The catalogue is ``examples/drives/*_illustrative.csv`` (two 48 V motors, each in two windings,
+one gearbox family at five ratios): illustrative numbers, not products; no cited catalogue ships
+yet.
 """
 
 from __future__ import annotations
 
 import math
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -39,27 +39,15 @@ from problems.walking.footed import step_at_speed
 
 SPEEDS = (0.6, 0.8, 1.0)
 JOINTS = ("hip", "knee", "ankle", "neck")
-MOTORS = """name,torque_constant_mNm_A,resistance_ohm,rotor_inertia_gcm2,continuous_torque_mNm,peak_torque_mNm,voltage_V,max_speed_rpm,mass_g,source
-A 48 V,70,0.3,200,600,2000,48,6000,500,illustrative
-A 48 V fast winding,45,0.125,200,600,2000,48,9000,500,illustrative
-B 48 V,120,0.35,600,1200,4000,48,4000,900,illustrative
-B 48 V fast winding,80,0.16,600,1200,4000,48,6000,900,illustrative
-"""  # noqa: E501
-GEARBOXES = """name,ratio,efficiency,inertia_gcm2,continuous_torque_Nm,peak_torque_Nm,max_input_speed_rpm,mass_g,source
-G50,50,0.8,20,60,160,8000,400,illustrative
-G80,80,0.8,20,60,160,8000,400,illustrative
-G100,100,0.8,20,60,160,8000,400,illustrative
-G120,120,0.8,20,60,160,8000,400,illustrative
-G160,160,0.8,20,60,160,8000,400,illustrative
-"""  # noqa: E501
+#: the illustrative catalogue beside the guide (two 48 V motors, each in two windings; one
+#: gearbox family at five ratios), not products
+CATALOGUE = Path(__file__).resolve().parent.parent / "drives"
 LIMITS = ("motor torque, N m", "voltage, V", "gear torque, N m", "motor speed, rad/s")
 
 
 def _catalogue():
-    with tempfile.TemporaryDirectory() as folder:
-        (Path(folder) / "m.csv").write_text(MOTORS)
-        (Path(folder) / "g.csv").write_text(GEARBOXES)
-        return read_motors(Path(folder) / "m.csv"), read_gearboxes(Path(folder) / "g.csv")
+    return (read_motors(CATALOGUE / "motors_illustrative.csv"),
+            read_gearboxes(CATALOGUE / "gearboxes_illustrative.csv"))  # fmt: skip
 
 
 def main(argv=None) -> int:
@@ -110,9 +98,10 @@ def main(argv=None) -> int:
               + f" | {sum(energies):.1f} | {within} |")  # fmt: skip
     change = 1.0 - design.best.energy / sum(e for e, _ in through)
     again = 1.0 - design.best.energy / design.start.energy
-    print(f"\nCo-design against the pick with the ideal motion: {change:+.0%} energy; against the "
-          f"pick with the drives in the loop: {again:+.0%}. Search: {len(design.history)} "
-          f"designs ({len(design.history) * len(SPEEDS)} verified plans) in "
+    count = len(design.history)
+    print(f"\nThe co-designed ratios draw {change:.0%} less than the pick with the ideal motion "
+          f"and {again:.0%} less than the pick with the drives in the loop. Search: {count} "
+          f"designs ({count * len(SPEEDS)} verified plans) in "
           f"{design.seconds:.0f} s; the designs' energies near the best scatter by "
           f"{_scatter(design):.1f} J (the plans' local optima)\n")  # fmt: skip
     return 0

@@ -185,10 +185,11 @@ def drives_in_the_loop(
         if driven is not None:
             relative[linkage.index(driven)] += 1.0
         sense = float(row @ relative / (relative @ relative))
-        if not np.allclose(row, sense * relative) or abs(abs(sense) - 1.0) > 1e-12:
+        if not np.allclose(row, sense * relative) or abs(abs(sense) - 1.0) > 1e-9:
             raise DefinitionError(
                 f"`drives`: {key}'s angle is not the turn of {driven} on {stator}"
             )
+        sense = float(np.sign(sense))
         rotors.append(rotor)
         mounted.append(MountedDrive(key, joint, drive, row, D[drive_keys.index(key)], rotor,
                                     rotor.rate_vector(names), sense))  # fmt: skip
@@ -231,30 +232,40 @@ def electrical_power(mounted: MountedDrive, p, regeneration: bool):
 
 def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
                 regeneration: bool = True):  # fmt: skip
-    """A walking step (:func:`problems.walking_step` of ``walker.linkage`` with
-    ``rotors=walker.rotors``) held to its drives' limits at every node, its objective the
-    step's electrical energy (``objective="electrical"``; regenerated energy counted with
-    ``regeneration``) or kept as it is (``"kept"``)."""
+    """A walking step (:func:`problems.walking_step` or :func:`problems.footed_step` of
+    ``walker.linkage`` with ``rotors=walker.rotors``) held to its drives' limits at every node
+    (of every phase on feet), its objective the step's electrical energy
+    (``objective="electrical"``; regenerated energy counted with ``regeneration``) or kept as
+    it is (``"kept"``)."""
     if objective not in ("electrical", "kept"):
         raise DefinitionError(f"`objective`: 'electrical' or 'kept', got {objective!r}")
     if tuple(step.dynamics.rotors) != walker.rotors:
         raise DefinitionError(
             "`step`: plan it with the walker's rotors: walking_step(walker.linkage, ..., "
-            "rotors=walker.rotors)"
+            "rotors=walker.rotors) (or footed_step)"
         )
-    ocp = step.ocp
-    for mounted in walker.mounted:
-        rows, lower, upper = limit_rows(mounted)
-        ocp = ocp.constrain(f"drive {mounted.key}", rows, lower=lower, upper=upper)
-    if objective == "electrical":
-        limits = np.array([step.torque_limit[name] for name in walker.linkage.names])
+    names = walker.linkage.names
+    limits = getattr(step, "limits", None) or step.torque_limit  # on feet: the drives' only
+    scale = ca.DM([limits.get(name, max(limits.values())) for name in names])
 
-        def energy(p):
-            total = sum(electrical_power(m, p, regeneration) for m in walker.mounted)
-            return total + REGULARISATION_J * ca.sumsqr(p.M / ca.DM(limits))
+    def held(ocp):
+        for mounted in walker.mounted:
+            rows, lower, upper = limit_rows(mounted)
+            ocp = ocp.constrain(f"drive {mounted.key}", rows, lower=lower, upper=upper)
+        if objective == "electrical":
 
-        ocp = ocp.minimize(integral=energy, name=DEFAULT_TERM)
-    return replace(step, ocp=ocp)
+            def energy(p):
+                total = sum(electrical_power(m, p, regeneration) for m in walker.mounted)
+                return total + REGULARISATION_J * ca.sumsqr(p.M / scale)
+
+            ocp = ocp.minimize(integral=energy, name=DEFAULT_TERM)
+        return ocp
+
+    phases = getattr(step, "phases", None)
+    if phases is not None:  # on feet: every contact phase
+        held_phases = tuple((name, held(ocp)) for name, ocp in phases.phases)
+        return replace(step, phases=replace(phases, phases=held_phases))
+    return replace(step, ocp=held(step.ocp))
 
 
 def motor_report(

@@ -55,7 +55,7 @@ from __future__ import annotations
 import functools
 import math
 import operator
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Any
@@ -68,6 +68,7 @@ from model.dynamics import Dynamics
 from model.linkage import Linkage
 from model.points import LinkPoint
 from model.presets import anthropoid_feet, anthropoid_with_feet
+from model.rotors import Rotor
 from planner.errors import DefinitionError, check_positive, check_real
 from planner.problem import OCP, Phases
 from planner.transcription import Transcription
@@ -345,6 +346,7 @@ class FootedStep:
         ``contacts``: every foot point as [link, along, lateral]."""
         upper = list(self.biped.upper_body)
         names = self.linkage.names
+        rotors = [r.to_dict() for r in self.dynamics.rotors]  # a plan with its drives' rotors
         return {
             "problem": "footed_step",
             "step_length": self.step_length,
@@ -377,6 +379,7 @@ class FootedStep:
             "law": self.law.to_dict(),
             "objective": "torque" if self.human is None else "human",
             "human_objective": None if self.human is None else self.human.as_dict(),
+            **({"rotors": rotors} if rotors else {}),
         }
 
 
@@ -400,6 +403,7 @@ def footed_step(
     phases: str | tuple[str, ...] = "human",
     objective: str | HumanObjective = "torque",
     hip_limit: float | None = None,
+    rotors: Sequence[Rotor] = (),
 ) -> FootedStep:
     """A periodic walking step on feet (see the module docstring).
 
@@ -426,6 +430,8 @@ def footed_step(
         as that tuple of phase names.
     hip_limit : the physical stance hip's |torque| bound, N m, or None (as for
         :func:`problems.walking_step`).
+    rotors : geared motors' rotors in the equations of motion (``model.Rotor``; as for
+        :func:`problems.walking_step`), () for ideal torque sources.
     objective : "torque" (the drives' integral of sum M_i^2, the default), "human" (the
         joints' strength-normalised effort with passive moments,
         :data:`problems.human.effort.HUMAN`) or a :class:`problems.human.effort.HumanObjective`.
@@ -488,7 +494,7 @@ def footed_step(
                               f"({', '.join(sequence)}), got {N!r}")  # fmt: skip
     step = FootedStep(
         linkage=linkage,
-        dynamics=Dynamics(linkage),
+        dynamics=Dynamics(linkage, rotors=rotors),
         biped=biped,
         points=points,
         step_length=step_length,
