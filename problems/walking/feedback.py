@@ -116,6 +116,7 @@ class Feedback:
             "control_rate_hz": self.control_rate_hz,
             "reference": self.tracker,
             "lift_off": self.lift_off,
+            "rotors": step.dynamics.rotors,
         }
 
     def channels(self, trajectory: Trajectory) -> Trajectory:
@@ -220,7 +221,8 @@ def design_feedback(
     """
     step = gait.problem
     start = time.perf_counter()
-    plant = Plant(step.linkage, mu=ground_mu if ground_mu is not None else step.mu)
+    plant = Plant(step.linkage, mu=ground_mu if ground_mu is not None else step.mu,
+                  rotors=step.dynamics.rotors)  # fmt: skip
     passive = tuple(step.linkage.index(name) for name in step.passive)
     limits = [step.torque_limit.get(name, np.inf) for name in step.linkage.names]
     options = {"weights": weights, "control_rate_hz": control_rate_hz, "passive": passive}

@@ -209,8 +209,11 @@ class Plant(WalkerFeet):
     swings on its pinned root, e.g. the fixed-base gait: then only :attr:`advance` and
     :attr:`advance_jacobian` are used, and the linkage need not be a biped)."""
 
-    def __init__(self, linkage: Linkage, mu: float | None, substeps: int = 2) -> None:
-        self.dynamics = Dynamics(linkage)
+    def __init__(
+        self, linkage: Linkage, mu: float | None, substeps: int = 2, rotors: Sequence = ()
+    ) -> None:
+        # rotors: a plan made with its drives' rotors (model.Rotor) is simulated with them
+        self.dynamics = Dynamics(linkage, rotors=rotors)
         self.mu = None if mu is None else check_positive("mu", mu)
         self.substeps = check_integer("substeps", substeps, 1)
 
@@ -375,10 +378,12 @@ def _map_jacobian(mapping: ca.Function) -> ca.Function:
     return ca.Function(f"{mapping.name()}_jacobian", [x], [ca.jacobian(mapping(x), x)])
 
 
-def disturbed_plant(linkage: Linkage, mu: float | None, substeps: int, mass_scale: float):
-    """The :class:`Plant` of ``linkage`` with its masses and inertias times ``mass_scale``."""
+def disturbed_plant(linkage: Linkage, mu: float | None, substeps: int, mass_scale: float,
+                    rotors: Sequence = ()):  # fmt: skip
+    """The :class:`Plant` of ``linkage`` (and its drives' ``rotors``) with its masses and
+    inertias times ``mass_scale`` (the rotors as they are: the motors did not grow)."""
     scaled = linkage if mass_scale == 1.0 else scaled_linkage(linkage, mass_scale)
-    return Plant(scaled, mu, substeps)
+    return Plant(scaled, mu, substeps, rotors)
 
 
 def scaled_linkage(linkage: Linkage, scale: float) -> Linkage:
@@ -420,6 +425,7 @@ def simulate_walking(
     lift_off=None,
     plant: Plant | None = None,
     stand: float | None = None,
+    rotors: Sequence = (),
 ) -> WalkingRun:
     """Simulate ``steps`` steps from the planned start state ``start`` (2n,).
 
@@ -454,6 +460,8 @@ def simulate_walking(
         the planned step time on the stance foot and ends standing, unless the swing foot
         goes more than :data:`STAND_HEIGHT` into the ground (from half the step on) or is
         more than that off it after the planned time; ``lift_off`` must be None.
+    rotors : the plan's drives' rotors (``model.Rotor``; a plan made with its drives in the
+        loop), in the plant built here.
 
     Returns
     -------
@@ -466,7 +474,7 @@ def simulate_walking(
     step_length = check_positive("step_length", step_length, "m")
     factor = check_positive("max_step_factor", max_step_factor)
     if plant is None:
-        plant = disturbed_plant(linkage, mu, substeps, disturbances.mass_scale)
+        plant = disturbed_plant(linkage, mu, substeps, disturbances.mass_scale, rotors)
     if stand is not None:
         if lift_off is not None:
             raise DefinitionError("`stand`: the last step ends standing; give no lift_off")
