@@ -192,6 +192,8 @@ def test_the_command_replans_a_step_with_the_chosen_drives(tmp_path, capsys):
     assert "| as given |" in printed and "| re-planned with the drives |" in printed
     written = LinkageTrajectory.load(folder / "replanned.csv")
     assert len(written.metadata["gait"]["rotors"]) == 6
+    named = written.metadata["drives"]["joints"]
+    assert named["hip"]["motor"] == "fast" and named["knee"]["gearbox"] in ("n50", "n80")
     body = Linkage.from_parameters(written.metadata["model"])
     bare = sum(link.mass for link in six_link_anthropoid().links)
     assert sum(link.mass for link in body.links) == pytest.approx(bare + 7 * 0.9)  # 7 drives
@@ -209,6 +211,31 @@ def test_the_command_replans_a_step_with_the_chosen_drives(tmp_path, capsys):
     # --replan needs the catalogues
     assert main(["drives", str(plan), "--replan", "-q", "--output-dir", str(tmp_path / "x")]) == 2
     assert "--replan: give one PLAN" in capsys.readouterr().err
+
+
+def test_the_replan_picture_reads_each_drive_like_the_joint_space(walker, drive_plan):
+    """output_plan (from the motor report, per model drive mapped to right and left) against
+    plan_of (the robot's joint space): the same torques and speeds at every sample of both
+    steps, but the point foot's swing ankle, which has no drive there (zero here, its level
+    reference's speed there); a plan made with its drives reads without its rotors' share."""
+    from problems import walking_step
+    from problems.drives.replan import output_plan
+    from problems.drives.requirements import plan_of
+
+    given = walking_step(N=20).solve().exported()
+    ours, theirs = output_plan(given, walker, "x", 1.0, False), plan_of(given, "x", 1.0)
+    for mine, joint_space in zip(ours.steps, theirs.steps, strict=True):
+        swing_ankle = "left_ankle" if mine.label == "step 0" else "right_ankle"
+        for drive, torque in joint_space.torques.items():
+            np.testing.assert_array_equal(mine.torques[drive], torque)
+            if drive != swing_ankle:
+                np.testing.assert_array_equal(mine.speeds[drive], joint_space.speeds[drive])
+    planned = drive_plan.exported()
+    report = motor_report(planned, walker)
+    outputs = output_plan(planned, walker, "y", 1.0, True).steps[0]
+    np.testing.assert_array_equal(outputs.torques["right_hip"], report["stance_hip"]["tau_out"])
+    whole = plan_of(planned, "y", 1.0).steps[0].torques["right_hip"]
+    assert np.max(np.abs(whole - outputs.torques["right_hip"])) > 1.0  # the rotor's share
 
 
 def _chosen(folder):

@@ -54,8 +54,10 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
                         help="with --motors and --gearboxes and one point-foot step: plan it "
                         "again carrying the chosen drives (their masses, rotors and limits; the "
                         "least electrical energy drawn, or net without --no-regeneration), "
-                        "write replanned.csv (verified) and print both plans through the "
-                        "drives: energy per step and each limit's worst margin")  # fmt: skip
+                        "write replanned.csv (verified; its sidecar names the drives) and "
+                        "replanned.png (both plans over the drives' limits) and print both "
+                        "plans through the drives: energy per step and each limit's worst "
+                        "margin")  # fmt: skip
     parser.add_argument("--no-plots", action="store_true", help="no requirements.png")
     parser.add_argument("--output-dir", default="drives", metavar="DIR",
                         help="folder for the files (default: drives)")  # fmt: skip
@@ -162,14 +164,16 @@ def _write_selection(selection, path) -> None:
 
 
 def _replanned(plans, selection, args, out, report):
-    """--replan: the one plan re-planned with the chosen drives in the loop, both compared
-    through them (printed); None without --replan."""
+    """--replan: (the one plan re-planned with the chosen drives in the loop, its sidecar
+    naming them; the walker carrying them), both plans compared through them (printed); None
+    without --replan."""
     if not args.replan:
         return None
     if selection is None or len(plans) != 1:
         raise UsageError(
             "--replan: give one PLAN (a point-foot step) with --motors and --gearboxes"
         )
+    from problems.drives.loop import MOUNTS
     from problems.drives.replan import compare, comparison_table, replan
 
     chosen = {}
@@ -192,7 +196,25 @@ def _replanned(plans, selection, args, out, report):
     print("\nthe plan through the chosen drives, as given and re-planned with them (worst "
           "margins: < 0 the drive cannot deliver it):", file=out)  # fmt: skip
     print(comparison_table(given, again), file=out)
-    return gait
+    # the file says what it was planned with: each joint's motor and gearbox
+    carried = {joint: {"motor": d.motor.name, "gearbox": d.gearbox.name,
+                       "ratio": d.gearbox.ratio, "mass_kg": d.mass,
+                       "inertia_kg_m2": d.inertia} for joint, d in chosen.items()}  # fmt: skip
+    written = gait.exported().with_metadata(
+        drives={"joints": carried, "regeneration": regeneration, "mounts": dict(MOUNTS)}
+    )
+    return written, walker
+
+
+def _as_given_and_replanned(given, replanned, walker):
+    """The two plans as one duty cycle (each half the time) for the torque-speed picture,
+    each drive's gear output (the re-plan without its rotors' own share)."""
+    from problems.drives import DriveRequirements
+    from problems.drives.replan import output_plan
+
+    plans = [output_plan(given, walker, "as given", 0.5, False),
+             output_plan(replanned, walker, "re-planned", 0.5, True)]  # fmt: skip
+    return DriveRequirements.of(plans)
 
 
 def run(args, out: TextIO, report: Reporter) -> int:
@@ -227,7 +249,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
             json.dumps(describe(requirements), indent=1) + "\n"
         )
         if replanned is not None:
-            replanned.exported().save(output.path("replanned.csv"))
+            replanned[0].save(output.path("replanned.csv"))
         chosen = None
         if selection is not None:
             _write_selection(selection, output.path("selection.csv"))
@@ -239,6 +261,11 @@ def run(args, out: TextIO, report: Reporter) -> int:
             with report.working("plotting requirements.png"):
                 figure = requirements_figure(requirements, chosen=chosen)
                 save_figure(figure, output.path("requirements.png"))
+            if replanned is not None:
+                with report.working("plotting replanned.png"):
+                    both = _as_given_and_replanned(plans[0], *replanned)
+                    figure = requirements_figure(both, chosen=chosen)
+                    save_figure(figure, output.path("replanned.png"))
         written = output.commit({"argv": list(sys.argv[1:])})
     for path in written:
         print(f"wrote {path}", file=out)

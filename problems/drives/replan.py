@@ -13,6 +13,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
+
 from model.linkage import Linkage
 from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import DefinitionError
@@ -24,6 +26,7 @@ from problems.drives.loop import (
     motor_report,
     with_drives,
 )
+from problems.drives.requirements import DriveStep, Plan
 
 #: the walking step's settings a re-plan keeps (the rest: the product's defaults)
 KEPT = ("mu", "torque_limit", "passive", "knee_range", "posture", "hip_limit",
@@ -85,6 +88,33 @@ def compare(trajectory, walker: DrivenWalker, with_rotors: bool) -> dict[str, An
     return {"energy": energy_per_step(report, trajectory.time), "worst": worst}
 
 
+def output_plan(trajectory, walker: DrivenWalker, name: str, share: float,
+                with_rotors: bool) -> Plan:  # fmt: skip
+    """A point-foot step's stride as its drives' gear outputs see it (tau_out N m, dq rad/s per
+    physical drive: the right leg in stance, then the left), from :func:`motor_report`: for a
+    plan made with the drives (``with_rotors``) without the share of each drive's torque that
+    accelerates its own rotor, so that it reads like a plan for ideal sources. A point foot's
+    swing ankle has no drive to read: zero there."""
+    report = motor_report(trajectory, walker, with_rotors=with_rotors)
+    time = np.asarray(trajectory.time, dtype=float)
+    duration = float(time[-1] - time[0])
+    settings = trajectory.metadata["gait"]
+    steps = []
+    for index, (stance, swing) in enumerate((("right", "left"), ("left", "right"))):
+        torques, speeds = {}, {}
+        for key, side in report.items():
+            role, _, joint = key.partition("_")
+            physical = key if key == "neck" else f"{stance if role == 'stance' else swing}_{joint}"
+            torques[physical], speeds[physical] = side["tau_out"], side["dq"]
+        for leg in (stance, swing):
+            torques.setdefault(f"{leg}_ankle", np.zeros_like(time))
+            speeds.setdefault(f"{leg}_ankle", np.zeros_like(time))
+        steps.append(DriveStep(time - time[0] + index * duration, torques, speeds, None,
+                               f"step {index}"))  # fmt: skip
+    step_time = float(settings["step_time"])
+    return Plan(name, share, tuple(steps), step_time, float(settings["step_length"]) / step_time)
+
+
 def comparison_table(given: Mapping[str, Any], replanned: Mapping[str, Any]) -> str:
     """The plan as given and re-planned, through the chosen drives, as markdown."""
     head = "| plan | energy drawn, J | net, J | copper, J | " + " | ".join(
@@ -98,4 +128,4 @@ def comparison_table(given: Mapping[str, Any], replanned: Mapping[str, Any]) -> 
     return "\n".join(lines)
 
 
-__all__ = ["KEPT", "LIMITS", "compare", "comparison_table", "replan"]
+__all__ = ["KEPT", "LIMITS", "compare", "comparison_table", "output_plan", "replan"]
