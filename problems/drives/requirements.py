@@ -203,6 +203,12 @@ def plan_of(trajectory: Trajectory, name: str, share: float) -> Plan:
     drives see one stride of it (:func:`problems.robot.joint_space`): the step with the
     first side's leg in stance, then with the other's, each whole. A walk through speeds
     (``sequence.csv``, ``metadata["sequence"]``): every step, the sides alternating."""
+    if ((trajectory.metadata or {}).get("gait") or {}).get("rotors"):
+        raise DefinitionError(
+            f"{name}: a plan made with its drives in the loop (its torques hold the share that "
+            "accelerates each drive's own rotor, which a drive's check adds again): read it "
+            "through those drives with problems.drives.replan.output_plan or motor_report"
+        )
     if "sequence" in (trajectory.metadata or {}):
         return _sequence_plan(trajectory, name, share)
     first = joint_space(trajectory, steps=1)
