@@ -34,6 +34,7 @@ from model.presets import six_link_anthropoid
 from problems import walking_step
 from problems.drives.catalogue import Drive, Gearbox, Motor
 from problems.drives.loop import drives_in_the_loop, energy_per_step, motor_report, with_drives
+from problems.drives.replan import LIMITS, compare
 
 RPM = math.pi / 30.0
 DRIVE = Drive(
@@ -43,7 +44,6 @@ DRIVE = Drive(
 #: the ankles' drive on feet: the same motor through 30:1
 ANKLE_ON_FEET = Drive(DRIVE.motor, Gearbox("illustrative 30:1", 30.0, 0.8, 2e-6, 60.0, 160.0,
                                            8000 * RPM, 0.4))  # fmt: skip
-LIMITS = ("motor torque, N m", "voltage, V", "gear torque, N m", "motor speed, rad/s")
 
 
 def _plans(walker):
@@ -88,11 +88,7 @@ def main(argv=None) -> int:
         reports[label] = (trajectory, report)
         energy = energy_per_step(report, trajectory.time)
         current = max(float(np.max(np.abs(r["current"]))) for r in report.values())
-        worst = []
-        for limit in LIMITS:
-            key, value = min(((k, float(r["margins"][limit].min())) for k, r in report.items()),
-                             key=lambda item: item[1])  # fmt: skip
-            worst.append(f"{value:+.3g} ({key})")
+        worst = _worst(trajectory, walker, rotors)
         print(f"| {label} | {gait.verified} | {energy['counted']:.1f} | {energy['drawn']:.1f} | "
               f"{energy['copper']:.1f} | {current:.1f} | " + " | ".join(worst) + " |")  # fmt: skip
     print("\nTable 2: the gaits: peak |joint torque| (the gear's output) per drive, N m; the "
@@ -116,6 +112,12 @@ def main(argv=None) -> int:
     print()
     feet_table()
     return 0
+
+
+def _worst(trajectory, walker, rotors: bool) -> list[str]:
+    """Each limit's worst margin through the drives and the drive where it is, as cells."""
+    worst = compare(trajectory, walker, with_rotors=rotors)["worst"]
+    return [f"{worst[limit][0]:+.3g} ({worst[limit][1]})" for limit in LIMITS]
 
 
 def feet_table() -> None:
@@ -146,11 +148,7 @@ def feet_table() -> None:
         trajectory = solved.exported()
         report = motor_report(trajectory, walker, with_rotors=rotors)
         energy = energy_per_step(report, trajectory.time)
-        worst = []
-        for limit in LIMITS:
-            key, value = min(((k, float(r["margins"][limit].min())) for k, r in report.items()),
-                             key=lambda item: item[1])  # fmt: skip
-            worst.append(f"{value:+.3g} ({key})")
+        worst = _worst(trajectory, walker, rotors)
         print(f"| {label} | {solved.verified} | {energy['drawn']:.1f} | {energy['copper']:.1f} | "
               + " | ".join(worst) + f" | {solved.summary()['iterations']} | "
               f"{seconds[label]:.1f} |")  # fmt: skip
