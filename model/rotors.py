@@ -92,11 +92,6 @@ class Rotor:
         return {"name": self.name, "stator": self.stator, "driven": self.driven,
                 "ratio": self.ratio, "inertia": self.inertia}  # fmt: skip
 
-    @classmethod
-    def from_dict(cls, entry) -> Rotor:
-        return cls(entry["stator"], entry["driven"], float(entry["ratio"]),
-                   float(entry["inertia"]), entry.get("name", ""))  # fmt: skip
-
 
 def rotor_matrix(rotors: Sequence[Rotor], names: Sequence[str]) -> np.ndarray:
     """sum over the rotors of J b b^T (n, n), kg m^2: what they add to the mass matrix."""
@@ -129,9 +124,10 @@ def ground_moment_row(rotors: Sequence[Rotor], names: Sequence[str]) -> np.ndarr
     return row
 
 
-def rotors_of(entries) -> tuple[Rotor, ...]:
-    """Rotors from their dicts (a gait's settings: ``Rotor.to_dict``), () for None."""
-    return tuple(Rotor.from_dict(e) for e in (entries or ()))
+def rotor_settings(rotors: Sequence[Rotor]) -> dict:
+    """``{"rotors": [Rotor.to_dict(), ...]}`` for a plan's settings, ``{}`` without rotors
+    (an ideal-torque plan's settings stay as they were)."""
+    return {"rotors": [r.to_dict() for r in rotors]} if rotors else {}
 
 
-__all__ = ["Rotor", "ground_moment_row", "rotor_matrix", "rotors_of"]
+__all__ = ["Rotor", "ground_moment_row", "rotor_matrix", "rotor_settings"]

@@ -14,6 +14,7 @@ import problems.drives.codesign as codesign
 from model.presets import six_link_anthropoid
 from planner.errors import AnthropoidError, DefinitionError
 from problems.drives.catalogue import Drive, Gearbox, Motor
+from problems.drives.loop import drives_in_the_loop
 
 RPM = math.pi / 30.0
 DRIVE = Drive(
@@ -100,7 +101,7 @@ def test_a_real_design_is_made_of_verified_plans_and_improves_on_its_start():
         assert all(gait.verified for gait in point.gaits)
     # the cost is the plans' exact energy, recomputed here from their files
     hip = codesign._with_ratio(DRIVE, result.best.ratios["hip"])
-    walker = codesign.drives_in_the_loop(six_link_anthropoid(), {**DRIVES, "hip": hip})
+    walker = drives_in_the_loop(six_link_anthropoid(), {**DRIVES, "hip": hip})
     assert codesign.step_energy(result.best.gaits[0], walker, False) == pytest.approx(
         result.best.per_speed[0], rel=1e-12
     )

@@ -33,7 +33,8 @@ from model.presets import six_link_anthropoid
 from problems import walking_step
 from problems.drives import DriveRequirements, read_gearboxes, read_motors, select
 from problems.drives.codesign import codesign_ratios
-from problems.drives.loop import drives_in_the_loop, energy_per_step, motor_report
+from problems.drives.loop import drives_in_the_loop
+from problems.drives.replan import LIMITS, compare
 from problems.drives.requirements import plan_of
 from problems.walking.footed import step_at_speed
 
@@ -42,7 +43,6 @@ JOINTS = ("hip", "knee", "ankle", "neck")
 #: the illustrative catalogue beside the guide (two 48 V motors, each in two windings; one
 #: gearbox family at five ratios), not products
 CATALOGUE = Path(__file__).resolve().parent.parent / "drives"
-LIMITS = ("motor torque, N m", "voltage, V", "gear torque, N m", "motor speed, rad/s")
 
 
 def _catalogue():
@@ -71,10 +71,9 @@ def main(argv=None) -> int:
     walker = drives_in_the_loop(linkage, pick)
     through = []
     for gait in ideal:
-        trajectory = gait.exported()
-        report = motor_report(trajectory, walker, with_rotors=False)
-        worst = {k: min(float(r["margins"][k].min()) for r in report.values()) for k in LIMITS}
-        through.append((energy_per_step(report, trajectory.time)["drawn"], worst))
+        seen = compare(gait.exported(), walker, with_rotors=False)
+        worst = {limit: value for limit, (value, _) in seen["worst"].items()}
+        through.append((seen["energy"]["drawn"], worst))
     design = codesign_ratios(linkage, pick, SPEEDS, joints=("hip", "knee", "ankle"), N=20)
 
     print("Electrical energy drawn per step, J (regeneration not counted), at every 1 kHz "

@@ -121,28 +121,37 @@ class Drive:
         """The rotor's and the gear input's inertia about the motor's axis, kg m^2."""
         return self.motor.rotor_inertia + self.gearbox.inertia
 
+    def motor_torque(self, tau_out, rotor_acceleration, factor):
+        """tau_m = J a_r + tau_out factor / N, N m: the rotor's inertia before the gear, the
+        gear's losses on the torque it passes (``factor`` 1/eta when the motor drives, eta when
+        the load drives it back). Arithmetic only: numpy arrays or CasADi expressions."""
+        return self.inertia * rotor_acceleration + tau_out * factor / self.gearbox.ratio
+
+    def electrical(self, tau_m, dq) -> dict:
+        """At the motor's torque ``tau_m`` N m and the joint's speed ``dq`` rad/s: ``speed``
+        rad/s (N dq), ``current`` A, ``voltage`` V (R i + k_t N dq), ``power`` W (u i: copper
+        losses plus the mechanical power at the motor), ``copper`` W (R i^2). Arithmetic only:
+        numpy arrays or CasADi expressions."""
+        k, resistance, ratio = self.motor.torque_constant, self.motor.resistance, self.gearbox.ratio
+        current = tau_m / k
+        copper = resistance * current**2
+        return {"speed": ratio * dq, "current": current,
+                "voltage": resistance * tau_m / k + k * ratio * dq,
+                "power": copper + tau_m * ratio * dq, "copper": copper}  # fmt: skip
+
     def motor_side(self, tau_out, dq, rotor_acceleration) -> dict[str, np.ndarray]:
         """The motor's side when the gear gives the links ``tau_out`` N m at the joint's
         speed ``dq`` rad/s while the rotor accelerates at ``rotor_acceleration`` rad/s^2 (in
-        the joint's sense; arrays of one shape): ``torque`` tau_m N m, ``speed`` rad/s,
-        ``current`` A, ``voltage`` V, ``power`` W (electrical, u i), ``copper`` W (R i^2).
-
-        tau_m = J a_r + tau_out / (N eta) when the motor drives (tau_out dq >= 0), J a_r +
-        tau_out eta / N when the load drives it back: the gear's losses act on the torque it
-        passes, the rotor's inertia before it."""
+        the joint's sense; arrays of one shape): ``torque`` tau_m N m and :meth:`electrical`'s
+        ``speed``, ``current``, ``voltage``, ``power`` and ``copper``, the branch chosen by the
+        power's direction (:meth:`motor_torque`: the motor drives when tau_out dq >= 0)."""
         tau, dq, acceleration = (
             np.asarray(v, dtype=float) for v in (tau_out, dq, rotor_acceleration)
         )
-        ratio, eta = self.gearbox.ratio, self.gearbox.efficiency
-        driving = tau * dq >= 0.0
-        load = np.where(driving, tau / (ratio * eta), tau * eta / ratio)
-        torque = self.inertia * acceleration + load
-        speed = ratio * dq
-        current = torque / self.motor.torque_constant
-        voltage = self.motor.resistance * current + self.motor.torque_constant * speed
-        copper = self.motor.resistance * current**2
-        return {"torque": torque, "speed": speed, "current": current, "voltage": voltage,
-                "power": voltage * current, "copper": copper}  # fmt: skip
+        eta = self.gearbox.efficiency
+        factor = np.where(tau * dq >= 0.0, 1.0 / eta, eta)
+        torque = self.motor_torque(tau, acceleration, factor)
+        return {"torque": torque, **self.electrical(torque, dq)}
 
 
 def _number(path: Path, row: int, column: str, text: str) -> float:

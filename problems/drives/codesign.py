@@ -32,7 +32,11 @@ import numpy as np
 from model.linkage import Linkage
 from planner.errors import AnthropoidError, DefinitionError
 from problems.drives.catalogue import Drive
-from problems.drives.loop import drives_in_the_loop, energy_per_step, motor_report, with_drives
+from problems.drives.loop import (
+    energy_per_step,
+    motor_report,
+    plan_step_with_drives,
+)
 
 
 @dataclass(frozen=True)
@@ -78,24 +82,13 @@ def _with_ratio(drive: Drive, ratio: float) -> Drive:
 
 def plan_with_drives(linkage: Linkage, drives: Mapping[str, Drive], speed: float, *,
                      regeneration: bool = False, warm=None, **step_options):  # fmt: skip
-    """The walking step at ``speed`` m/s (``problems.walking.footed.step_at_speed``'s length
-    and time) planned with ``drives`` in the loop, minimising its electrical energy,
-    warm-started from the gait ``warm`` when given (from the law otherwise, or when the warm
-    start fails). Returns (gait, walker); raises :class:`planner.AnthropoidError` when no
-    plan is found or it fails its verification."""
-    from problems import walking_step
+    """(gait, walker): the walking step at ``speed`` m/s (``problems.walking.footed.
+    step_at_speed``'s length and time) planned with ``drives`` in the loop
+    (:func:`problems.drives.loop.plan_step_with_drives`)."""
     from problems.walking.footed import step_at_speed
 
-    walker = drives_in_the_loop(linkage, drives)
-    length, duration = step_at_speed(speed)
-    step = walking_step(walker.linkage, length, duration, rotors=walker.rotors, **step_options)
-    step = with_drives(step, walker, regeneration=regeneration)
-    if warm is not None:
-        try:
-            return step.solve(step.problem.guess(warm.solution), progress=False), walker
-        except AnthropoidError:
-            pass  # from the law, below
-    return step.solve(progress=False), walker
+    return plan_step_with_drives(linkage, drives, *step_at_speed(speed),
+                                 regeneration=regeneration, warm=warm, **step_options)  # fmt: skip
 
 
 def step_energy(gait, walker, regeneration: bool) -> float:

@@ -40,7 +40,7 @@ import numpy as np
 
 from model.linkage import Link, Linkage
 from model.rotors import Rotor
-from planner.errors import DefinitionError
+from planner.errors import AnthropoidError, DefinitionError
 from planner.ocp import DEFAULT_TERM
 from problems.drives.catalogue import Drive
 from problems.human.joints import Body, body_of
@@ -57,37 +57,38 @@ REGULARISATION_J = 1e-3
 
 @dataclass(frozen=True)
 class MountedDrive:
-    """One of the model's drives (``key``: stance_hip, swing_knee, neck, ...) with its
-    ``drive``, in the model's terms: dq = ``joint_row`` . dpsi, tau = ``torque_row`` . M, its
-    rotor (None for a point foot's swing ankle: no foot link for it to turn) and ``sense``
-    (+1 or -1: q grows as the rotor turns forward relative to the stator, or back)."""
+    """One of the model's drives (``key``: stance_hip, swing_knee, neck, ...; a point foot's
+    swing ankle has none: no foot link to turn) with its ``drive``, in the model's terms: dq =
+    ``joint_row`` . dpsi, tau = ``torque_row`` . M, its ``rotor`` and rate vector b
+    (``rate_row``), and ``sense`` (+1 or -1: q grows as the rotor turns forward relative to the
+    stator, or back)."""
 
     key: str
     joint: str
     drive: Drive
     joint_row: np.ndarray
     torque_row: np.ndarray
-    rotor: Rotor | None
+    rotor: Rotor
     rate_row: np.ndarray
     sense: float
 
-    def motor_expressions(self, M, dpsi, ddpsi, branch: str):
-        """(tau_m N m, tau_out N m, dq rad/s) as CasADi expressions of the hinge torques, the
-        rates and the accelerations; ``branch`` "drive" (1/eta), "back" (eta) or "smooth"."""
-        gearbox = self.drive.gearbox
-        ratio, eta, inertia = gearbox.ratio, gearbox.efficiency, self.drive.inertia
+    def joint_terms(self, M, dpsi, ddpsi):
+        """(tau_out N m, dq rad/s, a_r rad/s^2) as CasADi expressions of the hinge torques,
+        rates and accelerations: what the gear gives the links (the drive's torque less the
+        share that accelerates its rotor), the joint's speed, the rotor's acceleration in the
+        joint's sense."""
         tau = ca.dot(ca.DM(self.torque_row), M)
         dq = ca.dot(ca.DM(self.joint_row), dpsi)
         rotor_acceleration = self.sense * ca.dot(ca.DM(self.rate_row), ddpsi)
-        tau_out = tau - ratio * inertia * rotor_acceleration
-        if branch == "drive":
-            factor = 1.0 / eta
-        elif branch == "back":
-            factor = eta
-        else:
-            switch = ca.tanh(tau_out * dq / SMOOTHING_W)
-            factor = 0.5 * (1.0 / eta + eta) + 0.5 * (1.0 / eta - eta) * switch
-        return inertia * rotor_acceleration + tau_out * factor / ratio, tau_out, dq
+        tau_out = tau - self.drive.gearbox.ratio * self.drive.inertia * rotor_acceleration
+        return tau_out, dq, rotor_acceleration
+
+    def smooth_factor(self, tau_out, dq):
+        """The efficiency factor blended between 1/eta (driving) and eta (driven back) by
+        tanh(tau_out dq / P_s): the objective's (:data:`SMOOTHING_W`)."""
+        eta = self.drive.gearbox.efficiency
+        switch = ca.tanh(tau_out * dq / SMOOTHING_W)
+        return 0.5 * (1.0 / eta + eta) + 0.5 * (1.0 / eta - eta) * switch
 
 
 def _joint_point(linkage: Linkage, stator: str, driven: str | None) -> complex:
@@ -133,13 +134,12 @@ def _links_of(body: Body, key: str) -> tuple[str, str | None]:
 @dataclass(frozen=True)
 class DrivenWalker:
     """A walker carrying its drives: ``linkage`` (the motors' masses on their links),
-    ``rotors`` (for :func:`problems.walking_step`), ``mounted`` (each of the model's drives)
-    and the ``drives`` by joint ({"hip": Drive, ...})."""
+    ``rotors`` (for :func:`problems.walking_step`) and ``mounted`` (each of the model's
+    drives)."""
 
     linkage: Linkage
     rotors: tuple[Rotor, ...]
     mounted: tuple[MountedDrive, ...]
-    drives: Mapping[str, Drive]
 
 
 def drives_in_the_loop(
@@ -194,23 +194,23 @@ def drives_in_the_loop(
         mounted.append(MountedDrive(key, joint, drive, row, D[drive_keys.index(key)], rotor,
                                     rotor.rate_vector(names), sense))  # fmt: skip
     carried = Linkage(links, linkage.gravity)
-    return DrivenWalker(carried, tuple(rotors), tuple(mounted), dict(drives))
+    return DrivenWalker(carried, tuple(rotors), tuple(mounted))
 
 
 def limit_rows(mounted: MountedDrive):
     """(function of a planner Point, lower, upper) of one drive's limits at a node, each row
-    a fraction of its limit:
-    the motor's torque and the voltage on both efficiency branches, the gear's output torque,
-    the motor's speed (see the module)."""
-    motor, gearbox = mounted.drive.motor, mounted.drive.gearbox
+    a fraction of its limit: the motor's torque and the voltage on both efficiency branches,
+    the gear's output torque, the motor's speed (see the module)."""
+    drive = mounted.drive
+    motor, gearbox = drive.motor, drive.gearbox
     speed = min(motor.max_speed, gearbox.max_input_speed)
-    k, resistance = motor.torque_constant, motor.resistance
 
     def rows(p):
+        tau_out, dq, rotor_acceleration = mounted.joint_terms(p.M, p.dpsi, p.ddpsi)
         values = []
-        for branch in ("drive", "back"):
-            tau_m, tau_out, dq = mounted.motor_expressions(p.M, p.dpsi, p.ddpsi, branch)
-            voltage = resistance * tau_m / k + k * gearbox.ratio * dq
+        for factor in (1.0 / gearbox.efficiency, gearbox.efficiency):  # driving, driven back
+            tau_m = drive.motor_torque(tau_out, rotor_acceleration, factor)
+            voltage = drive.electrical(tau_m, dq)["voltage"]
             values += [tau_m / motor.peak_torque, voltage / motor.voltage]
         values += [tau_out / gearbox.peak_torque, gearbox.ratio * dq / speed]
         return ca.vertcat(*values)
@@ -221,10 +221,10 @@ def limit_rows(mounted: MountedDrive):
 def electrical_power(mounted: MountedDrive, p, regeneration: bool):
     """The drive's electrical power u i, W, at a Point (smooth branches; without
     regeneration only its positive part, smoothed over :data:`SMOOTHING_W`)."""
-    motor = mounted.drive.motor
-    tau_m, _, dq = mounted.motor_expressions(p.M, p.dpsi, p.ddpsi, "smooth")
-    current = tau_m / motor.torque_constant
-    power = motor.resistance * current**2 + tau_m * mounted.drive.gearbox.ratio * dq
+    tau_out, dq, rotor_acceleration = mounted.joint_terms(p.M, p.dpsi, p.ddpsi)
+    factor = mounted.smooth_factor(tau_out, dq)
+    tau_m = mounted.drive.motor_torque(tau_out, rotor_acceleration, factor)
+    power = mounted.drive.electrical(tau_m, dq)["power"]
     if regeneration:
         return power
     return 0.5 * (power + ca.sqrt(power**2 + SMOOTHING_W**2))
@@ -266,6 +266,29 @@ def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
         held_phases = tuple((name, held(ocp)) for name, ocp in phases.phases)
         return replace(step, phases=replace(phases, phases=held_phases))
     return replace(step, ocp=held(step.ocp))
+
+
+def plan_step_with_drives(linkage: Linkage, drives: Mapping[str, Drive], step_length: float,
+                          step_time: float, *, regeneration: bool = False, warm=None,
+                          **step_options):  # fmt: skip
+    """(gait, walker): the point-foot walking step of ``step_length`` m in ``step_time`` s
+    (:func:`problems.walking_step`, ``step_options``) planned for ``linkage`` carrying
+    ``drives`` in the loop (:func:`drives_in_the_loop`, :func:`with_drives`), minimising its
+    electrical energy (drawn only unless ``regeneration``), warm-started from the gait
+    ``warm`` when given (from the law when there is none or it fails). Raises
+    :class:`planner.AnthropoidError` when no plan is found or it fails its verification."""
+    from problems import walking_step
+
+    walker = drives_in_the_loop(linkage, drives)
+    step = walking_step(walker.linkage, step_length, step_time, rotors=walker.rotors,
+                        **step_options)  # fmt: skip
+    step = with_drives(step, walker, regeneration=regeneration)
+    if warm is not None:
+        try:
+            return step.solve(step.problem.guess(warm.solution), progress=False), walker
+        except AnthropoidError:
+            pass  # from the law, below
+    return step.solve(progress=False), walker
 
 
 def motor_report(
@@ -327,5 +350,6 @@ __all__ = [
     "energy_per_step",
     "limit_rows",
     "motor_report",
+    "plan_step_with_drives",
     "with_drives",
 ]

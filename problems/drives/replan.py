@@ -21,10 +21,9 @@ from planner.errors import DefinitionError
 from problems.drives.catalogue import Drive
 from problems.drives.loop import (
     DrivenWalker,
-    drives_in_the_loop,
     energy_per_step,
     motor_report,
-    with_drives,
+    plan_step_with_drives,
 )
 from problems.drives.requirements import DriveStep, Plan
 
@@ -54,8 +53,6 @@ def replan(trajectory, drives: Mapping[str, Drive], *, regeneration: bool = Fals
     "neck": Drive} in the loop, minimising the electrical energy (drawn only unless
     ``regeneration``); ``options`` override the step's (N, ...). Raises
     :class:`planner.AnthropoidError` when no plan is found or it fails its verification."""
-    from problems import walking_step
-
     trajectory = LinkageTrajectory.of(trajectory)
     settings = (trajectory.metadata or {}).get("gait") or {}
     if settings.get("problem") != "walking_step" or settings.get("double_support"):
@@ -68,12 +65,9 @@ def replan(trajectory, drives: Mapping[str, Drive], *, regeneration: bool = Fals
     if settings.get("rotors"):
         raise DefinitionError("`trajectory`: this plan was made with drives already")
     linkage = Linkage.from_parameters(trajectory.metadata["model"])
-    walker = drives_in_the_loop(linkage, drives)
-    step = walking_step(walker.linkage, float(settings["step_length"]),
-                        float(settings["step_time"]), rotors=walker.rotors,
-                        **{**_step_options(settings), **options})  # fmt: skip
-    step = with_drives(step, walker, regeneration=regeneration)
-    return step.solve(progress=False), walker
+    return plan_step_with_drives(linkage, drives, float(settings["step_length"]),
+                                 float(settings["step_time"]), regeneration=regeneration,
+                                 **{**_step_options(settings), **options})  # fmt: skip
 
 
 def compare(trajectory, walker: DrivenWalker, with_rotors: bool) -> dict[str, Any]:

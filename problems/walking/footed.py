@@ -68,7 +68,7 @@ from model.dynamics import Dynamics
 from model.linkage import Linkage
 from model.points import LinkPoint
 from model.presets import anthropoid_feet, anthropoid_with_feet
-from model.rotors import Rotor
+from model.rotors import Rotor, rotor_settings
 from planner.errors import DefinitionError, check_positive, check_real
 from planner.problem import OCP, Phases
 from planner.transcription import Transcription
@@ -346,7 +346,6 @@ class FootedStep:
         ``contacts``: every foot point as [link, along, lateral]."""
         upper = list(self.biped.upper_body)
         names = self.linkage.names
-        rotors = [r.to_dict() for r in self.dynamics.rotors]  # a plan with its drives' rotors
         return {
             "problem": "footed_step",
             "step_length": self.step_length,
@@ -379,7 +378,7 @@ class FootedStep:
             "law": self.law.to_dict(),
             "objective": "torque" if self.human is None else "human",
             "human_objective": None if self.human is None else self.human.as_dict(),
-            **({"rotors": rotors} if rotors else {}),
+            **rotor_settings(self.dynamics.rotors),  # a plan with its drives' rotors
         }
 
 

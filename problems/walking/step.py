@@ -60,7 +60,7 @@ import numpy as np
 from model.dynamics import Dynamics
 from model.linkage import Linkage
 from model.presets import six_link_anthropoid
-from model.rotors import Rotor, ground_moment_row
+from model.rotors import Rotor, ground_moment_row, rotor_settings
 from planner.errors import (
     DefinitionError,
     DefinitionTypeError,
@@ -338,7 +338,6 @@ class WalkingStep(WalkerFeet):
         clearance profile goes in as ``clearance_profile`` (:meth:`clearance_table`, sampled
         at ``times``, s, when given) with ``clearance`` None."""
         table = self.clearance_table(times)
-        rotors = [r.to_dict() for r in self.dynamics.rotors]  # a plan with its drives' rotors
         return {
             **({} if table is None else {"clearance_profile": table}),
             "problem": "walking_step",
@@ -362,7 +361,7 @@ class WalkingStep(WalkerFeet):
             "ground_points": list(self.ground_points),
             "ground_margin": self.ground_margin,
             "law": self.law.to_dict(),
-            **({"rotors": rotors} if rotors else {}),
+            **rotor_settings(self.dynamics.rotors),  # a plan with its drives' rotors
         }
 
 
