@@ -254,3 +254,24 @@ def _chosen(folder):
     return {joint: Drive(motors[rows[key]["motor"]], gearboxes[rows[key]["gearbox"]])
             for joint, key in (("hip", "right_hip"), ("knee", "right_knee"),
                                ("ankle", "right_ankle"), ("neck", "neck"))}  # fmt: skip
+
+
+def test_bad_plans_for_the_drives_are_refused_by_name(walker, drive_plan, tmp_path):
+    """with_drives' objective; a re-plan of a plan that is no point-foot walking step, or that
+    was made with its drives already."""
+    from problems import walking_step
+    from problems.drives.replan import replan
+
+    step = walking_step(walker.linkage, N=10, rotors=walker.rotors)
+    with pytest.raises(DefinitionError, match=r"`objective`: 'electrical' or 'kept', got 'work'"):
+        with_drives(step, walker, "work")
+    with pytest.raises(DefinitionError, match="this plan was made with drives already"):
+        replan(drive_plan.exported(), DRIVES)
+    pinned = drive_plan.exported().with_metadata(gait={"problem": "pinned_gait"})
+    with pytest.raises(DefinitionError, match="takes a point-foot walking step without a double"):
+        replan(pinned, DRIVES)
+    double = drive_plan.exported().with_metadata(
+        gait={**drive_plan.exported().metadata["gait"], "double_support": 0.1}
+    )
+    with pytest.raises(DefinitionError, match="with a double support"):
+        replan(double, DRIVES)
