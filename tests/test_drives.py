@@ -323,3 +323,33 @@ def test_bad_drive_inputs_are_refused_naming_the_field(point_foot_plan, tmp_path
                  0.5, 1.0)  # fmt: skip
     with pytest.raises(DefinitionError, match="a duty cycle is one walker's"):
         DriveRequirements.of([_sinusoid("sine", 0.5, 1.0, 1.0), other])
+
+
+def test_a_reflected_inertia_cap_is_a_limit_of_every_candidate_and_names_itself(tmp_path):
+    """The sinusoidal duty's choice, small + n100, reflects (J_m + J_g) N^2 = (100 + 10) g cm^2
+    x 100^2 = 0.11 kg m^2 at the joint (the layout's g cm^2 is 1e-7 kg m^2): under a cap of
+    0.2 it stays, with a margin of 1 - 0.11 / 0.2; under 0.1 no drive fits (large + n50
+    reflects 0.1275, small + n50 runs too hot) and the refusal names the inertia."""
+    from problems.drives.catalogue import read_gearboxes, read_motors
+    from problems.drives.selection import select
+
+    (tmp_path / "m.csv").write_text(MOTORS_CSV)
+    (tmp_path / "g.csv").write_text(GEARBOXES_CSV)
+    motors, gearboxes = read_motors(tmp_path / "m.csv"), read_gearboxes(tmp_path / "g.csv")
+    duty = DriveRequirements.of([_sinusoid("sine", 1.0, 30.0, 4.0)])
+    assert not any(c.limit == "reflected inertia" for c in select(duty, motors, gearboxes)
+                   .best("x").checks)  # fmt: skip
+    capped = select(duty, motors, gearboxes, reflected_inertia={"x": 0.2})
+    best = capped.best("x")
+    assert best.drive.name == "small + n100"
+    check = {c.limit: c for c in best.checks}["reflected inertia"]
+    assert check.need == pytest.approx(0.11, rel=1e-12)
+    assert check.margin == pytest.approx(1 - 0.11 / 0.2, rel=1e-12)
+    for candidate in capped.ranked["x"]:
+        assert {c.limit: c for c in candidate.checks}["reflected inertia"].need <= 0.2
+    refused = select(duty, motors, gearboxes, reflected_inertia={"x": 0.1}).refused["x"]
+    assert "small + n100, misses its reflected inertia: needs 0.11 kg m^2, has 0.1" in refused
+    with pytest.raises(DefinitionError, match=r"`reflected_inertia`: \['hip'\] name no drive"):
+        select(duty, motors, gearboxes, reflected_inertia={"hip": 0.1})
+    with pytest.raises(DefinitionError, match=r"`reflected_inertia\['x'\]`: a cap in kg m\^2"):
+        select(duty, motors, gearboxes, reflected_inertia={"x": -1.0})

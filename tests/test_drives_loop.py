@@ -268,10 +268,43 @@ def test_bad_plans_for_the_drives_are_refused_by_name(walker, drive_plan, tmp_pa
     with pytest.raises(DefinitionError, match="this plan was made with drives already"):
         replan(drive_plan.exported(), DRIVES)
     pinned = drive_plan.exported().with_metadata(gait={"problem": "pinned_gait"})
-    with pytest.raises(DefinitionError, match="takes a point-foot walking step without a double"):
+    with pytest.raises(DefinitionError, match="on point feet without a double support, or on feet"):
         replan(pinned, DRIVES)
     double = drive_plan.exported().with_metadata(
         gait={**drive_plan.exported().metadata["gait"], "double_support": 0.1}
     )
     with pytest.raises(DefinitionError, match="with a double support"):
         replan(double, DRIVES)
+
+
+@pytest.mark.slow
+def test_a_step_on_feet_is_replanned_with_its_drives_verified_within_every_limit():
+    """Issue #36 on feet: the step at 1.0 m/s planned for ideal torques within 10 rad/s at
+    every joint (the swing foot no longer whipped round) and re-planned carrying the drives
+    (the ankles' through 30:1: through 50:1 no footed step exists, the heel strike throwing
+    the stance ball off): verified at every sample, with its rotors, and every sample within
+    the drives' limits, which the ideal plan is not."""
+    from problems import footed_step_at
+    from problems.drives.replan import compare, replan
+
+    rpm = math.pi / 30.0
+    fast = Motor("48 V fast", 0.045, 0.125, 2e-5, 0.6, 2.0, 48.0, 9000 * rpm, 0.5)
+    slow = Motor("48 V", 0.07, 0.3, 2e-5, 0.6, 2.0, 48.0, 6000 * rpm, 0.5)
+
+    def gear(ratio):
+        return Gearbox(f"{ratio}:1", ratio, 0.8, 2e-6, 60.0, 160.0, 8000 * rpm, 0.4)
+
+    drives = {"hip": Drive(fast, gear(100.0)), "knee": Drive(fast, gear(80.0)),
+              "ankle": Drive(slow, gear(30.0)), "neck": Drive(slow, gear(50.0))}  # fmt: skip
+    ideal = footed_step_at(1.0, speed_limit=10.0).solve(progress=False)
+    assert ideal.verified
+    gait, walker = replan(ideal.exported(), drives, warm=ideal)
+    assert gait.verified
+    trajectory = gait.exported()
+    assert trajectory.metadata["gait"]["problem"] == "footed_step"
+    assert len(trajectory.metadata["gait"]["rotors"]) == len(walker.rotors) == 7
+    worst = compare(trajectory, walker, with_rotors=True)["worst"]
+    for limit, (margin, where) in worst.items():
+        assert margin > -1e-4, (limit, margin, where)
+    given = compare(ideal.exported(), walker, with_rotors=False)["worst"]
+    assert min(margin for margin, _ in given.values()) < 0.0  # the ideal plan asks too much

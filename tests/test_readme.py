@@ -30,6 +30,8 @@ def run_blocks(path: Path, tmp_path: Path, monkeypatch) -> list[tuple[Path, dict
     for number, block in enumerate(python_blocks(path)):
         folder = tmp_path / f"block{number + 1}"
         folder.mkdir()
+        # a guide is run from the repository's root: its example files are where it says
+        (folder / "examples").symlink_to(ROOT / "examples", target_is_directory=True)
         monkeypatch.chdir(folder)
         namespace: dict = {}
         where = f"{path.relative_to(ROOT)} python block {number + 1}"

@@ -270,19 +270,36 @@ def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
 
 def plan_step_with_drives(linkage: Linkage, drives: Mapping[str, Drive], step_length: float,
                           step_time: float, *, regeneration: bool = False, warm=None,
-                          **step_options):  # fmt: skip
-    """(gait, walker): the point-foot walking step of ``step_length`` m in ``step_time`` s
-    (:func:`problems.walking_step`, ``step_options``) planned for ``linkage`` carrying
-    ``drives`` in the loop (:func:`drives_in_the_loop`, :func:`with_drives`), minimising its
-    electrical energy (drawn only unless ``regeneration``), warm-started from the gait
-    ``warm`` when given (from the law when there is none or it fails). Raises
-    :class:`planner.AnthropoidError` when no plan is found or it fails its verification."""
-    from problems import walking_step
+                          drives_objective: str | None = None, **step_options):  # fmt: skip
+    """(gait, walker): the walking step of ``step_length`` m in ``step_time`` s planned for
+    ``linkage`` carrying ``drives`` in the loop (:func:`drives_in_the_loop`,
+    :func:`with_drives`): on point feet :func:`problems.walking_step`, on feet (legs of
+    foot, shank and thigh) :func:`problems.footed_step`, each with ``step_options``.
+    ``drives_objective``: "electrical" (the energy drawn, or net with ``regeneration``) or
+    "kept" (the step's own objective); None: electrical on point feet, kept on feet, where
+    the electrical objective has not converged (examples/drives.md). Warm-started from the
+    gait ``warm`` when given (on feet otherwise from the same step planned for ideal torques;
+    from the law when there is none or it fails). Raises :class:`planner.AnthropoidError`
+    when no plan is found or it fails its verification."""
+    from problems import footed_step, walking_step
+    from problems.gait.biped import Biped
 
-    walker = drives_in_the_loop(linkage, drives)
-    step = walking_step(walker.linkage, step_length, step_time, rotors=walker.rotors,
-                        **step_options)  # fmt: skip
-    step = with_drives(step, walker, regeneration=regeneration)
+    feet = len(Biped.of(linkage).stance_leg) == 3
+    objective = drives_objective
+    if objective is None:
+        objective = "kept" if feet else "electrical"
+    if feet:
+        ideal = footed_step(linkage, step_length, step_time, **step_options)
+        walker = drives_in_the_loop(linkage, drives, ideal.neutral_ankles)
+        if warm is None:  # the law alone is a poor start on feet: the ideal plan is a better
+            warm = ideal.solve(progress=False)
+        step = footed_step(walker.linkage, step_length, step_time, rotors=walker.rotors,
+                           **step_options)  # fmt: skip
+    else:
+        walker = drives_in_the_loop(linkage, drives)
+        step = walking_step(walker.linkage, step_length, step_time, rotors=walker.rotors,
+                            **step_options)  # fmt: skip
+    step = with_drives(step, walker, objective, regeneration=regeneration)
     if warm is not None:
         try:
             return step.solve(step.problem.guess(warm.solution), progress=False), walker

@@ -12,7 +12,13 @@ speed and acceleration at every sample), at the motor through the gearbox
   torque (the thermal limit: copper losses grow with tau_m^2);
 * ``speed``: max |N dq| against the lower of the motor's and the gearbox's input speed;
 * ``voltage``: max |R i + k_t N dq| against the supply: the torque-speed line a motor at its
-  supply voltage cannot pass.
+  supply voltage cannot pass;
+* ``reflected inertia`` (when the caller caps it): the rotor's and gearbox's inertia seen at
+  the joint, (J_m + J_g) N^2 kg m^2, against the cap. A plan made for ideal torques does not
+  feel it, but the walker carrying the drive does: through a high ratio a light foot's drive
+  can outweigh the foot, and at the heel strike the geared ankle then throws the stance ball
+  off the ground (no footed step exists with the six-link walker's ankles through 50:1 of the
+  example catalogue's motors: ``examples/benchmarks/drives_on_feet.py``).
 
 The candidates that meet every limit are ranked by mass (motor plus gearbox) or by the
 electrical energy per step over the duty (int u i dt per step, time-weighted by the plans'
@@ -23,8 +29,10 @@ closest candidate (the one whose worst margin is largest) misses and by how much
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from numbers import Real
 
 import numpy as np
 
@@ -73,8 +81,11 @@ class Candidate:
         return min(self.checks, key=lambda c: c.margin)
 
 
-def evaluate(drive: Drive, plans: Sequence[Plan], name: str, regenerate: bool = True) -> Candidate:
-    """``drive`` held against the duty of joint ``name`` over ``plans`` (see the module)."""
+def evaluate(drive: Drive, plans: Sequence[Plan], name: str, regenerate: bool = True,
+             inertia_cap: float | None = None) -> Candidate:  # fmt: skip
+    """``drive`` held against the duty of joint ``name`` over ``plans`` (see the module), and
+    its reflected inertia against ``inertia_cap`` kg m^2 when given (math.inf: reported,
+    never binding)."""
     peaks = {"output": 0.0, "motor": 0.0, "speed": 0.0, "voltage": 0.0}
     squares = {"output": 0.0, "motor": 0.0}
     energy = 0.0
@@ -107,6 +118,9 @@ def evaluate(drive: Drive, plans: Sequence[Plan], name: str, regenerate: bool = 
         Check("speed", peaks["speed"], min(m.max_speed, g.max_input_speed), "rad/s"),
         Check("voltage", peaks["voltage"], m.voltage, "V"),
     )
+    if inertia_cap is not None:
+        checks += (Check("reflected inertia", drive.inertia * g.ratio**2, inertia_cap,
+                         "kg m^2"),)  # fmt: skip
     return Candidate(drive, checks, energy)
 
 
@@ -172,12 +186,14 @@ def select(
     rank: str = "mass",
     regenerate: bool = True,
     drives: Sequence[str] | None = None,
+    reflected_inertia: Mapping[str, float] | None = None,
 ) -> Selection:
     """Every combination of ``motors`` and ``gearboxes`` held against each drive's duty in
     ``requirements`` (or the named ``drives``), the fitting ones ranked by ``rank`` ("mass" or
     "energy": the electrical energy per step, ``regenerate``: recovered braking energy counts);
-    see the module. Raises nothing for a drive that nothing fits: :attr:`Selection.refused`
-    says why (:func:`require` raises)."""
+    see the module. ``reflected_inertia`` caps (J_m + J_g) N^2, kg m^2, by drive
+    (``right_ankle``) or by joint (``ankle``: both legs'). Raises nothing for a drive that
+    nothing fits: :attr:`Selection.refused` says why (:func:`require` raises)."""
     if rank not in RANKS:
         raise DefinitionError(f"`rank`: one of {RANKS}, got {rank!r}")
     if not motors or not gearboxes:
@@ -187,6 +203,7 @@ def select(
     if unknown:
         raise DefinitionError(f"`drives`: {unknown} are not among {list(requirements.names)}")
     combinations = [Drive(m, g) for m in motors for g in gearboxes]
+    caps = _inertia_caps(reflected_inertia, names)
 
     def order(candidate: Candidate) -> tuple[float, float]:
         mass, energy = candidate.drive.mass, candidate.energy_per_step
@@ -194,11 +211,33 @@ def select(
 
     ranked, closest = {}, {}
     for name in names:
-        candidates = [evaluate(d, requirements.plans, name, regenerate) for d in combinations]
+        candidates = [evaluate(d, requirements.plans, name, regenerate, caps.get(name))
+                      for d in combinations]  # fmt: skip
         ranked[name] = tuple(sorted((c for c in candidates if c.fits), key=order))
         misses = [c for c in candidates if not c.fits]
         closest[name] = max(misses, key=lambda c: c.binding.margin) if misses else None
     return Selection(ranked, closest, rank)
+
+
+def _inertia_caps(caps: Mapping[str, float] | None, names: Sequence[str]) -> dict[str, float]:
+    """{drive: cap kg m^2} of every drive in ``names`` (math.inf where none is given) from
+    ``caps`` by drive or by joint; {} without caps."""
+    if not caps:
+        return {}
+    joints = {name.rpartition("_")[2] for name in names}
+    unknown = sorted(set(caps) - set(names) - joints)
+    if unknown:
+        raise DefinitionError(f"`reflected_inertia`: {unknown} name no drive; give drives "
+                              f"{list(names)} or joints {sorted(joints)}")  # fmt: skip
+    out = {}
+    for name in names:
+        value = caps.get(name, caps.get(name.rpartition("_")[2], math.inf))
+        if isinstance(value, bool) or not isinstance(value, Real) or not value > 0:
+            raise DefinitionError(
+                f"`reflected_inertia[{name!r}]`: a cap in kg m^2 > 0, got {value!r}"
+            )
+        out[name] = float(value)
+    return out
 
 
 def require(selection: Selection) -> Selection:

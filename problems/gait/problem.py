@@ -45,6 +45,7 @@ from planner.solver import solve
 from planner.trajectory import Trajectory
 from planner.transcription import Transcription
 from problems.gait.accuracy import refine_gait
+from problems.gait.biped import Biped
 from problems.gait.verification import (
     GaitReport,
     GaitVerificationError,
@@ -319,6 +320,36 @@ def bound_stance_hip(ocp: OCP, linkage: Linkage, stance_thigh: str, limit: float
         upper=limit,
         scale=limit,
     )
+
+
+def bound_joint_speeds(ocp: OCP, linkage: Linkage, biped: Biped, drives: Sequence[str],
+                       limit: float | None) -> OCP:  # fmt: skip
+    """``joint speeds`` rows: the rate of each physical joint whose hinge has a drive (the
+    links ``drives``, each turned against its parent, the ground for the root, and the swing
+    thigh against the trunk, as the robot's hip drive turns it: the model's angles are
+    absolute) within +-``limit`` rad/s at every node (None: no rows). A drive turns no faster
+    than its motor's speed over its ratio: a plan for ideal torque sources within it is one a
+    geared drive can follow, and a light swing foot is no longer whipped round for free (a
+    torque objective prices a fast, light link at almost nothing)."""
+    if limit is None:
+        return ocp
+    names = linkage.names
+    stance_thigh, swing_thigh = biped.stance_leg[-1], biped.swing_leg[0]
+    trunks = [names[c] for c in linkage.children[linkage.index(stance_thigh)]
+              if names[c] != swing_thigh]  # fmt: skip
+    pairs = []
+    for name in drives:
+        parent = linkage.parents[linkage.index(name)]
+        stator = None if parent < 0 else names[parent]
+        if name == swing_thigh and len(trunks) == 1:
+            stator = trunks[0]
+        pairs.append((name, stator))
+
+    def rates(p):
+        return ca.vertcat(*[p[f"dpsi_{name}"] - (0 if stator is None else p[f"dpsi_{stator}"])
+                            for name, stator in pairs])  # fmt: skip
+
+    return ocp.constrain("joint speeds", rates, lower=-limit, upper=limit, scale=limit)
 
 
 def keep_upright(ocp: OCP, upright: Sequence[str], posture: float) -> OCP:

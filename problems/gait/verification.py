@@ -534,6 +534,37 @@ def _verify_drives(add, linkage, settings, torques, passive_links, allowed: floa
         add("stance hip", float(settings["hip_limit"]) - np.abs(hip), "N m", scale)
 
 
+def _verify_joint_speeds(add, linkage: Linkage, settings, dpsi: np.ndarray) -> None:
+    """``joint speeds``: with a ``speed_limit`` (rad/s), each driven joint's rate within it:
+    a driven link turning on its parent (the ground for the root), a swing thigh on the
+    trunk (the robot's hip drive); the driven links are the settings' ``drives`` or every
+    link not ``passive``."""
+    limit = settings.get("speed_limit")
+    if limit is None:
+        return
+    names = list(linkage.names)
+    driven = settings.get("drives") or [n for n in names if n not in (settings.get("passive")
+                                                                       or ())]  # fmt: skip
+    legs = Biped.of(linkage)
+    at_hip = [
+        names[i]
+        for i, parent in enumerate(linkage.parents)
+        if parent == names.index(legs.stance_leg[-1]) and names[i] != legs.swing_leg[0]
+    ]
+    stators = {name: (names[linkage.parents[k]] if linkage.parents[k] >= 0 else None)
+               for k, name in enumerate(names)}  # fmt: skip
+    if len(at_hip) == 1:
+        stators[legs.swing_leg[0]] = at_hip[0]
+    rates = np.column_stack(
+        [
+            dpsi[:, names.index(name)]
+            - (0.0 if stators[name] is None else dpsi[:, names.index(stators[name])])
+            for name in driven
+        ]
+    )
+    add("joint speeds", float(limit) - np.abs(rates), "rad/s", float(limit))
+
+
 def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, facts) -> None:
     """What every gait must obey at every sample, whatever its OCP held: the duration, the
     kinematics, the equations of motion, passive joints, torque bounds, the ground, the
@@ -608,6 +639,7 @@ def _verify_physics(add, kin, settings, trajectory, contacts, weight, passive, f
     add("dynamics", -np.abs(gap), "N m", scale)
     passive_links = [linkage.index(name) for name in settings.get("passive") or ()]
     _verify_drives(add, linkage, settings, torques, passive_links, passive * scale, scale)
+    _verify_joint_speeds(add, linkage, settings, dpsi)
     # The ground: every point of the body that is not a contact stays above it.
     margin = float(settings.get("ground_margin") or 0.0)
     foot_link = settings.get("swing_foot")

@@ -76,6 +76,7 @@ from problems.gait.biped import Biped
 from problems.gait.law import GaitLaw
 from problems.gait.problem import (
     RATE_HZ,
+    bound_joint_speeds,
     bound_stance_hip,
     centre_of_pressure,
     joint_rates,
@@ -177,6 +178,7 @@ class FootedStep:
     human: HumanObjective | None = None
     hinge_limits: Mapping[str, float] | None = None
     hip_limit: float | None = None
+    speed_limit: float | None = None
 
     @property
     def limits(self) -> dict[str, float]:
@@ -360,6 +362,7 @@ class FootedStep:
             "leg_length": self.leg_length,
             "torque_limit": self.limits,
             "hip_limit": self.hip_limit,
+            "speed_limit": self.speed_limit,
             "drives": list(self.drives),
             "knee_range": list(self.knee_range),
             "ankle_range": list(self.ankle_range),
@@ -402,6 +405,7 @@ def footed_step(
     phases: str | tuple[str, ...] = "human",
     objective: str | HumanObjective = "torque",
     hip_limit: float | None = None,
+    speed_limit: float | None = None,
     rotors: Sequence[Rotor] = (),
 ) -> FootedStep:
     """A periodic walking step on feet (see the module docstring).
@@ -428,6 +432,8 @@ def footed_step(
         heel rise, double; "flat-footed": flat, double; "toe-walking": heel rise, double) or
         as that tuple of phase names.
     hip_limit : the physical stance hip's |torque| bound, N m, or None (as for
+        :func:`problems.walking_step`).
+    speed_limit : every drive's |joint speed| bound, rad/s, at every node, or None (as for
         :func:`problems.walking_step`).
     rotors : geared motors' rotors in the equations of motion (``model.Rotor``; as for
         :func:`problems.walking_step`), () for ideal torque sources.
@@ -502,6 +508,9 @@ def footed_step(
         torque_limit=torque_limit,
         hinge_limits=hinge_limits,
         hip_limit=None if hip_limit is None else check_positive("hip_limit", hip_limit, "N m"),
+        speed_limit=None
+        if speed_limit is None
+        else check_positive("speed_limit", speed_limit, "rad/s"),
         clearance=clearance,
         touchdown_speed=touchdown_speed,
         approach_time=approach_time,
@@ -679,6 +688,7 @@ def _base_ocp(step: FootedStep, phase: int, transcription: str, contacts=()):
     ).constrain("ankles", ankles, lower=step.ankle_range[0], upper=step.ankle_range[1])
     ocp = keep_upright(ocp, biped.upper_body, step.posture)
     ocp = bound_stance_hip(ocp, step.linkage, biped.stance_thigh, step.hip_limit)
+    ocp = bound_joint_speeds(ocp, step.linkage, biped, step.drives, step.speed_limit)
     limit = step.torque_limit
     drives = [step.linkage.index(name) for name in step.drives]
     time_unit = WalkerScales(step.leg_length, step.linkage.gravity).relative["time"]

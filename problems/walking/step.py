@@ -76,6 +76,7 @@ from problems.gait.law import GaitLaw
 from problems.gait.problem import (
     RATE_HZ,
     Gait,
+    bound_joint_speeds,
     bound_stance_hip,
     check_links,
     check_objective,
@@ -168,6 +169,7 @@ class WalkingStep(WalkerFeet):
     ground_margin: float = 0.0
     approach_time: float = 0.03
     hip_limit: float | None = None
+    speed_limit: float | None = None
 
     @property
     def linkage(self) -> Linkage:
@@ -198,6 +200,12 @@ class WalkingStep(WalkerFeet):
         """What :meth:`solve` solves: the single-support OCP, or the phases with a double
         support."""
         return self.ocp if self.phases is None else self.phases
+
+    @property
+    def driven(self) -> tuple[str, ...]:
+        """The links whose start hinge has a drive: all but the ``passive`` ones (the root's
+        is the stance ankle, against the ground)."""
+        return tuple(name for name in self.linkage.names if name not in self.passive)
 
     #: Point feet: every link drawn as a line from its start to its end.
     corners: ClassVar[Mapping[str, tuple]] = MappingProxyType({})
@@ -351,6 +359,7 @@ class WalkingStep(WalkerFeet):
             "posture": self.posture,
             "upright": list(self.upright),
             "hip_limit": self.hip_limit,
+            "speed_limit": self.speed_limit,
             "objective": self.objective,
             "swing_foot": self.biped.swing_shank,
             "double_support": self.double_support,
@@ -396,6 +405,7 @@ def walking_step(
     ground_points: Sequence[str] | None = None,
     ground_margin: float = 0.0,
     hip_limit: float | None = None,
+    speed_limit: float | None = None,
     rotors: Sequence[Rotor] = (),
 ) -> WalkingStep:
     """A periodic walking step of a biped (see the module docstring).
@@ -438,6 +448,9 @@ def walking_step(
     ground_margin : m (>= 0).
     hip_limit : the physical stance hip's |torque| bound, N m (the drive between the trunk and
         the stance thigh carries M_trunk + M_swing_thigh), or None (each hinge bounded alone).
+    speed_limit : every driven joint's |speed| bound, rad/s, at every node (the hips as the
+        robot's drives turn them: each thigh against the trunk; a driven stance ankle against
+        the ground), or None: a geared drive's speed (its motor's over its ratio).
     rotors : geared motors' rotors in the equations of motion (``model.Rotor``: their
         reflected inertia; :func:`problems.drives.drives_in_the_loop` mounts a walker's
         drives), () for ideal torque sources.
@@ -526,6 +539,9 @@ def walking_step(
         ground_margin=ground_margin,
         approach_time=approach_time,
         hip_limit=None if hip_limit is None else check_positive("hip_limit", hip_limit, "N m"),
+        speed_limit=None
+        if speed_limit is None
+        else check_positive("speed_limit", speed_limit, "rad/s"),
     )
     N, transcription, degree = mesh["N"], mesh["transcription"], mesh["degree"]
     step = replace(step, ocp=_walking_ocp(step, N, transcription, degree, formulation))
@@ -708,6 +724,7 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
         )
     ocp = keep_upright(ocp, step.upright, step.posture)
     ocp = bound_stance_hip(ocp, linkage, biped.stance_thigh, step.hip_limit)
+    ocp = bound_joint_speeds(ocp, linkage, biped, step.driven, step.speed_limit)
     return finish_gait_ocp(
         ocp, linkage, step.objective, step.torque_limit, step.law, step.time_unit
     )
@@ -776,6 +793,7 @@ def _double_support_ocp(step: WalkingStep, mesh: dict) -> OCP:
         )
     ocp = keep_upright(ocp, step.upright, step.posture)
     ocp = bound_stance_hip(ocp, linkage, biped.stance_thigh, step.hip_limit)
+    ocp = bound_joint_speeds(ocp, linkage, biped, step.driven, step.speed_limit)
     # The guess holds the pose the law lands in; the feet share the weight.
     strike = step.law(step.single_support_time)
     ocp = finish_gait_ocp(ocp, linkage, step.objective, step.torque_limit, step.law, step.time_unit)
