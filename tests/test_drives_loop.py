@@ -107,6 +107,26 @@ def test_every_exported_sample_is_within_the_drives_limits(drive_plan, walker):
     assert energy["drawn"] >= energy["counted"]
 
 
+def test_the_copper_objective_plans_the_coolest_motors_of_the_three(drive_plan, walker):
+    """With the copper losses as its objective the plan's exact copper energy (every 1 kHz
+    sample through the exact motor model) is below the torque objective's and the electrical
+    one's, and the objective is that energy: the regularisation (1e-3 J per unit of
+    sum (M / limit)^2 s) and the branches' tanh blend are all that tell them apart."""
+    from problems import walking_step
+
+    def copper_of(gait):
+        trajectory = gait.exported()
+        return energy_per_step(motor_report(trajectory, walker), trajectory.time)["copper"]
+
+    step = walking_step(walker.linkage, N=20, rotors=walker.rotors)
+    coolest = with_drives(step, walker, "copper").solve()
+    kept = with_drives(step, walker, "kept").solve()
+    assert coolest.verified and kept.verified
+    assert copper_of(coolest) < copper_of(kept)
+    assert copper_of(coolest) < copper_of(drive_plan)
+    assert coolest.cost == pytest.approx(copper_of(coolest), rel=0.02)
+
+
 def test_the_sole_holds_the_gear_output_not_the_rotors_torque(drive_plan, walker):
     """The stance ankle's motor rides on the shank and turns the foot held flat: the ground
     takes the gear's output, tau_out = tau - N J a_r (the motor report's, from the rotor's
@@ -263,7 +283,7 @@ def test_bad_plans_for_the_drives_are_refused_by_name(walker, drive_plan, tmp_pa
     from problems.drives.replan import replan
 
     step = walking_step(walker.linkage, N=10, rotors=walker.rotors)
-    with pytest.raises(DefinitionError, match=r"`objective`: 'electrical' or 'kept', got 'work'"):
+    with pytest.raises(DefinitionError, match=r"one of 'electrical', 'copper', 'kept', got 'work'"):
         with_drives(step, walker, "work")
     with pytest.raises(DefinitionError, match="this plan was made with drives already"):
         replan(drive_plan.exported(), DRIVES)

@@ -12,7 +12,11 @@ A plan for ideal torque sources asks any torque at any speed, for free. With the
   |R tau_m / k_t + k_t N dq| <= U, the gearbox's peak output torque and the speeds;
 * **objective** (``objective="electrical"``): the electrical energy of the step, the sum over
   the drives of u i = R i^2 + tau_m N dq (copper losses plus mechanical power at the motor),
-  regeneration counted (a negative u i pays back) or not (only u i > 0 costs).
+  regeneration counted (a negative u i pays back) or not (only u i > 0 costs); or
+  (``objective="copper"``) the copper losses alone, the sum of R i^2: the motors' heat, a
+  sum of squares like the torque objective's but of each motor's current, so that a joint
+  whose drive gears its torque down less (an ankle through 30:1 beside a hip through 100:1)
+  pays for it as its motor does.
 
 Where the motors sit (:data:`MOUNTS`): the hip's on the trunk, the knee's on the thigh, the
 ankle's on the shank, the neck's on the trunk; each turns the other link of its joint. The
@@ -230,15 +234,30 @@ def electrical_power(mounted: MountedDrive, p, regeneration: bool):
     return 0.5 * (power + ca.sqrt(power**2 + SMOOTHING_W**2))
 
 
+def copper_power(mounted: MountedDrive, p):
+    """The drive's copper losses R i^2, W, at a Point (the efficiency's branches blended as
+    in :func:`electrical_power`)."""
+    tau_out, dq, rotor_acceleration = mounted.joint_terms(p.M, p.dpsi, p.ddpsi)
+    factor = mounted.smooth_factor(tau_out, dq)
+    tau_m = mounted.drive.motor_torque(tau_out, rotor_acceleration, factor)
+    return mounted.drive.electrical(tau_m, dq)["copper"]
+
+
+#: the objectives :func:`with_drives` sets
+DRIVE_OBJECTIVES = ("electrical", "copper", "kept")
+
+
 def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
                 regeneration: bool = True):  # fmt: skip
     """A walking step (:func:`problems.walking_step` or :func:`problems.footed_step` of
     ``walker.linkage`` with ``rotors=walker.rotors``) held to its drives' limits at every node
     (of every phase on feet), its objective the step's electrical energy
-    (``objective="electrical"``; regenerated energy counted with ``regeneration``) or kept as
-    it is (``"kept"``)."""
-    if objective not in ("electrical", "kept"):
-        raise DefinitionError(f"`objective`: 'electrical' or 'kept', got {objective!r}")
+    (``objective="electrical"``; regenerated energy counted with ``regeneration``), its copper
+    losses (``"copper"``) or kept as it is (``"kept"``)."""
+    if objective not in DRIVE_OBJECTIVES:
+        raise DefinitionError(
+            f"`objective`: one of {', '.join(map(repr, DRIVE_OBJECTIVES))}, got {objective!r}"
+        )
     if tuple(step.dynamics.rotors) != walker.rotors:
         raise DefinitionError(
             "`step`: plan it with the walker's rotors: walking_step(walker.linkage, ..., "
@@ -259,6 +278,13 @@ def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
                 return total + REGULARISATION_J * ca.sumsqr(p.M / scale)
 
             ocp = ocp.minimize(integral=energy, name=DEFAULT_TERM)
+        elif objective == "copper":
+
+            def heat(p):
+                total = sum(copper_power(m, p) for m in walker.mounted)
+                return total + REGULARISATION_J * ca.sumsqr(p.M / scale)
+
+            ocp = ocp.minimize(integral=heat, name=DEFAULT_TERM)
         return ocp
 
     phases = getattr(step, "phases", None)
@@ -359,9 +385,11 @@ def energy_per_step(report, time) -> dict[str, float]:
 
 
 __all__ = [
+    "DRIVE_OBJECTIVES",
     "MOUNTS",
     "DrivenWalker",
     "MountedDrive",
+    "copper_power",
     "drives_in_the_loop",
     "electrical_power",
     "energy_per_step",
