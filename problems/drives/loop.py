@@ -301,12 +301,12 @@ def plan_step_with_drives(linkage: Linkage, drives: Mapping[str, Drive], step_le
     ``linkage`` carrying ``drives`` in the loop (:func:`drives_in_the_loop`,
     :func:`with_drives`): on point feet :func:`problems.walking_step`, on feet (legs of
     foot, shank and thigh) :func:`problems.footed_step`, each with ``step_options``.
-    ``drives_objective``: "electrical" (the energy drawn, or net with ``regeneration``) or
-    "kept" (the step's own objective); None: electrical on point feet, kept on feet, where
-    the electrical objective has not converged (examples/drives.md). Warm-started from the
-    gait ``warm`` when given (on feet otherwise from the same step planned for ideal torques;
-    from the law when there is none or it fails). Raises :class:`planner.AnthropoidError`
-    when no plan is found or it fails its verification."""
+    ``drives_objective``: "electrical" (the energy drawn, or net with ``regeneration``),
+    "copper" or "kept" (the step's own objective); None: electrical on point feet, kept on
+    feet, where the electrical objective has not converged (examples/drives.md).
+    Warm-started from the gait ``warm`` when given (on feet otherwise from the same step
+    planned for ideal torques; from the law when there is none or it fails). Raises
+    :class:`planner.AnthropoidError` when no plan is found or it fails its verification."""
     from problems import footed_step, walking_step
     from problems.gait.biped import Biped
 
