@@ -51,9 +51,11 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
         help="braking energy is dissipated, not recovered (--rank energy)",
     )
     parser.add_argument("--replan", action="store_true",
-                        help="with --motors and --gearboxes and one point-foot step: plan it "
-                        "again carrying the chosen drives (their masses, rotors and limits; the "
-                        "least electrical energy drawn, or net without --no-regeneration), "
+                        help="with --motors and --gearboxes and one walking step (point feet "
+                        "without a double support, or feet): plan it again carrying the chosen "
+                        "drives (their masses, rotors and limits; on point feet the least "
+                        "electrical energy drawn, or net without --no-regeneration; on feet "
+                        "the step's own objective), "
                         "write replanned.csv (verified; its sidecar names the drives) and "
                         "replanned.png (both plans over the drives' limits) and print both "
                         "plans through the drives: energy per step and each limit's worst "
@@ -170,9 +172,7 @@ def _replanned(plans, selection, args, out, report):
     if not args.replan:
         return None
     if selection is None or len(plans) != 1:
-        raise UsageError(
-            "--replan: give one PLAN (a point-foot step) with --motors and --gearboxes"
-        )
+        raise UsageError("--replan: give one PLAN (a walking step) with --motors and --gearboxes")
     from problems.drives.loop import MOUNTS
     from problems.drives.replan import compare, comparison_table, replan
 
