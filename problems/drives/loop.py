@@ -222,13 +222,19 @@ def limit_rows(mounted: MountedDrive):
     return rows, [-1.0] * 6, [1.0] * 6
 
 
-def electrical_power(mounted: MountedDrive, p, regeneration: bool):
-    """The drive's electrical power u i, W, at a Point (smooth branches; without
-    regeneration only its positive part, smoothed over :data:`SMOOTHING_W`)."""
+def _smooth_electrical(mounted: MountedDrive, p) -> dict:
+    """The drive's :meth:`Drive.electrical` at a Point, the efficiency's branches blended by
+    :meth:`MountedDrive.smooth_factor` (the objectives' smooth motor model)."""
     tau_out, dq, rotor_acceleration = mounted.joint_terms(p.M, p.dpsi, p.ddpsi)
     factor = mounted.smooth_factor(tau_out, dq)
     tau_m = mounted.drive.motor_torque(tau_out, rotor_acceleration, factor)
-    power = mounted.drive.electrical(tau_m, dq)["power"]
+    return mounted.drive.electrical(tau_m, dq)
+
+
+def electrical_power(mounted: MountedDrive, p, regeneration: bool):
+    """The drive's electrical power u i, W, at a Point (smooth branches; without
+    regeneration only its positive part, smoothed over :data:`SMOOTHING_W`)."""
+    power = _smooth_electrical(mounted, p)["power"]
     if regeneration:
         return power
     return 0.5 * (power + ca.sqrt(power**2 + SMOOTHING_W**2))
@@ -237,10 +243,7 @@ def electrical_power(mounted: MountedDrive, p, regeneration: bool):
 def copper_power(mounted: MountedDrive, p):
     """The drive's copper losses R i^2, W, at a Point (the efficiency's branches blended as
     in :func:`electrical_power`)."""
-    tau_out, dq, rotor_acceleration = mounted.joint_terms(p.M, p.dpsi, p.ddpsi)
-    factor = mounted.smooth_factor(tau_out, dq)
-    tau_m = mounted.drive.motor_torque(tau_out, rotor_acceleration, factor)
-    return mounted.drive.electrical(tau_m, dq)["copper"]
+    return _smooth_electrical(mounted, p)["copper"]
 
 
 #: the objectives :func:`with_drives` sets
