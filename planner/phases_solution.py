@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import copy
+import dataclasses
+import math
 from functools import cached_property
 
 import casadi as ca
@@ -49,6 +52,38 @@ class PhasesSolution:
     def names(self) -> tuple[str, ...]:
         return self.problem.names
 
+    def part(self, first: str, last: str) -> PhasesSolution:
+        """The consecutive phases ``first`` .. ``last`` as a solution of their own (one step
+        of several solved together): its phases the same :class:`Solution` objects, its
+        problem those phases with the joins and events between them (no periodicity), its
+        cost theirs, its parameters those they declare, its time axis from the first one's
+        start; status, statistics and the NLP's vectors the whole solve's."""
+        i, j = self.problem.index(first), self.problem.index(last)
+        if j < i:
+            raise DefinitionError(f"`last`: {last!r} comes before {first!r}; give them in order")
+        whole = self.problem
+        events = tuple(
+            dataclasses.replace(e, after_phase=e.after_phase - i)
+            for e in whole.events
+            if i <= e.after_phase < j
+        )
+        problem = dataclasses.replace(
+            whole,
+            phases=whole.phases[i : j + 1],
+            mappings=whole.mappings[i:j],
+            controls=whole.controls[i:j],
+            events=events,
+            periodicity=None,
+            warm=None,
+        )
+        part = copy.copy(self)
+        part.__dict__.pop("cost_terms", None)
+        part.problem = problem
+        part.phases = self.phases[i : j + 1]
+        part.cost = math.fsum(solution.cost for solution in part.phases)
+        part.params = {p.name: self.params[p.name] for p in problem.params}
+        return part
+
     def phase(self, name: str) -> Solution:
         return self.phases[self.problem.index(name)]
 
@@ -77,7 +112,9 @@ class PhasesSolution:
     @cached_property
     def cost_terms(self) -> dict[str, float]:
         """Each objective term's value, "<phase>: <term>" -> value (they add up to cost)."""
-        return self.transcription.cost_terms(self.w)
+        terms = self.transcription.cost_terms(self.w)
+        prefixes = tuple(f"{name}: " for name in self.names)  # a part's phases only (part())
+        return {key: value for key, value in terms.items() if key.startswith(prefixes)}
 
     @property
     def time(self) -> np.ndarray:

@@ -1037,7 +1037,8 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
     flat); the striking point held at rest and its force in the cone through the double
     support, the front foot's other point above the ground, the front foot flat and at rest
     at the end after a heel strike; ankles in their range; the legs swap at the end
-    (periodic angles and rates)."""
+    (periodic angles and rates; ``join angles`` and ``join rates`` against ``next_state``
+    in a sequence of steps)."""
     linkage = kin.linkage
     n = linkage.n
     mu = float(settings["mu"])
@@ -1059,8 +1060,12 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
     root, foot = stance[0], swing[-1]
     swap = swap_legs(linkage)
     swapped, swapped_rates = swap.map_state(psi[-1], dpsi[-1])
-    add("periodic angles", -np.abs(_wrap(psi[0] - swapped)), "rad", where="t = 0 vs swap(T)")
-    add("periodic rates", -np.abs(dpsi[0] - swapped_rates), "rad/s", where="t = 0 vs swap(T)")
+    # the next step starts from the swapped state at toe-off: this step's own first state
+    # when it repeats, the next step's in a sequence of steps (``next_state``)
+    psi_next, dpsi_next, join = _next_state(settings, psi, dpsi)
+    where = "t = 0 vs swap(T)" if join == "periodic" else "the next step's t = 0 vs swap(T)"
+    add(f"{join} angles", -np.abs(_wrap(psi_next - swapped)), "rad", where=where)
+    add(f"{join} rates", -np.abs(dpsi_next - swapped_rates), "rad/s", where=where)
     edge = 1e-9 * max(1.0, float(times[-1]))
     rear_flat = "heel rise" not in sequence
     if "flat" not in sequence:  # on the ball from the start

@@ -380,13 +380,14 @@ def _at_event(event: dict, name: str) -> np.ndarray | None:
     return None
 
 
-def _guessed(problem, piece, durations: np.ndarray):
+def _guessed(problem, piece, durations: np.ndarray, label: str = ""):
     """``problem`` (the step on feet's phases) guessed phase by phase: phase p from
-    ``piece(p)`` (a callable of its time t (K,) s giving (psi, dpsi, ddpsi, torques)), its
+    ``piece(p)`` (a callable of its time t (K,) s giving (psi, dpsi, ddpsi, torques), or a
+    solved phase, taken in normalised time), its
     duration ``durations[p]`` s and the duration parameters (each phase's but the last,
     :data:`problems.walking.footed.DURATION_PARAMETERS`) from theirs (clipped into their
-    bounds)."""
-    values = dict(zip((DURATION_PARAMETERS[name] for name in problem.names[:-1]),
+    bounds; their names end in ``label``, :attr:`problems.walking.footed.FootedStep.label`)."""
+    values = dict(zip((DURATION_PARAMETERS[name] + label for name in problem.names[:-1]),
                       durations[:-1], strict=True))  # fmt: skip
     phases = []
     for p, (name, ocp) in enumerate(problem.phases):

@@ -45,7 +45,10 @@ from planner.problem import Phases
 from planner.transcription import Transcription
 from problems.gait.problem import RATE_HZ, rate_scales, solve_and_hold, total_iterations
 from problems.gait.verification import GaitReport, verify_gait
-from problems.walking.footed import step_at_speed
+from problems.library.footed_transition import footed_transition_problem, step_parts
+from problems.library.ramp import end_speed, speed_ramp
+from problems.walking.footed import PINNED as FOOTED_PINNED
+from problems.walking.footed import FootedGait, FootedStep
 from problems.walking.step import PINNED, WalkingGait, WalkingStep, walking_step
 
 #: an end of a transition that is quiet standing, not a gait
@@ -66,10 +69,6 @@ SUPPORT = 0.1
 #: the rows a fixed start or end makes constants (the gait there satisfied them already)
 START_ROWS = ("lift off",)
 END_ROWS = ("landing", "heel strike", "impulse")
-
-
-def _speed(end) -> float:
-    return 0.0 if isinstance(end, str) else float(end.speed)
 
 
 def _checked_end(field: str, end):
@@ -112,7 +111,7 @@ class Transition:
     @property
     def speeds(self) -> tuple[float, float]:
         """(from, to), m/s (standing is 0)."""
-        return _speed(self.start), _speed(self.end)
+        return end_speed(self.start), end_speed(self.end)
 
     @property
     def duration(self) -> float:
@@ -120,32 +119,19 @@ class Transition:
 
     def peak_torques(self, rate_hz: float = RATE_HZ) -> dict[str, float]:
         """The largest |M| of each hinge over the transition's samples exported at ``rate_hz``
-        (what a file written at that rate holds), N m."""
-        names = self.gaits[0].problem.linkage.names
+        (what a file written at that rate holds), N m; on feet the drives' only (the root's
+        torque is the ground's on the stance foot)."""
+        problem = self.gaits[0].problem
+        names = problem.linkage.names
         peaks = np.max([np.max(np.abs(g.exported(rate_hz).torques), axis=0)
                         for g in self.gaits], 0)  # fmt: skip
-        return dict(zip(names, peaks.tolist(), strict=True))
+        drives = problem.drives if isinstance(problem, FootedStep) else names
+        return {name: float(peak) for name, peak in zip(names, peaks, strict=True)
+                if name in drives}  # fmt: skip
 
     @property
     def iterations(self) -> int:
         return total_iterations(self.solution)
-
-
-def _ramp(start, end, k: int) -> list[tuple[float, float, float]]:
-    """(speed m/s, step length m, step time s) of each of k steps from ``start`` to ``end``."""
-    v_a, v_b = _speed(start), _speed(end)
-    first = abs(v_b - v_a) / k
-    plan = []
-    for j in range(1, k + 1):
-        v = v_a + (v_b - v_a) * j / k
-        if j == k and not isinstance(end, str):
-            length, duration = end.problem.step_length, end.problem.step_time
-        elif v > 0:
-            length, duration = step_at_speed(v)
-        else:
-            length, duration = 0.0, step_at_speed(first)[1]
-        plan.append((v, length, duration))
-    return plan
 
 
 def _open(ocp, drop):
@@ -196,7 +182,7 @@ def transition_problem(
     linkage = guesses[0].problem.linkage  # the walker of the gaits it joins
     n = linkage.n
     phases, problems = None, []
-    ramp = _ramp(start, end, k)
+    ramp = speed_ramp(start, end, k)
     for j, (speed, length, duration) in enumerate(ramp):
         last = j == k - 1
         options = dict(step_options)
@@ -276,12 +262,15 @@ def plan_transition(
     **step_options,
 ) -> Transition:
     """The transition from ``start`` to ``end`` (each a solved periodic :class:`WalkingGait`
-    on point feet without a double support, or :data:`STANDING`) in ``steps`` steps, or in
+    on point feet without a double support, or :data:`STANDING`; or both solved periodic
+    steps on feet, :class:`problems.walking.footed.FootedGait` of one contact sequence: a
+    speed change on feet, :mod:`problems.library.footed_transition`) in ``steps`` steps, or in
     the fewest of 1..``max_steps`` that solve and verify (``steps=None``); ``step_options``
     as for :func:`problems.walking_step` (limits, mesh; the same for every step and best the
-    same as the gaits'); ``options``: IPOPT's (a search's tries are capped at
-    :data:`SEARCH_ITERATIONS` unless ``max_iter`` is given). Every step is verified at every
-    exported sample at ``rate_hz``, its impact against the next step's first state.
+    same as the gaits'; on feet none: the steps take the start gait's); ``options``: IPOPT's
+    (a search's tries are capped at :data:`SEARCH_ITERATIONS` unless ``max_iter`` is given).
+    Every step is verified at every exported sample at ``rate_hz``, its impact against the
+    next step's first state.
 
     Raises :class:`planner.AnthropoidError` naming each count tried and why it failed when
     none does."""
@@ -289,20 +278,35 @@ def plan_transition(
     if counts is None:
         counts = list(range(1, check_integer("max_steps", max_steps, 1) + 1))
     attempts = []
+    footed = isinstance(start, FootedGait) or isinstance(end, FootedGait)
+    if footed and step_options:
+        raise DefinitionError(
+            f"`step_options` ({', '.join(sorted(step_options))}): on feet every step of a "
+            "transition takes the options of the gait it starts from; plan the gaits with them"
+        )
     for k in counts:
-        phases, problems = transition_problem(start, end, k, **step_options)
+        if footed:
+            phases, problems = footed_transition_problem(start, end, k)
+        else:
+            phases, problems = transition_problem(start, end, k, **step_options)
         ipopt = dict(options or {})
         if steps is None:
             ipopt.setdefault("max_iter", SEARCH_ITERATIONS)
         solve_options = {"progress": False, "options": ipopt}
+        pinned = FOOTED_PINNED if footed else PINNED
         try:
-            solution = solve_and_hold(Transcription(phases), solve_options, True, rate_hz, PINNED)
+            solution = solve_and_hold(Transcription(phases), solve_options, True, rate_hz, pinned)
             if not solution.success:
                 raise AnthropoidError(f"IPOPT: {solution.status}")
-            gaits = tuple(
-                WalkingGait(problem, part, math.nan)
-                for problem, part in zip(problems, solution.phases, strict=True)
-            )
+            if footed:
+                parts = step_parts(solution, problems)
+                gaits = tuple(FootedGait(problem, part, math.nan)
+                              for problem, part in zip(problems, parts, strict=True))  # fmt: skip
+            else:
+                gaits = tuple(
+                    WalkingGait(problem, part, math.nan)
+                    for problem, part in zip(problems, solution.phases, strict=True)
+                )
             reports = _verify_steps(gaits, start, end, rate_hz)
         except AnthropoidError as error:  # a failed solve, hold or verification
             attempts.append((k, str(error).splitlines()[0][:300]))
@@ -314,7 +318,7 @@ def plan_transition(
             progress(f"{k} step(s): solved and verified, {total_iterations(solution)} "
                      "iterations")  # fmt: skip
         return Transition(start, end, gaits, solution, reports, tuple(attempts))
-    v_a, v_b = _speed(start), _speed(end)
+    v_a, v_b = end_speed(start), end_speed(end)
     tried = "; ".join(f"{k} step(s): {why}" for k, why in attempts)
     raise AnthropoidError(
         f"no transition from {v_a:g} to {v_b:g} m/s within the limits in {counts[0]}.."

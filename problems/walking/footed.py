@@ -179,6 +179,9 @@ class FootedStep:
     hinge_limits: Mapping[str, float] | None = None
     hip_limit: float | None = None
     speed_limit: float | None = None
+    #: appended to the duration parameters' names (``T_flat`` + label): the steps of a
+    #: transition, solved together, each have their own (static parameters are shared by name)
+    label: str = ""
 
     @property
     def limits(self) -> dict[str, float]:
@@ -525,6 +528,21 @@ def footed_step(
     return replace(step, phases=_phases(step, transcription))
 
 
+def resized(step: FootedStep, step_length: float, step_time: float, label: str = "") -> FootedStep:
+    """``step`` (its walker, feet, limits, objective, mesh and every other option) for a step of
+    ``step_length`` m in ``step_time`` s, its phase durations free, its duration parameters'
+    names ending in ``label`` (:attr:`FootedStep.label`): one step of a transition."""
+    step_length = check_positive("step_length", step_length, "m")
+    step_time = check_positive("step_time", step_time, "s")
+    if label and not ("T" + label).isidentifier():
+        raise DefinitionError(f"`label`: a suffix of parameter names (letters, digits, _), "
+                              f"got {label!r}")  # fmt: skip
+    transcription = step.phases.phases[0][1].transcription
+    other = replace(step, step_length=step_length, step_time=step_time, durations=None,
+                    label=label, phases=None)  # fmt: skip
+    return replace(other, phases=_phases(other, transcription))
+
+
 #: Default intervals per phase of each sequence.
 MESHES = {
     PHASES: (20, 10, 30),
@@ -643,7 +661,7 @@ def _duration_bounds(step: FootedStep) -> list[tuple[float, float]]:
 def _parameters(step: FootedStep) -> list[str]:
     """The static parameters of the durations of every phase but the last (the double
     support takes the rest of the step time)."""
-    return [DURATION_PARAMETERS[name] for name in step.sequence[:-1]]
+    return [DURATION_PARAMETERS[name] + step.label for name in step.sequence[:-1]]
 
 
 def _base_ocp(step: FootedStep, phase: int, transcription: str, contacts=()):

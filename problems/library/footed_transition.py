@@ -1,0 +1,113 @@
+"""Speed changes on feet: from one periodic step on feet to another in k steps solved
+together (:func:`footed_transition_problem`, planned and verified by
+:func:`problems.library.transition.plan_transition`).
+
+Step j of k is the gaits' own step on feet (:func:`problems.walking.footed.resized`: the
+walker, its feet, the contact sequence, limits, objective, rotors and mesh of the gait it
+starts from) at the ramp's speed v_j = v_a + (v_b - v_a) j / k, its phase durations free with
+their own parameters (``T_flat_j``, ``T_heel_j``: static parameters are shared by name). Its
+phases keep every row of the periodic step (the flat foot's centre of pressure, the heel
+rise, the strike's impulses in their cones, the double support's held heel and unloading
+rear foot, clearance, ranges, drives); only the periodicity goes:
+
+* within a step the phases join as in the periodic step (the heel rises with the torques
+  continuous; the strike's impact map into the double support);
+* step j's toe-off joins step j + 1's first phase through the leg swap, x_{j+1}(0) =
+  swap(x_j(T_j)), the join a periodic step makes with itself;
+* the first step starts at gait a's x(0) (its state after a's own toe-off: the swap of a's
+  last state), so a step of a ends and the transition begins there; the flat foot's
+  ``foot flat`` row at that start is left out (a's state satisfies it and the fixed state
+  would make it a dependent row);
+* the last step ends at gait b's last state, before b's toe-off, so the next step of b starts
+  at b's x(0) exactly.
+
+Not on feet yet: starting from or stopping at quiet standing (both feet flat at rest is a
+double support of its own, not a phase this step has).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from planner.errors import DefinitionError, check_integer
+from planner.problem import Phases
+from problems.library.library import _guessed
+from problems.library.ramp import speed_ramp
+from problems.walking.footed import FootedGait, FootedStep, resized
+
+#: the first phase's rows a fixed start makes dependent (the gait there satisfied them)
+START_ROWS = ("foot flat",)
+
+
+def _checked_gait(field: str, gait) -> FootedGait:
+    if not isinstance(gait, FootedGait) or not isinstance(gait.problem, FootedStep):
+        raise DefinitionError(
+            f"`{field}`: a solved periodic step on feet (FootedGait of problems.footed_step), "
+            f"got {type(gait).__name__}; quiet standing on feet is not planned yet"
+        )
+    return gait
+
+
+def _step_guess(step: FootedStep, nearest: FootedGait) -> Phases:
+    """``step``'s phases guessed from the gait ``nearest`` phase by phase (its motion in each
+    phase's normalised time, its phase durations scaled to the step's time)."""
+    durations = np.array(nearest.durations()) * step.step_time / nearest.duration
+    segments = nearest.segments()
+    return _guessed(step.phases, lambda p: segments[p][0], durations, label=step.label)
+
+
+def footed_transition_problem(start, end, steps: int) -> tuple[Phases, tuple[FootedStep, ...]]:
+    """(Phases, the k FootedSteps) of a speed change on feet from the gait ``start`` to the
+    gait ``end`` in ``steps`` steps (see the module); each step's phases are named
+    ``"step <j> <phase>"``."""
+    start, end = _checked_gait("start", start), _checked_gait("end", end)
+    if start.problem.sequence != end.problem.sequence:
+        raise DefinitionError(
+            f"`end`: its contact phases {end.problem.sequence} are not the start's "
+            f"{start.problem.sequence}; a transition joins steps of one sequence"
+        )
+    if start.problem.linkage.names != end.problem.linkage.names:
+        raise DefinitionError("`end`: another walker than the start's; join gaits of one walker")
+    k = check_integer("steps", steps, 1)
+    n = start.problem.linkage.n
+    first_state = start.segments()[0][0].states[0]
+    last_state = end.segments()[-1][0].states[-1]
+    entries, mappings, controls, problems = [], [], [], []
+    ramp = speed_ramp(start, end, k)
+    for j, (speed, length, duration) in enumerate(ramp):
+        step = resized(start.problem, length, duration, label=f"_{j + 1}")
+        nearest = min((start, end), key=lambda g: abs(g.speed - speed))
+        phases = _step_guess(step, nearest)
+        last = len(phases.phases) - 1
+        for p, (name, ocp) in enumerate(phases.phases):
+            if j == 0 and p == 0:
+                rows = tuple(c for c in ocp.constraints if c.name not in START_ROWS)
+                ocp = replace(ocp, constraints=rows).initial(
+                    psi=first_state[:n].tolist(), dpsi=first_state[n:].tolist()
+                )
+            if j == k - 1 and p == last:
+                ocp = ocp.final(psi=last_state[:n].tolist(), dpsi=last_state[n:].tolist())
+            entries.append((f"step {j + 1} {name}", ocp))
+        mappings += list(phases.mappings)
+        controls += list(phases.controls)
+        if j < k - 1:  # toe-off: the legs swap into the next step
+            mappings.append(step.biped.swap.state_function())
+            controls.append("jump")
+        problems.append(step)
+    problem = Phases(tuple(entries), mappings=tuple(mappings), controls=tuple(controls))
+    return problem, tuple(problems)
+
+
+def step_parts(solution, problems: tuple[FootedStep, ...]) -> list:
+    """Each step's phases of a solved transition as a solution of its own
+    (``PhasesSolution.part``)."""
+    parts = []
+    for j, step in enumerate(problems):
+        names = [f"step {j + 1} {name}" for name in step.sequence]
+        parts.append(solution.part(names[0], names[-1]))
+    return parts
+
+
+__all__ = ["footed_transition_problem", "step_parts"]

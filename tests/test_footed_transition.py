@@ -1,0 +1,144 @@
+"""Speed changes on feet (problems.library.footed_transition) and what they rest on: one
+step of several solved together as a solution of its own (PhasesSolution.part), a step on
+feet resized with its own duration parameters (footed.resized), and the verification of a
+step on feet against the next step's first state (``join angles``, ``join rates``).
+
+Oracles: the whole solution's own samples (a part is the same phases read on another
+time axis), the leg swap written out by hand (each boundary of a solved transition, from the
+exported samples), and a next state moved by a known angle (the join check fails by it)."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from model.rerooting import swap_legs
+from planner.errors import DefinitionError
+from problems.gait.verification import verify_gait
+from problems.library.footed_transition import footed_transition_problem
+from problems.library.transition import plan_transition
+from problems.walking.footed import FootedGait, footed_step_at, resized
+
+
+def test_a_part_of_a_solution_is_its_phases_on_their_own_time_axis(footed_gait):
+    whole = footed_gait.solution
+    part = whole.part("heel rise", "double")
+    assert part.names == ("heel rise", "double")
+    assert part.starts[0] == 0.0
+    assert part.T == pytest.approx(whole.T - whole.phases[0].T, rel=1e-14)
+    offset = whole.starts[1]
+    mine = part.to_trajectory()
+    theirs = whole.to_trajectory()
+    later = theirs.time >= offset - 1e-12
+    np.testing.assert_allclose(mine.time + offset, theirs.time[later], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(mine.states, theirs.states[later])
+    assert part.cost == pytest.approx(whole.phases[1].cost + whole.phases[2].cost, rel=1e-14)
+    assert set(part.cost_terms) and all(
+        key.startswith(("heel rise: ", "double: ")) for key in part.cost_terms
+    )
+    assert part.problem.periodicity is None
+    assert set(part.params) <= set(whole.params)
+    with pytest.raises(DefinitionError, match="comes before"):
+        whole.part("double", "flat")
+
+
+def test_a_resized_step_keeps_its_options_and_names_its_durations(footed_gait):
+    step = footed_gait.problem
+    other = resized(step, 0.6, 0.45, label="_3")
+    assert (other.step_length, other.step_time, other.durations) == (0.6, 0.45, None)
+    assert [p.name for p in other.phases.params] == ["T_flat_3", "T_heel_3"]
+    assert other.limits == step.limits and other.mesh == step.mesh
+    assert other.sequence == step.sequence and other.ankle_range == step.ankle_range
+    # the guess is the law at the new length and time, not the old one
+    assert other.law.period != step.law.period
+    with pytest.raises(DefinitionError, match="label"):
+        resized(step, 0.6, 0.45, label="-3")
+    with pytest.raises(DefinitionError, match="step_time"):
+        resized(step, 0.6, -1.0)
+
+
+def test_a_step_on_feet_is_verified_against_the_next_steps_first_state(footed_gait):
+    trajectory = footed_gait.exported()
+    linkage = footed_gait.problem.linkage
+    own = np.r_[trajectory.psi[0], trajectory.dpsi[0]]
+    report = verify_gait(trajectory, linkage, settings={"next_state": own.tolist()})
+    assert report.ok, str(report)
+    names = {check.name for check in report.checks}
+    assert {"join angles", "join rates"} <= names and "periodic angles" not in names
+    moved = own.copy()
+    moved[3] += 1e-3  # one angle of the next step's start, 1 mrad off
+    report = verify_gait(trajectory, linkage, settings={"next_state": moved.tolist()})
+    failed = [check.name for check in report.checks if not check.passed]
+    assert failed == ["join angles"], str(report)
+    (margin,) = [check.margin for check in report.checks if check.name == "join angles"]
+    assert margin == pytest.approx(-1e-3, abs=1e-9)
+
+
+def test_a_transition_on_feet_is_its_steps_joined_by_the_leg_swap(footed_gait):
+    problem, steps = footed_transition_problem(footed_gait, footed_gait, 2)
+    assert problem.names == tuple(f"step {j} {name}" for j in (1, 2)
+                                  for name in ("flat", "heel rise", "double"))  # fmt: skip
+    assert problem.periodicity is None
+    assert [p.name for p in problem.params] == ["T_flat_1", "T_heel_1", "T_flat_2", "T_heel_2"]
+    # within a step the periodic step's joins; between the steps the leg swap
+    own = footed_gait.problem.phases
+    assert problem.mappings[0] is None and problem.controls[0] == "continuous"
+    assert problem.mappings[1] is not None and problem.mappings[2] is not None
+    assert problem.mappings[3] is None and problem.controls[3] == "continuous"
+    x = np.random.default_rng(3).normal(size=2 * footed_gait.problem.linkage.n)
+    strike = np.asarray(own.mappings[1](x)).ravel()
+    for k in (1, 4):  # each step's heel strike: the periodic step's impact map
+        np.testing.assert_array_equal(np.asarray(problem.mappings[k](x)).ravel(), strike)
+    swap = swap_legs(footed_gait.problem.linkage)
+    mapped = np.asarray(problem.mappings[2](x)).ravel()
+    psi, dpsi = swap.map_state(x[: x.size // 2], x[x.size // 2 :])
+    np.testing.assert_allclose(mapped, np.r_[psi, dpsi], rtol=0, atol=1e-15)
+    # the first phase starts at the gait's first state, the last ends at its last
+    first = [c.name for c in problem.phases[0][1].constraints]
+    last = [c.name for c in problem.phases[-1][1].constraints]
+    assert "foot flat" not in first and "initial psi" in first and "initial dpsi" in first
+    assert "final psi" in last and "final dpsi" in last
+    assert all("foot flat" in [c.name for c in ocp.constraints] for _, ocp in problem.phases[3:4])
+    assert [s.label for s in steps] == ["_1", "_2"]
+
+
+def test_a_transition_on_feet_refuses_what_it_cannot_join(footed_gait):
+    from problems import walking_step
+
+    point_foot = walking_step().solve()
+    with pytest.raises(DefinitionError, match="step on feet"):
+        footed_transition_problem(footed_gait, point_foot, 1)
+    with pytest.raises(DefinitionError, match="standing on feet"):
+        footed_transition_problem("standing", footed_gait, 1)
+    with pytest.raises(DefinitionError, match="step_options"):
+        plan_transition(footed_gait, footed_gait, steps=1, torque_limit=100.0)
+
+
+@pytest.mark.slow
+def test_a_speed_change_on_feet_is_verified_and_joins_at_every_boundary():
+    """1.0 -> 1.2 m/s on feet: the fewest steps that solve; every step verified at every
+    exported sample; at each boundary the leg swap of a step's last sample is the next
+    step's first, the first is gait a's first and the last gait b's last (from the files'
+    samples, to round-off)."""
+    a = footed_step_at(1.0).solve()
+    following = footed_step_at(1.2)
+    b = following.solve(following.phases.guess(a.solution))
+    transition = plan_transition(a, b)
+    assert all(isinstance(g, FootedGait) for g in transition.gaits)
+    assert all(report.ok for report in transition.reports)
+    swap = swap_legs(a.problem.linkage)
+    samples = [g.exported() for g in transition.gaits]
+    first, last = a.exported(), b.exported()
+    np.testing.assert_allclose(samples[0].psi[0], first.psi[0], atol=1e-9)
+    np.testing.assert_allclose(samples[-1].psi[-1], last.psi[-1], atol=1e-9)
+    np.testing.assert_allclose(samples[-1].dpsi[-1], last.dpsi[-1], atol=1e-9)
+    for before, after in itertools.pairwise(samples):
+        psi, dpsi = swap.map_state(before.psi[-1], before.dpsi[-1])
+        np.testing.assert_allclose(after.psi[0], psi, atol=1e-9)
+        np.testing.assert_allclose(after.dpsi[0], dpsi, atol=1e-9)
+    # the steps' speeds ramp from a's to b's
+    speeds = [g.speed for g in transition.gaits]
+    assert speeds[-1] == pytest.approx(b.speed) and all(np.diff([a.speed, *speeds]) > 0)
+    assert set(transition.peak_torques()) == set(a.problem.drives)
