@@ -15,7 +15,11 @@ from model.points import LinkPoint
 from planner.errors import DefinitionError, DefinitionTypeError
 from problems import footed_step, walking_step
 from problems.walking.feet_control import FeetLaw, hinge_gains, hinge_inertias
-from problems.walking.mujoco_feet import feet_walker_mjcf, run_feet_in_mujoco
+from problems.walking.mujoco_feet import (
+    feet_walker_mjcf,
+    run_feet_in_mujoco,
+    run_feet_steps_in_mujoco,
+)
 from problems.walking.simulation import Disturbances
 
 mujoco = pytest.importorskip("mujoco")
@@ -162,3 +166,24 @@ def test_mujoco_on_feet_refuses_a_point_foot_step():
     mjcf = feet_walker_mjcf(step)
     assert [c.name for c in mjcf.contacts] == list(step.points)
     assert mjcf.actuated == tuple(step.drives)
+
+
+def test_steps_walked_one_law_each_hand_over_at_the_leg_swap(gait):
+    """The same step three times, each with its own law (distinct objects of the same
+    gains), walks exactly as the periodic walk of three steps: the handover at each leg swap
+    starts the next law from its plan's start and changes nothing else."""
+    periodic = run_feet_in_mujoco(gait, steps=3)
+    laws = [FeetLaw(gait) for _ in range(3)]
+    stepped = run_feet_steps_in_mujoco([gait] * 3, laws=laws)
+    assert (stepped.walked, stepped.fell) == (3, None)
+    np.testing.assert_array_equal(stepped.qpos, periodic.qpos)
+    assert [s.length for s in stepped.steps] == [s.length for s in periodic.steps]
+
+
+def test_steps_in_mujoco_refuse_what_they_cannot_walk(gait):
+    with pytest.raises(DefinitionTypeError, match="solved steps on feet"):
+        run_feet_steps_in_mujoco([])
+    with pytest.raises(DefinitionTypeError, match="solved steps on feet"):
+        run_feet_steps_in_mujoco([gait, "step"])
+    with pytest.raises(DefinitionError, match="one per step, 2, got 1"):
+        run_feet_steps_in_mujoco([gait, gait], laws=[FeetLaw(gait)])

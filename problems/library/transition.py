@@ -28,6 +28,10 @@ Step j of k (1..k) walks at v_j = v_a + (v_b - v_a) j / k with the step length a
 the time of the ramp's first speed). ``steps=None`` finds k: 1, 2, ... ``max_steps``, the
 first whose problem solves within the limits and whose every step passes its verification
 (a faster change needs larger torques; the limits decide how many steps it takes).
+
+On feet (both ends periodic steps on feet, :class:`problems.walking.footed.FootedGait`), the
+steps are the gaits' own contact phases with the same ends and the same search:
+:mod:`problems.library.footed_transition`.
 """
 
 from __future__ import annotations

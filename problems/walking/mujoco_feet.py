@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from model.mjcf import MjcfModel, to_mjcf
-from planner.errors import DefinitionTypeError, check_integer, check_positive
+from planner.errors import DefinitionError, DefinitionTypeError, check_integer, check_positive
 from problems.walking.feedback import PUSH_STEPS
 from problems.walking.feet_control import CONTROL_RATE_HZ, FeetLaw
 from problems.walking.mujoco import (
@@ -88,12 +88,58 @@ def run_feet_in_mujoco(
     model, data = disturbed_model(mujoco, mjcf, disturbances, step.step_length,
                                   contact_time_constant)  # fmt: skip
     with instability_reports(mujoco) as unstable:
-        return _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preload,
+        return _walk(mujoco, model, data, mjcf, (law,), steps, disturbances, open_loop, preload,
                      unstable)  # fmt: skip
 
 
-def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preload, unstable):
-    """The control loop of :func:`run_feet_in_mujoco`."""
+def run_feet_steps_in_mujoco(
+    gaits,
+    *,
+    disturbances: Disturbances | None = None,
+    contact_time_constant: float = CONTACT_TIME_CONSTANT,
+    preload: float = PRELOAD,
+    laws=None,
+) -> MujocoRun:
+    """Walk the steps on feet ``gaits`` (:class:`problems.walking.footed.FootedGait`, one per
+    step, in order: e.g. the steps of a walk through speeds, each periodic step repeated and
+    the transitions' steps between them) once each in MuJoCo from the first one's start,
+    step j under ``laws[j]`` (default ``FeetLaw(gaits[j])``, made once per distinct gait):
+    the law follows step j's own plan and hands over to step j + 1's at the leg swap.
+    Disturbances, returns and fall criteria as for :func:`run_feet_in_mujoco` (a push's
+    step index counts the walk's steps)."""
+    from problems.walking.footed import FootedGait
+
+    gaits = tuple(gaits)
+    if not gaits or not all(isinstance(gait, FootedGait) for gait in gaits):
+        raise DefinitionTypeError(
+            "`gaits`: solved steps on feet (FootedGait), at least one, got "
+            f"{[type(gait).__name__ for gait in gaits]}"
+        )
+    names = gaits[0].problem.linkage.names
+    if any(gait.problem.linkage.names != names for gait in gaits):
+        raise DefinitionError("`gaits`: steps of one walker (the same links)")
+    if laws is None:
+        made: dict[int, FeetLaw] = {}
+        laws = tuple(made.setdefault(id(gait), FeetLaw(gait)) for gait in gaits)
+    laws = tuple(laws)
+    if len(laws) != len(gaits):
+        raise DefinitionError(f"`laws`: one per step, {len(gaits)}, got {len(laws)}")
+    mujoco = import_mujoco()
+    check_positive("contact_time_constant", contact_time_constant, "s")
+    check_positive("preload", preload, "m")
+    disturbances = disturbances or Disturbances()
+    step = gaits[0].problem
+    mjcf = feet_walker_mjcf(step)
+    model, data = disturbed_model(mujoco, mjcf, disturbances, step.step_length,
+                                  contact_time_constant)  # fmt: skip
+    with instability_reports(mujoco) as unstable:
+        return _walk(mujoco, model, data, mjcf, laws, len(gaits), disturbances, False, preload,
+                     unstable)  # fmt: skip
+
+
+def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, preload, unstable):
+    """The control loop of :func:`run_feet_in_mujoco`: step j under ``laws[j % len(laws)]``."""
+    law = laws[0]
     step = law.step
     linkage = step.linkage
     n = linkage.n
@@ -191,6 +237,8 @@ def _walk(mujoco, model, data, mjcf, law, steps, disturbances, open_loop, preloa
             records.append(MujocoStep(len(records), t_step, landing - stance_ball, slip,
                                       peak_normal, tracking, peak_torque, saturated))  # fmt: skip
             label, branch = ("B" if label == "A" else "A"), 0
+            law = laws[len(records) % len(laws)]  # the next step's plan from its start
+            step, single = law.step, law.references[0]
             stance_ball = ball(label, 0)
             t_step = 0.0
             peak_normal = tracking = peak_torque = slip = 0.0
@@ -237,4 +285,5 @@ __all__ = [
     "feet_mujoco_check",
     "feet_walker_mjcf",
     "run_feet_in_mujoco",
+    "run_feet_steps_in_mujoco",
 ]
