@@ -254,6 +254,33 @@ def _verify_steps(gaits, start, end, rate_hz: float) -> tuple[GaitReport, ...]:
     return tuple(reports)
 
 
+def _problem(start, end, k: int, step_options: dict):
+    """(Phases, the steps' problems, on feet or not) of the transition in ``k`` steps; bad
+    input raises here, before any solve."""
+    footed = isinstance(start, FootedGait) or isinstance(end, FootedGait)
+    if footed:
+        return (*footed_transition_problem(start, end, k), True)
+    return (*transition_problem(start, end, k, **step_options), False)
+
+
+def _solved(phases, problems, footed: bool, ipopt: dict, rate_hz: float):
+    """(the solution, one gait per step) of a transition's problem, its limits held at
+    ``rate_hz``; raises :class:`planner.AnthropoidError` when IPOPT or a hold round fails."""
+    solve_options = {"progress": False, "options": ipopt}
+    pinned = FOOTED_PINNED if footed else PINNED
+    solution = solve_and_hold(Transcription(phases), solve_options, True, rate_hz, pinned)
+    if not solution.success:
+        raise AnthropoidError(f"IPOPT: {solution.status}")
+    if footed:  # each step's three phases a solution of their own
+        parts = step_parts(solution, problems)
+        gaits = tuple(FootedGait(problem, part, math.nan)
+                      for problem, part in zip(problems, parts, strict=True))  # fmt: skip
+    else:
+        gaits = tuple(WalkingGait(problem, part, math.nan)
+                      for problem, part in zip(problems, solution.phases, strict=True))  # fmt: skip
+    return solution, gaits
+
+
 def plan_transition(
     start,
     end,
@@ -289,28 +316,12 @@ def plan_transition(
             "transition takes the options of the gait it starts from; plan the gaits with them"
         )
     for k in counts:
-        if footed:
-            phases, problems = footed_transition_problem(start, end, k)
-        else:
-            phases, problems = transition_problem(start, end, k, **step_options)
         ipopt = dict(options or {})
         if steps is None:
             ipopt.setdefault("max_iter", SEARCH_ITERATIONS)
-        solve_options = {"progress": False, "options": ipopt}
-        pinned = FOOTED_PINNED if footed else PINNED
+        phases, problems, footed = _problem(start, end, k, step_options)
         try:
-            solution = solve_and_hold(Transcription(phases), solve_options, True, rate_hz, pinned)
-            if not solution.success:
-                raise AnthropoidError(f"IPOPT: {solution.status}")
-            if footed:
-                parts = step_parts(solution, problems)
-                gaits = tuple(FootedGait(problem, part, math.nan)
-                              for problem, part in zip(problems, parts, strict=True))  # fmt: skip
-            else:
-                gaits = tuple(
-                    WalkingGait(problem, part, math.nan)
-                    for problem, part in zip(problems, solution.phases, strict=True)
-                )
+            solution, gaits = _solved(phases, problems, footed, ipopt, rate_hz)
             reports = _verify_steps(gaits, start, end, rate_hz)
         except AnthropoidError as error:  # a failed solve, hold or verification
             attempts.append((k, str(error).splitlines()[0][:300]))
