@@ -117,16 +117,18 @@ def test_a_transition_on_feet_refuses_what_it_cannot_join(footed_gait):
 
 
 @pytest.mark.slow
-def test_a_speed_change_on_feet_is_verified_and_joins_at_every_boundary():
-    """1.0 -> 1.2 m/s on feet: the fewest steps that solve; every step verified at every
-    exported sample; at each boundary the leg swap of a step's last sample is the next
-    step's first, the first is gait a's first and the last gait b's last (from the files'
-    samples, to round-off)."""
-    a = footed_step_at(1.0).solve()
-    following = footed_step_at(1.2)
+def test_a_speed_change_on_feet_is_verified_joins_at_every_boundary_and_walks():
+    """1.0 -> 1.2 m/s on feet, the joint speeds bounded at 10 rad/s: the fewest steps that
+    solve; every step verified at every exported sample; at each boundary the leg swap of a
+    step's last sample is the next step's first, the first is gait a's first and the last gait
+    b's last (from the files' samples, to round-off); walked in MuJoCo (when installed) from
+    three steps of a through the change to four of b without a fall."""
+    a = footed_step_at(1.0, speed_limit=10.0).solve()
+    following = footed_step_at(1.2, speed_limit=10.0)
     b = following.solve(following.phases.guess(a.solution))
     transition = plan_transition(a, b)
     assert all(isinstance(g, FootedGait) for g in transition.gaits)
+    assert all(g.problem.speed_limit == 10.0 for g in transition.gaits)
     assert all(report.ok for report in transition.reports)
     swap = swap_legs(a.problem.linkage)
     samples = [g.exported() for g in transition.gaits]
@@ -142,3 +144,9 @@ def test_a_speed_change_on_feet_is_verified_and_joins_at_every_boundary():
     speeds = [g.speed for g in transition.gaits]
     assert speeds[-1] == pytest.approx(b.speed) and all(np.diff([a.speed, *speeds]) > 0)
     assert set(transition.peak_torques()) == set(a.problem.drives)
+    pytest.importorskip("mujoco")
+    from problems.walking.mujoco_feet import run_feet_steps_in_mujoco
+
+    steps = [a] * 3 + list(transition.gaits) + [b] * 4
+    run = run_feet_steps_in_mujoco(steps)
+    assert (run.walked, run.fell) == (len(steps), None)

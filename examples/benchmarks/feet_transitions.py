@@ -1,24 +1,30 @@
 """Speed changes on feet (issue #35, parts 2-4 on feet): the steps between two periodic
 steps on feet, planned, verified and walked in MuJoCo.
 
-    python examples/benchmarks/feet_transitions.py [--changes 1.0:0.6,0.6:1.0] [--write]
+    python examples/benchmarks/feet_transitions.py [--changes 1.0:1.4,1.4:0.6,0.6:1.0]
+        [--speed-limit 10] [--write]
 
-Table 1: the periodic steps on feet (the human cycle, ``footed_step_at``, 150 N m limits)
-at the speeds the changes join, each solved warm from the one before, and each walked alone
-20 steps in MuJoCo under its joint PD law (``FeetLaw``, the default gains): where that law
-carries a gait on feet and where it does not.
+The gaits are the human cycle on feet (``footed_step_at``, 150 N m limits) with every drive's
+joint speed bounded (``speed_limit``, default 10 rad/s; 0: none): unbounded, the swing foot
+whips at 40-60 rad/s before its heel strikes, and the joint PD law, whose reference goes on
+along its last slope when the heel lands late, spins that foot round (traced at 1.2 m/s).
 
-Table 2: each speed change (``plan_transition`` on feet): the step counts tried (the fewest
-that solve within the limits and verify is taken; a try is capped at 300 IPOPT iterations a
-solve), the count taken, IPOPT's iterations of the taken count (the limits' hold rounds
-included), the search's seconds (below the table: why each smaller count failed), the worst
-join of its steps (each step's verification against the next step's first state: the leg
-swap's angles and rates), and its largest drive torque against the periodic gaits' it joins
-(ratio measured in the same run). The four default changes take about half an hour: a count
-that fails in the limits' hold rounds can take many minutes before it does.
+Table 1: each speed's gait planned without and with the bound (each solved warm from its
+nearest solved neighbour), its largest joint speed, and each walked alone 20 steps in MuJoCo
+under its joint PD law (``FeetLaw``, the default gains).
 
-Table 3: the walk a (x S) -> b (x S) -> a (x S) with its two changes (the first two changes
-given), every step walked once in MuJoCo, each under its own plan's joint PD law
+Table 2: each speed change of the bounded gaits (``plan_transition`` on feet; its steps keep
+the bound): the step counts tried (the fewest that solve within the limits and verify is
+taken; a try is capped at 300 IPOPT iterations a solve), the count taken, IPOPT's iterations
+of the taken count (the limits' hold rounds included), the search's seconds (below the
+table: why each smaller count failed), the worst join of its steps (each step's verification
+against the next step's first state: the leg swap's angles and rates), and its largest drive
+torque against the periodic gaits' it joins (ratio measured in the same run). A count that
+fails in the limits' hold rounds can take many minutes before it does.
+
+Table 3: when the changes chain (each starts where the one before ended), the walk through
+them, ``--steps-at-speed`` periodic steps at each speed and each change's steps between,
+every step walked once in MuJoCo under its own plan's joint PD law
 (``run_feet_steps_in_mujoco``): as planned, the body 10 % heavier and lighter, a 10 N s push
 forward and back in the middle of the first change's first step, and forward in the
 second's. Needs ``pip install ".[mujoco]"``.
@@ -35,14 +41,15 @@ import warnings
 import numpy as np
 
 from planner.errors import AnthropoidError
+from problems.gait.problem import joint_rates
 from problems.library import plan_transition
 from problems.walking.footed import footed_step_at
 
 #: the speed changes measured by default, (from, to) m/s: the issue's sequence on feet
-#: (1.0 -> 1.4 -> 0.6) and back from 0.6 to 1.0
-CHANGES = ((1.0, 0.6), (0.6, 1.0), (1.0, 1.4), (1.4, 0.6))
+#: (1.0 -> 1.4 -> 0.6) and back to 1.0
+CHANGES = ((1.0, 1.4), (1.4, 0.6), (0.6, 1.0))
 #: the gaits walked alone in MuJoCo besides the changes' speeds
-ALONE = (0.8, 1.1, 1.2)
+ALONE = (0.8, 1.2)
 
 
 def _changes(text: str) -> tuple[tuple[float, float], ...]:
@@ -60,17 +67,23 @@ def _peak(gait) -> float:
     return float(np.max(np.abs(torques)))
 
 
-def _gaits(speeds) -> dict[float, object]:
+def _gaits(speeds, speed_limit: float | None) -> dict[float, object]:
     """Each speed's step on feet, outward from 1 m/s, each warm from its nearest solved one."""
     gaits = {}
     for speed in sorted(speeds, key=lambda v: abs(v - 1.0)):
-        step = footed_step_at(speed)
+        step = footed_step_at(speed, speed_limit=speed_limit)
         if not gaits:
             gaits[speed] = step.solve()
             continue
         nearest = gaits[min(gaits, key=lambda v: abs(v - speed))]
         gaits[speed] = step.solve(step.phases.guess(nearest.solution))
     return gaits
+
+
+def _joint_speed(gait) -> float:
+    """The largest |joint speed| of a step's drives over its exported samples, rad/s."""
+    samples = gait.exported()
+    return float(np.max(np.abs(joint_rates(gait.problem.linkage, samples.dpsi)[:, 1:])))
 
 
 def _mujoco():
@@ -95,29 +108,51 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--changes", type=_changes, default=CHANGES,
                         help="from:to,from:to m/s (default %(default)s)")  # fmt: skip
-    parser.add_argument("--steps-at-speed", type=int, default=9)
+    parser.add_argument("--speed-limit", type=float, default=10.0,
+                        help="the drives' joint speed bound, rad/s (0: none)")  # fmt: skip
+    parser.add_argument("--steps-at-speed", type=int, default=8)
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore")  # the accuracy warnings: the verification below holds
-    speeds = sorted({v for pair in args.changes for v in pair})
+    limit = args.speed_limit or None
+    speeds = sorted({v for pair in args.changes for v in pair} | set(ALONE))
     clock = time.perf_counter()
-    gaits = _gaits(sorted({*speeds, *ALONE}))
+    free = _gaits(speeds, None)
+    gaits = free if limit is None else _gaits(speeds, limit)
     solved = time.perf_counter() - clock
     alone, stepped = _mujoco()
-    print(f"Table 1: the periodic steps on feet ({len(gaits)} speeds solved in {solved:.1f} s), "
-          "each walked alone 20 steps in MuJoCo under its joint PD law\n")  # fmt: skip
-    print("| v m/s | phases s (flat / heel rise / double) | peak drive M N m | MuJoCo |")
-    print("|---|---|---|---|")
-    for speed, gait in sorted(gaits.items()):
-        phases = " / ".join(f"{d:.3f}" for d in gait.durations())
-        walked = "not installed" if alone is None else _outcome(alone(gait, steps=20))
-        print(f"| {speed:g} | {phases} | {_peak(gait):.1f} | {walked} |")
+    print(f"Table 1: the periodic steps on feet ({len(speeds)} speeds, without and with the "
+          f"joint speed bound {args.speed_limit:g} rad/s, solved in {solved:.1f} s), each walked "
+          "alone 20 steps in MuJoCo under its joint PD law\n")  # fmt: skip
+    print("| v m/s | phases s (flat / heel rise / double) | peak drive M N m | peak joint speed "
+          "rad/s | MuJoCo |")  # fmt: skip
+    print("|---|---|---|---|---|")
+    plans = [("", free)] if limit is None else [("unbounded: ", free), ("bounded: ", gaits)]
+    for speed in speeds:
+        for label, plan in plans:
+            gait = plan[speed]
+            phases = " / ".join(f"{d:.3f}" for d in gait.durations())
+            walked = "not installed" if alone is None else _outcome(alone(gait, steps=20))
+            print(f"| {label}{speed:g} | {phases} | {_peak(gait):.1f} | {_joint_speed(gait):.1f} "
+                  f"| {walked} |")  # fmt: skip
     print()
+    transitions = changes_table(gaits, args.changes)
+    chained = all(b == c for (_, b), (c, _) in itertools.pairwise(args.changes))
+    if not chained or len(transitions) < len(args.changes) or stepped is None:
+        print("Table 3: not run (the changes do not chain, one failed, or MuJoCo is not "
+              "installed)\n")  # fmt: skip
+        return 0
+    walk_table(stepped, gaits, transitions, args.changes, args.steps_at_speed)
+    return 0
+
+
+def changes_table(gaits, changes) -> dict:
+    """Table 2: each change planned and measured; returns the transitions that solved."""
     print("Table 2: the speed changes on feet\n")
     print("| change | counts tried | steps | iterations | search s | worst join rad, rad/s | "
           "peak drive M N m | gaits' peak N m | ratio |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|---|")
     transitions = {}
-    for a, b in args.changes:
+    for a, b in changes:
         clock = time.perf_counter()
         try:
             transition = plan_transition(gaits[a], gaits[b])
@@ -143,29 +178,23 @@ def main(argv=None) -> int:
         for k, why in transition.attempts[:-1]:
             print(f"- {a:g} -> {b:g} m/s, {k} step(s): {why[:160]}")
     print()
-    if len(args.changes) < 2 or args.changes[0][::-1] != args.changes[1]:
-        return 0
-    (a, b), _ = args.changes[0], args.changes[1]
-    if (a, b) not in transitions or (b, a) not in transitions or stepped is None:
-        print("Table 3: not run (a change failed, or MuJoCo is not installed)\n")
-        return 0
-    walk_table(stepped, gaits, transitions, a, b, args.steps_at_speed)
-    return 0
+    return transitions
 
 
-def walk_table(stepped, gaits, transitions, a: float, b: float, repeats: int) -> None:
-    """Table 3: the walk a -> b -> a, every step once in MuJoCo."""
+def walk_table(stepped, gaits, transitions, changes, repeats: int) -> None:
+    """Table 3: the walk through the chained changes, every step once in MuJoCo."""
     from problems.walking.simulation import Disturbances
 
-    steps = [gaits[a]] * repeats
-    changes = []
-    for start, end in itertools.pairwise((a, b, a)):
-        changes.append(len(steps))
-        steps += list(transitions[(start, end)].gaits) + [gaits[end]] * repeats
-    first, second = changes
-    title = f"the walk {a:g} -> {b:g} -> {a:g} m/s on feet in MuJoCo ({len(steps)} steps"
-    print(f"Table 3: {title}: {repeats} at each speed, the changes from steps {first} and "
-          f"{second})\n")  # fmt: skip
+    speeds = [changes[0][0], *(b for _, b in changes)]
+    steps = [gaits[speeds[0]]] * repeats
+    starts = []
+    for a, b in changes:
+        starts.append(len(steps))
+        steps += list(transitions[(a, b)].gaits) + [gaits[b]] * repeats
+    first, second = (starts + starts)[:2]
+    route = " -> ".join(f"{v:g}" for v in speeds)
+    print(f"Table 3: the walk {route} m/s on feet in MuJoCo ({len(steps)} steps: {repeats} at "
+          f"each speed, the changes from steps {', '.join(map(str, starts))})\n")  # fmt: skip
     print("| case | MuJoCo | s |")
     print("|---|---|---|")
     cases = {
