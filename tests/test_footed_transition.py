@@ -10,6 +10,7 @@ exported samples), and a next state moved by a known angle (the join check fails
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -19,7 +20,7 @@ from planner.errors import DefinitionError
 from problems.gait.verification import verify_gait
 from problems.library.footed_transition import footed_transition_problem
 from problems.library.transition import plan_transition
-from problems.walking.footed import FootedGait, footed_step_at, resized
+from problems.walking.footed import SEQUENCES, FootedGait, footed_step_at, resized
 
 
 def test_a_part_of_a_solution_is_its_phases_on_their_own_time_axis(footed_gait):
@@ -114,6 +115,13 @@ def test_a_transition_on_feet_refuses_what_it_cannot_join(footed_gait):
         footed_transition_problem("standing", footed_gait, 1)
     with pytest.raises(DefinitionError, match="step_options"):
         plan_transition(footed_gait, footed_gait, steps=1, torque_limit=100.0)
+    flat_footed = FootedGait(
+        replace(footed_gait.problem, sequence=SEQUENCES["flat-footed"]), footed_gait.solution, 0.0
+    )
+    with pytest.raises(DefinitionError, match=r"contact phases .* are not the start's"):
+        footed_transition_problem(footed_gait, flat_footed, 1)
+    with pytest.raises(DefinitionError, match="`steps`"):
+        footed_transition_problem(footed_gait, footed_gait, 0)
 
 
 @pytest.mark.slow

@@ -55,7 +55,7 @@ def _step_guess(step: FootedStep, nearest: FootedGait) -> Phases:
     phase's normalised time, its phase durations scaled to the step's time)."""
     durations = np.array(nearest.durations()) * step.step_time / nearest.duration
     segments = nearest.segments()
-    return _guessed(step.phases, lambda p: segments[p][0], durations, label=step.label)
+    return _guessed(step.phases, lambda p: segments[p][0], durations)
 
 
 def footed_transition_problem(start, end, steps: int) -> tuple[Phases, tuple[FootedStep, ...]]:

@@ -48,7 +48,7 @@ from planner.files import atomic_path
 from planner.solution import uniform_times
 from problems.gait.problem import centre_of_pressure
 from problems.walking.feedback import with_gains
-from problems.walking.footed import DURATION_PARAMETERS, footed_step_at, step_at_speed
+from problems.walking.footed import footed_step_at, step_at_speed
 from problems.walking.step import walking_step
 
 FORMAT = "anthropoid-planner gait library"
@@ -380,15 +380,15 @@ def _at_event(event: dict, name: str) -> np.ndarray | None:
     return None
 
 
-def _guessed(problem, piece, durations: np.ndarray, label: str = ""):
+def _guessed(problem, piece, durations: np.ndarray):
     """``problem`` (the step on feet's phases) guessed phase by phase: phase p from
     ``piece(p)`` (a callable of its time t (K,) s giving (psi, dpsi, ddpsi, torques), or a
     solved phase, taken in normalised time), its
-    duration ``durations[p]`` s and the duration parameters (each phase's but the last,
-    :data:`problems.walking.footed.DURATION_PARAMETERS`) from theirs (clipped into their
-    bounds; their names end in ``label``, :attr:`problems.walking.footed.FootedStep.label`)."""
-    values = dict(zip((DURATION_PARAMETERS[name] + label for name in problem.names[:-1]),
-                      durations[:-1], strict=True))  # fmt: skip
+    duration ``durations[p]`` s and the duration parameters (each phase's but the last, in
+    the problem's own order and names, :func:`problems.walking.footed.footed_step`) from
+    theirs (clipped into their bounds)."""
+    names = [parameter.name for parameter in problem.params]
+    values = dict(zip(names, durations[:-1], strict=True))
     phases = []
     for p, (name, ocp) in enumerate(problem.phases):
         ocp = ocp.guess(piece(p), T=float(np.clip(durations[p], *ocp.T)))
