@@ -175,7 +175,11 @@ def plan_linkage():
     (["--speeds", "1,0,1"], "only first or last"),
     (["--speeds", "0,1", "--urdf", "x.urdf"], "--urdf"),
     (["--speeds", "0,1", "--step-time-s", "0.6"], "--step-time-s"),
-    (["--speeds", "0,1", "--preset", "six-link-feet"], "point-foot"),
+    (["--speeds", "0,1", "--preset", "six-link-feet"], "quiet standing"),
+    (["--speeds", "1,0.6", "--preset", "six-link-feet", "--library", "x.npz"], "--library"),
+    (["--speeds", "1,0.6", "--preset", "six-link-feet", "-N", "20"], "-N"),
+    (["--speeds", "1,0.6", "--preset", "six-link-feet", "--objective", "work"], "torque or human"),
+    (["--speeds", "1,0.6", "--preset", "five-link-feet"], "six-link-feet"),
     (["--speeds", "0,x"], "separated by commas"),
     (["--speeds", "0,1", "--library", "no_such_library.npz"], "cannot read a gait library"),
 ])  # fmt: skip

@@ -57,6 +57,11 @@ COST_WORDS = {
     "torque": "integral of the drives' sum M_i^2, N^2 m^2 s",
     "human": "integral of the joints' strength-normalised effort with passive moments, (N m)^2 s",
 }
+#: Every driven joint's speed bound, rad/s, of a walk through --speeds on feet unless
+#: --joint-speed-limit says otherwise: unbounded, the swing foot whips at 43-60 rad/s and the
+#: gaits at 1.2 and 1.4 m/s fall in MuJoCo; at 10 every gait from 0.6 to 1.4 m/s walks 20 steps
+#: (examples/benchmarks/feet_transitions.py, Table 1)
+FEET_SEQUENCE_SPEED_LIMIT = 10.0
 #: The mesh of ``--quick`` per ``--feet-phases`` (intervals of each phase).
 QUICK_MESH = {"human": (10, 6, 14), "flat-footed": (20, 20), "toe-walking": (20, 8)}
 
@@ -94,8 +99,9 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
     return 0
 
 
-def _footed_step(args):
-    """The step on feet the options ask for, the options it does not take refused first."""
+def footed_options(args) -> dict:
+    """footed_step's keyword arguments from the options (all but the step's length and time
+    and a robot's walker), the options it does not take refused first."""
     given = [option for name, option, default in NOT_WITH_FEET if getattr(args, name) != default]
     if given:
         raise UsageError(
@@ -107,28 +113,29 @@ def _footed_step(args):
         raise UsageError(
             f"--objective {args.objective}: the step on feet takes torque or human; drop it"
         )
-    extra = {}
+    options = {"objective": args.objective, "mu": args.mu, "torque_limit": args.torque_limit_nm,
+               "phases": args.feet_phases}  # fmt: skip
     if args.touchdown_speed_mps is not None:
-        extra["touchdown_speed"] = args.touchdown_speed_mps
+        options["touchdown_speed"] = args.touchdown_speed_mps
     if args.clearance_m is not None:
-        extra["clearance"] = args.clearance_m
+        options["clearance"] = args.clearance_m
     if args.quick:
-        extra["N"] = QUICK_MESH[args.feet_phases]
+        options["N"] = QUICK_MESH[args.feet_phases]
+    if args.joint_speed_limit:
+        options["speed_limit"] = args.joint_speed_limit
+    return options
+
+
+def _footed_step(args):
+    """The step on feet the options ask for, the options it does not take refused first."""
+    extra = footed_options(args)
     walker = getattr(args, "walker", None)
     if walker is not None:
         extra.update(linkage=walker.linkage, points=walker.points, hip_limit=walker.hip_limit())
 
     def step(**ranges):
-        return footed_step(
-            objective=args.objective,
-            step_length=args.step_length_m,
-            step_time=args.step_time_s,
-            mu=args.mu,
-            torque_limit=args.torque_limit_nm,
-            phases=args.feet_phases,
-            **extra,
-            **ranges,
-        )
+        return footed_step(step_length=args.step_length_m, step_time=args.step_time_s, **extra,
+                           **ranges)  # fmt: skip
 
     planned = step()
     if walker is None:

@@ -20,17 +20,19 @@ from problems.cli.common import (
     output_set,
     preset_linkage,
 )
+from problems.cli.walk_feet import FEET_SEQUENCE_SPEED_LIMIT, footed_options
 from problems.library.closed_loop import STAND as STAND_S
+from problems.walking.footed import FootedStep
 from problems.walking.step import WALKING_DEFAULTS
 
 
 def _check(args, checked_options):
     """(the mesh, the sole) of the options (``checked_options``: walk's own check), each
-    option a sequence cannot take refused by name."""
-    if args.preset not in ("six-link", "five-link"):
+    option a sequence cannot take refused by name; on feet (None, None)."""
+    if args.preset not in ("six-link", "five-link", "six-link-feet"):
         raise UsageError(
-            f"--speeds: plans point-foot steps (--preset six-link or five-link); got --preset "
-            f"{args.preset} (a sequence on feet is not built yet)"
+            f"--speeds: plans point-foot steps (--preset six-link or five-link) or steps on feet "
+            f"(six-link-feet); got --preset {args.preset}"
         )
     if getattr(args, "urdf", None):
         raise UsageError("--speeds with --urdf: a robot's sequence is not built yet; drop --urdf")
@@ -42,10 +44,31 @@ def _check(args, checked_options):
         if getattr(args, field) != WALKING_DEFAULTS[default]:
             raise UsageError(f"--speeds with {option}: each step's length and time follow its "
                              f"speed; drop {option}")  # fmt: skip
+    if args.preset == "six-link-feet":
+        if args.library is not None:
+            raise UsageError("--speeds on feet with --library: a walk on feet solves its own "
+                             "gaits (a library's blend on feet is not wired to it); drop "
+                             "--library")  # fmt: skip
+        return None, None
     mesh, _, target, sole = checked_options(args)
     if target is not None:
         raise UsageError("--speeds with --accuracy NUMBER: give a preset or -N")
     return mesh, sole
+
+
+def _feet_options(args, speeds) -> dict:
+    """plan_sequence's options of a walk on feet: the step on feet's (``walk_feet``), its
+    joint speeds bounded at :data:`FEET_SEQUENCE_SPEED_LIMIT` unless told."""
+    options = footed_options(args)
+    if args.joint_speed_limit is None:
+        options["speed_limit"] = FEET_SEQUENCE_SPEED_LIMIT
+    if 0.0 in speeds:
+        raise UsageError(
+            f"--speeds {args.speeds} on feet: 0 m/s (quiet standing) on feet is not planned "
+            "yet (both feet flat at rest is a double support the step on feet lacks); start "
+            "and end at a speed, e.g. 1.0,0.6,1.0,1.4"
+        )
+    return {**options, "feet": True}
 
 
 def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_options) -> int:
@@ -58,7 +81,8 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
         speeds = checked_speeds(args.speeds)
     except AnthropoidError as error:
         raise UsageError(f"--speeds: {error}") from None
-    library = _library(args.library)
+    feet = args.preset == "six-link-feet"
+    library = None if feet else _library(args.library)
     if library is not None:
         low, high = float(library.speeds[0]), float(library.speeds[-1])
         outside = [v for v in speeds if v > 0 and not low - 1e-12 <= v <= high + 1e-12]
@@ -67,9 +91,12 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
                 f"--speeds: {outside[0]:g} m/s is outside the library's {low:g}..{high:g} m/s "
                 "(--library); command speeds within it or build a wider library"
             )
-    linkage = preset_linkage(args.preset) if library is None else library.linkage
-    options = step_options(args, linkage, mesh, sole)
-    options.pop("double_support", None)
+    if feet:
+        linkage, options = None, _feet_options(args, speeds)
+    else:
+        linkage = preset_linkage(args.preset) if library is None else library.linkage
+        options = step_options(args, linkage, mesh, sole)
+        options.pop("double_support", None)
     if library is not None:  # the library's walker and its own build options
         options = {}
     output = output_set(str(args.output_dir or new_folder("walk")), "walk")
@@ -85,43 +112,66 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
             raise CommandFailed(f"the walk through {args.speeds}: {error}") from error
     seconds = time.perf_counter() - clock
     _print_plan(sequence, seconds, caught, args.rate_hz, out)
-    feedback = None
-    if args.feedback:
-        from problems.library.closed_loop import design_sequence_feedback
-
-        with report.working("designing the walk's feedback (a finite-horizon LQR along it)"):
-            feedback = design_sequence_feedback(sequence, control_rate_hz=args.rate_hz)
+    feedback = _feedback(sequence, args, report, feet) if args.feedback else None
     with output:
         path = output.path("sequence.csv")
-        trajectory = sequence.trajectory(args.rate_hz)
-        if feedback is not None:
-            from problems.library.closed_loop import with_sequence_gains
-
-            trajectory = with_sequence_gains(feedback, trajectory)
-        trajectory.save(path)
-        check = verify_sequence(Trajectory.load(path), linkage)
-        print(f"verification of sequence.csv read back (numpy, every step, each heel strike "
+        _with_law(sequence, feedback, args.rate_hz, feet).save(path)
+        trajectory = Trajectory.load(path)
+        check = verify_sequence(trajectory, sequence.linkage)
+        print(f"verification of sequence.csv read back (numpy, every step, each step's end "
               f"against the next step's first row): {check}", file=out)  # fmt: skip
         if not check.ok:
             raise CommandFailed("sequence.csv failed its verification; nothing written")
         mujoco_run = None
         if feedback is not None:
-            mujoco_run = _closed_loop(feedback, sequence, args, report, out)
+            walk = _feet_closed_loop if feet else _closed_loop
+            mujoco_run = walk(feedback, sequence, args, report, out)
         if not args.no_plots:
             _pictures(sequence, trajectory, output, args, report)
-            if mujoco_run is not None and mujoco_run.run.time.size:
-                from problems.walking import plots as walking_plots
-
-                problem = sequence.steps[0].gait.problem
-                motion = mujoco_run.run.world(problem.dynamics, rate_hz=30.0)
-                with report.working("plotting mujoco_walk.png"):
-                    title = "the walk in MuJoCo, closed loop"
-                    strip = walking_plots.world_strip(motion, frames_per_step=2, title=title)
-                    walking_plots.save_figure(strip, output.path("mujoco_walk.png"))
+            if mujoco_run is not None and mujoco_run.time.size:
+                _draw_mujoco_walk(mujoco_run, sequence.steps[0].gait.problem, output, report)
         paths = output.commit({"argv": list(sys.argv[1:]), "verification": "passed"})
     for written in paths:
         print(f"wrote {written}", file=out)
     return 0
+
+
+def _feedback(sequence, args, report, feet: bool):
+    """The walk's law: each step's joint PD on feet (``FeetLaw`` per step), else the
+    finite-horizon LQR along the whole walk."""
+    if feet:
+        from problems.library.feet_closed_loop import sequence_laws
+
+        with report.working("the drives' law of each step (joint PD around its plan)"):
+            return sequence_laws(sequence, rate_hz=args.rate_hz)
+    from problems.library.closed_loop import design_sequence_feedback
+
+    with report.working("designing the walk's feedback (a finite-horizon LQR along it)"):
+        return design_sequence_feedback(sequence, control_rate_hz=args.rate_hz)
+
+
+def _with_law(sequence, feedback, rate_hz: float, feet: bool):
+    """The walk's samples at ``rate_hz`` with its law's channels when it has one."""
+    if feedback is None:
+        return sequence.trajectory(rate_hz)
+    if feet:
+        from problems.library.feet_closed_loop import with_feet_laws
+
+        return with_feet_laws(sequence, feedback, rate_hz)
+    from problems.library.closed_loop import with_sequence_gains
+
+    return with_sequence_gains(feedback, sequence.trajectory(rate_hz))
+
+
+def _draw_mujoco_walk(run, problem, output, report) -> None:
+    """mujoco_walk.png: MuJoCo's walk as planned, in world coordinates."""
+    from problems.walking import plots as walking_plots
+
+    motion = run.world(problem.dynamics, rate_hz=30.0, corners=getattr(problem, "corners", None))
+    with report.working("plotting mujoco_walk.png"):
+        strip = walking_plots.world_strip(motion, frames_per_step=2,
+                                          title="the walk in MuJoCo, closed loop")  # fmt: skip
+        walking_plots.save_figure(strip, output.path("mujoco_walk.png"))
 
 
 def _library(path):
@@ -180,7 +230,36 @@ def _closed_loop(feedback, sequence, args, report, out):
         for name, run in (("product", product), ("MuJoCo", mujoco)):
             if run is not None and run.fell is not None:
                 print(f"    {name}: {run.fell[:160]}", file=out)
-    return planned_run
+    return None if planned_run is None else planned_run.run
+
+
+def _feet_closed_loop(laws, sequence, args, report, out):
+    """The walk on feet under its laws in MuJoCo (when installed): as planned, the body 10 %
+    heavier, a 10 N s forward push in the middle of the first step that changes speed; a
+    table; returns MuJoCo's run as planned (None without MuJoCo)."""
+    try:
+        from problems.walking.mujoco import import_mujoco
+
+        import_mujoco()
+    except AnthropoidError as error:
+        print(f"MuJoCo: {error}", file=out)
+        return None
+    from problems.library.feet_closed_loop import walk_in_mujoco
+
+    with report.working(f"walking it in MuJoCo ({len(sequence.steps)} steps, 3 cases)"):
+        runs, push_step = walk_in_mujoco(sequence, laws)
+    print(f"closed loop ({len(sequence.steps)} steps; each step's joint PD around its own plan, "
+          "handed over at the leg swap; the product's hybrid simulation does not model feet, "
+          "so MuJoCo only: heel and ball spheres, soft contacts):", file=out)  # fmt: skip
+    print(f"  {'case':<26} {'MuJoCo':<28}", file=out)
+    for label, run in runs.items():
+        where = f", step {push_step}" if "push" in label else ""
+        outcome = f"{run.walked}/{len(sequence.steps)} steps" + ("" if run.fell is None
+                                                                 else " (fell)")  # fmt: skip
+        print(f"  {label + where:<26} {outcome:<28}", file=out)
+        if run.fell is not None:
+            print(f"    MuJoCo: {run.fell[:160]}", file=out)
+    return runs["as planned"]
 
 
 def _outcome(run) -> str:
@@ -219,7 +298,9 @@ def _pictures(sequence, trajectory, output, args, report) -> None:
     hip = problem.biped.upper_body[0]
     motion = sequence.world(rate_hz=30.0 if args.quick else 60.0)
     with report.working("plotting sequence.png"):
-        limit = max(problem.torque_limit.values())
+        # the drives' bounds (on feet the root's torque is the ground's: no bound of its own)
+        limits = problem.limits if isinstance(problem, FootedStep) else problem.torque_limit
+        limit = max(limits.values())
         figure = sequence_figure(trajectory, sequence.world(rate_hz=200.0), hip, limit)
         walking_plots.save_figure(figure, output.path("sequence.png"))
     with report.working("plotting walk.png"):

@@ -29,7 +29,8 @@ def hip_speed(motion: WorldMotion, hip_link: str) -> tuple[np.ndarray, np.ndarra
 def sequence_figure(trajectory, motion: WorldMotion, hip_link: str, limit: float | None) -> Figure:
     """Three panels over the walk's time: the hip's forward speed with each step's own speed
     (length / time) and the commanded speeds, the kinds of steps shaded (start, gait,
-    change, stop); every hinge torque with the limit; each step's length."""
+    change, stop); every drive's torque with the limit (on feet not the ground's on the
+    stance foot); each step's length."""
     trajectory = LinkageTrajectory.of(trajectory)
     meta = trajectory.metadata["sequence"]
     steps = meta["steps"]
@@ -49,7 +50,11 @@ def sequence_figure(trajectory, motion: WorldMotion, hip_link: str, limit: float
                  + " m/s; shaded: start (green), change (orange), stop (red) steps")  # fmt: skip
     speed_ax.legend(loc="upper right", fontsize="small")
     torques = np.asarray(trajectory.torques)
+    # on feet the root's torque is the ground's on the stance foot (no drive, no limit)
+    drives = meta["steps"][0]["settings"].get("drives") or trajectory.link_names
     for i, name in enumerate(trajectory.link_names):
+        if name not in drives:
+            continue
         torque_ax.plot(trajectory.time, torques[:, i], color=COLOURS[i % len(COLOURS)],
                        linewidth=0.8, label=f"M_{name}")  # fmt: skip
     if limit is not None:
@@ -58,7 +63,8 @@ def sequence_figure(trajectory, motion: WorldMotion, hip_link: str, limit: float
     torque_ax.set(
         ylabel="hinge torque [N m]",
         xlim=(edges[0], edges[-1]),
-        title="torques in the model's labels (stance_* is each step's stance leg)",
+        title="torques in the model's labels (stance_* is each step's stance leg)"
+        + ("" if len(drives) == len(trajectory.link_names) else "; the drives' only"),
     )
     torque_ax.legend(loc="upper right", fontsize="x-small", ncol=3)
     index = np.arange(len(steps))

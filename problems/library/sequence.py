@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from model.linkage import Linkage
+from model.linkage_naming import acceleration_names, contact_force_names, root_contact
 from model.linkage_trajectory import LinkageTrajectory
 from model.rerooting import swap_legs
 from planner.errors import DefinitionError, check_integer, check_real
@@ -47,7 +48,7 @@ from problems.library.transition import (
     plan_transition,
     standing_after,
 )
-from problems.walking.footed import step_at_speed
+from problems.walking.footed import footed_step_at, step_at_speed
 from problems.walking.step import WalkingGait, WorldMotion, walking_step, world_motion
 
 FORMAT = "anthropoid-planner walk sequence"
@@ -124,9 +125,14 @@ class WalkSequence:
     def _trajectory(self) -> LinkageTrajectory:
         return _stitched(self, RATE_HZ)
 
-    def trajectory(self, rate_hz: float = RATE_HZ) -> LinkageTrajectory:
-        """The whole walk at ``rate_hz`` (see the module for its channels and sidecar)."""
-        return self._trajectory if rate_hz == RATE_HZ else _stitched(self, rate_hz)
+    def trajectory(self, rate_hz: float = RATE_HZ, channels=None) -> LinkageTrajectory:
+        """The whole walk at ``rate_hz`` (see the module for its channels and sidecar);
+        ``channels``: None, or a callable (j, step j's exported samples) -> those samples with
+        its law's channels (``phase``, gains, ...), which the file then carries (its
+        ``phase`` the law's index in place of t / T)."""
+        if rate_hz == RATE_HZ and channels is None:
+            return self._trajectory
+        return _stitched(self, rate_hz, channels)
 
     def world(self, rate_hz: float = 100.0) -> WorldMotion:
         """The walk in world coordinates (:func:`problems.walking.step.world_motion`)."""
@@ -137,22 +143,47 @@ class WalkSequence:
         return verify_sequence(self.trajectory(), self.linkage)
 
 
-def _step_settings(gait: WalkingGait) -> dict[str, Any]:
-    """The step's settings a verification reads (the law, a guess, left out)."""
-    settings = gait.problem.settings()
+def _step_settings(exported: Trajectory) -> dict[str, Any]:
+    """The settings a verification reads of a step's exported samples (its metadata's
+    ``gait``: the problem's settings and, on feet, the states before its events; the law, a
+    guess, left out)."""
+    settings = dict(exported.metadata.get("gait") or {})
     settings.pop("law", None)
     return settings
 
 
-def _stitched(sequence: WalkSequence, rate_hz: float) -> LinkageTrajectory:
-    """One trajectory of every step (each step's samples but its last, the last step's all)."""
+def _step_channels(exported: LinkageTrajectory) -> dict[str, str]:
+    """{name: unit} of the step's extras beyond its accelerations and root ground reaction:
+    on feet the front foot's force and the root's centre of pressure, and the law's channels
+    when a step carries them."""
+    standard = set(acceleration_names(exported.link_names))
+    standard |= set(contact_force_names(root_contact(exported.link_names)))
+    return {name: unit for name, (_, unit) in exported.extras.items() if name not in standard}
+
+
+def _stitched(sequence: WalkSequence, rate_hz: float, channels=None) -> LinkageTrajectory:
+    """One trajectory of every step (each step's samples but its last, the last step's all).
+    ``channels``: None, or a callable (j, step j's exported samples) -> those samples with
+    the law's channels (``phase``, gains), which the file then carries in place of t / T."""
     names = sequence.linkage.names
     keys = ("t", "psi", "dpsi", "ddpsi", "M", "F", "step", "phase", "speed", "foothold")
     columns: dict[str, list] = {key: [] for key in keys}
+    own_columns: dict[str, list] = {}
+    units: dict[str, str] | None = None
     described = []
     last = len(sequence.steps) - 1
     for j, step in enumerate(sequence.steps):
         exported = LinkageTrajectory.of(step.gait.exported(rate_hz))
+        if channels is not None:
+            exported = LinkageTrajectory.of(channels(j, exported))
+        own = _step_channels(exported)
+        if units is None:
+            units = own
+        elif own != units:
+            raise DefinitionError(
+                f"`sequence`: step {j}'s channels {sorted(own)} are not step 0's "
+                f"{sorted(units)}; a sequence's steps are of one kind"
+            )
         keep = slice(None) if j == last else slice(0, -1)
         local = np.asarray(exported.time, dtype=float)
         count = local[keep].size
@@ -161,38 +192,39 @@ def _stitched(sequence: WalkSequence, rate_hz: float) -> LinkageTrajectory:
                             ("ddpsi", exported.ddpsi), ("M", exported.torques),
                             ("F", exported.ground_reaction)):  # fmt: skip
             columns[key].append(np.asarray(values)[keep])
+        for name in own:
+            own_columns.setdefault(name, []).append(np.asarray(exported.extras[name][0])[keep])
         columns["step"].append(np.full(count, float(j)))
         columns["phase"].append(local[keep] / local[-1])
         columns["speed"].append(np.full(count, step.speed))
         columns["foothold"].append(np.full(count, step.foothold))
         problem = step.gait.problem
-        before = {"t": step.start + float(local[-1]),
-                  "x": [*np.asarray(exported.psi)[-1], *np.asarray(exported.dpsi)[-1]],
-                  "ddpsi": np.asarray(exported.ddpsi)[-1].tolist(),
-                  "M": np.asarray(exported.torques)[-1].tolist(),
-                  "F": [float(np.real(exported.ground_reaction[-1])),
-                        float(np.imag(exported.ground_reaction[-1]))]}  # fmt: skip
-        before["x"] = [float(v) for v in before["x"]]
         described.append({
             "index": j, "kind": step.kind, "start_s": step.start, "foothold_m": step.foothold,
             "step_length_m": problem.step_length, "step_time_s": problem.step_time,
-            "speed_m_s": step.speed, "before_impact": before, "settings": _step_settings(step.gait),
+            "speed_m_s": step.speed, "before_impact": _last_sample(exported, step.start, own),
+            "settings": _step_settings(exported),
         })  # fmt: skip
+        if exported.metadata.get("phases"):  # a step of several phases: where each lies
+            described[-1]["phases"] = exported.metadata["phases"]
     stacked = {key: np.concatenate(parts) for key, parts in columns.items()}
+    first = sequence.steps[0].gait
     metadata = {
         "sequence": {
             "format": FORMAT, "version": VERSION, "commanded_speeds_m_s": list(sequence.speeds),
             "rate_hz": rate_hz, "steps": described,
             "transitions": [_transition_summary(t, rate_hz) for t in sequence.transitions],
-            "labels": "the model's: the legs swap at every heel strike (stance_* is the stance "
-                      "leg of the row's step); a step's row before its heel strike is "
-                      "before_impact",
+            "labels": "the model's: the legs swap at every step (stance_* is the stance leg "
+                      "of the row's step); a step's last sample, at the instant of the next "
+                      "step's first row, is its before_impact (before the heel strike on "
+                      "point feet, before the leg swap at toe-off on feet)",
             "standing": "before the first row and after the last the walker stands at rest, "
-                        "holding those rows' torques",
+                        "holding those rows' torques" if sequence.speeds[0] == 0
+                        or sequence.speeds[-1] == 0 else "the walk starts and ends walking",
         },
-        "gait": {**_step_settings(sequence.steps[0].gait), "problem": "walk_sequence"},
+        "gait": {**_step_settings(first.exported(rate_hz)), "problem": "walk_sequence"},
         # the walker the file is of, as every planned file states it (Linkage.from_parameters)
-        "model": sequence.steps[0].gait.problem.linkage.parameters(),
+        "model": first.problem.linkage.parameters(),
     }  # fmt: skip
     trajectory = LinkageTrajectory.from_linkage(
         stacked["t"], stacked["psi"], stacked["dpsi"], stacked["M"], names,
@@ -201,7 +233,26 @@ def _stitched(sequence: WalkSequence, rate_hz: float) -> LinkageTrajectory:
     for key, unit in (("step", "1"), ("phase", "1"), ("speed", "m/s"), ("foothold", "m")):
         name = "foothold_x" if key == "foothold" else key
         trajectory = trajectory.with_extra(name, stacked[key], unit)
+    for name, unit in (units or {}).items():  # the steps' own channels (the law's phase too)
+        trajectory = trajectory.with_extra(name, np.concatenate(own_columns[name]), unit)
     return trajectory
+
+
+def _last_sample(exported: LinkageTrajectory, start: float, own) -> dict[str, Any]:
+    """A step's last sample as the sidecar keeps it (``before_impact``): t on the walk's
+    clock, x, ddpsi, M, F (the root's ground force) and, when the step has channels of its
+    own, their values (``extras``)."""
+    force = complex(np.asarray(exported.ground_reaction)[-1])
+    before = {
+        "t": start + float(exported.time[-1]),
+        "x": [float(v) for v in (*np.asarray(exported.psi)[-1], *np.asarray(exported.dpsi)[-1])],
+        "ddpsi": np.asarray(exported.ddpsi)[-1].tolist(),
+        "M": np.asarray(exported.torques)[-1].tolist(),
+        "F": [force.real, force.imag],
+    }
+    if own:
+        before["extras"] = {name: float(exported.extras[name][0][-1]) for name in own}
+    return before
 
 
 def _transition_summary(transition: Transition, rate_hz: float) -> dict[str, Any]:
@@ -213,10 +264,10 @@ def _transition_summary(transition: Transition, rate_hz: float) -> dict[str, Any
     }  # fmt: skip
 
 
-def _gaits(speeds, linkage, library, say, step_options) -> dict[float, WalkingGait]:
+def _gaits(speeds, linkage, library, say, step_options, feet) -> dict[float, Any]:
     """Each commanded speed's periodic gait: solved from its neighbour's solution, or from
-    the library's blend."""
-    gaits: dict[float, WalkingGait] = {}
+    the library's blend; on feet :func:`problems.walking.footed.footed_step_at`."""
+    gaits: dict[float, Any] = {}
     previous = None
     for v in sorted({v for v in speeds if v > 0}):
         length, duration = step_at_speed(v)
@@ -225,11 +276,37 @@ def _gaits(speeds, linkage, library, say, step_options) -> dict[float, WalkingGa
             say(f"gait at {v:g} m/s from the library: {length:.3f} m in {duration:.3f} s, "
                 "verified")  # fmt: skip
             continue
-        step = walking_step(linkage, length, duration, **step_options)
-        ocp = step.ocp if previous is None else step.ocp.guess(previous.solution)
-        gaits[v] = previous = step.solve(ocp, progress=False)
-        say(f"gait at {v:g} m/s: {length:.3f} m in {duration:.3f} s, verified")
+        if feet:
+            step = footed_step_at(v, **step_options)
+            problem = step.phases if previous is None else step.phases.guess(previous.solution)
+            gaits[v] = previous = step.solve(problem)
+        else:
+            step = walking_step(linkage, length, duration, **step_options)
+            ocp = step.ocp if previous is None else step.ocp.guess(previous.solution)
+            gaits[v] = previous = step.solve(ocp, progress=False)
+        say(f"gait at {v:g} m/s{' on feet' if feet else ''}: {length:.3f} m in "
+            f"{duration:.3f} s, verified")  # fmt: skip
     return gaits
+
+
+def _checked_feet(speeds, linkage, library, step_options) -> dict[str, Any]:
+    """The options of a walk on feet (``footed_step_at``'s, the walker's too), what it
+    cannot do refused by name."""
+    if library is not None:
+        raise DefinitionError(
+            "`library`: a walk on feet solves its gaits itself (a library's blend on feet is "
+            "not wired to it yet); drop library"
+        )
+    standing = [k for k, v in enumerate(speeds) if v == 0]
+    if standing:
+        raise DefinitionError(
+            f"`speeds[{standing[0]}]`: 0 m/s (quiet standing) on feet is not planned yet (both "
+            "feet flat at rest is a double support the step on feet does not have); start and "
+            "end the walk at a speed"
+        )
+    if linkage is not None:
+        step_options = {**step_options, "linkage": linkage}
+    return step_options
 
 
 def plan_sequence(
@@ -239,6 +316,7 @@ def plan_sequence(
     steps_at_speed: int = STEPS_AT_SPEED,
     max_steps: int = MAX_STEPS,
     library=None,
+    feet: bool = False,
     progress: Callable[[str], None] | None = None,
     **step_options,
 ) -> WalkSequence:
@@ -248,18 +326,22 @@ def plan_sequence(
     every step. ``library``: a :class:`problems.library.GaitLibrary` whose walker and build
     options the walk takes, each speed's gait solved from the library's blend there
     (:meth:`GaitLibrary.solve_at`: a grid speed's own gait, or the step between two of them
-    solved exactly); the speeds must lie within its grid. Every step is verified at every
-    exported sample (the transitions' as they are planned, the whole walk again by
-    :meth:`WalkSequence.verify`)."""
+    solved exactly); the speeds must lie within its grid. ``feet``: every step on feet
+    (:func:`problems.walking.footed.footed_step_at`, ``step_options`` its options, e.g.
+    ``speed_limit``; the transitions :mod:`problems.library.footed_transition`), speeds > 0
+    only. Every step is verified at every exported sample (the transitions' as they are
+    planned, the whole walk again by :meth:`WalkSequence.verify`)."""
     speeds = checked_speeds(speeds)
     repeats = check_integer("steps_at_speed", steps_at_speed, 1)
     say = progress or (lambda _: None)
-    if library is not None:
+    if feet:
+        step_options, linkage = _checked_feet(speeds, linkage, library, step_options), None
+    elif library is not None:
         if library.feet:
             raise DefinitionError(
-                "`library`: its gaits walk on feet; a walk through speeds is planned on point "
-                "feet only so far (its transitions are single supports): give a point-foot "
-                "library (build_library(..., feet=False))"
+                "`library`: its gaits walk on feet; a walk through speeds from a library is "
+                "planned on point feet only so far: give a point-foot library "
+                "(build_library(..., feet=False)), or plan on feet without one (feet=True)"
             )
         if linkage is not None and linkage is not library.linkage:
             raise DefinitionError(
@@ -268,17 +350,19 @@ def plan_sequence(
             )
         linkage = library.linkage
         step_options = {**library.settings.get("options", {}), **step_options}
-    gaits = _gaits(speeds, linkage, library, say, step_options)
+    gaits = _gaits(speeds, linkage, library, say, step_options, feet)
     ends = [STANDING if v == 0 else gaits[v] for v in speeds]
     transitions = []
+    # on feet a transition's steps are the start gait's own, resized: no options of their own
+    transition_options = {} if feet else step_options
     for a, b in itertools.pairwise(ends):
         label = f"{speeds[len(transitions)]:g} -> {speeds[len(transitions) + 1]:g} m/s"
         transition = plan_transition(
             a, b, steps=None, max_steps=max_steps,
-            progress=lambda line, label=label: say(f"{label}: {line}"), **step_options,
+            progress=lambda line, label=label: say(f"{label}: {line}"), **transition_options,
         )  # fmt: skip
         transitions.append(transition)
-    pieces: list[tuple[str, WalkingGait]] = []
+    pieces: list[tuple[str, Any]] = []
     for k, transition in enumerate(transitions):
         if k == 0 and speeds[0] > 0:
             pieces += [("gait", gaits[speeds[0]])] * repeats
@@ -315,36 +399,45 @@ class SequenceReport:
         head = (f"{len(self.reports)} steps verified: all checks passed" if not failed else
                 f"{len(failed)} of {len(self.reports)} steps failed: {failed}")  # fmt: skip
         lines = [head]
-        for name in ("dynamics", "join angles", "impact momentum", "foot at rest"):
-            lines.append(f"  worst {name}: {self.worst(name):+.3e}")
+        for name in ("dynamics", "join angles", "join rates", "impact momentum", "foot at rest"):
+            if not math.isnan(self.worst(name)):  # the checks this walk's steps have
+                lines.append(f"  worst {name}: {self.worst(name):+.3e}")
         for j in failed:
             lines.append(f"step {j} ({self.kinds[j]}):\n{self.reports[j]}")
         return "\n".join(lines)
 
 
 def _step_rows(trajectory: LinkageTrajectory, described: dict, j: int):
-    """Step j's samples from the whole walk's rows and its pre-impact sample."""
+    """Step j's samples from the whole walk's rows and its last sample (``before_impact``),
+    with its own channels (on feet the front foot's force) and its phases' metadata."""
     step = np.asarray(trajectory.extras["step"][0])
     rows = np.flatnonzero(step == j)
     n = len(trajectory.link_names)
     before = described["before_impact"]
     x = np.asarray(before["x"], dtype=float)
     time = np.asarray(trajectory.time)[rows] - described["start_s"]
-    psi, dpsi = np.asarray(trajectory.psi)[rows], np.asarray(trajectory.dpsi)[rows]
-    ddpsi, torques = np.asarray(trajectory.ddpsi)[rows], np.asarray(trajectory.torques)[rows]
-    force = np.asarray(trajectory.ground_reaction)[rows]
+    # the step's own channels the rows still carry (a derived one a user dropped, such as a
+    # centre of pressure, is not needed: a missing force fails the dynamics by name)
+    own = {k: v for k, v in (before.get("extras") or {}).items() if k in trajectory.extras}
+    values = [np.asarray(trajectory.psi)[rows], np.asarray(trajectory.dpsi)[rows],
+              np.asarray(trajectory.ddpsi)[rows], np.asarray(trajectory.torques)[rows],
+              np.asarray(trajectory.ground_reaction)[rows],
+              *(np.asarray(trajectory.extras[name][0])[rows] for name in own)]  # fmt: skip
     if time.size and abs(time[-1] - (before["t"] - described["start_s"])) < 1e-12:
         # the last step keeps its final sample in the table
-        time, psi, dpsi, ddpsi, torques, force = (a[:-1] for a in (time, psi, dpsi, ddpsi,
-                                                                    torques, force))  # fmt: skip
-    return LinkageTrajectory.from_linkage(
+        time, values = time[:-1], [a[:-1] for a in values]
+    psi, dpsi, ddpsi, torques, force, *channels = values
+    piece = LinkageTrajectory.from_linkage(
         np.append(time, before["t"] - described["start_s"]),
         np.vstack([psi, x[:n]]), np.vstack([dpsi, x[n:]]),
         np.vstack([torques, before["M"]]), trajectory.link_names,
         ddpsi=np.vstack([ddpsi, before["ddpsi"]]),
         ground_reaction=np.append(force, complex(*before["F"])),
-        metadata={"gait": described["settings"]},
+        metadata={"gait": described["settings"], "phases": described.get("phases")},
     )  # fmt: skip
+    for (name, last), column in zip(own.items(), channels, strict=True):
+        piece = piece.with_extra(name, np.append(column, last), trajectory.extras[name][1])
+    return LinkageTrajectory.of(piece)
 
 
 def verify_sequence(trajectory: Trajectory, linkage: Linkage, **options) -> SequenceReport:

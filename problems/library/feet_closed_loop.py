@@ -1,0 +1,89 @@
+"""A walk through speeds on feet under its drives' law: each step's joint PD around its own
+plan (:class:`problems.walking.feet_control.FeetLaw`), in the walk's file and in MuJoCo.
+
+Why each step's own law and not one finite-horizon LQR along the walk (what the point-foot
+walk has, :mod:`problems.library.closed_loop`): the periodic step on feet runs under joint PD
+already (its LQR through the feet's four contact modes is open work), and a step of a speed
+change is a step on feet like any other (the start gait's step, resized), so its plan carries
+the same law. The law hands over at the leg swap, where the next step's plan starts
+(:func:`problems.walking.mujoco_feet.run_feet_steps_in_mujoco`).
+
+In the file (:func:`with_feet_laws`) every row carries its step's law as the single step's
+file does (``phase``: the hip's progress s over the stance ball, ``double_support``, the gains
+``K_<hinge>__<state>``), the law in ``metadata["feedback"]`` and each step's own gains and
+hip range in ``metadata["sequence"]["steps"][j]["law"]``.
+"""
+
+from __future__ import annotations
+
+from model.linkage_trajectory import LinkageTrajectory
+from planner.errors import DefinitionError
+from problems.walking.feet_control import CONTROL_RATE_HZ, FeetLaw
+
+#: the closed loop's cases: label -> (mass scale, push N s at the middle of the first step
+#: that changes speed); as the point-foot walk's (walk --speeds --feedback)
+CASES = {"as planned": (1.0, 0.0), "mass +10 %": (1.1, 0.0), "push 10 N s": (1.0, 10.0)}
+
+
+def sequence_laws(sequence, rate_hz: float = CONTROL_RATE_HZ) -> tuple[FeetLaw, ...]:
+    """One :class:`FeetLaw` per step of a walk on feet (``WalkSequence`` of
+    ``plan_sequence(..., feet=True)``), made once per distinct plan (a speed's periodic
+    step repeats)."""
+    from problems.walking.footed import FootedGait
+
+    gaits = [step.gait for step in sequence.steps]
+    if not all(isinstance(gait, FootedGait) for gait in gaits):
+        raise DefinitionError(
+            "`sequence`: a walk on feet (plan_sequence(..., feet=True)); its steps are "
+            f"{sorted({type(g).__name__ for g in gaits})}"
+        )
+    made: dict[int, FeetLaw] = {}
+    return tuple(made.setdefault(id(gait), FeetLaw(gait, rate_hz=rate_hz)) for gait in gaits)
+
+
+def with_feet_laws(sequence, laws, rate_hz: float = CONTROL_RATE_HZ) -> LinkageTrajectory:
+    """The walk's trajectory at ``rate_hz`` with every row's law (see the module): ``laws``
+    one per step (:func:`sequence_laws`)."""
+    laws = tuple(laws)
+    if len(laws) != len(sequence.steps):
+        raise DefinitionError(f"`laws`: one per step, {len(sequence.steps)}, got {len(laws)}")
+    described = {}
+
+    def channels(j, exported):
+        out = laws[j].channels(exported)
+        described[j] = out.metadata["feedback"]
+        return out
+
+    trajectory = sequence.trajectory(rate_hz, channels=channels)
+    steps = trajectory.metadata["sequence"]["steps"]
+    for j, entry in enumerate(steps):
+        single, _ = laws[j].references
+        law = described[j]
+        entry["law"] = {"indexed_by": "phase", "hip_ahead_m": list(single.hip_range),
+                        "kp": law["kp"], "kd": law["kd"]}  # fmt: skip
+    first = {key: value for key, value in described[0].items() if key not in ("kp", "kd")}
+    first["gains_per_step"] = (
+        "each step's kp and kd (per branch and hinge) and its phase's "
+        "hip range: sequence.steps[j].law; its K in its rows"
+    )
+    return LinkageTrajectory.of(trajectory.with_metadata(feedback=first))
+
+
+def walk_in_mujoco(sequence, laws, cases=None):
+    """The walk on feet in MuJoCo under its laws, once per case ({label: (mass scale, push
+    N s)}, default :data:`CASES`; the push at the middle of the first step that changes speed,
+    else of the second step): {label: MujocoRun}."""
+    from problems.walking.mujoco_feet import run_feet_steps_in_mujoco
+    from problems.walking.simulation import Disturbances
+
+    kinds = [step.kind for step in sequence.steps]
+    push_step = kinds.index("change") if "change" in kinds else min(1, len(kinds) - 1)
+    gaits = [step.gait for step in sequence.steps]
+    runs = {}
+    for label, (mass, push) in (cases or CASES).items():
+        disturbances = Disturbances(mass_scale=mass, push=push, push_step=push_step)
+        runs[label] = run_feet_steps_in_mujoco(gaits, disturbances=disturbances, laws=laws)
+    return runs, push_step
+
+
+__all__ = ["CASES", "sequence_laws", "walk_in_mujoco", "with_feet_laws"]
