@@ -89,6 +89,48 @@ def test_a_forced_count_that_cannot_be_walked_is_refused_with_each_try(gaits):
         plan_transition(gaits[1.0], gaits[1.4], steps=1, support=1.2)
 
 
+def test_a_try_past_its_wall_time_fails_and_says_so(gaits, monkeypatch):
+    # a budget IPOPT cannot meet: the count fails on its wall time, the next would be tried
+    with pytest.raises(
+        AnthropoidError, match=r"1 step\(s\): IPOPT failed with status Maximum_WallTime_Exceeded"
+    ):
+        plan_transition(gaits[1.0], gaits[1.4], steps=1, try_seconds=1e-3)
+    with pytest.raises(DefinitionError, match="`try_seconds`"):
+        plan_transition(gaits[1.0], gaits[1.4], steps=1, try_seconds=-1.0)
+    # a hold round that would start past the deadline is not started
+    from problems.gait import problem as gait_problem
+
+    rounds = []
+
+    def one_round(problem, rate_hz, again, solution, pinned=()):
+        rounds.append(problem)
+        return again(problem)
+
+    monkeypatch.setattr(gait_problem, "hold_at_samples", one_round)
+    solution = gaits[1.0].solution
+    with pytest.raises(AnthropoidError, match="wall-time budget ran out in the limits' hold"):
+        gait_problem.hold_limits(gaits[1.0].problem.ocp, solution, 100.0, {}, deadline=0.0)
+    assert len(rounds) == 1
+
+
+def test_the_joint_speed_option_reaches_both_steps():
+    from problems.cli import build_parser
+    from problems.cli.walk import step_options
+    from problems.cli.walk_feet import footed_options
+
+    parser = build_parser()
+    for given, expected in (("8", 8.0), ("0", None)):
+        args = parser.parse_args(["walk", "--joint-speed-limit", given])
+        mesh = {"N": 12, "transcription": "hermite-simpson", "degree": None}
+        options = step_options(args, plan_linkage(), mesh, (None, None))
+        assert options["speed_limit"] == expected
+        args = parser.parse_args(["walk", "--preset", "six-link-feet", "--joint-speed-limit",
+                                  given])  # fmt: skip
+        assert footed_options(args).get("speed_limit") == expected
+    assert "speed_limit" not in footed_options(parser.parse_args(["walk", "--preset",
+                                                                  "six-link-feet"]))  # fmt: skip
+
+
 def test_a_walk_starts_and_ends_in_quiet_standing(sequence):
     steps = sequence.steps
     kinds = [s.kind for s in steps]

@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import math
+import time
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -36,7 +37,7 @@ from model.linkage import Linkage
 from model.linkage_naming import FORCES, centre_of_pressure_name, root_contact
 from model.rotors import ground_moment_row
 from planner.accuracy_check import ACCURACY_WARNING, check_accuracy_of
-from planner.errors import DefinitionError, check_positive, check_real
+from planner.errors import AnthropoidError, DefinitionError, check_positive, check_real
 from planner.phases_solution import PhasesSolution
 from planner.problem import OCP
 from planner.sampled_limits import hold_at_samples
@@ -74,12 +75,13 @@ RATE_HZ = 1000.0
 _SOLVE_KEYWORDS = frozenset(inspect.signature(solve).parameters) - {"problem"}
 
 
-def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=()):
+def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=(), deadline=None):
     """``solution`` of ``problem`` (an OCP or Phases), solved again with its limits backed
     off where its exported motion at ``rate_hz`` misses them between the collocation points
     (:func:`planner.sampled_limits.hold_at_samples`; ``pinned``: rows boundary conditions
-    fix at the phases' ends), with the same solve ``options``; a failed re-solve raises.
-    ``solution`` itself when nothing misses or it failed."""
+    fix at the phases' ends), with the same solve ``options``; a failed re-solve raises, and
+    so does a round that would start past ``deadline`` (a ``time.perf_counter()`` instant, or
+    None). ``solution`` itself when nothing misses or it failed."""
     if not solution.success:
         return solution
     kept = {key: value for key, value in options.items() if key in _SOLVE_KEYWORDS}
@@ -95,6 +97,11 @@ def hold_limits(problem, solution, rate_hz: float | None, options: dict, pinned=
     kept["cache"] = True
 
     def again(changed):
+        if deadline is not None and time.perf_counter() > deadline:
+            raise AnthropoidError(
+                "the wall-time budget ran out in the limits' hold rounds (they had not "
+                "settled); give it more time or a coarser rate"
+            )
         return solve(changed, **kept)
 
     held = hold_at_samples(problem, rate_hz, again, solution, pinned=tuple(pinned))
@@ -131,19 +138,27 @@ def refine_and_hold(problem, target: float, options: dict, hold: bool, rate_hz, 
     return solution, final
 
 
-def solve_and_hold(problem, options: dict, hold: bool, rate_hz, pinned=()):
+def solve_and_hold(problem, options: dict, hold: bool, rate_hz, pinned=(), seconds=None):
     """What a gait problem's ``solve`` does with a built problem (an OCP, Phases or its
     Transcription): solve it with ``options``, hold its limits on the exported motion at
     ``rate_hz`` (when ``hold``) and measure the accuracy of the plan that comes out once
-    (``options["accuracy_warning"]``, default :data:`planner.ACCURACY_WARNING`)."""
+    (``options["accuracy_warning"]``, default :data:`planner.ACCURACY_WARNING`).
+    ``seconds``: a wall-time budget of the whole (None: none): each solve gets it as IPOPT's
+    ``max_wall_time`` (one value, so the rounds' solvers still come from the cache) and no
+    hold round starts past it, so the whole takes at most about twice it."""
     options = dict(options)
     warning = options.pop("accuracy_warning", ACCURACY_WARNING)
+    deadline = None
+    if seconds is not None:
+        seconds = check_positive("seconds", seconds, "s")
+        deadline = time.perf_counter() + seconds
+        options["options"] = {"max_wall_time": seconds, **(options.get("options") or {})}
     solution = solve(problem, accuracy_warning=None, **options)
     if hold:
         source = problem
         if isinstance(problem, Transcription):
             source = problem.single or problem.problem
-        solution = hold_limits(source, solution, rate_hz, options, pinned)
+        solution = hold_limits(source, solution, rate_hz, options, pinned, deadline)
     if solution.success and warning is not None:
         check_accuracy_of(solution, warning)
     return solution

@@ -43,7 +43,13 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from planner.errors import AnthropoidError, DefinitionError, check_integer, check_real
+from planner.errors import (
+    AnthropoidError,
+    DefinitionError,
+    check_integer,
+    check_positive,
+    check_real,
+)
 from planner.phases_solution import PhasesSolution
 from planner.problem import Phases
 from planner.transcription import Transcription
@@ -64,6 +70,11 @@ MAX_STEPS = 6
 #: (about 600), which this cuts short; a count that needs more is taken as failed, and the
 #: next count tried.
 SEARCH_ITERATIONS = 300
+#: the wall time a try of a transition may take, s, its limits' hold rounds included (each
+#: solve capped at it, no round started past it): on feet a count that does not settle can
+#: spend 20 minutes in hold rounds (1.0 -> 1.4 m/s unbounded, examples/feet.md), while the
+#: tries that solved took 11-130 s
+SEARCH_SECONDS = 300.0
 #: the stance foot's least normal force in a transition, a fraction of the weight: without it
 #: the optimum of a speed-up from 1.0 to 1.4 m/s unloads the stance foot to 4 % of the weight
 #: right after the heel strike (the body falls forward nearly free), which the product's
@@ -263,12 +274,14 @@ def _problem(start, end, k: int, step_options: dict):
     return (*transition_problem(start, end, k, **step_options), False)
 
 
-def _solved(phases, problems, footed: bool, ipopt: dict, rate_hz: float):
+def _solved(phases, problems, footed: bool, ipopt: dict, rate_hz: float, seconds=None):
     """(the solution, one gait per step) of a transition's problem, its limits held at
-    ``rate_hz``; raises :class:`planner.AnthropoidError` when IPOPT or a hold round fails."""
+    ``rate_hz`` within ``seconds`` of wall time (None: no cap); raises
+    :class:`planner.AnthropoidError` when IPOPT or a hold round fails or the time runs out."""
     solve_options = {"progress": False, "options": ipopt}
     pinned = FOOTED_PINNED if footed else PINNED
-    solution = solve_and_hold(Transcription(phases), solve_options, True, rate_hz, pinned)
+    solution = solve_and_hold(Transcription(phases), solve_options, True, rate_hz, pinned,
+                              seconds)  # fmt: skip
     if not solution.success:
         raise AnthropoidError(f"IPOPT: {solution.status}")
     if footed:  # each step's three phases a solution of their own
@@ -290,6 +303,7 @@ def plan_transition(
     rate_hz: float = RATE_HZ,
     progress: Callable[[str], None] | None = None,
     options: dict | None = None,
+    try_seconds: float | None = SEARCH_SECONDS,
     **step_options,
 ) -> Transition:
     """The transition from ``start`` to ``end`` (each a solved periodic :class:`WalkingGait`
@@ -299,13 +313,16 @@ def plan_transition(
     the fewest of 1..``max_steps`` that solve and verify (``steps=None``); ``step_options``
     as for :func:`problems.walking_step` (limits, mesh; the same for every step and best the
     same as the gaits'; on feet none: the steps take the start gait's); ``options``: IPOPT's
-    (a search's tries are capped at :data:`SEARCH_ITERATIONS` unless ``max_iter`` is given).
-    Every step is verified at every exported sample at ``rate_hz``, its impact against the
-    next step's first state.
+    (a search's tries are capped at :data:`SEARCH_ITERATIONS` unless ``max_iter`` is given);
+    ``try_seconds``: each count's wall time, s, its limits' hold rounds included (None: no
+    cap; a try past it fails and the next count is tried). Every step is verified at every
+    exported sample at ``rate_hz``, its impact against the next step's first state.
 
     Raises :class:`planner.AnthropoidError` naming each count tried and why it failed when
     none does."""
     counts = [check_integer("steps", steps, 1)] if steps is not None else None
+    if try_seconds is not None:
+        try_seconds = check_positive("try_seconds", try_seconds, "s")
     if counts is None:
         counts = list(range(1, check_integer("max_steps", max_steps, 1) + 1))
     attempts = []
@@ -321,7 +338,7 @@ def plan_transition(
             ipopt.setdefault("max_iter", SEARCH_ITERATIONS)
         phases, problems, footed = _problem(start, end, k, step_options)
         try:
-            solution, gaits = _solved(phases, problems, footed, ipopt, rate_hz)
+            solution, gaits = _solved(phases, problems, footed, ipopt, rate_hz, try_seconds)
             reports = _verify_steps(gaits, start, end, rate_hz)
         except AnthropoidError as error:  # a failed solve, hold or verification
             attempts.append((k, str(error).splitlines()[0][:300]))
