@@ -133,16 +133,46 @@ def test_solve_at_starts_each_phase_from_the_blend(library):
     assert np.sqrt(np.mean(gap**2)) < 0.1 * np.max(np.abs(drives))
 
 
-def test_a_walk_through_speeds_refuses_a_library_on_feet(built, capsys):
+def test_a_walk_takes_a_library_on_feet_only_on_feet(built, capsys):
     from problems.__main__ import main
     from problems.library import plan_sequence
 
     library, _, path = built
-    with pytest.raises(DefinitionError, match="its gaits walk on feet"):
+    with pytest.raises(DefinitionError, match="its gaits walk on feet; plan the walk on feet"):
         plan_sequence([0.0, 1.0, 0.0], library=library)
+    with pytest.raises(DefinitionError, match="quiet standing"):
+        plan_sequence([0.0, 1.0], library=library, feet=True)
     code = main(["walk", "--speeds", "0,1.0,0", "--library", str(path)])
     assert code == 2
-    assert "its gaits walk on feet" in capsys.readouterr().err
+    assert "give --preset six-link-feet" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_walk_on_feet_from_the_library_walks_its_gaits(built, tmp_path, capsys):
+    """`walk --preset six-link-feet --speeds 1.1,0.9 --library ...`: each speed's gait the
+    library's own (its samples), the change between them, the file verified read back."""
+    from model.linkage_trajectory import LinkageTrajectory
+    from planner.trajectory import Trajectory
+    from problems.__main__ import main
+
+    library, _, path = built
+    folder = tmp_path / "walk"
+    code = main(["walk", "--preset", "six-link-feet", "--speeds", "1.1,0.9", "--library",
+                 str(path), "--steps-at-speed", "1", "--no-plots",
+                 "--output-dir", str(folder)])  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "2 steps verified: all checks passed" in out or "verified: all checks passed" in out
+    back = LinkageTrajectory.of(Trajectory.load(folder / "sequence.csv"))
+    steps = back.metadata["sequence"]["steps"]
+    assert steps[0]["kind"] == "gait" and steps[-1]["kind"] == "gait"
+    # the first step is the library's gait at 1.1 m/s, sample for sample
+    own = library.gaits[2]
+    rows = np.flatnonzero(np.asarray(back.extras["step"][0]) == 0)
+    time = np.asarray(back.time)[rows]
+    for j in range(own.psi.shape[1]):
+        np.testing.assert_allclose(np.asarray(back.psi)[rows, j],
+                                   np.interp(time, own.time, own.psi[:, j]), atol=1e-4)  # fmt: skip
 
 
 def test_a_version_1_file_still_loads(built, tmp_path):

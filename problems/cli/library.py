@@ -10,7 +10,7 @@ from typing import TextIO
 import numpy as np
 
 from planner.accuracy_check import AccuracyWarning
-from problems.cli.common import Reporter, UsageError, output_set
+from problems.cli.common import Reporter, UsageError, output_set, positive
 from problems.cli.study import value_list
 from problems.library import GaitLibrary, build_library
 
@@ -36,6 +36,10 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
     parser.add_argument("--feet", action="store_true",
                         help="steps on feet (the six-link scene on Winter's feet, "
                         "problems.footed_step; about 3 s a gait)")  # fmt: skip
+    parser.add_argument("--joint-speed-limit", type=positive("rad/s", 1e3), default=None,
+                        metavar="W", help="bound every driven joint's speed at W rad/s in every "
+                        "gait (default: none; a walk on feet from the library wants 10: "
+                        "unbounded, its gaits at 1.2 m/s and faster fall in MuJoCo)")  # fmt: skip
     parser.add_argument("--no-multipliers", action="store_true",
                         help="skip the Floquet multipliers (0.9 s a gait of fixed-point "
                         "search)")  # fmt: skip
@@ -51,9 +55,11 @@ def run(args, out: TextIO, report: Reporter) -> int:
     with report.working(f"planning {len(speeds)} steps from {speeds[0]:g} to {speeds[-1]:g} m/s"):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", AccuracyWarning)
+            bound = {} if args.joint_speed_limit is None else {
+                "speed_limit": args.joint_speed_limit}  # fmt: skip
             library = build_library(speeds, feet=args.feet,
                                     multipliers=not args.no_multipliers,
-                                    progress=report.step)  # fmt: skip
+                                    progress=report.step, **bound)  # fmt: skip
     for warning in caught:  # one line each, not Python's two with a source line
         report.warn(f"a gait of the library: {warning.message}")
     last = "contact phases s" if args.feet else "largest abs multiplier"

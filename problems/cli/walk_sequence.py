@@ -45,10 +45,6 @@ def _check(args, checked_options):
             raise UsageError(f"--speeds with {option}: each step's length and time follow its "
                              f"speed; drop {option}")  # fmt: skip
     if args.preset == "six-link-feet":
-        if args.library is not None:
-            raise UsageError("--speeds on feet with --library: a walk on feet solves its own "
-                             "gaits (a library's blend on feet is not wired to it); drop "
-                             "--library")  # fmt: skip
         return None, None
     mesh, _, target, sole = checked_options(args)
     if target is not None:
@@ -82,7 +78,7 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
     except AnthropoidError as error:
         raise UsageError(f"--speeds: {error}") from None
     feet = args.preset == "six-link-feet"
-    library = None if feet else _library(args.library)
+    library = _library(args.library, feet)
     if library is not None:
         low, high = float(library.speeds[0]), float(library.speeds[-1])
         outside = [v for v in speeds if v > 0 and not low - 1e-12 <= v <= high + 1e-12]
@@ -98,7 +94,7 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
         options = step_options(args, linkage, mesh, sole)
         options.pop("double_support", None)
     if library is not None:  # the library's walker and its own build options
-        options = {}
+        options = {"feet": True} if feet else {}
     output = output_set(str(args.output_dir or new_folder("walk")), "walk")
     clock = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
@@ -174,8 +170,8 @@ def _draw_mujoco_walk(run, problem, output, report) -> None:
         walking_plots.save_figure(strip, output.path("mujoco_walk.png"))
 
 
-def _library(path):
-    """The GaitLibrary of --library, or None."""
+def _library(path, feet: bool):
+    """The GaitLibrary of --library, or None; its gaits on feet exactly when the walk is."""
     if path is None:
         return None
     from problems.library import GaitLibrary
@@ -184,10 +180,12 @@ def _library(path):
         library = GaitLibrary.load(path)
     except (OSError, AnthropoidError, ValueError, KeyError) as error:
         raise UsageError(f"--library {path}: cannot read a gait library there ({error})") from None
-    if library.feet:
+    if library.feet != feet:
+        fix = ("give --preset six-link-feet" if library.feet else
+               "build one with `python -m problems library --feet`")  # fmt: skip
         raise UsageError(
-            f"--library {path}: its gaits walk on feet; --speeds plans a walk on point feet "
-            "only so far: build one with `python -m problems library` without --feet"
+            f"--library {path}: its gaits walk on {'feet' if library.feet else 'point feet'}, "
+            f"the walk on {'feet' if feet else 'point feet'}; {fix}"
         )
     return library
 

@@ -290,13 +290,8 @@ def _gaits(speeds, linkage, library, say, step_options, feet) -> dict[float, Any
 
 
 def _checked_feet(speeds, linkage, library, step_options) -> dict[str, Any]:
-    """The options of a walk on feet (``footed_step_at``'s, the walker's too), what it
-    cannot do refused by name."""
-    if library is not None:
-        raise DefinitionError(
-            "`library`: a walk on feet solves its gaits itself (a library's blend on feet is "
-            "not wired to it yet); drop library"
-        )
+    """The options of a walk on feet (``footed_step_at``'s, the walker's too; a library's
+    own), what it cannot do refused by name."""
     standing = [k for k, v in enumerate(speeds) if v == 0]
     if standing:
         raise DefinitionError(
@@ -304,9 +299,19 @@ def _checked_feet(speeds, linkage, library, step_options) -> dict[str, Any]:
             "feet flat at rest is a double support the step on feet does not have); start and "
             "end the walk at a speed"
         )
-    if linkage is not None:
-        step_options = {**step_options, "linkage": linkage}
-    return step_options
+    if library is None:
+        return step_options if linkage is None else {**step_options, "linkage": linkage}
+    if not library.feet:
+        raise DefinitionError(
+            "`library`: its gaits walk on point feet; a walk on feet (feet=True) needs a "
+            "library on feet (build_library(..., feet=True))"
+        )
+    if linkage is not None and linkage is not library.linkage:
+        raise DefinitionError(
+            "`linkage`: a walk from a library walks the library's walker; give one of linkage "
+            "and library"
+        )
+    return {**library.settings.get("options", {}), **step_options}
 
 
 def plan_sequence(
@@ -334,15 +339,14 @@ def plan_sequence(
     speeds = checked_speeds(speeds)
     repeats = check_integer("steps_at_speed", steps_at_speed, 1)
     say = progress or (lambda _: None)
+    if library is not None and library.feet and not feet:
+        raise DefinitionError(
+            "`library`: its gaits walk on feet; plan the walk on feet (feet=True), or give a "
+            "point-foot library (build_library(..., feet=False))"
+        )
     if feet:
         step_options, linkage = _checked_feet(speeds, linkage, library, step_options), None
     elif library is not None:
-        if library.feet:
-            raise DefinitionError(
-                "`library`: its gaits walk on feet; a walk through speeds from a library is "
-                "planned on point feet only so far: give a point-foot library "
-                "(build_library(..., feet=False)), or plan on feet without one (feet=True)"
-            )
         if linkage is not None and linkage is not library.linkage:
             raise DefinitionError(
                 "`linkage`: a walk from a library walks the library's walker; give one of "
