@@ -20,6 +20,17 @@ from the file alone: the physics at every sample, and each heel strike against t
 step's first row (``join angles``, ``impact momentum``, ``foot at rest``: the states at
 every boundary equal after the impact map). Before its first row and after its last the
 walker stands: both rows are at rest and their torques hold it.
+
+On feet (``plan_sequence(..., feet=True)``) each step is a step on feet
+(:func:`problems.walking.footed.footed_step_at`, its changes those of
+:mod:`problems.library.footed_transition`); a step ends at its toe-off, where the legs swap
+without an impact (its heel strike lies inside it, its state before in its settings'
+``before_events``). The file carries each step's own channels as well (the front foot's force
+``F_swing_heel_x``/``_y``, the centre of pressure; the law's when it has one), the sidecar
+each step's last sample with those channels (``before_impact["extras"]``) and its phases, and
+:func:`verify_sequence` checks each step with the step on feet's verification, its toe-off
+against the next step's first row (``join angles``, ``join rates``). A walk on feet starts and
+ends at a speed: quiet standing on feet is not planned yet.
 """
 
 from __future__ import annotations
