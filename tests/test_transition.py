@@ -113,6 +113,13 @@ def test_a_try_past_its_wall_time_fails_and_says_so(gaits, monkeypatch):
     assert len(rounds) == 1
 
 
+def test_the_transitions_iterations_reach_ipopt():
+    with pytest.raises(AnthropoidError, match=r"1 step\(s\): IPOPT failed .* after 1 iterations"):
+        plan_sequence([0, 1.0, 0], steps_at_speed=1, max_steps=1, transition_iterations=1)
+    with pytest.raises(DefinitionError, match="`transition_iterations`"):
+        plan_sequence([0, 1.0, 0], transition_iterations=0)
+
+
 def test_the_joint_speed_option_reaches_both_steps():
     from problems.cli import build_parser
     from problems.cli.walk import step_options

@@ -43,6 +43,7 @@ from problems.cli.study import DEFAULT_DEGREES, DEGREES, count_at_most, positive
 from problems.cli.walk_feet import FEET_SEQUENCE_SPEED_LIMIT, run_feet
 from problems.gait.accuracy import ACCURACY_PRESETS
 from problems.gait.problem import WORK_REGULARISATION
+from problems.library.transition import SEARCH_ITERATIONS, SEARCH_SECONDS
 from problems.walking.footed import SEQUENCES
 from problems.walking.step import WALKING_DEFAULTS, walking_step
 
@@ -191,6 +192,15 @@ def _add_sequence_options(walk: argparse.ArgumentParser) -> None:
         metavar="K",
         help="with --speeds: the most steps a transition may take (default: 6); the fewest "
         "that solve within the limits and verify are taken",
+    )
+    walk.add_argument(
+        "--transition-iterations",
+        type=positive_count,
+        default=SEARCH_ITERATIONS,
+        metavar="K",
+        help="with --speeds: IPOPT's iterations for each count a transition tries (default: "
+        f"{SEARCH_ITERATIONS}); on feet slowing from 1.4 m/s needs about 1000 (each try is "
+        f"also capped at {SEARCH_SECONDS:g} s of wall time)",
     )
 
 

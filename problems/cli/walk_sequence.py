@@ -103,6 +103,7 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
             sequence = plan_sequence(speeds, None if library else linkage,
                                      steps_at_speed=args.steps_at_speed,
                                      max_steps=args.max_transition_steps, library=library,
+                                     transition_iterations=args.transition_iterations,
                                      progress=report.step, **options)  # fmt: skip
         except AnthropoidError as error:
             raise CommandFailed(f"the walk through {args.speeds}: {error}") from error
