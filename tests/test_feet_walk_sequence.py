@@ -184,9 +184,11 @@ def test_walk_speeds_on_feet_writes_one_verified_file_and_walks_it(tmp_path, cap
         np.testing.assert_allclose(back.dpsi[first], dpsi, atol=1e-9)
     for picture in ("sequence.png", "walk.png"):
         assert (folder / picture).stat().st_size > 10_000
-    if "MuJoCo:" not in out:  # with the extra installed every case walks every step
+    import importlib.util
+
+    if importlib.util.find_spec("mujoco") is not None:  # every case walks every step
         count = len(kinds)
-        assert out.count(f"{count}/{count} steps") == 3, out
+        assert out.count(f"{count}/{count} steps") == 3 and "(fell)" not in out, out
         assert (folder / "mujoco_walk.png").exists()
 
 

@@ -162,7 +162,7 @@ def test_a_walk_on_feet_from_the_library_walks_its_gaits(built, tmp_path, capsys
                  "--output-dir", str(folder)])  # fmt: skip
     out = capsys.readouterr().out
     assert code == 0, out
-    assert "2 steps verified: all checks passed" in out or "verified: all checks passed" in out
+    assert "steps verified: all checks passed" in out
     back = LinkageTrajectory.of(Trajectory.load(folder / "sequence.csv"))
     steps = back.metadata["sequence"]["steps"]
     assert steps[0]["kind"] == "gait" and steps[-1]["kind"] == "gait"
