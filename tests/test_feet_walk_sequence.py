@@ -16,7 +16,7 @@ import pytest
 
 from model.linkage_trajectory import LinkageTrajectory
 from model.rerooting import swap_legs
-from planner.errors import DefinitionError
+from planner.errors import DefinitionError, DefinitionTypeError
 from planner.trajectory import Trajectory
 from problems.cli import main
 from problems.library.feet_closed_loop import sequence_laws, with_feet_laws
@@ -150,7 +150,7 @@ def test_the_files_law_is_each_steps_drive_law(walk):
 def test_a_walk_on_feet_refuses_standing_and_a_library():
     with pytest.raises(DefinitionError, match="quiet standing"):
         plan_sequence([0.0, 1.0], feet=True)
-    with pytest.raises(DefinitionError, match="`library`"):
+    with pytest.raises(DefinitionTypeError, match=r"`library`: a problems\.library\.GaitLibrary"):
         plan_sequence([1.0, 0.6], feet=True, library=object())
 
 

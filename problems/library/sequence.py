@@ -48,10 +48,11 @@ from model.linkage import Linkage
 from model.linkage_naming import acceleration_names, contact_force_names, root_contact
 from model.linkage_trajectory import LinkageTrajectory
 from model.rerooting import swap_legs
-from planner.errors import DefinitionError, check_integer, check_real
+from planner.errors import DefinitionError, DefinitionTypeError, check_integer, check_real
 from planner.trajectory import Trajectory
 from problems.gait.problem import RATE_HZ
 from problems.gait.verification import GaitReport, verify_gait
+from problems.library.library import GaitLibrary
 from problems.library.transition import (
     MAX_STEPS,
     SEARCH_ITERATIONS,
@@ -355,6 +356,11 @@ def plan_sequence(
     repeats = check_integer("steps_at_speed", steps_at_speed, 1)
     iterations = check_integer("transition_iterations", transition_iterations, 1)
     say = progress or (lambda _: None)
+    if library is not None and not isinstance(library, GaitLibrary):
+        raise DefinitionTypeError(
+            f"`library`: a problems.library.GaitLibrary (build_library, or GaitLibrary.load of "
+            f"its file), got {type(library).__name__}"
+        )
     if library is not None and library.feet and not feet:
         raise DefinitionError(
             "`library`: its gaits walk on feet; plan the walk on feet (feet=True), or give a "
