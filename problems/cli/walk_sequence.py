@@ -164,7 +164,7 @@ def _draw_mujoco_walk(run, problem, output, report) -> None:
     """mujoco_walk.png: MuJoCo's walk as planned, in world coordinates."""
     from problems.walking import plots as walking_plots
 
-    motion = run.world(problem.dynamics, rate_hz=30.0, corners=getattr(problem, "corners", None))
+    motion = run.world(problem.dynamics, rate_hz=30.0, corners=problem.corners)
     with report.working("plotting mujoco_walk.png"):
         strip = walking_plots.world_strip(motion, frames_per_step=2,
                                           title="the walk in MuJoCo, closed loop")  # fmt: skip
