@@ -132,14 +132,102 @@ def test_quoted_commands_are_commands_the_program_takes(document):
                                  f"parse ({error})") from None  # fmt: skip
 
 
+#: Quoted commands that a test of their own runs as the guide writes them, checking what they
+#: print and write beyond the exit status.
+RUN_BY_THEIR_OWN_TEST = {
+    "walk --feedback": "tests/test_walking_feedback.py::"
+    "test_walk_feedback_prints_the_closed_loop_and_writes_the_gains",
+}
+
+
+def commands_to_run(document: Path) -> list[str]:
+    """The document's quoted commands less those run elsewhere, so that each distinct command
+    runs once in the slow suite: a README command that a guide quotes too runs with the guide,
+    and a command with a test of its own runs there."""
+    elsewhere = set(RUN_BY_THEIR_OWN_TEST)
+    if document == ROOT / "README.md":
+        for guide in DOCUMENTS[1:]:
+            elsewhere.update(quoted_commands(guide))
+    return [command for command in quoted_commands(document) if command not in elsewhere]
+
+
+def output_folder(command: str) -> str | None:
+    argv = shlex.split(command)
+    return argv[argv.index("--output-dir") + 1] if "--output-dir" in argv else None
+
+
+@pytest.mark.parametrize("document", DOCUMENTS, ids=lambda path: str(path.relative_to(ROOT)))
+def test_a_command_run_elsewhere_feeds_none_that_runs_here(document):
+    """A command left to another run writes nothing that a command still run here reads:
+    the guide's chain stays whole."""
+    kept = commands_to_run(document)
+    for dropped in set(quoted_commands(document)) - set(kept):
+        folder = output_folder(dropped)
+        for command in kept:
+            reads = [word for word in shlex.split(command) if word.startswith(f"{folder}/")]
+            assert folder is None or not reads, (
+                f"{document.name}: `{command}` reads {reads}, written by `{dropped}`, which "
+                "runs elsewhere: quote the chain whole in one guide"
+            )
+
+
+def test_each_command_left_to_its_own_test_is_quoted_and_its_test_exists():
+    quoted = {command for path in DOCUMENTS for command in quoted_commands(path)}
+    for command, test in RUN_BY_THEIR_OWN_TEST.items():
+        assert command in quoted, f"`{command}` is quoted by no guide: drop it from the table"
+        file, name = test.split("::")
+        assert f"def {name}(" in (ROOT / file).read_text(encoding="utf-8"), test
+
+
+def feeds(earlier: str, command: str) -> bool:
+    """Whether `command` reads what `earlier` writes: a path in its folder, that folder itself,
+    or, with no --output-dir on either, the same command's default folder."""
+    folder, words = output_folder(earlier), shlex.split(command)
+    if folder is None:
+        return words[0] == shlex.split(earlier)[0] and "--output-dir" not in words
+    return any(word == folder or word.startswith(f"{folder}/") for word in words[1:])
+
+
+def command_chains(document: Path) -> list[list[str]]:
+    """`commands_to_run` cut into chains that run apart (each in a clone of its own, so the
+    slow suite's workers share a long guide): a command joins every earlier chain it reads
+    from; each chain keeps the guide's order."""
+    commands = commands_to_run(document)
+    chains: list[list[int]] = []
+    for index, command in enumerate(commands):
+        linked = [c for c in chains if any(feeds(commands[i], command) for i in c)]
+        chains = [c for c in chains if c not in linked]
+        chains.append([*sorted(i for c in linked for i in c), index])
+    chains.sort(key=lambda chain: chain[0])
+    return [[commands[i] for i in chain] for chain in chains]
+
+
+def test_command_chains_follow_what_each_command_reads():
+    guide = ROOT / "examples" / "drives.md"
+    chains = command_chains(guide)
+    assert sorted(c for chain in chains for c in chain) == sorted(commands_to_run(guide))
+    steps = next(chain for chain in chains if chain[0].endswith("--output-dir walk_out"))
+    assert any(command.startswith("drives walk_out/torques.csv") for command in steps[1:])
+    study = command_chains(ROOT / "examples" / "walking_study.md")
+    assert len(study) == 1 and len(study[0]) == 2  # the second run resumes the first's folder
+    assert feeds("walk --output-dir a", "drives a/torques.csv")
+    assert not feeds("walk --output-dir a", "drives ab/torques.csv")
+    assert not feeds("walk", "walk --output-dir b")
+    assert not feeds("library --output-dir library", "library --feet --output-dir library_feet")
+
+
+CHAINS = [(path, chain) for path in DOCUMENTS for chain in command_chains(path)]
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
-    "document",
-    [path for path in DOCUMENTS if quoted_commands(path)],
-    ids=lambda path: str(path.relative_to(ROOT)),
+    ("document", "commands"),
+    CHAINS,
+    ids=[f"{path.relative_to(ROOT)}: {chain[0][:40]}" for path, chain in CHAINS],
 )
-def test_quoted_commands_exit_0(document, tmp_path):
-    """Each command a guide quotes runs as written and exits 0: in the guide's order, in one
+def test_quoted_commands_exit_0(document, commands, tmp_path):
+    """Each command a guide quotes runs as written and exits 0 (once: `commands_to_run`): in
+    the guide's order, in one
     scratch folder per guide standing for the clone (a later command reads what an earlier
     one wrote; examples/ is the clone's), with the shared human walking data at
     ../shared/human_gait beside it as in a clone."""
@@ -149,7 +237,6 @@ def test_quoted_commands_exit_0(document, tmp_path):
 
     from conftest import human_gait_data
 
-    commands = quoted_commands(document)
     data = human_gait_data()
     if data is None and any("../shared/" in c for c in commands):
         pytest.skip("the shared human walking data is not here (../shared/human_gait)")
@@ -167,3 +254,14 @@ def test_quoted_commands_exit_0(document, tmp_path):
             f"{document.name}: `python -m problems {command}` exited {run.returncode}:\n"
             f"{run.stderr[-2000:]}"
         )
+
+
+def test_ci_runs_the_readmes_test_command_as_written():
+    """`.ci/run` runs exactly the test command the README's second line gives a fresh machine
+    (its pytest options and all), then the slow suite."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    found = re.search(r'pip install "\.\[test\]" && (python -m pytest[^\n]*)', readme)
+    assert found, "the README gives no test command"
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+    assert f'python -m pip install ".[test]" && {found.group(1)}' in ci
+    assert any(line.startswith("python -m pytest") and "-m slow" in line for line in ci)

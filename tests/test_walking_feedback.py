@@ -82,9 +82,18 @@ def test_a_drive_that_reads_only_the_file_walks(designed, tmp_path):
 
 
 @pytest.mark.slow
-def test_walk_feedback_prints_the_closed_loop_and_writes_the_gains(tmp_path, capsys):
-    folder = tmp_path / "out"
-    assert main(["walk", "--feedback", "--no-gif", "--output-dir", str(folder)]) == 0
+def test_walk_feedback_prints_the_closed_loop_and_writes_the_gains(tmp_path, capsys, monkeypatch):
+    """examples/feedback.md's command, run as the guide writes it (test_readme leaves it to
+    this test, which checks what it prints and writes, not only its exit status)."""
+    import shlex
+
+    from test_readme import ROOT, quoted_commands
+
+    command = "walk --feedback"
+    assert command in quoted_commands(ROOT / "examples" / "feedback.md")
+    monkeypatch.chdir(tmp_path)
+    assert main(shlex.split(command)) == 0
+    folder = tmp_path / "walk_out"
     text = capsys.readouterr().out
     assert "largest Floquet multipliers" in text
     assert "linearised along the plan, and simulated: step 0" in text
@@ -93,7 +102,7 @@ def test_walk_feedback_prints_the_closed_loop_and_writes_the_gains(tmp_path, cap
     assert "  open loop         0/20  fell: step 0" in text
     assert (folder / "closed_loop.png").is_file()
     assert (folder / "closed_loop_walk.png").is_file()  # the run that took the largest push
-    assert not (folder / "closed_loop_walk.gif").exists()  # --no-gif
+    assert (folder / "closed_loop_walk.gif").is_file()  # its animation
     loaded = LinkageTrajectory.load(folder / "torques.csv")
     assert "K_torso__dpsi_head" in loaded.extras
 
@@ -108,5 +117,6 @@ def test_walk_feedback_designs_a_double_support_steps_two_laws(tmp_path, capsys)
     assert "through the held heel strike and the lift-off" in text
     assert "  plan             50/50" in text
     assert "MuJoCo: not run for a step with a double support" in text
+    assert not list(folder.glob("*.gif"))  # --no-gif
     loaded = LinkageTrajectory.load(folder / "torques.csv")
     assert set(np.unique(loaded.extras["double_support"][0])) == {0.0, 1.0}
