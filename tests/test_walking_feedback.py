@@ -93,7 +93,7 @@ def test_walk_feedback_prints_the_closed_loop_and_writes_the_gains(tmp_path, cap
     assert command in quoted_commands(ROOT / "examples" / "feedback.md")
     monkeypatch.chdir(tmp_path)
     assert main(shlex.split(command)) == 0
-    folder = tmp_path / "walk_out"
+    (folder,) = tmp_path.glob("walk_*")  # the command's own new folder: walk_<date>_<time>
     text = capsys.readouterr().out
     assert "largest Floquet multipliers" in text
     assert "linearised along the plan, and simulated: step 0" in text
