@@ -162,12 +162,10 @@ def test_a_command_run_elsewhere_feeds_none_that_runs_here(document):
     the guide's chain stays whole."""
     kept = commands_to_run(document)
     for dropped in set(quoted_commands(document)) - set(kept):
-        folder = output_folder(dropped)
         for command in kept:
-            reads = [word for word in shlex.split(command) if word.startswith(f"{folder}/")]
-            assert folder is None or not reads, (
-                f"{document.name}: `{command}` reads {reads}, written by `{dropped}`, which "
-                "runs elsewhere: quote the chain whole in one guide"
+            assert not feeds(dropped, command), (
+                f"{document.name}: `{command}` reads what `{dropped}` writes, which runs "
+                "elsewhere: quote the chain whole in one guide"
             )
 
 
@@ -226,11 +224,10 @@ CHAINS = [(path, chain) for path in DOCUMENTS for chain in command_chains(path)]
     ids=[f"{path.relative_to(ROOT)}: {chain[0][:40]}" for path, chain in CHAINS],
 )
 def test_quoted_commands_exit_0(document, commands, tmp_path):
-    """Each command a guide quotes runs as written and exits 0 (once: `commands_to_run`): in
-    the guide's order, in one
-    scratch folder per guide standing for the clone (a later command reads what an earlier
-    one wrote; examples/ is the clone's), with the shared human walking data at
-    ../shared/human_gait beside it as in a clone."""
+    """Each command a guide quotes runs as written and exits 0, once (`commands_to_run`): a
+    chain of them (`command_chains`: a later command reads what an earlier one wrote) in the
+    guide's order, in a scratch folder of its own standing for the clone (examples/ is the
+    clone's), with the shared human walking data at ../shared/human_gait beside it."""
     import os
     import subprocess
     import sys
