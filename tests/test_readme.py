@@ -25,19 +25,23 @@ def python_blocks(path: Path) -> list[str]:
     return re.findall(r"```python\n(.*?)```", path.read_text(encoding="utf-8"), flags=re.S)
 
 
+def run_block(path: Path, number: int, block: str, tmp_path: Path, monkeypatch):
+    """(its scratch folder, its namespace) after block ``number`` (from 1) of ``path`` ran in
+    a fresh namespace and a folder of its own, as a reader copies one block into a new file."""
+    folder = tmp_path / f"block{number}"
+    folder.mkdir()
+    # a guide is run from the repository's root: its example files are where it says
+    (folder / "examples").symlink_to(ROOT / "examples", target_is_directory=True)
+    monkeypatch.chdir(folder)
+    namespace: dict = {}
+    where = f"{path.relative_to(ROOT)} python block {number}"
+    exec(compile(block, where, "exec"), namespace)
+    return folder, namespace
+
+
 def run_blocks(path: Path, tmp_path: Path, monkeypatch) -> list[tuple[Path, dict]]:
-    namespaces = []
-    for number, block in enumerate(python_blocks(path)):
-        folder = tmp_path / f"block{number + 1}"
-        folder.mkdir()
-        # a guide is run from the repository's root: its example files are where it says
-        (folder / "examples").symlink_to(ROOT / "examples", target_is_directory=True)
-        monkeypatch.chdir(folder)
-        namespace: dict = {}
-        where = f"{path.relative_to(ROOT)} python block {number + 1}"
-        exec(compile(block, where, "exec"), namespace)
-        namespaces.append((folder, namespace))
-    return namespaces
+    return [run_block(path, number, block, tmp_path, monkeypatch)
+            for number, block in enumerate(python_blocks(path), start=1)]  # fmt: skip
 
 
 def test_the_readme_cites_the_seed_paper():
@@ -71,17 +75,49 @@ def test_the_readme_example_writes_its_torque_file(tmp_path, monkeypatch):
     np.testing.assert_allclose(written.torques[-1], holding, rtol=1e-6, atol=1e-6)
 
 
-@pytest.mark.parametrize(
-    "document",
-    [path for path in DOCUMENTS if path.name != "README.md" or path.parent != ROOT],
-    ids=lambda path: str(path.relative_to(ROOT)),
-)
-def test_guide_python_blocks_run_each_on_its_own(document, tmp_path, monkeypatch):
-    namespaces = run_blocks(document, tmp_path, monkeypatch)
-    if document.name == "planning.md":
-        # its blocks export a gait that solved, on its mesh and refined
-        gait = [ns for folder, ns in namespaces if (folder / "gait.csv").exists()]
-        assert gait and gait[0]["sol"].success and gait[0]["fine"].success
+#: The guides' blocks the default suite leaves to the slow one (each takes 20 s to a minute on
+#: a busy 2-core machine: solves on feet, a study, MuJoCo), keyed by their guide and a text
+#: only that block holds (a test holds each key to exactly one block, so none goes stale).
+SLOW_BLOCKS = {
+    ("examples/feet.md", "footed_step(step_length=0.5"): "a step on feet solved and verified",
+    ("examples/feet.md", "Study("): "a study of five steps on feet",
+    ("examples/feet.md", "run_feet_in_mujoco("): "a step on feet solved and walked in MuJoCo",
+    ("examples/drives.md", "with_drives(step, walker"): "a step planned with its drives",
+    ("examples/drives.md", "footed_step_at(v, speed_limit"): "two steps on feet and a selection",
+}
+
+
+def _guide_blocks():
+    """pytest params (guide, block number, block) of every guide's Python blocks, the ones
+    in SLOW_BLOCKS marked slow."""
+    params = []
+    for path in DOCUMENTS:
+        if path == ROOT / "README.md":
+            continue  # its one example has its own test
+        name = str(path.relative_to(ROOT))
+        for number, block in enumerate(python_blocks(path), start=1):
+            slow = any(guide == name and key in block for guide, key in SLOW_BLOCKS)
+            params.append(pytest.param(path, number, block, id=f"{name}:{number}",
+                                       marks=[pytest.mark.slow] if slow else []))  # fmt: skip
+    return params
+
+
+def test_each_slow_block_is_one_block_of_its_guide():
+    for guide, key in SLOW_BLOCKS:
+        holding = [block for block in python_blocks(ROOT / guide) if key in block]
+        assert len(holding) == 1, f"{guide}: {len(holding)} blocks hold {key!r}, not one"
+
+
+@pytest.mark.parametrize("document, number, block", _guide_blocks())
+def test_guide_python_blocks_run_each_on_its_own(document, number, block, tmp_path, monkeypatch):
+    folder, namespace = run_block(document, number, block, tmp_path, monkeypatch)
+    if document.name == "planning.md" and (folder / "gait.csv").exists():
+        # the block that exports a gait: it solved, on its mesh and refined
+        assert namespace["sol"].success and namespace["fine"].success
+
+
+def test_the_planning_guide_exports_a_gait():
+    assert any("gait.csv" in block for block in python_blocks(ROOT / "examples/planning.md"))
 
 
 @pytest.mark.parametrize("document", DOCUMENTS, ids=lambda path: str(path.relative_to(ROOT)))

@@ -29,13 +29,15 @@ from problems.walking.feedback import design_feedback, gains_from
 
 @pytest.fixture(scope="module")
 def walk():
-    sequence = plan_sequence([0, 1.0, 0], steps_at_speed=4)
+    # 0.6 m/s: its start and stop take a step each (12 s); from 1.0 m/s one-step stops fail
+    # their hold rounds first (65 s)
+    sequence = plan_sequence([0, 0.6, 0], steps_at_speed=4)
     return sequence, design_sequence_feedback(sequence)
 
 
 def test_the_gains_are_the_periodic_lqrs_far_from_a_transition(walk):
     sequence, feedback = walk
-    periodic = design_feedback(sequence.gaits[1.0]).controller.gains.gains
+    periodic = design_feedback(sequence.gaits[0.6]).controller.gains.gains
     kinds = [step.kind for step in sequence.steps]
     gait_steps = [j for j, kind in enumerate(kinds) if kind == "gait"]
     scale = np.abs(periodic).max()
