@@ -133,6 +133,7 @@ def test_second_problem_writes_its_input_when_missing(tmp_path):
     assert (tmp_path / "fresh" / "first_problem.csv").exists()
 
 
+@pytest.mark.slow  # a benchmark's tables printed: 10-20 s of solves
 def test_problems_benchmark_quick_run():
     """The benchmark behind the guides' errata and replay numbers runs and prints its tables."""
     result = _call("benchmarks/problems_bench.py", "--quick")
@@ -164,6 +165,7 @@ def test_convergence_orders_benchmark_prints_slopes_near_the_scheme_orders():
         assert order - 0.3 <= slope <= order + 0.5, row
 
 
+@pytest.mark.slow  # a benchmark's tables printed: 10-20 s of solves
 def test_gait_benchmark_quick_run():
     """The benchmark behind the guides' walking numbers runs and prints its tables."""
     result = _call("benchmarks/gait_bench.py", "--quick")

@@ -235,6 +235,7 @@ def test_mayer_term_and_periodic_map():
     assert solution.cost == pytest.approx(12 * d**2 + 100 * (d / 2 - 1) ** 2, rel=1e-8)
 
 
+@pytest.mark.slow  # a benchmark's tables printed: 30 s of solves
 def test_benchmark_quick_run():
     """The benchmark runs as a user runs it (a subprocess, --quick) and prints its tables."""
     import os

@@ -113,12 +113,13 @@ def test_lqr_makes_the_gait_stable_with_margin_and_walks(plan):
     # not equal: the time-indexed linear model does not see that the phase re-times the
     # reference (0.053 here against the phase-indexed loop's 0.022); both far inside 1
     assert linear < 0.1
-    # fifty steps on the plan's length and time, within its torque limit
+    # twenty steps on the plan's length and time, within its torque limit (a start error
+    # shrinks by the multipliers' 0.02 a step: after twenty it is far below round-off)
     run = simulate_walking(
-        reference.states[0], controller, linkage=step.linkage, steps=50, mu=GROUND_MU,
+        reference.states[0], controller, linkage=step.linkage, steps=20, mu=GROUND_MU,
         reference=reference, **options,
     )  # fmt: skip
-    assert run.walked == 50, run.fell
+    assert run.walked == 20, run.fell
     np.testing.assert_allclose([r.duration for r in run.steps], step.step_time, rtol=1e-3)
     np.testing.assert_allclose([r.length for r in run.steps], step.step_length, rtol=1e-3)
     assert max(r.peak_torque for r in run.steps) <= 150.0
