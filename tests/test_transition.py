@@ -25,6 +25,7 @@ from problems.library import (
     plan_transition,
     verify_sequence,
 )
+from problems.library.transition import RETRIED, RETRY_ITERATIONS
 from problems.walking.footed import step_at_speed
 from problems.walking.step import walking_step
 
@@ -115,11 +116,58 @@ def test_a_try_past_its_wall_time_fails_and_says_so(gaits, monkeypatch):
     assert len(rounds) == 1
 
 
-def test_the_transitions_iterations_reach_ipopt():
+def test_the_transitions_iterations_reach_ipopt(capsys):
     with pytest.raises(AnthropoidError, match=r"1 step\(s\): IPOPT failed .* after 1 iterations"):
-        plan_sequence([0, 1.0, 0], steps_at_speed=1, max_steps=1, transition_iterations=1)
+        plan_sequence([0, 1.0, 0], steps_at_speed=1, max_steps=1, transition_iterations=1,
+                      retry_iterations=None)  # fmt: skip
     with pytest.raises(DefinitionError, match="`transition_iterations`"):
         plan_sequence([0, 1.0, 0], transition_iterations=0)
+    from problems.cli import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["walk", "--retry-iterations", "0"]).retry_iterations == 0
+    assert parser.parse_args(["walk"]).retry_iterations == RETRY_ITERATIONS
+    assert main(["walk", "--speeds", "0,1", "--retry-iterations", "-1"]) == 2
+    assert "--retry-iterations: must be >= 0, got '-1'" in capsys.readouterr().err
+
+
+def test_a_count_stopped_on_the_iteration_cap_is_tried_again_with_more():
+    gait = _gait(0.6)  # its stop takes one step (about 40 IPOPT iterations)
+    capped = {"max_iter": 2}
+    transition = plan_transition(gait, STANDING, max_steps=1, options=capped, retry_iterations=400)
+    assert [k for k, _ in transition.attempts] == [1, 1] and transition.steps == 1
+    assert "Maximum_Iterations_Exceeded after 2 iterations" in transition.attempts[0][1]
+    assert transition.attempts[1][1] == f"{RETRIED} 400 iterations: solved and verified"
+    assert all(report.ok for report in transition.reports)
+    # no second pass: the count stays failed
+    with pytest.raises(AnthropoidError, match="after 2 iterations") as failed:
+        plan_transition(gait, STANDING, max_steps=1, options=capped, retry_iterations=None)
+    assert RETRIED not in str(failed.value)
+    # a count that failed on anything but the iteration cap (here its wall time) is not
+    # tried again
+    with pytest.raises(AnthropoidError, match="Maximum_WallTime_Exceeded") as failed:
+        plan_transition(gait, STANDING, max_steps=1, try_seconds=1e-3, retry_iterations=400)
+    assert RETRIED not in str(failed.value)
+    with pytest.raises(DefinitionError, match="`retry_iterations`"):
+        plan_transition(gait, STANDING, retry_iterations=0)
+
+
+def test_the_cap_is_found_behind_a_hold_rounds_error():
+    from planner.solver import SolverError
+    from problems.library.transition import _stopped_on_cap
+
+    def chained(status):
+        try:
+            try:
+                raise SolverError("IPOPT failed", status, 300, [], None)
+            except SolverError as inner:
+                raise AnthropoidError("solving again with the limits backed off") from inner
+        except AnthropoidError as outer:
+            return outer
+
+    assert _stopped_on_cap(chained("Maximum_Iterations_Exceeded"))
+    assert not _stopped_on_cap(chained("Infeasible_Problem_Detected"))
+    assert not _stopped_on_cap(AnthropoidError("a verification failed"))
 
 
 def test_the_joint_speed_option_reaches_both_steps():

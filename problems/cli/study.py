@@ -116,6 +116,17 @@ def positive_count(text: str) -> int:
     return value
 
 
+def non_negative_count(text: str) -> int:
+    """An argparse ``type``: an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
+    return value
+
+
 def count_at_most(maximum: int, what: str, fix: str) -> Callable[[str], int]:
     """An argparse ``type``: an integer in [1, maximum] (``what`` names it, ``fix`` says
     what to do instead of more)."""

@@ -39,11 +39,17 @@ from problems.cli.common import (
     write_step_files,
     write_walk_pictures,
 )
-from problems.cli.study import DEFAULT_DEGREES, DEGREES, count_at_most, positive_count
+from problems.cli.study import (
+    DEFAULT_DEGREES,
+    DEGREES,
+    count_at_most,
+    non_negative_count,
+    positive_count,
+)
 from problems.cli.walk_feet import FEET_SEQUENCE_SPEED_LIMIT, run_feet
 from problems.gait.accuracy import ACCURACY_PRESETS
 from problems.gait.problem import WORK_REGULARISATION
-from problems.library.transition import SEARCH_ITERATIONS, SEARCH_SECONDS
+from problems.library.transition import RETRY_ITERATIONS, SEARCH_ITERATIONS, SEARCH_SECONDS
 from problems.walking.footed import SEQUENCES
 from problems.walking.step import WALKING_DEFAULTS, walking_step
 
@@ -199,8 +205,16 @@ def _add_sequence_options(walk: argparse.ArgumentParser) -> None:
         default=SEARCH_ITERATIONS,
         metavar="K",
         help="with --speeds: IPOPT's iterations for each count a transition tries (default: "
-        f"{SEARCH_ITERATIONS}); on feet slowing from 1.4 m/s needs about 1000 (each try is "
-        f"also capped at {SEARCH_SECONDS:g} s of wall time)",
+        f"{SEARCH_ITERATIONS}; each try is also capped at {SEARCH_SECONDS:g} s of wall time)",
+    )
+    walk.add_argument(
+        "--retry-iterations",
+        type=non_negative_count,
+        default=RETRY_ITERATIONS,
+        metavar="K",
+        help="with --speeds: when no count of a transition solves, the counts that stopped on "
+        f"--transition-iterations are tried again with K (default: {RETRY_ITERATIONS}; 0: no "
+        "second pass); on feet slowing from 1.4 m/s needs it",
     )
 
 

@@ -22,6 +22,7 @@ from problems.cli.common import (
 )
 from problems.cli.walk_feet import FEET_SEQUENCE_SPEED_LIMIT, footed_options
 from problems.library.closed_loop import STAND as STAND_S
+from problems.library.transition import RETRIED
 from problems.walking.footed import FootedStep
 from problems.walking.step import WALKING_DEFAULTS
 
@@ -104,6 +105,7 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
                                      steps_at_speed=args.steps_at_speed,
                                      max_steps=args.max_transition_steps, library=library,
                                      transition_iterations=args.transition_iterations,
+                                     retry_iterations=args.retry_iterations or None,
                                      progress=report.step, **options)  # fmt: skip
         except AnthropoidError as error:
             raise CommandFailed(f"the walk through {args.speeds}: {error}") from error
@@ -279,7 +281,8 @@ def _print_plan(sequence, seconds: float, caught, rate_hz: float, out) -> None:
     for t in sequence.transitions:
         peaks = t.peak_torques(rate_hz)
         worst = max(peaks, key=peaks.get)
-        tried = ",".join(str(k) for k, _ in t.attempts)
+        # a second pass's counts marked "+": tried again with more iterations
+        tried = ",".join(f"{k}{'+' if why.startswith(RETRIED) else ''}" for k, why in t.attempts)
         label = f"{t.speeds[0]:g} -> {t.speeds[1]:g} m/s"
         print(f"  {label:<16} {t.steps:>5} {tried:>12} {t.iterations:>10}  "
               f"{peaks[worst]:.1f} ({worst})", file=out)  # fmt: skip

@@ -55,6 +55,7 @@ from problems.gait.verification import GaitReport, verify_gait
 from problems.library.library import GaitLibrary
 from problems.library.transition import (
     MAX_STEPS,
+    RETRY_ITERATIONS,
     SEARCH_ITERATIONS,
     STANDING,
     Transition,
@@ -336,6 +337,7 @@ def plan_sequence(
     library=None,
     feet: bool = False,
     transition_iterations: int = SEARCH_ITERATIONS,
+    retry_iterations: int | None = RETRY_ITERATIONS,
     progress: Callable[[str], None] | None = None,
     **step_options,
 ) -> WalkSequence:
@@ -348,10 +350,12 @@ def plan_sequence(
     solved exactly); the speeds must lie within its grid. ``feet``: every step on feet
     (:func:`problems.walking.footed.footed_step_at`, ``step_options`` its options, e.g.
     ``speed_limit``; the transitions :mod:`problems.library.footed_transition`), speeds > 0
-    only. ``transition_iterations``: IPOPT's iterations for each count a transition tries
-    (on feet slowing from 1.4 m/s needs about 1000: 1.4 -> 1.2 m/s failed 1-3 steps at 300 and
-    solved in 1 at 1000). Every step is verified at every exported sample (the transitions' as
-    they are planned, the whole walk again by :meth:`WalkSequence.verify`)."""
+    only. ``transition_iterations``: IPOPT's iterations for each count a transition tries;
+    ``retry_iterations``: a second pass's, for the counts that stopped on the first cap when
+    none solved (:func:`plan_transition`; None: no second pass; on feet slowing from 1.4 m/s
+    needs it: 1.4 -> 1.2 m/s failed 1-3 steps at 300 and solved in 1 at 1000). Every step is
+    verified at every exported sample (the transitions' as they are planned, the whole walk
+    again by :meth:`WalkSequence.verify`)."""
     speeds = checked_speeds(speeds)
     repeats = check_integer("steps_at_speed", steps_at_speed, 1)
     iterations = check_integer("transition_iterations", transition_iterations, 1)
@@ -385,6 +389,7 @@ def plan_sequence(
         label = f"{speeds[len(transitions)]:g} -> {speeds[len(transitions) + 1]:g} m/s"
         transition = plan_transition(
             a, b, steps=None, max_steps=max_steps, options={"max_iter": iterations},
+            retry_iterations=retry_iterations,
             progress=lambda line, label=label: say(f"{label}: {line}"), **transition_options,
         )  # fmt: skip
         transitions.append(transition)

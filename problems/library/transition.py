@@ -52,6 +52,7 @@ from planner.errors import (
 )
 from planner.phases_solution import PhasesSolution
 from planner.problem import Phases
+from planner.solver import SolverError
 from planner.transcription import Transcription
 from problems.gait.problem import RATE_HZ, rate_scales, solve_and_hold, total_iterations
 from problems.gait.verification import GaitReport, verify_gait
@@ -76,6 +77,14 @@ SEARCH_ITERATIONS = 300
 #: tries that solved took 11-130 s alone on this machine and 344 s beside two other jobs
 #: (0.6 -> 1.0 m/s in 3 steps)
 SEARCH_SECONDS = 600.0
+#: IPOPT iterations of the search's second pass: when no count solved within the first
+#: pass's cap, the counts that stopped on that cap (not on infeasibility, the wall time, a
+#: hold round or the verification) are tried again, fewest steps first, with this many. On
+#: feet slowing from 1.4 m/s stops on 300 in every count and 1.4 -> 1.2 m/s solves in one
+#: step at 1000 (scratch runs); a count that is infeasible fails the first pass on its own.
+RETRY_ITERATIONS = 1000
+#: IPOPT's status when it stopped on its iteration cap
+_CAPPED = "Maximum_Iterations_Exceeded"
 #: the stance foot's least normal force in a transition, a fraction of the weight: without it
 #: the optimum of a speed-up from 1.0 to 1.4 m/s unloads the stance foot to 4 % of the weight
 #: right after the heel strike (the body falls forward nearly free), which the product's
@@ -305,6 +314,7 @@ def plan_transition(
     progress: Callable[[str], None] | None = None,
     options: dict | None = None,
     try_seconds: float | None = SEARCH_SECONDS,
+    retry_iterations: int | None = RETRY_ITERATIONS,
     **step_options,
 ) -> Transition:
     """The transition from ``start`` to ``end`` (each a solved periodic :class:`WalkingGait`
@@ -316,41 +326,66 @@ def plan_transition(
     same as the gaits'; on feet none: the steps take the start gait's); ``options``: IPOPT's
     (a search's tries are capped at :data:`SEARCH_ITERATIONS` unless ``max_iter`` is given);
     ``try_seconds``: each count's wall time, s, its limits' hold rounds included (None: no
-    cap; a try past it fails and the next count is tried). Every step is verified at every
-    exported sample at ``rate_hz``, its impact against the next step's first state.
+    cap; a try past it fails and the next count is tried). ``retry_iterations``: when a
+    search's first pass solves no count, the counts that stopped on its iteration cap are
+    tried again with this many IPOPT iterations, fewest steps first (None, or a number not
+    above the first cap: no second pass; a forced ``steps`` count has none). Every step is
+    verified at every exported sample at ``rate_hz``, its impact against the next step's
+    first state.
 
     Raises :class:`planner.AnthropoidError` naming each count tried and why it failed when
     none does."""
     counts = [check_integer("steps", steps, 1)] if steps is not None else None
     if try_seconds is not None:
         try_seconds = check_positive("try_seconds", try_seconds, "s")
+    if retry_iterations is not None:
+        retry_iterations = check_integer("retry_iterations", retry_iterations, 1)
     if counts is None:
         counts = list(range(1, check_integer("max_steps", max_steps, 1) + 1))
-    attempts = []
     footed = isinstance(start, FootedGait) or isinstance(end, FootedGait)
     if footed and step_options:
         raise DefinitionError(
             f"`step_options` ({', '.join(sorted(step_options))}): on feet every step of a "
             "transition takes the options of the gait it starts from; plan the gaits with them"
         )
-    for k in counts:
-        ipopt = dict(options or {})
-        if steps is None:
-            ipopt.setdefault("max_iter", SEARCH_ITERATIONS)
+    ipopt = dict(options or {})
+    if steps is None:
+        ipopt.setdefault("max_iter", SEARCH_ITERATIONS)
+    attempts: list[tuple[int, str]] = []
+
+    def attempt(k: int, ipopt: dict, retry: int | None = None):
+        """(the transition in ``k`` steps or None, whether its failure was IPOPT's iteration
+        cap); each outcome goes into ``attempts`` (a second pass's begins with RETRIED)."""
+        which = f"{k} step(s)" + (f" {RETRIED} {retry} iterations" if retry else "")
+        prefix = f"{RETRIED} {retry} iterations: " if retry else ""
         phases, problems, footed = _problem(start, end, k, step_options)
         try:
             solution, gaits = _solved(phases, problems, footed, ipopt, rate_hz, try_seconds)
             reports = _verify_steps(gaits, start, end, rate_hz)
         except AnthropoidError as error:  # a failed solve, hold or verification
-            attempts.append((k, str(error).splitlines()[0][:300]))
+            why = str(error).splitlines()[0]
+            attempts.append((k, prefix + why[:300]))
             if progress is not None:
-                progress(f"{k} step(s): failed ({attempts[-1][1][:120]})")
-            continue
-        attempts.append((k, "solved and verified"))
+                progress(f"{which}: failed ({why[:120]})")
+            return None, _stopped_on_cap(error)
+        attempts.append((k, prefix + "solved and verified"))
         if progress is not None:
-            progress(f"{k} step(s): solved and verified, {total_iterations(solution)} "
-                     "iterations")  # fmt: skip
-        return Transition(start, end, gaits, solution, reports, tuple(attempts))
+            progress(f"{which}: solved and verified, {total_iterations(solution)} iterations")
+        return Transition(start, end, gaits, solution, reports, tuple(attempts)), False
+
+    capped = []
+    for k in counts:
+        transition, on_cap = attempt(k, ipopt)
+        if transition is not None:
+            return transition
+        if on_cap:
+            capped.append(k)
+    if steps is None and retry_iterations is not None and retry_iterations > ipopt["max_iter"]:
+        again = {**ipopt, "max_iter": retry_iterations}
+        for k in capped:
+            transition, _ = attempt(k, again, retry_iterations)
+            if transition is not None:
+                return transition
     v_a, v_b = end_speed(start), end_speed(end)
     tried = "; ".join(f"{k} step(s): {why}" for k, why in attempts)
     raise AnthropoidError(
@@ -360,8 +395,24 @@ def plan_transition(
     )
 
 
+#: how an attempt of the second pass begins its outcome in ``Transition.attempts``
+RETRIED = "again at"
+
+
+def _stopped_on_cap(error: BaseException) -> bool:
+    """Whether ``error`` (or an error it was raised from: a hold round's) is IPOPT stopping
+    on its iteration cap."""
+    while error is not None:
+        if isinstance(error, SolverError) and error.status == _CAPPED:
+            return True
+        error = error.__cause__
+    return False
+
+
 __all__ = [
     "MAX_STEPS",
+    "RETRIED",
+    "RETRY_ITERATIONS",
     "STANDING",
     "Transition",
     "plan_transition",
