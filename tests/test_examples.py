@@ -201,6 +201,7 @@ def test_units_comparison_quick_run():
     assert float(cells[-1]) == pytest.approx(1e18, rel=1e-9)
 
 
+@pytest.mark.slow  # a benchmark's quick study: 20 s of solves
 def test_speed_accuracy_benchmark_quick_run(tmp_path):
     """The study behind the guides' speed/accuracy table, Pareto plot, refinement and preset
     numbers runs in its quick form, writes its figure and data, and what it measured is
@@ -245,6 +246,7 @@ def test_speed_accuracy_benchmark_quick_run(tmp_path):
     assert result.stdout.count("the other knobs") == 2
 
 
+@pytest.mark.slow  # a benchmark's five scaled walkers solved
 def test_similarity_benchmark_quick_run():
     """The benchmark behind the scaled walkers' numbers (walking.md, the README) runs; what
     it prints is consistent: every scaled walking step verifies and lands within 1e-6 of the

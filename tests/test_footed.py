@@ -163,6 +163,7 @@ def test_fixed_durations_are_kept():
         assert low <= d <= high and high - low < 1e-9
 
 
+@pytest.mark.slow  # a stall's regression: two footed solves from two guesses
 def test_a_guess_of_the_durations_that_once_stalled_reaches_the_same_optimum(monkeypatch):
     """From the guessed shares 0.45 / 0.30 / 0.25 of the step time (flat, heel rise, double
     support) the first solve used to drive the Hessian's regularisation past 1e7 and crawl:

@@ -704,6 +704,7 @@ def test_the_axes_keep_their_order(tmp_path):
         swapped.run(tmp_path / "s", workers=1)
 
 
+@pytest.mark.slow  # a benchmark's study configurations run
 def test_the_study_benchmark_smoke_run():
     """study_bench.py --quick: every configuration runs; the same continuation on the pool
     gives the serial run's costs to the last bit (the warm-start transfer is exact)."""

@@ -53,6 +53,7 @@ def test_a_push_too_hard_is_a_fall_with_its_reason():
     assert run.fell.startswith("step 1, t = ")
 
 
+@pytest.mark.slow  # the disturbance battery, each case walked in MuJoCo
 def test_the_checks_disturbances_run_in_mujoco_too():
     step = walking_step()
     feedback = design_feedback(step.solve(progress=False), ground_mu=1.0)
