@@ -184,6 +184,11 @@ def test_walk_speeds_on_feet_writes_one_verified_file_and_walks_it(tmp_path, cap
         np.testing.assert_allclose(back.dpsi[first], dpsi, atol=1e-9)
     for picture in ("sequence.png", "walk.png"):
         assert (folder / picture).stat().st_size > 10_000
+    # the robot's view of the walk: the file's rows, the sides alternating, each step's law
+    joints = np.genfromtxt(folder / "joints.csv", delimiter=",", names=True)
+    np.testing.assert_allclose(joints["t_s"], back.time, atol=1e-12)
+    np.testing.assert_array_equal(joints["stance_right"], (step % 2 == 0).astype(float))
+    assert any(name.startswith("K_right_knee__") for name in joints.dtype.names)
     import importlib.util
 
     if importlib.util.find_spec("mujoco") is not None:  # every case walks every step

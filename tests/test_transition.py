@@ -272,7 +272,7 @@ def plan_linkage():
 
 @pytest.mark.parametrize("extra, message", [
     (["--speeds", "1,0,1"], "only first or last"),
-    (["--speeds", "0,1", "--urdf", "x.urdf"], "--urdf"),
+    (["--speeds", "0,1", "--urdf", "x.urdf"], "cannot read 'x.urdf'"),
     (["--speeds", "0,1", "--step-time-s", "0.6"], "--step-time-s"),
     (["--speeds", "0,1", "--preset", "six-link-feet"], "quiet standing"),
     (["--speeds", "1,0.6", "--preset", "six-link-feet", "--library", "x.npz"], "--library"),

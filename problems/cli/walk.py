@@ -380,11 +380,11 @@ def _add_output_options(walk: argparse.ArgumentParser) -> None:
 
 
 def run(args, out: TextIO, report: Reporter) -> int:
+    args.walker = _robot(args)
     if args.speeds is not None:
         from problems.cli.walk_sequence import run_sequence
 
         return run_sequence(args, out, report, _checked_options, step_options)
-    args.walker = _robot(args)
     if args.preset == "six-link-feet" or (args.walker is not None and args.walker.feet):
         return run_feet(args, out, report)
     mesh, preset, target, sole = _checked_options(args)

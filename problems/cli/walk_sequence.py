@@ -19,6 +19,8 @@ from problems.cli.common import (
     new_folder,
     output_set,
     preset_linkage,
+    robot_limit_lines,
+    with_robot,
 )
 from problems.cli.walk_feet import FEET_SEQUENCE_SPEED_LIMIT, footed_options
 from problems.library.closed_loop import STAND as STAND_S
@@ -35,8 +37,15 @@ def _check(args, checked_options):
             f"--speeds: plans point-foot steps (--preset six-link or five-link) or steps on feet "
             f"(six-link-feet); got --preset {args.preset}"
         )
-    if getattr(args, "urdf", None):
-        raise UsageError("--speeds with --urdf: a robot's sequence is not built yet; drop --urdf")
+    walker = getattr(args, "walker", None)
+    if walker is not None and walker.feet:
+        raise UsageError(
+            "--speeds with --urdf of a robot with feet: its walk on feet through speeds is not "
+            "built yet; plan its single step (drop --speeds), or a point-foot robot's walk"
+        )
+    if walker is not None and args.library is not None:
+        raise UsageError("--speeds with --urdf and --library: the library's gaits are of its "
+                         "own walker; drop one")  # fmt: skip
     if args.double_support_s > 0:
         raise UsageError("--speeds with --double-support-s: transitions join single supports; "
                          "drop --double-support-s")  # fmt: skip
@@ -92,6 +101,8 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
         linkage, options = None, _feet_options(args, speeds)
     else:
         linkage = preset_linkage(args.preset) if library is None else library.linkage
+        if args.walker is not None:  # the robot of --urdf, its limits in the options
+            linkage = args.walker.linkage
         options = step_options(args, linkage, mesh, sole)
         options.pop("double_support", None)
     if library is not None:  # the library's walker and its own build options
@@ -114,13 +125,14 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
     feedback = _feedback(sequence, args, report, feet) if args.feedback else None
     with output:
         path = output.path("sequence.csv")
-        _with_law(sequence, feedback, args.rate_hz, feet).save(path)
+        with_robot(_with_law(sequence, feedback, args.rate_hz, feet), args).save(path)
         trajectory = Trajectory.load(path)
         check = verify_sequence(trajectory, sequence.linkage)
         print(f"verification of sequence.csv read back (numpy, every step, each step's end "
               f"against the next step's first row): {check}", file=out)  # fmt: skip
         if not check.ok:
             raise CommandFailed("sequence.csv failed its verification; nothing written")
+        _write_joints(trajectory, output, args.legs, out)
         mujoco_run = None
         if feedback is not None:
             walk = _feet_closed_loop if feet else _closed_loop
@@ -133,6 +145,22 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
     for written in paths:
         print(f"wrote {written}", file=out)
     return 0
+
+
+def _write_joints(trajectory, output, legs, out) -> None:
+    """joints.csv: the walk (``sequence.csv`` read back) as the robot's drives see it
+    (``problems.robot.sequence_joints``), staged in ``output``, and what it holds in a line."""
+    from problems.robot.sequence_joints import sequence_joint_space
+
+    view = sequence_joint_space(trajectory, sides=tuple(legs))
+    view.save(output.path("joints.csv"))
+    peaks = ", ".join(f"{j['name']} {j['peak_N_m']:.1f}" for j in view.metadata["joints"])
+    print(f"joints.csv: the robot's view of the whole walk ({view.time.size} rows, sequence.csv's; "
+          f"the {legs[0]} leg in stance in the first step): joint angles, rates, accelerations, "
+          f"each physical drive's torque, the ground's forces; peak |tau| (N m): {peaks}",
+          file=out)  # fmt: skip
+    for line in robot_limit_lines(view.metadata):
+        print(line, file=out)
 
 
 def _feedback(sequence, args, report, feet: bool):

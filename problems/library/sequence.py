@@ -471,13 +471,18 @@ def _step_rows(trajectory: LinkageTrajectory, described: dict, j: int):
     return LinkageTrajectory.of(piece)
 
 
-def verify_sequence(trajectory: Trajectory, linkage: Linkage, **options) -> SequenceReport:
-    """Every step of a walk sequence checked from its samples (``WalkSequence.trajectory``
-    or the file it was saved to, read back): :func:`problems.verify_gait` of each step (its
-    rows and its pre-impact sample from the sidecar), its heel strike against the next
-    step's first row; the last step's against its own end at rest when the walk ends
-    standing; the first step's start at rest when it starts standing. ``options`` go to
-    :func:`problems.verify_gait` (``tolerance``, ...)."""
+def sequence_steps(trajectory: Trajectory) -> list[tuple[dict[str, Any], LinkageTrajectory]]:
+    """Each step of a walk sequence's samples (``WalkSequence.trajectory`` or its file read
+    back) as (its entry of ``metadata["sequence"]["steps"]``: kind, start, settings, law,
+    ...; its samples on its own clock, from 0, with the sample before its heel strike last,
+    ``metadata["gait"]`` its settings). Step j's samples but the last are the file's rows
+    with ``step`` = j; the last step's are all of them."""
+    trajectory = _checked_sequence(trajectory)
+    described = trajectory.metadata["sequence"]["steps"]
+    return [(entry, _step_rows(trajectory, entry, j)) for j, entry in enumerate(described)]
+
+
+def _checked_sequence(trajectory: Trajectory) -> LinkageTrajectory:
     trajectory = LinkageTrajectory.of(trajectory)
     meta = trajectory.metadata.get("sequence")
     if not meta or meta.get("format") != FORMAT or "step" not in trajectory.extras:
@@ -485,6 +490,18 @@ def verify_sequence(trajectory: Trajectory, linkage: Linkage, **options) -> Sequ
             "`trajectory`: not a walk sequence (its metadata has no 'sequence' of format "
             f"{FORMAT!r}, or it has no 'step' channel); plan one with plan_sequence"
         )
+    return trajectory
+
+
+def verify_sequence(trajectory: Trajectory, linkage: Linkage, **options) -> SequenceReport:
+    """Every step of a walk sequence checked from its samples (``WalkSequence.trajectory``
+    or the file it was saved to, read back): :func:`problems.verify_gait` of each step (its
+    rows and its pre-impact sample from the sidecar), its heel strike against the next
+    step's first row; the last step's against its own end at rest when the walk ends
+    standing; the first step's start at rest when it starts standing. ``options`` go to
+    :func:`problems.verify_gait` (``tolerance``, ...)."""
+    trajectory = _checked_sequence(trajectory)
+    meta = trajectory.metadata["sequence"]
     steps = meta["steps"]
     first_rows = {}
     step_column = np.asarray(trajectory.extras["step"][0])
@@ -535,6 +552,7 @@ __all__ = [
     "WalkSequence",
     "checked_speeds",
     "plan_sequence",
+    "sequence_steps",
     "sequence_world",
     "verify_sequence",
 ]
