@@ -12,6 +12,7 @@ import json
 
 import numpy as np
 import pytest
+from joint_space_checks import assert_continuous_where_steps_meet
 
 from model import Dynamics, Linkage
 from model.linkage_trajectory import LinkageTrajectory
@@ -112,15 +113,7 @@ def test_joint_angles_from_the_world_points_in_every_step(files):
 
 def test_each_physical_joint_is_continuous_through_every_heel_strike(files):
     _, view = files
-    t, step = view.time, view.columns["step"]
-    for join in range(1, int(step.max()) + 1):
-        after = np.flatnonzero(step == join)[0]
-        for side in ("right", "left"):
-            for joint in ("hip", "knee"):
-                q = view.columns[f"q_{side}_{joint}_rad"]
-                slope = (q[after - 1] - q[after - 2]) / (t[after - 1] - t[after - 2])
-                predicted = q[after - 1] + slope * (t[after] - t[after - 1])
-                assert q[after] == pytest.approx(predicted, abs=0.01), (join, side, joint)
+    assert_continuous_where_steps_meet(view.columns, range(1, int(view.columns["step"].max()) + 1))
 
 
 def test_the_drives_power_is_the_hinges_power_at_every_row(files):

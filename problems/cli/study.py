@@ -107,23 +107,21 @@ def value_list(unit: str, upper: float = math.inf, zero: bool = False):
 
 def positive_count(text: str) -> int:
     """An argparse ``type``: an integer >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
-    return value
+    return _count_at_least(text, 1)
 
 
 def non_negative_count(text: str) -> int:
     """An argparse ``type``: an integer >= 0."""
+    return _count_at_least(text, 0)
+
+
+def _count_at_least(text: str, least: int) -> int:
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
+    if value < least:
+        raise argparse.ArgumentTypeError(f"must be >= {least}, got {text!r}")
     return value
 
 
