@@ -137,6 +137,11 @@ def test_the_view_refuses_what_is_not_a_walk_and_other_sides(files):
         sequence_joint_space(sequence.with_metadata(sequence=None))
     with pytest.raises(DefinitionError, match="without its walker"):
         sequence_joint_space(sequence.with_metadata(model=None))
+    # a sidecar that is not the file's own: a step's start moved by 1 ms
+    meta = json.loads(json.dumps(sequence.metadata["sequence"]))
+    meta["steps"][1]["start_s"] += 1e-3
+    with pytest.raises(DefinitionError, match="step 1's rows do not start at its start_s"):
+        sequence_joint_space(sequence.with_metadata(sequence=meta))
 
 
 def test_a_robot_on_feet_or_with_a_library_is_refused_by_name(capsys, tmp_path):

@@ -453,13 +453,21 @@ def write_joint_space(torques_csv: Path, output, legs: tuple[str, str], out) -> 
     stride, ``legs`` = (the leg in stance in the planned step, the other), staged as
     joints.csv with its sidecar, and one line on ``out`` saying what it holds."""
     view = joint_space(LinkageTrajectory.load(torques_csv), sides=tuple(legs))
+    save_joint_view(view, output, out, f"one stride ({view.time.size} samples, the {legs[0]} "
+                    "leg in stance first)")  # fmt: skip
+
+
+def save_joint_view(view, output, out, what: str) -> None:
+    """A joint-space view (``problems.robot.JointSpace``) staged in ``output`` as joints.csv
+    with its sidecar, a line on ``out`` saying what it holds (``what``: of what, in words)
+    and its URDF limits' lines."""
     view.save(output.path("joints.csv"))
     peaks = ", ".join(f"{j['name']} {j['peak_N_m']:.1f}" for j in view.metadata["joints"])
     print(
-        f"joints.csv: the robot's view of one stride ({view.time.size} samples, the {legs[0]} "
-        f"leg in stance first): joint angles q_, rates dq_, accelerations ddq_ (0 standing, "
-        f"flexion and dorsiflexion positive), each physical drive's torque tau_ (N m, the sense "
-        f"that grows q), the ground's force and torque ground_; peak |tau| (N m): {peaks}",
+        f"joints.csv: the robot's view of {what}: joint angles q_, rates dq_, accelerations "
+        f"ddq_ (0 standing, flexion and dorsiflexion positive), each physical drive's torque "
+        f"tau_ (N m, the sense that grows q), the ground's force and torque ground_; peak "
+        f"|tau| (N m): {peaks}",
         file=out,
     )
     for line in robot_limit_lines(view.metadata):

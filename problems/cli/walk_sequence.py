@@ -19,7 +19,7 @@ from problems.cli.common import (
     new_folder,
     output_set,
     preset_linkage,
-    robot_limit_lines,
+    save_joint_view,
     with_robot,
 )
 from problems.cli.walk_feet import FEET_SEQUENCE_SPEED_LIMIT, footed_options
@@ -153,14 +153,8 @@ def _write_joints(trajectory, output, legs, out) -> None:
     from problems.robot.sequence_joints import sequence_joint_space
 
     view = sequence_joint_space(trajectory, sides=tuple(legs))
-    view.save(output.path("joints.csv"))
-    peaks = ", ".join(f"{j['name']} {j['peak_N_m']:.1f}" for j in view.metadata["joints"])
-    print(f"joints.csv: the robot's view of the whole walk ({view.time.size} rows, sequence.csv's; "
-          f"the {legs[0]} leg in stance in the first step): joint angles, rates, accelerations, "
-          f"each physical drive's torque, the ground's forces; peak |tau| (N m): {peaks}",
-          file=out)  # fmt: skip
-    for line in robot_limit_lines(view.metadata):
-        print(line, file=out)
+    save_joint_view(view, output, out, f"the whole walk ({view.time.size} rows, sequence.csv's; "
+                    f"the {legs[0]} leg in stance in the first step)")  # fmt: skip
 
 
 def _feedback(sequence, args, report, feet: bool):

@@ -33,10 +33,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import DefinitionError, DefinitionTypeError
 from planner.trajectory import Trajectory
 from problems.robot.joint_space import joint_space
+from problems.robot.sequence_joints import step_views
 
 
 class DriveStep(NamedTuple):
@@ -242,52 +242,18 @@ def _step_of(columns: dict, start: float, label: str) -> DriveStep:
 def _sequence_plan(trajectory: Trajectory, name: str, share: float) -> Plan:
     """A walk through speeds (``problems.library.WalkSequence.trajectory``: a ``step``
     column, each step's settings in ``metadata["sequence"]["steps"]``) as the drives see it:
-    step j with the right leg in stance for even j, each step whole."""
-    model = LinkageTrajectory.of(trajectory)
-    described = trajectory.metadata["sequence"]["steps"]
-    if "model" not in trajectory.metadata:
-        raise DefinitionError(
-            "`trajectory`: a walk through speeds without its walker (metadata['model']); "
-            "write it again with this version (python -m problems walk --speeds ...)"
-        )
-    column = np.asarray(model.extras["step"][0]).astype(int)
-    time = np.asarray(model.time, dtype=float)
-    force = np.asarray(model.ground_reaction)
-    steps, distance = [], 0.0
-    for j, entry in enumerate(described):
-        rows = np.flatnonzero(column == j)
-        before = entry.get("before_impact")  # the state before its heel strike, if any
-        times, forces = time[rows], force[rows]
-        if before and float(before["t"]) <= times[-1] + 1e-12:
-            before = None  # the file's last row is it (the walk's last step)
-        if before:
-            times = np.append(times, float(before["t"]))
-            forces = np.append(forces, complex(*before["F"]))
-        psi, dpsi, torques, ddpsi = _with_end(model, rows, before)
-        local = LinkageTrajectory.from_linkage(
-            times, psi, dpsi, torques, model.link_names, ddpsi=ddpsi, ground_reaction=forces,
-            metadata={"gait": entry["settings"], "model": trajectory.metadata["model"]},
-        )  # fmt: skip
-        sides = ("right", "left") if j % 2 == 0 else ("left", "right")
-        columns = joint_space(local, steps=1, sides=sides).columns
-        steps.append(_step_of(columns, float(time[rows[0]] - time[0]),
-                              f"step {j} ({entry['kind']})"))  # fmt: skip
-        distance += float(entry["step_length_m"])
+    each step whole (:func:`problems.robot.sequence_joints.step_views`: the sample before its
+    heel strike included), the first leg in stance for even steps."""
+    views = step_views(trajectory)
+    first = float(views[0][0]["start_s"])
+    steps = tuple(_step_of(view.columns, float(entry["start_s"]) - first,
+                           f"step {j} ({entry['kind']})")
+                  for j, (entry, view) in enumerate(views))  # fmt: skip
+    distance = sum(float(entry["step_length_m"]) for entry, _ in views)
+    time = np.asarray(trajectory.time, dtype=float)
     duration = float(time[-1] - time[0])
-    return Plan(name=name, share=share, steps=tuple(steps), step_time=duration / len(steps),
+    return Plan(name=name, share=share, steps=steps, step_time=duration / len(steps),
                 speed=distance / duration)  # fmt: skip
-
-
-def _with_end(model: LinkageTrajectory, rows: np.ndarray, before) -> tuple:
-    """(psi, dpsi, torques, ddpsi) of a step's rows, with the sample before its heel strike
-    (``before_impact``: {"t", "x", "ddpsi", "M", "F"} or None) appended."""
-    arrays = [np.asarray(a)[rows] for a in (model.psi, model.dpsi, model.torques, model.ddpsi)]
-    if before:
-        n = arrays[0].shape[1]
-        x = np.asarray(before["x"], dtype=float)
-        ends = (x[:n], x[n:], np.asarray(before["M"]), np.asarray(before["ddpsi"]))
-        arrays = [np.vstack([a, end]) for a, end in zip(arrays, ends, strict=True)]
-    return tuple(arrays)
 
 
 def _shares(count: int, shares: Sequence[float] | None) -> list[float]:

@@ -85,6 +85,8 @@ SEARCH_SECONDS = 600.0
 RETRY_ITERATIONS = 1000
 #: IPOPT's status when it stopped on its iteration cap
 _CAPPED = "Maximum_Iterations_Exceeded"
+#: how an attempt of the second pass begins its outcome in ``Transition.attempts``
+RETRIED = "again at"
 #: the stance foot's least normal force in a transition, a fraction of the weight: without it
 #: the optimum of a speed-up from 1.0 to 1.4 m/s unloads the stance foot to 4 % of the weight
 #: right after the heel strike (the body falls forward nearly free), which the product's
@@ -356,8 +358,8 @@ def plan_transition(
     def attempt(k: int, ipopt: dict, retry: int | None = None):
         """(the transition in ``k`` steps or None, whether its failure was IPOPT's iteration
         cap); each outcome goes into ``attempts`` (a second pass's begins with RETRIED)."""
-        which = f"{k} step(s)" + (f" {RETRIED} {retry} iterations" if retry else "")
-        prefix = f"{RETRIED} {retry} iterations: " if retry else ""
+        again = f"{RETRIED} {retry} iterations" if retry else ""
+        which, prefix = f"{k} step(s) {again}".rstrip(), f"{again}: " if retry else ""
         phases, problems, footed = _problem(start, end, k, step_options)
         try:
             solution, gaits = _solved(phases, problems, footed, ipopt, rate_hz, try_seconds)
@@ -381,9 +383,9 @@ def plan_transition(
         if on_cap:
             capped.append(k)
     if steps is None and retry_iterations is not None and retry_iterations > ipopt["max_iter"]:
-        again = {**ipopt, "max_iter": retry_iterations}
+        longer = {**ipopt, "max_iter": retry_iterations}
         for k in capped:
-            transition, _ = attempt(k, again, retry_iterations)
+            transition, _ = attempt(k, longer, retry_iterations)
             if transition is not None:
                 return transition
     v_a, v_b = end_speed(start), end_speed(end)
@@ -393,10 +395,6 @@ def plan_transition(
         f"{counts[-1]} steps ({tried}); allow more steps (max_steps), larger torque limits, or "
         "a smaller speed change"
     )
-
-
-#: how an attempt of the second pass begins its outcome in ``Transition.attempts``
-RETRIED = "again at"
 
 
 def _stopped_on_cap(error: BaseException) -> bool:

@@ -40,29 +40,14 @@ def sequence_joint_space(trajectory: Trajectory, *, sides=None) -> JointSpace:
     left). Returns the :class:`JointSpace` (see the module); its ``t_s`` column is the walk
     file's time, row for row."""
     trajectory = LinkageTrajectory.of(trajectory)
-    pieces = sequence_steps(trajectory)  # raises naming the fix when it is not a walk
-    metadata = trajectory.metadata
-    if not metadata.get("model"):
-        raise DefinitionError(
-            "`trajectory`: a walk through speeds without its walker (metadata['model']); "
-            "write it again with this version (python -m problems walk --speeds ...)"
-        )
-    robot = metadata.get("robot")
-    sides = _checked_sides(sides, robot)
+    views = step_views(trajectory, sides=sides)
+    sides = views[0][1].metadata["sides"]
     time = np.asarray(trajectory.time, dtype=float)
     step_column = np.asarray(trajectory.extras["step"][0]).astype(int)
     phase = np.asarray(trajectory.extras["phase"][0], dtype=float)
-    gain_names = [name for name in trajectory.extras if name.startswith("K_")]
     parts: list[dict[str, np.ndarray]] = []
-    views: list[JointSpace] = []
-    for j, (entry, piece) in enumerate(pieces):
+    for j, (entry, view) in enumerate(views):
         rows = np.flatnonzero(step_column == j)
-        # the robot's encoders are stated once, in the first step's terms (its sides); a
-        # step with the other leg in stance is the same robot mirrored, as in joint_space
-        own_robot = robot if j % 2 == 0 else None
-        piece = _with_walk_columns(piece, trajectory, rows, gain_names, metadata, own_robot)
-        stance = (sides[j % 2], sides[(j + 1) % 2])
-        view = joint_space(piece, steps=1, sides=stance)
         # the step's samples but its last (the instant of the next step's first row) are the
         # walk's rows with step = j; the last step keeps all of its own
         columns = {name: values[: rows.size] for name, values in view.columns.items()}
@@ -74,21 +59,46 @@ def sequence_joint_space(trajectory: Trajectory, *, sides=None) -> JointSpace:
             )
         columns["t_s"] = time[rows]
         columns["step"] = np.full(rows.size, float(j))
-        del columns[f"stance_{stance[0]}"]
+        del columns[f"stance_{view.metadata['sides'][0]}"]
         columns[f"stance_{sides[0]}"] = np.full(rows.size, float(j % 2 == 0))
         columns["phase"] = phase[rows]
         parts.append(columns)
-        views.append(view)
-    order = list(views[0].columns)
-    for j, part in enumerate(parts):
-        if set(part) != set(order):
-            raise DefinitionError(
-                f"`trajectory`: step {j}'s joint-space columns are not step 0's; a walk's "
-                "steps are of one walker"
-            )
+    # one walker, one kind of step (the walk's file holds one set of channels): one set of
+    # columns in every step
+    order = list(views[0][1].columns)
     joined = {name: np.concatenate([part[name] for part in parts]) for name in order}
-    units = dict(views[0].units)
-    return JointSpace(joined, units, _metadata(views, pieces, sides, joined, metadata))
+    units = dict(views[0][1].units)
+    metadata = _metadata(views, sides, joined, trajectory.metadata)
+    return JointSpace(joined, units, metadata)
+
+
+def step_views(trajectory: Trajectory, *, sides=None) -> list[tuple[dict[str, Any], JointSpace]]:
+    """Each step of a walk sequence as (its entry of ``metadata["sequence"]["steps"]``, the
+    one-step joint-space view of all its samples, the one before its heel strike last, on
+    its own clock from 0), the ``sides[0]`` leg in stance in the walk's first step and the
+    sides alternating (``sides`` as for :func:`sequence_joint_space`)."""
+    trajectory = LinkageTrajectory.of(trajectory)
+    pieces = sequence_steps(trajectory)  # raises naming the fix when it is not a walk
+    metadata = trajectory.metadata
+    if not metadata.get("model"):
+        raise DefinitionError(
+            "`trajectory`: a walk through speeds without its walker (metadata['model']); "
+            "write it again with this version (python -m problems walk --speeds ...)"
+        )
+    robot = metadata.get("robot")
+    sides = _checked_sides(sides, robot)
+    step_column = np.asarray(trajectory.extras["step"][0]).astype(int)
+    gain_names = [name for name in trajectory.extras if name.startswith("K_")]
+    views = []
+    for j, (entry, piece) in enumerate(pieces):
+        rows = np.flatnonzero(step_column == j)
+        # the robot's encoders are stated once, in the first step's terms (its sides); a
+        # step with the other leg in stance is the same robot mirrored, as in joint_space
+        own_robot = robot if j % 2 == 0 else None
+        piece = _with_walk_columns(piece, trajectory, rows, gain_names, metadata, own_robot)
+        stance = (sides[j % 2], sides[(j + 1) % 2])
+        views.append((entry, joint_space(piece, steps=1, sides=stance)))
+    return views
 
 
 def _with_walk_columns(piece, trajectory, rows, gain_names, metadata, robot):
@@ -108,13 +118,13 @@ def _with_walk_columns(piece, trajectory, rows, gain_names, metadata, robot):
     return piece
 
 
-def _metadata(views, pieces, sides, joined, walk) -> dict[str, Any]:
+def _metadata(views, sides, joined, walk) -> dict[str, Any]:
     """The first step's sidecar with the whole walk in it: peaks over every step, the steps
     (kind, start, length, time, stance side, law) and the controller's rows."""
-    metadata = dict(views[0].metadata)
+    metadata = dict(views[0][1].metadata)
     for key in ("step_time_s", "step_length_m", "strike_s"):
         metadata.pop(key, None)
-    metadata["steps"] = len(pieces)
+    metadata["steps"] = len(views)
     metadata["stride"] = (
         f"step k has the {sides[0]} leg in stance for even k, the {sides[1]} for odd k; where "
         "two steps meet the later's first sample is kept (the rows are sequence.csv's)"
@@ -128,7 +138,7 @@ def _metadata(views, pieces, sides, joined, walk) -> dict[str, Any]:
         joints.append(joint)
     metadata["joints"] = joints
     steps = []
-    for j, ((entry, _), view) in enumerate(zip(pieces, views, strict=True)):
+    for j, (entry, view) in enumerate(views):
         law = entry.get("law") or {"indexed_by": "time"}
         steps.append({
             "step": j, "kind": entry["kind"], "start_s": float(entry["start_s"]),
@@ -142,9 +152,9 @@ def _metadata(views, pieces, sides, joined, walk) -> dict[str, Any]:
     metadata["model_view"] = {**metadata["model_view"], "file": "sequence.csv"}
     controller = dict(metadata["controller"])
     controller.pop("hip_ahead_m", None)
-    controller["steps"] = len(pieces)
+    controller["steps"] = len(views)
     controller["rows"] = (
-        f"the file holds the whole walk, {len(pieces)} steps (step k has the {sides[0]} leg in "
+        f"the file holds the whole walk, {len(views)} steps (step k has the {sides[0]} leg in "
         "stance for even k): walk them once, in order; step j's rows are those with step = j"
     )
     controller["phase"] = (
@@ -157,4 +167,4 @@ def _metadata(views, pieces, sides, joined, walk) -> dict[str, Any]:
     return metadata
 
 
-__all__ = ["sequence_joint_space"]
+__all__ = ["sequence_joint_space", "step_views"]
