@@ -283,11 +283,21 @@ def test_human_prediction_benchmark_quick_run(winter_xlsx):
 def test_transition_retry_benchmark_runs_and_prints_its_table():
     """The script behind the README's second-pass numbers: a change on feet it solves in one
     step, its table row naming the count taken and its tries."""
+    # its own timeout: a busy CI worker can double its minute (_call allows 120 s)
     result = subprocess.run(
-        [sys.executable, str(EXAMPLES / "benchmarks/transition_retry.py"), "--change", "1.0:0.8",
-         "--max-steps", "1"],
-        capture_output=True, text=True, timeout=900, env=dict(os.environ, MPLBACKEND="Agg"),
-    )  # fmt: skip (a busy CI worker can double its minute: _call's 120 s is too short)
+        [
+            sys.executable,
+            str(EXAMPLES / "benchmarks/transition_retry.py"),
+            "--change",
+            "1.0:0.8",
+            "--max-steps",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        env=dict(os.environ, MPLBACKEND="Agg"),
+    )
     assert result.returncode == 0, result.stderr
     row = next(line for line in result.stdout.splitlines() if line.startswith("| 1 -> 0.8"))
     cells = [cell.strip() for cell in row.strip("|").split("|")]
