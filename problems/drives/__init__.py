@@ -4,7 +4,8 @@ engineer reads (:func:`requirements_figure`), motors and gearboxes from catalogu
 (:func:`read_motors`, :func:`read_gearboxes`, :class:`Drive`) and the choice of each drive's
 (:func:`select`); steps planned with the drives in the loop (:func:`drives_in_the_loop`,
 :func:`with_drives`, :func:`motor_report`, :func:`replan`) and gear ratios designed with the
-gait (:func:`codesign_ratios`)."""
+gait (:func:`codesign_ratios`) and parallel springs beside them designed in the gait's NLP
+(:class:`ParallelSpring`)."""
 
 from problems.drives.catalogue import Drive, Gearbox, Motor, read_gearboxes, read_motors
 from problems.drives.codesign import CoDesign, codesign_ratios
@@ -25,6 +26,7 @@ from problems.drives.requirements import (
     drive_requirements,
 )
 from problems.drives.selection import DriveSelectionError, Selection, require, select
+from problems.drives.springs import ParallelSpring, spring_values
 
 __all__ = [
     "CoDesign",
@@ -36,6 +38,7 @@ __all__ = [
     "DrivenWalker",
     "Gearbox",
     "Motor",
+    "ParallelSpring",
     "Plan",
     "Selection",
     "codesign_ratios",
@@ -49,5 +52,6 @@ __all__ = [
     "require",
     "requirements_figure",
     "select",
+    "spring_values",
     "with_drives",
 ]

@@ -36,7 +36,7 @@ model's, at the exported samples (:func:`motor_report`).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import casadi as ca
@@ -47,6 +47,7 @@ from model.rotors import Rotor
 from planner.errors import AnthropoidError, DefinitionError
 from planner.ocp import DEFAULT_TERM
 from problems.drives.catalogue import Drive
+from problems.drives.springs import ParallelSpring, check_springs, spring_torque
 from problems.human.joints import Body, body_of
 from problems.robot.controller import joint_maps
 
@@ -65,7 +66,8 @@ class MountedDrive:
     swing ankle has none: no foot link to turn) with its ``drive``, in the model's terms: dq =
     ``joint_row`` . dpsi, tau = ``torque_row`` . M, its ``rotor`` and rate vector b
     (``rate_row``), and ``sense`` (+1 or -1: q grows as the rotor turns forward relative to the
-    stator, or back)."""
+    stator, or back); the joint's angle is q = ``joint_row`` . psi + ``joint_offset`` (rad,
+    the robot's)."""
 
     key: str
     joint: str
@@ -75,16 +77,24 @@ class MountedDrive:
     rotor: Rotor
     rate_row: np.ndarray
     sense: float
+    joint_offset: float = 0.0
 
-    def joint_terms(self, M, dpsi, ddpsi):
-        """(tau_out N m, dq rad/s, a_r rad/s^2) as CasADi expressions of the hinge torques,
-        rates and accelerations: what the gear gives the links (the drive's torque less the
-        share that accelerates its rotor), the joint's speed, the rotor's acceleration in the
-        joint's sense."""
-        tau = ca.dot(ca.DM(self.torque_row), M)
-        dq = ca.dot(ca.DM(self.joint_row), dpsi)
-        rotor_acceleration = self.sense * ca.dot(ca.DM(self.rate_row), ddpsi)
+    def joint_terms(self, p, springs: Sequence[ParallelSpring] = ()):
+        """(tau_out N m, dq rad/s, a_r rad/s^2) as CasADi expressions at a planner Point ``p``
+        (its hinge torques, angles, rates and accelerations, and the springs' parameters):
+        what the gear gives the links (the joint's torque less its parallel spring's share,
+        :mod:`problems.drives.springs`, and less the share that accelerates its rotor), the
+        joint's speed, the rotor's acceleration in the joint's sense."""
+        tau = ca.dot(ca.DM(self.torque_row), p.M)
+        dq = ca.dot(ca.DM(self.joint_row), p.dpsi)
+        rotor_acceleration = self.sense * ca.dot(ca.DM(self.rate_row), p.ddpsi)
         tau_out = tau - self.drive.gearbox.ratio * self.drive.inertia * rotor_acceleration
+        for spring in springs:
+            if spring.joint == self.joint:
+                k_name, rest_name = spring.names
+                angle = ca.dot(ca.DM(self.joint_row), p.psi) + self.joint_offset
+                tau_out = tau_out - spring_torque(getattr(p, k_name), getattr(p, rest_name),
+                                                  angle)  # fmt: skip
         return tau_out, dq, rotor_acceleration
 
     def smooth_factor(self, tau_out, dq):
@@ -160,7 +170,7 @@ def drives_in_the_loop(
     body = body_of(linkage, neutral_ankles)
     t = linkage.index(body.trunk)
     head = next((i for i, p in enumerate(linkage.parents) if p == t), None)
-    keys, A, _, _, _, drive_keys, D = joint_maps(linkage, body, head, ankles=True)
+    keys, A, offsets, _, _, drive_keys, D = joint_maps(linkage, body, head, ankles=True)
     missing = sorted({k.partition("_")[2] or k for k in drive_keys} - set(drives))
     if missing:
         raise DefinitionError(f"`drives`: the walker's plan has {missing} too; give a Drive each")
@@ -196,21 +206,23 @@ def drives_in_the_loop(
         sense = float(np.sign(sense))
         rotors.append(rotor)
         mounted.append(MountedDrive(key, joint, drive, row, D[drive_keys.index(key)], rotor,
-                                    rotor.rate_vector(names), sense))  # fmt: skip
+                                    rotor.rate_vector(names), sense,
+                                    float(offsets[keys.index(key)])))  # fmt: skip
     carried = Linkage(links, linkage.gravity)
     return DrivenWalker(carried, tuple(rotors), tuple(mounted))
 
 
-def limit_rows(mounted: MountedDrive):
+def limit_rows(mounted: MountedDrive, springs: Sequence[ParallelSpring] = ()):
     """(function of a planner Point, lower, upper) of one drive's limits at a node, each row
     a fraction of its limit: the motor's torque and the voltage on both efficiency branches,
-    the gear's output torque, the motor's speed (see the module)."""
+    the gear's output torque, the motor's speed (see the module); ``springs`` beside the
+    drives take their share of the joints' torques."""
     drive = mounted.drive
     motor, gearbox = drive.motor, drive.gearbox
     speed = min(motor.max_speed, gearbox.max_input_speed)
 
     def rows(p):
-        tau_out, dq, rotor_acceleration = mounted.joint_terms(p.M, p.dpsi, p.ddpsi)
+        tau_out, dq, rotor_acceleration = mounted.joint_terms(p, springs)
         values = []
         for factor in (1.0 / gearbox.efficiency, gearbox.efficiency):  # driving, driven back
             tau_m = drive.motor_torque(tau_out, rotor_acceleration, factor)
@@ -222,28 +234,29 @@ def limit_rows(mounted: MountedDrive):
     return rows, [-1.0] * 6, [1.0] * 6
 
 
-def _smooth_electrical(mounted: MountedDrive, p) -> dict:
+def _smooth_electrical(mounted: MountedDrive, p, springs: Sequence[ParallelSpring]) -> dict:
     """The drive's :meth:`Drive.electrical` at a Point, the efficiency's branches blended by
     :meth:`MountedDrive.smooth_factor` (the objectives' smooth motor model)."""
-    tau_out, dq, rotor_acceleration = mounted.joint_terms(p.M, p.dpsi, p.ddpsi)
+    tau_out, dq, rotor_acceleration = mounted.joint_terms(p, springs)
     factor = mounted.smooth_factor(tau_out, dq)
     tau_m = mounted.drive.motor_torque(tau_out, rotor_acceleration, factor)
     return mounted.drive.electrical(tau_m, dq)
 
 
-def electrical_power(mounted: MountedDrive, p, regeneration: bool):
+def electrical_power(mounted: MountedDrive, p, regeneration: bool,
+                     springs: Sequence[ParallelSpring] = ()):  # fmt: skip
     """The drive's electrical power u i, W, at a Point (smooth branches; without
     regeneration only its positive part, smoothed over :data:`SMOOTHING_W`)."""
-    power = _smooth_electrical(mounted, p)["power"]
+    power = _smooth_electrical(mounted, p, springs)["power"]
     if regeneration:
         return power
     return 0.5 * (power + ca.sqrt(power**2 + SMOOTHING_W**2))
 
 
-def copper_power(mounted: MountedDrive, p):
+def copper_power(mounted: MountedDrive, p, springs: Sequence[ParallelSpring] = ()):
     """The drive's copper losses R i^2, W, at a Point (the efficiency's branches blended as
     in :func:`electrical_power`)."""
-    return _smooth_electrical(mounted, p)["copper"]
+    return _smooth_electrical(mounted, p, springs)["copper"]
 
 
 #: the objectives :func:`with_drives` sets
@@ -251,12 +264,24 @@ DRIVE_OBJECTIVES = ("electrical", "copper", "kept")
 
 
 def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
-                regeneration: bool = True):  # fmt: skip
+                regeneration: bool = True, springs: Sequence[ParallelSpring] = ()):  # fmt: skip
     """A walking step (:func:`problems.walking_step` or :func:`problems.footed_step` of
     ``walker.linkage`` with ``rotors=walker.rotors``) held to its drives' limits at every node
     (of every phase on feet), its objective the step's electrical energy
     (``objective="electrical"``; regenerated energy counted with ``regeneration``), its copper
-    losses (``"copper"``) or kept as it is (``"kept"``)."""
+    losses (``"copper"``) or kept as it is (``"kept"``). ``springs``: parallel springs beside
+    the drives (:mod:`problems.drives.springs`), their free numbers static parameters of the
+    NLP (read them back with :func:`problems.drives.springs.spring_values`)."""
+    springs = check_springs(springs)
+    keys = {m.key for m in walker.mounted}
+    # Both legs' copies, or none: a spring in one leg only (a point foot's ankle, with no foot
+    # to turn in the swing) would meet each stance loaded as it left the last one, for free.
+    idle = [s.joint for s in springs if not {f"stance_{s.joint}", f"swing_{s.joint}"} <= keys]
+    if idle:
+        raise DefinitionError(
+            f"`springs`: no drive at {idle} in both legs to put a spring beside (a point "
+            f"foot's swing ankle turns nothing); the walker's drives: {sorted(keys)}"
+        )
     if objective not in DRIVE_OBJECTIVES:
         raise DefinitionError(
             f"`objective`: one of {', '.join(map(repr, DRIVE_OBJECTIVES))}, got {objective!r}"
@@ -271,20 +296,22 @@ def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
     scale = ca.DM([limits.get(name, max(limits.values())) for name in names])
 
     def held(ocp):
+        for spring in springs:
+            ocp = spring.declare(ocp)
         for mounted in walker.mounted:
-            rows, lower, upper = limit_rows(mounted)
+            rows, lower, upper = limit_rows(mounted, springs)
             ocp = ocp.constrain(f"drive {mounted.key}", rows, lower=lower, upper=upper)
         if objective == "electrical":
 
             def energy(p):
-                total = sum(electrical_power(m, p, regeneration) for m in walker.mounted)
+                total = sum(electrical_power(m, p, regeneration, springs) for m in walker.mounted)
                 return total + REGULARISATION_J * ca.sumsqr(p.M / scale)
 
             ocp = ocp.minimize(integral=energy, name=DEFAULT_TERM)
         elif objective == "copper":
 
             def heat(p):
-                total = sum(copper_power(m, p) for m in walker.mounted)
+                total = sum(copper_power(m, p, springs) for m in walker.mounted)
                 return total + REGULARISATION_J * ca.sumsqr(p.M / scale)
 
             ocp = ocp.minimize(integral=heat, name=DEFAULT_TERM)
@@ -299,14 +326,16 @@ def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
 
 def plan_step_with_drives(linkage: Linkage, drives: Mapping[str, Drive], step_length: float,
                           step_time: float, *, regeneration: bool = False, warm=None,
-                          drives_objective: str | None = None, **step_options):  # fmt: skip
+                          drives_objective: str | None = None,
+                          springs: Sequence[ParallelSpring] = (), **step_options):  # fmt: skip
     """(gait, walker): the walking step of ``step_length`` m in ``step_time`` s planned for
     ``linkage`` carrying ``drives`` in the loop (:func:`drives_in_the_loop`,
     :func:`with_drives`): on point feet :func:`problems.walking_step`, on feet (legs of
     foot, shank and thigh) :func:`problems.footed_step`, each with ``step_options``.
     ``drives_objective``: "electrical" (the energy drawn, or net with ``regeneration``),
     "copper" or "kept" (the step's own objective); None: electrical on point feet, kept on
-    feet, where the electrical objective has not converged (examples/drives.md).
+    feet, where the electrical objective has not converged (examples/drives.md). ``springs``:
+    parallel springs beside the drives (:func:`with_drives`).
     Warm-started from the gait ``warm`` when given (on feet otherwise from the same step
     planned for ideal torques; from the law when there is none or it fails). Raises
     :class:`planner.AnthropoidError` when no plan is found or it fails its verification."""
@@ -328,7 +357,7 @@ def plan_step_with_drives(linkage: Linkage, drives: Mapping[str, Drive], step_le
         walker = drives_in_the_loop(linkage, drives)
         step = walking_step(walker.linkage, step_length, step_time, rotors=walker.rotors,
                             **step_options)  # fmt: skip
-    step = with_drives(step, walker, objective, regeneration=regeneration)
+    step = with_drives(step, walker, objective, regeneration=regeneration, springs=springs)
     if warm is not None:
         try:
             return step.solve(step.problem.guess(warm.solution), progress=False), walker
@@ -338,7 +367,10 @@ def plan_step_with_drives(linkage: Linkage, drives: Mapping[str, Drive], step_le
 
 
 def motor_report(
-    trajectory, walker: DrivenWalker, with_rotors: bool = True
+    trajectory,
+    walker: DrivenWalker,
+    with_rotors: bool = True,
+    springs: Mapping[str, tuple[float, float]] | None = None,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Each mounted drive's motor side at the samples of ``trajectory`` (a linkage
     Trajectory with ddpsi and torques), exact (non-smooth) efficiency
@@ -347,7 +379,11 @@ def motor_report(
 
     ``with_rotors``: the plan's torques include its rotors' (planned by :func:`with_drives`);
     False for a plan made for ideal torque sources, whose torques all reach the links: the
-    motor then accelerates its rotor on top (what that plan's file asks of the drive)."""
+    motor then accelerates its rotor on top (what that plan's file asks of the drive).
+    ``springs``: {joint: (k N m/rad, q_0 rad)} of parallel springs beside the drives
+    (:func:`problems.drives.springs.spring_values`), which take their share of the joints'
+    torques; the report then adds ``spring`` (the spring's torque, N m)."""
+    springs = dict(springs or {})
     psi_d = np.asarray(trajectory.dpsi, dtype=float)
     ddpsi = np.asarray(trajectory.ddpsi, dtype=float)
     M = np.asarray(trajectory.torques, dtype=float)
@@ -359,9 +395,15 @@ def motor_report(
         if with_rotors:
             tau_out = tau_out - drive.gearbox.ratio * drive.inertia * acceleration
         dq = psi_d @ m.joint_row
+        spring = np.zeros_like(tau_out)
+        if m.joint in springs:
+            k, rest = springs[m.joint]
+            angle = np.asarray(trajectory.psi, dtype=float) @ m.joint_row + m.joint_offset
+            spring = spring_torque(k, rest, angle)
+        tau_out = tau_out - spring
         side = drive.motor_side(tau_out, dq, acceleration)
         speed = min(drive.motor.max_speed, drive.gearbox.max_input_speed)
-        side["tau_out"], side["dq"] = tau_out, dq
+        side["tau_out"], side["dq"], side["spring"] = tau_out, dq, spring
         side["margins"] = {
             "motor torque, N m": drive.motor.peak_torque - np.abs(side["torque"]),
             "voltage, V": drive.motor.voltage - np.abs(side["voltage"]),
