@@ -15,7 +15,7 @@ import pytest
 
 from model import Dynamics
 from model.presets import six_link_anthropoid
-from planner.errors import DefinitionError, DefinitionTypeError
+from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from problems.drives.catalogue import Drive, Gearbox, Motor
 from problems.drives.loop import energy_per_step, motor_report, plan_step_with_drives
 from problems.drives.springs import ParallelSpring, designed, spring_values
@@ -170,3 +170,76 @@ def test_a_spring_fixed_at_zero_stiffness_plans_the_step_without_one(bare):
     zero = ParallelSpring("hip", stiffness=0.0, rest=0.0)
     gait, walker = _plan((zero,), warm=bare[0])
     assert _drawn(gait, walker, {"hip": (0.0, 0.0)}) == pytest.approx(_drawn(*bare), rel=1e-4)
+
+
+class _Solved:
+    """A stand-in for a verified plan at ``speed`` with ``springs``: a free spring takes the
+    speed's own optimum, k = 100 v N m/rad, slack at 0.1 rad."""
+
+    def __init__(self, speed, springs):
+        self.speed = speed
+        params = {}
+        for spring in springs:
+            k = 100.0 * speed if spring.stiffness is None else spring.stiffness
+            rest = 0.1 if spring.rest is None else spring.rest
+            params.update(zip(spring.names, (k, rest), strict=True))
+        self.solution = type("Solution", (), {"params": params})()
+
+
+@pytest.fixture
+def stand_in(monkeypatch):
+    import problems.drives.spring_design as spring_design
+
+    calls = []
+
+    def plan(linkage, drives, speed, *, regeneration=False, warm=None, springs=(), **options):
+        calls.append((speed, springs))
+        fixed = [s.stiffness for s in springs if s.stiffness is not None]
+        if fixed and fixed[0] > 110.0 and speed < 0.7:
+            raise AnthropoidError("no plan: the hip's motor cannot hold the stiff spring")
+        return _Solved(speed, springs), None
+
+    def energy(gait, walker, regeneration, springs=None):
+        if not springs:
+            return 10.0 * gait.speed + 50.0
+        k = springs["hip"][0]
+        return 10.0 * gait.speed + (k - 100.0 * gait.speed) ** 2 / 100.0
+
+    monkeypatch.setattr(spring_design, "plan_with_drives", plan)
+    monkeypatch.setattr(spring_design, "step_energy", energy)
+    return calls
+
+
+def test_one_set_of_springs_is_the_speeds_designs_least_summed_energy(stand_in):
+    from problems.drives.spring_design import design_springs
+
+    speeds = (0.6, 1.0, 1.2)
+    result = design_springs(six_link_anthropoid(), DRIVES, speeds, (HIP_SPRING,))
+    # each speed designs its own (k = 100 v); over the three speeds k = 100 costs 16 + 0 + 4,
+    # k = 60 costs 0 + 16 + 36, and k = 120 has no plan at 0.6 m/s
+    assert [s["hip"][0] for s in result.own_springs] == pytest.approx([60.0, 100.0, 120.0])
+    assert result.shared_springs == {"hip": pytest.approx((100.0, 0.1))}
+    assert result.shared == pytest.approx((6.0 + 16.0, 10.0, 12.0 + 4.0))
+    assert result.own == pytest.approx((6.0, 10.0, 12.0))
+    assert result.bare == pytest.approx((56.0, 60.0, 62.0))
+    assert math.isinf(sum(dict((v["hip"][0], e) for v, e in result.tried)[120.0]))
+    # each speed: its step without springs, with its own, with the two others' (fixed)
+    assert len(stand_in) == 3 * 2 + 3 * 2
+    assert all(s.stiffness is not None for _, springs in stand_in[6:] for s in springs)
+    assert "one set: hip 100 N m/rad" in result.table()
+    with pytest.raises(DefinitionError, match="springs"):
+        design_springs(six_link_anthropoid(), DRIVES, speeds, ())
+    with pytest.raises(DefinitionError, match="speeds"):
+        design_springs(six_link_anthropoid(), DRIVES, (), (HIP_SPRING,))
+
+
+@pytest.mark.slow
+def test_one_hip_spring_over_two_speeds_with_real_plans():
+    from problems.drives.spring_design import design_springs
+
+    result = design_springs(six_link_anthropoid(), DRIVES, (0.6, 0.8), (HIP_SPRING,), N=20)
+    assert all(math.isfinite(e) for _, energies in result.tried for e in energies)
+    for own, shared in zip(result.own, result.shared, strict=True):
+        assert own <= shared * (1 + 1e-3)  # a speed's own design is its best
+    assert sum(result.shared) < sum(result.bare)
+    assert 0.0 < result.shared_springs["hip"][0] <= HIP_SPRING.max_stiffness

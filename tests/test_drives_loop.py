@@ -233,6 +233,48 @@ def test_the_command_replans_a_step_with_the_chosen_drives(tmp_path, capsys):
     assert "--replan: give one PLAN" in capsys.readouterr().err
 
 
+def test_the_command_designs_hip_springs_with_the_replan(tmp_path, capsys):
+    """drives --replan --springs hip: the springs' numbers in the sidecar, within their bounds;
+    the energy printed for the re-plan is the file's through the drives beside those springs;
+    springs that cannot be designed are refused by option."""
+    from model import LinkageTrajectory
+    from problems import walking_step
+    from problems.cli import main
+    from problems.drives.replan import compare
+    from problems.drives.springs import MAX_STIFFNESS
+
+    plan = tmp_path / "torques.csv"
+    walking_step(N=20).solve().exported().save(plan)
+    (tmp_path / "m.csv").write_text(MOTORS_CSV)
+    (tmp_path / "g.csv").write_text(GEARBOXES_CSV)
+    folder = tmp_path / "out"
+    argv = ["drives", str(plan), "--motors", str(tmp_path / "m.csv"), "--gearboxes",
+            str(tmp_path / "g.csv"), "--rank", "energy", "--no-regeneration", "--no-plots",
+            "--replan", "-q", "--output-dir"]  # fmt: skip
+    assert main([*argv, str(folder), "--springs", "hip"]) == 0
+    printed = capsys.readouterr().out
+    assert "parallel springs designed with the re-plan (both legs): hip" in printed
+    written = LinkageTrajectory.load(folder / "replanned.csv")
+    hip = written.metadata["drives"]["springs"]["hip"]
+    k, rest = hip["stiffness_N_m_per_rad"], hip["rest_rad"]
+    assert 0.0 <= k <= MAX_STIFFNESS and -math.pi <= rest <= math.pi
+    for row in printed.splitlines():
+        if row.startswith("| re-planned with the drives |"):
+            drawn = float(row.split("|")[2])
+    walker = drives_in_the_loop(six_link_anthropoid(), _chosen(folder))
+    sprung = compare(written, walker, with_rotors=True, springs={"hip": (k, rest)})
+    assert sprung["energy"]["drawn"] == pytest.approx(drawn, abs=0.05)
+    assert all(value >= -1e-6 * 48 for value, _ in sprung["worst"].values())
+    # a point foot's swing ankle turns nothing; springs come with a re-plan; known joints only
+    assert main([*argv, str(tmp_path / "a"), "--springs", "ankle"]) == 2
+    assert "--springs: `springs`: no drive at ['ankle'] in both legs" in capsys.readouterr().err
+    assert main([*argv[:-3], "-q", "--springs", "hip", "--output-dir", str(tmp_path / "b")]) == 2
+    assert "--springs: springs are designed with a re-plan" in capsys.readouterr().err
+    assert main([*argv, str(tmp_path / "c"), "--springs", "neck"]) == 2
+    assert "give distinct joints among hip, knee, ankle" in capsys.readouterr().err
+    assert not any((tmp_path / name).exists() for name in "abc")
+
+
 def test_the_replan_picture_reads_each_drive_like_the_joint_space(walker, drive_plan):
     """output_plan (from the motor report, per model drive mapped to right and left) against
     plan_of (the robot's joint space): the same torques and speeds at every sample of both

@@ -2,7 +2,7 @@
 one run: the electrical energy per step drawn by the drives (regeneration not counted) at 0.6,
 0.8 and 1.0 m/s (point feet with a sole, ``step_at_speed``'s steps, Hermite-Simpson N = 20).
 
-    python examples/benchmarks/codesign.py [--write]   # about 4 min
+    python examples/benchmarks/codesign.py [--write]   # about 6 min
 
 1. The catalogue pick with the motion planned for ideal torques: each speed's step planned for
    the bare body and ideal torque sources (the product's default), the drives chosen from the
@@ -15,6 +15,12 @@ one run: the electrical energy per step drawn by the drives (regeneration not co
    (``problems.drives.codesign_ratios``: each design's three steps planned with the drives in
    the loop and verified; a compass search in log N): the motors and the gearboxes' other
    data stay the pick's.
+4. Parallel springs at the hips (``problems.drives.spring_design.design_springs``): each
+   speed's step designs its own spring's stiffness and rest angle in its NLP, then the one
+   spring the walker carries is the speeds' design with the least energy over the three, each
+   tried fixed at the other speeds; beside the pick's ratios and beside the co-designed ones.
+   A knee spring designed the same way goes to no stiffness (it does not pay on this step), and
+   a point foot's ankle carries none (its swing ankle turns nothing).
 
 The catalogue is ``examples/drives/*_illustrative.csv`` (two 48 V motors, each in two windings,
 one gearbox family at five ratios): illustrative numbers, not products; no cited catalogue ships
@@ -25,17 +31,20 @@ from __future__ import annotations
 
 import math
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from model.presets import six_link_anthropoid
 from problems import walking_step
-from problems.drives import DriveRequirements, read_gearboxes, read_motors, select
+from problems.drives import Drive, DriveRequirements, read_gearboxes, read_motors, select
 from problems.drives.codesign import codesign_ratios
 from problems.drives.loop import drives_in_the_loop
 from problems.drives.replan import LIMITS, compare
 from problems.drives.requirements import plan_of
+from problems.drives.spring_design import design_springs
+from problems.drives.springs import ParallelSpring
 from problems.walking.footed import step_at_speed
 
 SPEEDS = (0.6, 0.8, 1.0)
@@ -103,6 +112,14 @@ def main(argv=None) -> int:
           f"designs ({count * len(SPEEDS)} verified plans) in "
           f"{design.seconds:.0f} s; the designs' energies near the best scatter by "
           f"{_scatter(design):.1f} J (the plans' local optima)\n")  # fmt: skip
+    hip = (ParallelSpring("hip"),)
+    codesigned = {**pick, **{j: Drive(pick[j].motor, replace(pick[j].gearbox, ratio=n))
+                             for j, n in design.best.ratios.items()}}  # fmt: skip
+    for label, drives in (("the catalogue pick", pick), ("the co-designed ratios", codesigned)):
+        springs = design_springs(linkage, drives, SPEEDS, hip, N=20)
+        print(f"A parallel spring at each hip beside {label}: electrical energy drawn per step "
+              f"(search: {springs.seconds:.0f} s)\n")  # fmt: skip
+        print(springs.table() + "\n")
     return 0
 
 

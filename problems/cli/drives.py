@@ -60,9 +60,26 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
                         "replanned.png (both plans over the drives' limits) and print both "
                         "plans through the drives: energy per step and each limit's worst "
                         "margin")  # fmt: skip
+    parser.add_argument("--springs", type=_spring_joints, default=(), metavar="JOINT[,JOINT]",
+                        help="with --replan: a parallel spring beside each of these joints' "
+                        "drives (hip, knee, ankle; both legs), its stiffness and rest angle "
+                        "designed with the re-plan (static parameters of its NLP, for the "
+                        "electrical energy; written to the sidecar)")  # fmt: skip
     parser.add_argument("--no-plots", action="store_true", help="no requirements.png")
     parser.add_argument("--output-dir", default="drives", metavar="DIR",
                         help="folder for the files (default: drives)")  # fmt: skip
+
+
+def _spring_joints(text: str) -> tuple[str, ...]:
+    from problems.drives.springs import SPRING_JOINTS
+
+    joints = tuple(j.strip() for j in text.split(",") if j.strip())
+    unknown = [j for j in joints if j not in SPRING_JOINTS]
+    if not joints or unknown or len(set(joints)) != len(joints):
+        raise argparse.ArgumentTypeError(
+            f"give distinct joints among {', '.join(SPRING_JOINTS)}, comma-separated; got {text!r}"
+        )
+    return joints
 
 
 def _shares(text: str) -> tuple[float, ...]:
@@ -170,11 +187,14 @@ def _replanned(plans, selection, args, out, report):
     naming them; the walker carrying them), both plans compared through them (printed); None
     without --replan."""
     if not args.replan:
+        if args.springs:
+            raise UsageError("--springs: springs are designed with a re-plan; add --replan")
         return None
     if selection is None or len(plans) != 1:
         raise UsageError("--replan: give one PLAN (a walking step) with --motors and --gearboxes")
     from problems.drives.loop import MOUNTS
     from problems.drives.replan import compare, comparison_table, replan
+    from problems.drives.springs import ParallelSpring, designed, spring_values
 
     chosen = {}
     for joint in ("hip", "knee", "ankle", "neck"):
@@ -182,17 +202,25 @@ def _replanned(plans, selection, args, out, report):
         if name in selection.ranked:
             chosen[joint] = selection.best(name).drive
     regeneration = not args.no_regeneration
+    springs = tuple(ParallelSpring(joint) for joint in args.springs)
     with report.working("re-planning the step with the chosen drives in the loop"):
         try:
-            gait, walker = replan(plans[0], chosen, regeneration=regeneration)
+            gait, walker = replan(plans[0], chosen, regeneration=regeneration,
+                                  drives_objective="electrical" if springs else None,
+                                  springs=springs)  # fmt: skip
         except DefinitionError as error:
-            raise UsageError(f"PLAN: {error}") from None
+            field = "--springs" if "`springs`" in str(error) else "PLAN"
+            raise UsageError(f"{field}: {error}") from None
         except AnthropoidError as error:
             raise CommandFailed(
                 f"the re-plan with the chosen drives: {error}; nothing written"
             ) from None
+    values = spring_values(gait.solution, springs)
+    if values:
+        print(f"\nparallel springs designed with the re-plan (both legs): {designed(values)}",
+              file=out)  # fmt: skip
     given = compare(plans[0], walker, with_rotors=False)
-    again = compare(gait.exported(), walker, with_rotors=True)
+    again = compare(gait.exported(), walker, with_rotors=True, springs=values)
     print("\nthe plan through the chosen drives, as given and re-planned with them (worst "
           "margins: < 0 the drive cannot deliver it):", file=out)  # fmt: skip
     print(comparison_table(given, again), file=out)
@@ -200,20 +228,24 @@ def _replanned(plans, selection, args, out, report):
     carried = {joint: {"motor": d.motor.name, "gearbox": d.gearbox.name,
                        "ratio": d.gearbox.ratio, "mass_kg": d.mass,
                        "inertia_kg_m2": d.inertia} for joint, d in chosen.items()}  # fmt: skip
-    written = gait.exported().with_metadata(
-        drives={"joints": carried, "regeneration": regeneration, "mounts": dict(MOUNTS)}
-    )
-    return written, walker
+    # the hinge torques are the whole torque; a spring's share is the spring's, not the drive's
+    springs_kept = {joint: {"stiffness_N_m_per_rad": k, "rest_rad": rest,
+                            "torque": "-k (q - rest), q the robot's joint angle"}
+                    for joint, (k, rest) in values.items()}  # fmt: skip
+    drives = {"joints": carried, "regeneration": regeneration, "mounts": dict(MOUNTS),
+              "springs": springs_kept}  # fmt: skip
+    written = gait.exported().with_metadata(drives=drives)
+    return written, walker, values
 
 
-def _as_given_and_replanned(given, replanned, walker):
+def _as_given_and_replanned(given, replanned, walker, springs):
     """The two plans as one duty cycle (each half the time) for the torque-speed picture,
-    each drive's gear output (the re-plan without its rotors' own share)."""
+    each drive's gear output (the re-plan without its rotors' own share and its springs')."""
     from problems.drives import DriveRequirements
     from problems.drives.replan import output_plan
 
     plans = [output_plan(given, walker, "as given", 0.5, False),
-             output_plan(replanned, walker, "re-planned", 0.5, True)]  # fmt: skip
+             output_plan(replanned, walker, "re-planned", 0.5, True, springs)]  # fmt: skip
     return DriveRequirements.of(plans)
 
 

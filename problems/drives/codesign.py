@@ -91,11 +91,12 @@ def plan_with_drives(linkage: Linkage, drives: Mapping[str, Drive], speed: float
                                  regeneration=regeneration, warm=warm, **step_options)  # fmt: skip
 
 
-def step_energy(gait, walker, regeneration: bool) -> float:
+def step_energy(gait, walker, regeneration: bool, springs=None) -> float:
     """The exact electrical energy of ``gait``'s exported samples, J: net with
-    ``regeneration``, drawn (u i > 0 only) without."""
+    ``regeneration``, drawn (u i > 0 only) without; ``springs`` {joint: (k, q_0)} beside the
+    drives (:func:`problems.drives.springs.spring_values`)."""
     trajectory = gait.exported()
-    energy = energy_per_step(motor_report(trajectory, walker), trajectory.time)
+    energy = energy_per_step(motor_report(trajectory, walker, springs=springs), trajectory.time)
     return energy["counted" if regeneration else "drawn"]
 
 

@@ -273,6 +273,13 @@ def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
     the drives (:mod:`problems.drives.springs`), their free numbers static parameters of the
     NLP (read them back with :func:`problems.drives.springs.spring_values`)."""
     springs = check_springs(springs)
+    free = [s.joint for s in springs if s.stiffness is None or s.rest is None]
+    if free and objective == "kept":
+        raise DefinitionError(
+            f"`springs`: the {free} spring's numbers are designed for the drives' energy, which "
+            "the step's own objective does not see; give objective 'electrical' or 'copper', "
+            "or fix its stiffness and rest angle"
+        )
     keys = {m.key for m in walker.mounted}
     # Both legs' copies, or none: a spring in one leg only (a point foot's ankle, with no foot
     # to turn in the swing) would meet each stance loaded as it left the last one, for free.

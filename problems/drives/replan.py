@@ -91,11 +91,12 @@ def replan(trajectory, drives: Mapping[str, Drive], *, regeneration: bool = Fals
                                  **{**_step_options(settings), **options})  # fmt: skip
 
 
-def compare(trajectory, walker: DrivenWalker, with_rotors: bool) -> dict[str, Any]:
+def compare(trajectory, walker: DrivenWalker, with_rotors: bool, springs=None) -> dict[str, Any]:
     """Through the walker's drives at every sample of ``trajectory``: the electrical
     ``energy`` J (counted, drawn, copper) and each limit's ``worst`` margin (its unit; the drive
-    where it is). ``with_rotors``: the plan was made with them (a re-plan)."""
-    report = motor_report(trajectory, walker, with_rotors=with_rotors)
+    where it is). ``with_rotors``: the plan was made with them (a re-plan); ``springs``
+    {joint: (k, q_0)}: parallel springs beside the drives (a re-plan's)."""
+    report = motor_report(trajectory, walker, with_rotors=with_rotors, springs=springs)
     worst = {}
     for limit in LIMITS:
         key = min(report, key=lambda k: float(report[k]["margins"][limit].min()))
@@ -104,13 +105,14 @@ def compare(trajectory, walker: DrivenWalker, with_rotors: bool) -> dict[str, An
 
 
 def output_plan(trajectory, walker: DrivenWalker, name: str, share: float,
-                with_rotors: bool) -> Plan:  # fmt: skip
+                with_rotors: bool, springs=None) -> Plan:  # fmt: skip
     """A point-foot step's stride as its drives' gear outputs see it (tau_out N m, dq rad/s per
     physical drive: the right leg in stance, then the left), from :func:`motor_report`: for a
     plan made with the drives (``with_rotors``) without the share of each drive's torque that
     accelerates its own rotor, so that it reads like a plan for ideal sources. A point foot's
-    swing ankle has no drive to read: zero there."""
-    report = motor_report(trajectory, walker, with_rotors=with_rotors)
+    swing ankle has no drive to read: zero there. ``springs`` {joint: (k, q_0)}: parallel
+    springs beside the drives, whose share the gear outputs do not carry."""
+    report = motor_report(trajectory, walker, with_rotors=with_rotors, springs=springs)
     time = np.asarray(trajectory.time, dtype=float)
     duration = float(time[-1] - time[0])
     settings = trajectory.metadata["gait"]
