@@ -6,11 +6,16 @@ energy): what springs retuned at every speed could save. A walker carries one se
 speed's design is then tried at every other speed, fixed there (each a plan with the drives in
 the loop, warm-started from that speed's own design, verified), and the set with the least
 energy summed over the speeds is the walker's (a design no plan walks at some speed costs
-infinity). The per-speed designs bound it from below; the steps with no spring (the same
-drives in the loop) are the reference.
+infinity). The steps with no spring (the same drives in the loop) are the reference.
 
-Each speed costs 2 + (S - 1) plans for S speeds: its step without springs, with its own, and
-with each other speed's.
+The plans are local optima: another speed's springs, fixed, can walk a speed for less than its
+own design did. That speed's design is then solved again from that plan (a better start), and
+its own is the better of the two (tried in turn at the other speeds, a candidate for the one
+set too): each speed's own is then no worse than the sets first tried there, what retuned
+springs could save as far as these plans find it.
+
+Each speed costs 2 + (S - 1) plans for S speeds (its step without springs, with its own, and
+with each other speed's), and 1 + (S - 1) more when another's springs beat its own.
 """
 
 from __future__ import annotations
@@ -104,10 +109,13 @@ def design_springs(
         own.append(step_energy(gait, walker, regeneration, values))
         own_springs.append(values)
         own_gaits.append(gait)
-    tried = []
-    for k, values in enumerate(own_springs):
-        fixed = _fixed(springs, values)
-        energies = []
+    tried: list[tuple[dict, tuple[float, ...]]] = []
+    better: dict[int, tuple[float, dict, object]] = {}
+
+    def cross(k: int) -> None:
+        """Speed k's own springs, fixed, at every other speed (into ``tried``); where they walk
+        a speed for less than its own, remembered in ``better``."""
+        values, fixed, energies = own_springs[k], _fixed(springs, own_springs[k]), []
         for j, speed in enumerate(speeds):
             if j == k:
                 energies.append(own[j])
@@ -120,7 +128,27 @@ def design_springs(
                 energies.append(math.inf)
                 continue
             energies.append(step_energy(gait, walker, regeneration, values))
+            if energies[-1] < min(own[j], better.get(j, (math.inf,))[0]):
+                better[j] = (energies[-1], values, gait)
         tried.append((dict(values), tuple(energies)))
+
+    for k in range(len(speeds)):
+        cross(k)
+    improved, better = dict(better), {}
+    for j, (energy, values, gait) in sorted(improved.items()):
+        # another speed's springs walked this one for less: design it again from that plan,
+        # and try the new design at the other speeds as well
+        own[j], own_springs[j], own_gaits[j] = energy, values, gait
+        try:
+            gait, walker = plan_with_drives(linkage, drives, speeds[j], regeneration=regeneration,
+                                            warm=gait, springs=springs, **step_options)  # fmt: skip
+        except AnthropoidError:
+            continue
+        again = spring_values(gait.solution, springs)
+        energy = step_energy(gait, walker, regeneration, again)
+        if energy < own[j]:
+            own[j], own_springs[j], own_gaits[j] = energy, again, gait
+            cross(j)
     shared_springs, shared = min(tried, key=lambda item: sum(item[1]))
     return SpringDesign(springs, speeds, regeneration, tuple(bare), tuple(own),
                         tuple(own_springs), shared, shared_springs, tuple(tried),
