@@ -191,23 +191,31 @@ n80,80,0.8,20,60,160,8000,400,test data
 """  # noqa: E501
 
 
-def test_the_command_replans_a_step_with_the_chosen_drives(tmp_path, capsys):
+@pytest.fixture(scope="module")
+def replan_argv(tmp_path_factory):
+    """``drives PLAN --motors ... --replan -q --output-dir`` (the folder to come) for a point-foot
+    step's file and the test catalogues, written in a folder of their own."""
+    from problems import walking_step
+
+    inputs = tmp_path_factory.mktemp("replan_inputs")
+    plan = inputs / "torques.csv"
+    walking_step(N=20).solve().exported().save(plan)
+    (inputs / "m.csv").write_text(MOTORS_CSV)
+    (inputs / "g.csv").write_text(GEARBOXES_CSV)
+    return ["drives", str(plan), "--motors", str(inputs / "m.csv"), "--gearboxes",
+            str(inputs / "g.csv"), "--rank", "energy", "--no-regeneration", "--no-plots",
+            "--replan", "-q", "--output-dir"]  # fmt: skip
+
+
+def test_the_command_replans_a_step_with_the_chosen_drives(replan_argv, tmp_path, capsys):
     """drives --replan: the file it writes stands on its own (read back, verified from its
     sidecar's rotors and body), and the comparison it prints is the API's."""
     from model import Linkage, LinkageTrajectory
-    from problems import walking_step
     from problems.cli import main
     from problems.gait.verification import verify_gait
 
-    plan = tmp_path / "torques.csv"
-    walking_step(N=20).solve().exported().save(plan)
-    (tmp_path / "m.csv").write_text(MOTORS_CSV)
-    (tmp_path / "g.csv").write_text(GEARBOXES_CSV)
     folder = tmp_path / "out"
-    argv = ["drives", str(plan), "--motors", str(tmp_path / "m.csv"), "--gearboxes",
-            str(tmp_path / "g.csv"), "--rank", "energy", "--no-regeneration", "--no-plots",
-            "--replan", "-q", "--output-dir", str(folder)]  # fmt: skip
-    assert main(argv) == 0
+    assert main([*replan_argv, str(folder)]) == 0
     printed = capsys.readouterr().out
     assert "| as given |" in printed and "| re-planned with the drives |" in printed
     written = LinkageTrajectory.load(folder / "replanned.csv")
@@ -224,33 +232,27 @@ def test_the_command_replans_a_step_with_the_chosen_drives(tmp_path, capsys):
     for row in printed.splitlines():
         if row.startswith("| re-planned with the drives |"):
             drawn = float(row.split("|")[2])
-    walker = drives_in_the_loop(six_link_anthropoid(), _chosen(folder))
+    walker = drives_in_the_loop(six_link_anthropoid(), _chosen(folder, replan_argv))
     chosen = compare(written, walker, with_rotors=True)
     assert chosen["energy"]["drawn"] == pytest.approx(drawn, abs=0.05)
     assert all(value >= -1e-6 * 48 for value, _ in chosen["worst"].values())
     # --replan needs the catalogues
-    assert main(["drives", str(plan), "--replan", "-q", "--output-dir", str(tmp_path / "x")]) == 2
+    plan = replan_argv[1]
+    assert main(["drives", plan, "--replan", "-q", "--output-dir", str(tmp_path / "x")]) == 2
     assert "--replan: give one PLAN" in capsys.readouterr().err
 
 
-def test_the_command_designs_hip_springs_with_the_replan(tmp_path, capsys):
+def test_the_command_designs_hip_springs_with_the_replan(replan_argv, tmp_path, capsys):
     """drives --replan --springs hip: the springs' numbers in the sidecar, within their bounds;
     the energy printed for the re-plan is the file's through the drives beside those springs;
     springs that cannot be designed are refused by option."""
     from model import LinkageTrajectory
-    from problems import walking_step
     from problems.cli import main
     from problems.drives.replan import compare
     from problems.drives.springs import MAX_STIFFNESS
 
-    plan = tmp_path / "torques.csv"
-    walking_step(N=20).solve().exported().save(plan)
-    (tmp_path / "m.csv").write_text(MOTORS_CSV)
-    (tmp_path / "g.csv").write_text(GEARBOXES_CSV)
+    argv = replan_argv
     folder = tmp_path / "out"
-    argv = ["drives", str(plan), "--motors", str(tmp_path / "m.csv"), "--gearboxes",
-            str(tmp_path / "g.csv"), "--rank", "energy", "--no-regeneration", "--no-plots",
-            "--replan", "-q", "--output-dir"]  # fmt: skip
     assert main([*argv, str(folder), "--springs", "hip"]) == 0
     printed = capsys.readouterr().out
     assert "parallel springs designed with the re-plan (both legs): hip" in printed
@@ -261,7 +263,7 @@ def test_the_command_designs_hip_springs_with_the_replan(tmp_path, capsys):
     for row in printed.splitlines():
         if row.startswith("| re-planned with the drives |"):
             drawn = float(row.split("|")[2])
-    walker = drives_in_the_loop(six_link_anthropoid(), _chosen(folder))
+    walker = drives_in_the_loop(six_link_anthropoid(), _chosen(folder, argv))
     sprung = compare(written, walker, with_rotors=True, springs={"hip": (k, rest)})
     assert sprung["energy"]["drawn"] == pytest.approx(drawn, abs=0.05)
     assert all(value >= -1e-6 * 48 for value, _ in sprung["worst"].values())
@@ -303,14 +305,14 @@ def test_the_replan_picture_reads_each_drive_like_the_joint_space(walker, drive_
         plan_of(planned, "y", 1.0)
 
 
-def _chosen(folder):
-    """The drives selection.csv names, rebuilt from the test catalogue."""
+def _chosen(folder, argv):
+    """The drives selection.csv names, rebuilt from the test catalogue ``argv`` names."""
     import csv
 
     from problems.drives.catalogue import read_gearboxes, read_motors
 
-    motors = {m.name: m for m in read_motors(folder.parent / "m.csv")}
-    gearboxes = {g.name: g for g in read_gearboxes(folder.parent / "g.csv")}
+    motors = {m.name: m for m in read_motors(argv[argv.index("--motors") + 1])}
+    gearboxes = {g.name: g for g in read_gearboxes(argv[argv.index("--gearboxes") + 1])}
     with (folder / "selection.csv").open() as handle:
         rows = {row["drive"]: row for row in csv.DictReader(handle)}
     return {joint: Drive(motors[rows[key]["motor"]], gearboxes[rows[key]["gearbox"]])
