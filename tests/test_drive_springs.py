@@ -97,6 +97,19 @@ def test_a_spring_is_refused_where_it_cannot_sit_and_its_numbers_by_name(bare):
         _plan((ParallelSpring("hip"), ParallelSpring("hip", stiffness=10.0)))
     with pytest.raises(DefinitionError, match="no spring parameters"):
         spring_values(bare[0].solution, (HIP_SPRING,))
+    with pytest.raises(DefinitionError, match="max_stiffness"):
+        ParallelSpring("hip", max_stiffness=0.0)
+    # the step's own objective does not see a free spring; a fixed one it may carry
+    from problems import walking_step
+    from problems.drives.loop import drives_in_the_loop, with_drives
+
+    walker = drives_in_the_loop(six_link_anthropoid(), DRIVES)
+    step = walking_step(walker.linkage, *step_at_speed(SPEED), N=20, rotors=walker.rotors)
+    with pytest.raises(DefinitionError, match="designed for the drives' energy"):
+        with_drives(step, walker, "kept", springs=(HIP_SPRING,))
+    with_drives(step, walker, "kept", springs=(ParallelSpring("hip", 50.0, 0.0),))
+    with pytest.raises(DefinitionTypeError, match=r"sequence of problems\.drives\.ParallelSpring"):
+        with_drives(step, walker, springs="hip")
 
 
 def test_the_springs_torque_follows_the_joint_angle_of_the_hinges_points(sprung):

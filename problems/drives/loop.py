@@ -272,6 +272,10 @@ def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
     losses (``"copper"``) or kept as it is (``"kept"``). ``springs``: parallel springs beside
     the drives (:mod:`problems.drives.springs`), their free numbers static parameters of the
     NLP (read them back with :func:`problems.drives.springs.spring_values`)."""
+    if objective not in DRIVE_OBJECTIVES:
+        raise DefinitionError(
+            f"`objective`: one of {', '.join(map(repr, DRIVE_OBJECTIVES))}, got {objective!r}"
+        )
     springs = check_springs(springs)
     free = [s.joint for s in springs if s.stiffness is None or s.rest is None]
     if free and objective == "kept":
@@ -288,10 +292,6 @@ def with_drives(step, walker: DrivenWalker, objective: str = "electrical",
         raise DefinitionError(
             f"`springs`: no drive at {idle} in both legs to put a spring beside (a point "
             f"foot's swing ankle turns nothing); the walker's drives: {sorted(keys)}"
-        )
-    if objective not in DRIVE_OBJECTIVES:
-        raise DefinitionError(
-            f"`objective`: one of {', '.join(map(repr, DRIVE_OBJECTIVES))}, got {objective!r}"
         )
     if tuple(step.dynamics.rotors) != walker.rotors:
         raise DefinitionError(

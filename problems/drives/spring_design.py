@@ -110,12 +110,11 @@ def design_springs(
         own_springs.append(values)
         own_gaits.append(gait)
     tried: list[tuple[dict, tuple[float, ...]]] = []
-    better: dict[int, tuple[float, dict, object]] = {}
 
-    def cross(k: int) -> None:
-        """Speed k's own springs, fixed, at every other speed (into ``tried``); where they walk
-        a speed for less than its own, remembered in ``better``."""
-        values, fixed, energies = own_springs[k], _fixed(springs, own_springs[k]), []
+    def cross(k: int) -> dict[int, tuple[float, dict, object]]:
+        """Speed k's own springs, fixed, at every other speed (into ``tried``); returns the
+        speeds they walk for less than those speeds' own: {j: (energy, springs, gait)}."""
+        values, fixed, energies, beats = own_springs[k], _fixed(springs, own_springs[k]), [], {}
         for j, speed in enumerate(speeds):
             if j == k:
                 energies.append(own[j])
@@ -128,16 +127,20 @@ def design_springs(
                 energies.append(math.inf)
                 continue
             energies.append(step_energy(gait, walker, regeneration, values))
-            if energies[-1] < min(own[j], better.get(j, (math.inf,))[0]):
-                better[j] = (energies[-1], values, gait)
+            if energies[-1] < own[j]:
+                beats[j] = (energies[-1], values, gait)
         tried.append((dict(values), tuple(energies)))
+        return beats
 
+    better: dict[int, tuple[float, dict, object]] = {}
     for k in range(len(speeds)):
-        cross(k)
-    improved, better = dict(better), {}
-    for j, (energy, values, gait) in sorted(improved.items()):
+        for j, found in cross(k).items():
+            if found[0] < better.get(j, (math.inf,))[0]:
+                better[j] = found
+    for j, (energy, values, gait) in sorted(better.items()):
         # another speed's springs walked this one for less: design it again from that plan,
-        # and try the new design at the other speeds as well
+        # and try the new design at the other speeds as well (one round: what it beats there
+        # is not designed again)
         own[j], own_springs[j], own_gaits[j] = energy, values, gait
         try:
             gait, walker = plan_with_drives(linkage, drives, speeds[j], regeneration=regeneration,
