@@ -19,7 +19,7 @@ one run: the electrical energy per step drawn by the drives (regeneration not co
    speed's step designs its own spring's stiffness and rest angle in its NLP, then the one
    spring the walker carries is the speeds' design with the least energy over the three, each
    tried fixed at the other speeds; beside the pick's ratios and beside the co-designed ones.
-   A knee spring designed the same way goes to no stiffness (it does not pay on this step), and
+   A knee spring designed the same way went to no stiffness in scratch runs (it did not pay), and
    a point foot's ankle carries none (its swing ankle turns nothing).
 
 The catalogue is ``examples/drives/*_illustrative.csv`` (two 48 V motors, each in two windings,
