@@ -24,6 +24,9 @@ defers a circle to the first call, and a type-only import still ties two modules
 * no function in planner or model imports a module of the product (problems defers its
   optional heavy imports, matplotlib and MuJoCo, by importing inside the commands that
   draw or simulate);
+* inside problems, the plans never import the way to a robot: ``problems.walking`` (the step
+  and the step on feet) imports nothing of ``problems.control`` (the simulation, the LQR, the
+  laws, MuJoCo), which reads the plans;
 * the planner spells no name of the linkage convention (``psi_``, ``M_``, ...): those live
   in ``model.linkage_naming``.
 """
@@ -183,6 +186,28 @@ def test_no_import_circle():
     # the guard: a circle through a function-local or type-only import is one
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b"}, "b": set()}) is None
+
+
+def package_violations(graph: dict[str, set[str]], lower: str, upper: str) -> list[str]:
+    """Imports of package ``upper`` by modules of package ``lower``: "a -> b"."""
+    return [
+        f"{source} -> {target}"
+        for source, targets in sorted(graph.items())
+        if source == lower or source.startswith(lower + ".")
+        for target in sorted(targets)
+        if target == upper or target.startswith(upper + ".")
+    ]
+
+
+def test_the_plans_do_not_import_the_control():
+    graph = module_graph()
+    violations = package_violations(graph, "problems.walking", "problems.control")
+    assert not violations, f"the walking plans import the control: {violations}"
+    # the guard: the control does read the plans, and a plan importing it would be caught
+    assert package_violations(graph, "problems.control", "problems.walking")
+    assert package_violations(
+        {"problems.walking.step": {"problems.control.lqr"}}, "problems.walking", "problems.control"
+    ) == ["problems.walking.step -> problems.control.lqr"]
 
 
 def test_no_function_local_import_in_planner_or_model():

@@ -154,8 +154,8 @@ def test_the_closed_loop_of_a_drive_plan_simulates_its_rotors(drive_plan):
     product's hybrid simulation: with the rotors the walk tracks the plan to the simulation's
     discretisation; the same loop on a plant without them (an ideal-torque simulation of a
     geared robot) walks, but 10 times further from the plan."""
-    from problems.walking.feedback import design_feedback
-    from problems.walking.simulation import simulate_walking
+    from problems.control.feedback import design_feedback
+    from problems.control.simulation import simulate_walking
 
     feedback = design_feedback(drive_plan)
     assert feedback.plant.dynamics.rotors == drive_plan.problem.dynamics.rotors

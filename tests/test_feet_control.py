@@ -1,4 +1,4 @@
-"""The drives' law of the step on feet (problems.walking.feet_control) and its gains in the
+"""The drives' law of the step on feet (problems.control.feet_law) and its gains in the
 torque file: the file's rows, read back from disk as a drive reads them, give the law's
 torques (a matrix K (x_ref - x) against the law's joint PD on relative angles)."""
 
@@ -9,8 +9,8 @@ import pytest
 
 from model import LinkageTrajectory
 from planner.errors import DefinitionError
-from problems.walking.feedback import LAW
-from problems.walking.feet_control import FEET_KD, FEET_KP, FeetLaw, feet_references
+from problems.control.feedback import LAW
+from problems.control.feet_law import FEET_KD, FEET_KP, FeetLaw, feet_references
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""The step on feet in MuJoCo (problems.walking.mujoco_feet): an engine written by someone
+"""The step on feet in MuJoCo (problems.control.mujoco_feet): an engine written by someone
 else decides every contact of the heels and balls; the plan's drives, with joint feedback
 around it, walk it, and the plan's torques alone do not."""
 
@@ -14,13 +14,13 @@ from model.mjcf import contacts_at
 from model.points import LinkPoint
 from planner.errors import DefinitionError, DefinitionTypeError
 from problems import footed_step, walking_step
-from problems.walking.feet_control import FeetLaw, hinge_gains, hinge_inertias
-from problems.walking.mujoco_feet import (
+from problems.control.feet_law import FeetLaw, hinge_gains, hinge_inertias
+from problems.control.mujoco_feet import (
     feet_walker_mjcf,
     run_feet_in_mujoco,
     run_feet_steps_in_mujoco,
 )
-from problems.walking.simulation import Disturbances
+from problems.control.simulation import Disturbances
 
 mujoco = pytest.importorskip("mujoco")
 

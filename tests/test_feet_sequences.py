@@ -140,7 +140,7 @@ def test_the_drives_law_follows_each_sequence_and_walks_it_in_mujoco(gait):
     plan walks 20 steps in MuJoCo under it (its sequence's default gains: toe walking's fall
     in the seventh step with the others', examples/feet.md), each step within 5 % of the
     plan's length."""
-    from problems.walking.feet_control import FeetLaw
+    from problems.control.feet_law import FeetLaw
 
     durations = gait.durations()
     single, double = FeetLaw(gait).references
@@ -148,7 +148,7 @@ def test_the_drives_law_follows_each_sequence_and_walks_it_in_mujoco(gait):
     assert double.time[-1] - double.time[0] == pytest.approx(durations[-1], abs=1e-9)
     assert np.all(np.diff(single.time) > 0)
     pytest.importorskip("mujoco")
-    from problems.walking.mujoco_feet import run_feet_in_mujoco
+    from problems.control.mujoco_feet import run_feet_in_mujoco
 
     run = run_feet_in_mujoco(gait, steps=20)
     assert run.fell is None and run.walked == 20, run.fell

@@ -153,7 +153,7 @@ def test_a_speed_change_on_feet_is_verified_joins_at_every_boundary_and_walks():
     assert speeds[-1] == pytest.approx(b.speed) and all(np.diff([a.speed, *speeds]) > 0)
     assert set(transition.peak_torques()) == set(a.problem.drives)
     pytest.importorskip("mujoco")
-    from problems.walking.mujoco_feet import run_feet_steps_in_mujoco
+    from problems.control.mujoco_feet import run_feet_steps_in_mujoco
 
     steps = [a] * 3 + list(transition.gaits) + [b] * 4
     run = run_feet_steps_in_mujoco(steps)

@@ -26,10 +26,10 @@ from model.anthropometry import FOOT_COM, FootGeometry
 from model.linkage import Linkage
 from model.presets import SIX_LINK_TABLE
 from problems import footed_step, walking_step
+from problems.control.feedback import design_feedback
+from problems.control.feet_law import FeetLaw
 from problems.human.joints import body_of, joint_radians, leg_moments
 from problems.robot import joint_space, walker_from_urdf
-from problems.walking.feedback import design_feedback
-from problems.walking.feet_control import FeetLaw
 
 mujoco = pytest.importorskip("mujoco")
 

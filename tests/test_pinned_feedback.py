@@ -13,6 +13,7 @@ import pytest
 from reference.checks import central_jacobian
 
 from model import LinkageTrajectory
+from problems.control.tracking import TimedReference
 from problems.pinned.feedback import (
     LAW,
     PinnedLQR,
@@ -23,7 +24,6 @@ from problems.pinned.feedback import (
     simulate_periods,
 )
 from problems.pinned.gait import periodic_gait
-from problems.walking.control import TimedReference
 
 RATE_HZ = 250.0  # a coarser controller than the default 1 kHz: the same code, 4x faster
 
@@ -146,7 +146,7 @@ def test_mujoco_holds_the_gait_under_the_gains_and_drops_it_without(designed):
 
 def test_bad_inputs_are_named(designed):
     from model import DefinitionError
-    from problems.walking.feedback import with_gains
+    from problems.control.feedback import with_gains
 
     gait, feedback = designed
     with pytest.raises(DefinitionError, match=r"`initial`: the error of the start state .* 12 "):

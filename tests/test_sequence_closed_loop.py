@@ -2,7 +2,7 @@
 a finite-horizon LQR, in the product's simulation and in MuJoCo.
 
 Oracles: the finite-horizon gains of the periodic steps far from a transition against the
-periodic LQR of that gait (its own recursion run to a fixed point: problems.walking.feedback);
+periodic LQR of that gait (its own recursion run to a fixed point: problems.control.feedback);
 the file's columns against the law evaluated by the feedback object at perturbed states; the
 walk in two simulators (the product's hybrid one, MuJoCo's soft contacts) completing and
 standing, and falling without the gains.
@@ -16,6 +16,7 @@ import pytest
 from model import LinkageTrajectory
 from planner.errors import DefinitionError
 from planner.trajectory import Trajectory
+from problems.control.feedback import design_feedback, gains_from
 from problems.library import plan_sequence, verify_sequence
 from problems.library.closed_loop import (
     LEAST_LOAD,
@@ -24,7 +25,6 @@ from problems.library.closed_loop import (
     simulate_sequence,
     with_sequence_gains,
 )
-from problems.walking.feedback import design_feedback, gains_from
 
 
 @pytest.fixture(scope="module")
@@ -140,7 +140,7 @@ def test_the_contact_aware_law_keeps_the_predicted_force_loaded_and_in_its_cone(
 
 
 def test_bad_closed_loop_inputs_are_refused_by_name(walk):
-    from problems.walking.simulation import simulate_walking
+    from problems.control.simulation import simulate_walking
 
     with pytest.raises(DefinitionError, match="`push_at`: a fraction in \\[0, 1\\)"):
         SequenceDisturbances(push=10.0, push_at=1.5)

@@ -17,21 +17,21 @@ from reference.checks import central_jacobian
 
 from model import LinkageTrajectory
 from problems import walking_step
-from problems.walking.control import GaitReference, PhasePD
-from problems.walking.feedback import design_feedback
-from problems.walking.linearisation import fixed_point, return_map
-from problems.walking.lqr import (
+from problems.control.feedback import design_feedback
+from problems.control.linearisation import fixed_point, return_map
+from problems.control.lqr import (
     SwitchedLQR,
     lift_off_saltation,
     linearise_double_support,
     periodic_riccati,
 )
-from problems.walking.simulation import (
+from problems.control.simulation import (
     Disturbances,
     Plant,
     locate_event,
     simulate_walking,
 )
+from problems.control.tracking import GaitReference, PhasePD
 
 #: the plan's rear foot lifts carrying 5 % of the weight along its cone's edge: the closed
 #: loop needs a ground with this much friction (measured: 1.0 slips under most disturbances)
@@ -196,7 +196,7 @@ def test_the_periodic_lqr_walks_the_double_support_step_and_the_file_carries_bot
 def test_mujoco_refuses_the_double_support_step_by_name(plan):
     pytest.importorskip("mujoco")
     from model import DefinitionError
-    from problems.walking.mujoco import run_in_mujoco
+    from problems.control.mujoco import run_in_mujoco
 
     _, gait, _ = plan
     feedback = design_feedback(gait, ground_mu=GROUND_MU)
@@ -207,7 +207,7 @@ def test_mujoco_refuses_the_double_support_step_by_name(plan):
 
 def test_an_unknown_end_of_a_linearised_stretch_is_named(plan):
     from model import DefinitionError
-    from problems.walking.lqr import linearise_along
+    from problems.control.lqr import linearise_along
 
     _, gait, plant = plan
     single, _ = GaitReference.branches(gait, rate_hz=1000.0)

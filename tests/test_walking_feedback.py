@@ -1,4 +1,4 @@
-"""The feedback in the file (problems.walking.feedback): a drive that reads only torques.csv
+"""The feedback in the file (problems.control.feedback): a drive that reads only torques.csv
 (its reference, phase and gain columns) walks as the design does; and `walk --feedback`."""
 
 from __future__ import annotations
@@ -11,11 +11,11 @@ import pytest
 from model import LinkageTrajectory
 from problems import walking_step
 from problems.cli import main
+from problems.control.feedback import LAW, design_feedback
+from problems.control.lqr import LqrWeights, PeriodicGains, PhaseLQR
+from problems.control.simulation import simulate_walking
+from problems.control.tracking import GaitReference
 from problems.gait.verification import verify_gait
-from problems.walking.control import GaitReference
-from problems.walking.feedback import LAW, design_feedback
-from problems.walking.lqr import LqrWeights, PeriodicGains, PhaseLQR
-from problems.walking.simulation import simulate_walking
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""The return map's exact Jacobian (problems.walking.linearisation) against central
+"""The return map's exact Jacobian (problems.control.linearisation) against central
 differences of the product's own hybrid simulation, Newton's quadratic convergence to the
 closed loop's periodic gait, and the multipliers against the decay the simulation shows."""
 
@@ -9,9 +9,9 @@ import pytest
 from reference.checks import central_jacobian
 
 from problems import walking_step
-from problems.walking.control import GaitReference, PhasePD
-from problems.walking.linearisation import fixed_point, return_map
-from problems.walking.simulation import Plant, simulate_walking
+from problems.control.linearisation import fixed_point, return_map
+from problems.control.simulation import Plant, simulate_walking
+from problems.control.tracking import GaitReference, PhasePD
 
 #: the reference's samples must not fall on the control instants: there the phase table's
 #: linear pieces meet, the map has a kink, and a central difference straddles it (the exact

@@ -1,9 +1,9 @@
-"""The periodic LQR of a walking step (problems.walking.lqr).
+"""The periodic LQR of a walking step (problems.control.lqr).
 
 Oracles: scipy's discrete algebraic Riccati equation (a constant system is a periodic one);
 the value function, x0' P(0) x0, against the cost summed along the linear closed loop; the
 saltation matrix against central differences of the strike found by the simulation; and the
-closed loop's multipliers (problems.walking.linearisation) against the linear model's.
+closed loop's multipliers (problems.control.linearisation) against the linear model's.
 """
 
 from __future__ import annotations
@@ -14,9 +14,8 @@ from reference.checks import central_jacobian
 from scipy.linalg import solve_discrete_are
 
 from problems import walking_step
-from problems.walking.control import GaitReference, OpenLoop
-from problems.walking.linearisation import fixed_point
-from problems.walking.lqr import (
+from problems.control.linearisation import fixed_point
+from problems.control.lqr import (
     LqrWeights,
     PhaseLQR,
     linearise_along,
@@ -24,7 +23,8 @@ from problems.walking.lqr import (
     periodic_riccati,
     saltation,
 )
-from problems.walking.simulation import Disturbances, Plant, locate_strike, simulate_walking
+from problems.control.simulation import Disturbances, Plant, locate_strike, simulate_walking
+from problems.control.tracking import GaitReference, OpenLoop
 
 GROUND_MU = 1.0
 

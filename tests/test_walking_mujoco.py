@@ -1,4 +1,4 @@
-"""The planned steps, their torques and their gains, run in MuJoCo (problems.walking.mujoco):
+"""The planned steps, their torques and their gains, run in MuJoCo (problems.control.mujoco):
 an engine written by someone else, with soft contacts and feet, walks them closed loop and
 lets them fall open loop."""
 
@@ -9,9 +9,9 @@ import pytest
 
 from model import presets
 from problems import walking_step
-from problems.walking.feedback import design_feedback, disturbance_cases
-from problems.walking.mujoco import run_in_mujoco
-from problems.walking.simulation import Disturbances
+from problems.control.feedback import design_feedback, disturbance_cases
+from problems.control.mujoco import run_in_mujoco
+from problems.control.simulation import Disturbances
 
 pytest.importorskip("mujoco")
 

@@ -1,5 +1,5 @@
-"""Many steps simulated (problems.walking.simulation) under the controllers of
-problems.walking.control.
+"""Many steps simulated (problems.control.simulation) under the controllers of
+problems.control.tracking.
 
 Oracles: scipy's adaptive integrator and energy conservation for the plant's RK4; the angular
 momentum about the stance foot, which a push changes by r x P; the angular momentum about the
@@ -16,8 +16,8 @@ from scipy.integrate import solve_ivp
 
 from model import DefinitionError, presets
 from problems import walking_step
-from problems.walking.control import GaitReference, OpenLoop, PhasePD
-from problems.walking.simulation import Disturbances, Plant, simulate_walking
+from problems.control.simulation import Disturbances, Plant, simulate_walking
+from problems.control.tracking import GaitReference, OpenLoop, PhasePD
 
 SIX = presets.six_link_anthropoid()
 #: the ground's friction in these runs: the plan (mu = 0.8) runs along its cone's edge right

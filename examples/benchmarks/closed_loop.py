@@ -24,9 +24,9 @@ import time
 
 from model import presets
 from problems import walking_step
-from problems.walking.feedback import design_feedback
-from problems.walking.linearisation import fixed_point, return_map
-from problems.walking.simulation import simulate_walking
+from problems.control.feedback import design_feedback
+from problems.control.linearisation import fixed_point, return_map
+from problems.control.simulation import simulate_walking
 
 
 def _median(function, repeat):
@@ -120,7 +120,7 @@ def main() -> None:
     try:
         import mujoco  # noqa: F401 - whether the extra is there
 
-        from problems.walking.mujoco import run_in_mujoco
+        from problems.control.mujoco import run_in_mujoco
     except ImportError:
         run_in_mujoco = None
     bipeds = {"six-link": presets.six_link_anthropoid, "five-link": presets.five_link_biped}

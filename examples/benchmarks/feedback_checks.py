@@ -29,17 +29,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests"))
 from reference.checks import central_jacobian  # the tests' own difference oracle
 
 from problems import periodic_gait, walking_step
+from problems.control.feedback import PUSH_STEPS, design_feedback
+from problems.control.linearisation import fixed_point
+from problems.control.lqr import LqrWeights, SwitchedLQR, linearise_double_support
+from problems.control.simulation import Disturbances, Plant, largest_push, simulate_walking
+from problems.control.tracking import GaitReference, PhasePD
 from problems.pinned.feedback import (
     closed_loop_orbit,
     design_pinned_feedback,
     run_pinned_in_mujoco,
     simulate_periods,
 )
-from problems.walking.control import GaitReference, PhasePD
-from problems.walking.feedback import PUSH_STEPS, design_feedback
-from problems.walking.linearisation import fixed_point
-from problems.walking.lqr import LqrWeights, SwitchedLQR, linearise_double_support
-from problems.walking.simulation import Disturbances, Plant, largest_push, simulate_walking
 
 
 def _mujoco():
@@ -47,7 +47,7 @@ def _mujoco():
         import mujoco  # noqa: F401 - whether the extra is there
     except ImportError:
         return None
-    from problems.walking.mujoco import run_in_mujoco
+    from problems.control.mujoco import run_in_mujoco
 
     return run_in_mujoco
 

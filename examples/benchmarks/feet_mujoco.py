@@ -6,20 +6,20 @@
 Six tables, each from one run:
 
 1. The gains: the default step on feet (1 m/s) walked 50 steps in MuJoCo under joint PD
-   around the plan (:class:`problems.walking.mujoco_feet.FeetLaw`) for several hinge gains
+   around the plan (:class:`problems.control.mujoco_feet.FeetLaw`) for several hinge gains
    kp, kd and the bandwidth that caps them on light links in the single support (``inf``:
    uniform gains, no cap):
    steps walked, why it fell, the largest tracking error (rad), the stance ball's largest
    slip (mm), the largest drive command (N m), the share of control periods with a drive held
    at its limit (%) and the stance foot's largest normal force (body weights).
-2. The check at the default gains (:func:`problems.walking.mujoco_feet.feet_mujoco_check`):
+2. The check at the default gains (:func:`problems.control.mujoco_feet.feet_mujoco_check`):
    open loop, closed loop and the product's disturbances, 20 steps each, and the largest
    pushes survived.
 3. The three speeds of the README's table (0.6, 1.0, 1.4 m/s): 50 steps each at the default
    gains.
 4. The contact sequences at 1 m/s (``footed_step(phases=...)``: human, flat-footed,
    toe-walking): open loop and 50 steps closed loop at each sequence's default gains
-   (``FeetLaw``'s, :data:`problems.walking.feet_control.SEQUENCE_GAINS`).
+   (``FeetLaw``'s, :data:`problems.control.feet_law.SEQUENCE_GAINS`).
 5. The toe walker's gains: 50 steps each, where its defaults come from.
 6. The check of table 2 for the other sequences at their default gains: the disturbances and
    the largest pushes, 20 steps each.
@@ -37,15 +37,15 @@ import numpy as np
 
 from planner import AccuracyWarning
 from problems import footed_step_at
-from problems.walking.feet_control import (
+from problems.control.feet_law import (
     FEET_BANDWIDTH,
     FEET_KD,
     FEET_KP,
     FeetLaw,
     hinge_inertias,
 )
+from problems.control.mujoco_feet import feet_mujoco_check, run_feet_in_mujoco
 from problems.walking.footed import SEQUENCES
-from problems.walking.mujoco_feet import feet_mujoco_check, run_feet_in_mujoco
 
 #: (kp N m/rad, kd N m s/rad, bandwidth rad/s) of the sweep; inf: no cap
 GAINS = [

@@ -88,8 +88,8 @@ def _joint_speed(gait) -> float:
 
 def _mujoco():
     try:
-        from problems.walking.mujoco import import_mujoco
-        from problems.walking.mujoco_feet import run_feet_in_mujoco, run_feet_steps_in_mujoco
+        from problems.control.mujoco import import_mujoco
+        from problems.control.mujoco_feet import run_feet_in_mujoco, run_feet_steps_in_mujoco
 
         import_mujoco()
     except AnthropoidError:  # the extra is optional: the tables say so
@@ -193,7 +193,7 @@ def changes_table(gaits, changes) -> dict:
 
 def walk_table(stepped, gaits, transitions, changes, repeats: int) -> None:
     """Table 3: the walk through the chained changes, every step once in MuJoCo."""
-    from problems.walking.simulation import Disturbances
+    from problems.control.simulation import Disturbances
 
     speeds = [changes[0][0], *(b for _, b in changes)]
     steps = [gaits[speeds[0]]] * repeats

@@ -6,7 +6,7 @@ gait is from a solved one at the grid's spacing, on point feet and on feet.
 
 Table 1: the point-foot library of 20 speeds from 0.4 to 1.8 m/s (``build_library``), with
 each closed loop's Floquet multipliers (the phase-indexed law's return map at its fixed point,
-``problems.walking.linearisation.fixed_point``) and without; seconds, the middle gait's IPOPT
+``problems.control.linearisation.fixed_point``) and without; seconds, the middle gait's IPOPT
 iterations from the gait law against its neighbours' from the warm start (median), the
 largest |multiplier| over the library. No compiled cache (the solver built in process).
 Target of issue #35: <= 15 s with the gains.

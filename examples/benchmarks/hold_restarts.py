@@ -103,8 +103,8 @@ def regularisation_cap() -> None:
 
 def mujoco_lower_ground() -> None:
     try:
-        from problems.walking.feedback import design_feedback, disturbance_cases
-        from problems.walking.mujoco import run_in_mujoco
+        from problems.control.feedback import design_feedback, disturbance_cases
+        from problems.control.mujoco import run_in_mujoco
     except ImportError:
         print('3. skipped: MuJoCo is not installed (pip install ".[mujoco]")')
         return

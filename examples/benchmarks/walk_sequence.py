@@ -100,8 +100,8 @@ def closed_loop_table(sequence) -> None:
     )
 
     try:
+        from problems.control.mujoco import import_mujoco
         from problems.library.mujoco_sequence import run_sequence_in_mujoco
-        from problems.walking.mujoco import import_mujoco
 
         import_mujoco()
     except AnthropoidError:  # the extra is optional: the column says so

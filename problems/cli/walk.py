@@ -398,7 +398,7 @@ def run(args, out: TextIO, report: Reporter) -> int:
     # the file the drives read has been read back and verified.
     feedback = None
     if args.feedback:
-        from problems.walking.feedback import design_feedback
+        from problems.control.feedback import design_feedback
 
         with report.working("designing the feedback (a periodic LQR through the step's events)"):
             feedback = design_feedback(gait, ground_mu=args.ground_friction)
@@ -748,7 +748,7 @@ def _print_results(gait, args, target, caught, out, report) -> None:
 
 def _closed_loop(feedback, report, out):
     """Run and print the closed-loop check of ``walk --feedback``; returns it."""
-    from problems.walking.feedback import closed_loop_check
+    from problems.control.feedback import closed_loop_check
 
     weights = feedback.gains.weights
     events = (
@@ -799,7 +799,7 @@ def _closed_loop(feedback, report, out):
     except ImportError:
         print('MuJoCo: not installed (pip install ".[mujoco]"): no run in MuJoCo', file=out)
         return check
-    from problems.walking.mujoco import mujoco_check
+    from problems.control.mujoco import mujoco_check
 
     with report.working("walking in MuJoCo (feet with soles, soft contacts)"):
         engine = mujoco_check(feedback)
@@ -816,8 +816,8 @@ def _closed_loop(feedback, report, out):
 def _draw_pushed_walk(closed, dynamics, output, no_gif: bool, report) -> None:
     """closed_loop_walk.png (and .gif): the simulated closed-loop walk that survived the
     largest forward push, in world coordinates."""
+    from problems.control.feedback import PUSH_STEPS
     from problems.walking import plots as walking_plots
-    from problems.walking.feedback import PUSH_STEPS
 
     run = closed.push_runs[0]
     motion = run.world(dynamics, rate_hz=60.0)

@@ -7,7 +7,7 @@ phase durations. The options of the point-foot step that have no meaning here (i
 sole, passive ankle, double support, the objectives other than torque and human, the LQR's
 simulated ground) are refused by
 name. ``--feedback`` writes the drives' joint PD law around the plan into torques.csv
-(:class:`problems.walking.feet_control.FeetLaw`) and walks it in MuJoCo.
+(:class:`problems.control.feet_law.FeetLaw`) and walks it in MuJoCo.
 """
 
 from __future__ import annotations
@@ -80,7 +80,7 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
             report.warn(what + ("; drop --quick for the default mesh" if args.quick else ""))
     law = None
     if args.feedback:
-        from problems.walking.feet_control import FeetLaw
+        from problems.control.feet_law import FeetLaw
 
         law = FeetLaw(gait, rate_hz=args.rate_hz)
     with output:
@@ -263,7 +263,7 @@ def _feet_in_mujoco(gait, law, report, out):
     except ImportError:
         print('MuJoCo: not installed (pip install ".[mujoco]"): no run in MuJoCo', file=out)
         return None
-    from problems.walking.mujoco_feet import feet_mujoco_check
+    from problems.control.mujoco_feet import feet_mujoco_check
 
     with report.working("walking in MuJoCo (heel and ball spheres, soft contacts)"):
         engine = feet_mujoco_check(gait, law=law)

@@ -229,8 +229,8 @@ def _closed_loop(feedback, sequence, args, report, out):
              "mass +10 %": SequenceDisturbances(mass_scale=1.1),
              f"push 10 N s, step {push_step}": pushed}  # fmt: skip
     try:
+        from problems.control.mujoco import import_mujoco
         from problems.library.mujoco_sequence import run_sequence_in_mujoco
-        from problems.walking.mujoco import import_mujoco
 
         import_mujoco()
     except AnthropoidError as error:
@@ -261,7 +261,7 @@ def _feet_closed_loop(laws, sequence, args, report, out):
     heavier, a 10 N s forward push in the middle of the first step that changes speed; a
     table; returns MuJoCo's run as planned (None without MuJoCo)."""
     try:
-        from problems.walking.mujoco import import_mujoco
+        from problems.control.mujoco import import_mujoco
 
         import_mujoco()
     except AnthropoidError as error:

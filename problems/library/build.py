@@ -1,7 +1,7 @@
 """Building a gait library: one periodic step per speed, on point feet or on feet, planned,
 verified at every exported sample, given its feedback (on point feet the periodic LQR and its
 closed loop's Floquet multipliers; on feet the joint PD of
-:class:`problems.walking.feet_control.FeetLaw`, the law the step on feet walks with in MuJoCo:
+:class:`problems.control.feet_law.FeetLaw`, the law the step on feet walks with in MuJoCo:
 the footed cycle has no return map in the product yet, so no multipliers).
 
 The speeds are solved in order from the middle of the grid outward; each step after the first
@@ -25,11 +25,11 @@ from model.linkage import Linkage
 from model.linkage_naming import root_contact
 from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import AnthropoidError, DefinitionError, check_positive
+from problems.control.feedback import design_feedback, gains_from
+from problems.control.feet_law import FeetLaw
+from problems.control.linearisation import fixed_point
 from problems.library.library import GaitLibrary, LibraryGait
-from problems.walking.feedback import design_feedback, gains_from
-from problems.walking.feet_control import FeetLaw
 from problems.walking.footed import footed_step_at, step_at_speed
-from problems.walking.linearisation import fixed_point
 from problems.walking.step import walking_step
 
 #: the rate of the stored samples, Hz (the torque files')
@@ -137,7 +137,7 @@ def _feet_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
 
 def _sampled_gait(gait, speed, profile, multipliers, settings, **on_feet) -> LibraryGait:
     """The :class:`LibraryGait` of ``gait`` at ``speed`` m/s from ``profile`` (its samples at
-    :data:`RATE_HZ` with the feedback's phase and gains, ``problems.walking.feedback
+    :data:`RATE_HZ` with the feedback's phase and gains, ``problems.control.feedback
     .with_gains``), its ``multipliers`` (2n,) and ``settings``; ``on_feet``: the segments
     and extras of a step on feet."""
     linked = LinkageTrajectory.of(profile)

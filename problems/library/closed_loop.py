@@ -2,10 +2,10 @@
 walk simulated through its starts, speed changes and stop in the product's hybrid simulation.
 
 The gains. Each step's plan is linearised at the control instants (the digital plant's RK4
-period Jacobians A_k, B_k, :func:`problems.walking.lqr.linearise_along`) and through its heel
+period Jacobians A_k, B_k, :func:`problems.control.lqr.linearise_along`) and through its heel
 strike (the saltation matrix S_j of the impact and leg swap into the next step's labels). One
-backward Riccati pass runs over the whole walk (:func:`problems.walking.lqr.riccati_sweep`,
-Bryson's weights :class:`problems.walking.lqr.LqrWeights`), from the cost-to-go of what
+backward Riccati pass runs over the whole walk (:func:`problems.control.lqr.riccati_sweep`,
+Bryson's weights :class:`problems.control.lqr.LqrWeights`), from the cost-to-go of what
 follows its last step: quiet standing's (the infinite-horizon LQR of the final pose at rest,
 the periodic recursion of one period at that pose), or, for a walk that ends walking, the last
 gait's periodic LQR. The steps of a transition thus get gains that know the gait they lead
@@ -27,12 +27,12 @@ without it a 10 N s push backwards in the speed-up fells the walker in both simu
 correction pulls the stance foot off the ground); with it both walk on
 (examples/benchmarks/walk_sequence.py).
 
-The simulation (:func:`simulate_sequence`): each step by :func:`problems.walking.simulation
+The simulation (:func:`simulate_sequence`): each step by :func:`problems.control.simulation
 .simulate_walking` (the same plant, contact checks, impact and leg swap), the state carried
 from one step into the next; a walk that ends standing ends with its last foot set down
 beside the stance foot and ``stand`` s of standing past the plan's end (on the stance foot,
 the other at the ground beside it, unloaded: both at one point), its contacts checked and
-the resting foot within :data:`problems.walking.simulation.STAND_HEIGHT` of the ground.
+the resting foot within :data:`problems.control.simulation.STAND_HEIGHT` of the ground.
 """
 
 from __future__ import annotations
@@ -43,23 +43,23 @@ import numpy as np
 
 from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import DefinitionError, check_integer, check_positive, check_real
-from problems.library.sequence import WalkSequence
-from problems.walking.control import GaitReference, TimedReference
-from problems.walking.feedback import with_gains
-from problems.walking.lqr import (
+from problems.control.feedback import with_gains
+from problems.control.lqr import (
     LqrWeights,
     linearise_along,
     periodic_riccati,
     riccati_sweep,
     weight_matrices,
 )
-from problems.walking.simulation import (
+from problems.control.simulation import (
     Disturbances,
     Plant,
     WalkingRun,
     disturbed_plant,
     simulate_walking,
 )
+from problems.control.tracking import GaitReference, TimedReference
+from problems.library.sequence import WalkSequence
 
 #: the seconds a walk that ends at rest is simulated standing after its last landing
 STAND = 1.0

@@ -1,12 +1,12 @@
 """A walk through speeds on feet under its drives' law: each step's joint PD around its own
-plan (:class:`problems.walking.feet_control.FeetLaw`), in the walk's file and in MuJoCo.
+plan (:class:`problems.control.feet_law.FeetLaw`), in the walk's file and in MuJoCo.
 
 Why each step's own law and not one finite-horizon LQR along the walk (what the point-foot
 walk has, :mod:`problems.library.closed_loop`): the periodic step on feet runs under joint PD
 already (its LQR through the feet's four contact modes is open work), and a step of a speed
 change is a step on feet like any other (the start gait's step, resized), so its plan carries
 the same law. The law hands over at the leg swap, where the next step's plan starts
-(:func:`problems.walking.mujoco_feet.run_feet_steps_in_mujoco`).
+(:func:`problems.control.mujoco_feet.run_feet_steps_in_mujoco`).
 
 In the file (:func:`with_feet_laws`) every row carries its step's law as the single step's
 file does (``phase``: the hip's progress s over the stance ball, ``double_support``, the gains
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import DefinitionError
-from problems.walking.feet_control import CONTROL_RATE_HZ, FeetLaw
+from problems.control.feet_law import CONTROL_RATE_HZ, FeetLaw
 
 #: the closed loop's cases: label -> (mass scale, push N s at the middle of the first step
 #: that changes speed); as the point-foot walk's (walk --speeds --feedback)
@@ -73,8 +73,8 @@ def walk_in_mujoco(sequence, laws, cases=None):
     """The walk on feet in MuJoCo under its laws, once per case ({label: (mass scale, push
     N s)}, default :data:`CASES`; the push at the middle of the first step that changes speed,
     else of the second step): {label: MujocoRun}."""
-    from problems.walking.mujoco_feet import run_feet_steps_in_mujoco
-    from problems.walking.simulation import Disturbances
+    from problems.control.mujoco_feet import run_feet_steps_in_mujoco
+    from problems.control.simulation import Disturbances
 
     kinds = [step.kind for step in sequence.steps]
     push_step = kinds.index("change") if "change" in kinds else min(1, len(kinds) - 1)

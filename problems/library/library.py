@@ -46,8 +46,8 @@ from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import DefinitionError, check_real
 from planner.files import atomic_path
 from planner.solution import uniform_times
+from problems.control.feedback import with_gains
 from problems.gait.problem import centre_of_pressure
-from problems.walking.feedback import with_gains
 from problems.walking.footed import footed_step_at, step_at_speed
 from problems.walking.step import walking_step
 

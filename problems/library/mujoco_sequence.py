@@ -1,11 +1,11 @@
 """A walk sequence in MuJoCo (``pip install ".[mujoco]"``): the walker of the plan
-(:func:`problems.walking.mujoco.walker_mjcf`: floating, soles where the plan has an ankle
+(:func:`problems.control.mujoco.walker_mjcf`: floating, soles where the plan has an ankle
 torque) walks every step of the walk under the sequence's law
 (:class:`problems.library.closed_loop.SequenceFeedback`), from quiet standing to quiet
 standing.
 
 Each step's law runs by the time since its touchdown; a step ends when the swing foot touches
-the ground with more than :data:`problems.walking.mujoco.TOUCHDOWN_FORCE` once past half its
+the ground with more than :data:`problems.control.mujoco.TOUCHDOWN_FORCE` once past half its
 planned time, and the next step's law starts there (in the swapped labels). The last step of
 a walk that ends at rest sets its foot down beside the stance foot; the law then holds the
 plan's last sample for ``stand`` s, both feet on MuJoCo's ground. The stance ankle's torque is
@@ -23,8 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.errors import check_positive
-from problems.library.closed_loop import GROUND_MU, STAND, SequenceDisturbances, SequenceFeedback
-from problems.walking.mujoco import (
+from problems.control.mujoco import (
     CONTACT_TIME_CONSTANT,
     FOOT_MASS,
     PRELOAD,
@@ -39,7 +38,8 @@ from problems.walking.mujoco import (
     instability_reports,
     walker_mjcf,
 )
-from problems.walking.simulation import Disturbances
+from problems.control.simulation import Disturbances
+from problems.library.closed_loop import GROUND_MU, STAND, SequenceDisturbances, SequenceFeedback
 
 #: the stance ankle's torque is held within this part of what the sole carries at the
 #: measured normal force, -heel Fy .. toe Fy: beyond it the foot tips onto its heel or toe
@@ -57,7 +57,7 @@ REST_SPEED = 0.05
 @dataclass(frozen=True)
 class SequenceMujocoRun:
     """The walk in MuJoCo: ``run`` (its steps, fall, time and MuJoCo's positions: a
-    :class:`problems.walking.mujoco.MujocoRun`), the ``planned`` steps, and whether it ended
+    :class:`problems.control.mujoco.MujocoRun`), the ``planned`` steps, and whether it ended
     at rest (``stood``; the hip's last speed ``rest_speed`` m/s)."""
 
     run: MujocoRun

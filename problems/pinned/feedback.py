@@ -6,15 +6,15 @@ ever: no impact, no leg swap, the torques a function of time. Its Poincare secti
 instant, t = 0 mod T, and its return map the flow over one period, as the digital controller
 makes it: K periods x_{k+1} = F(x_k, M_k, h) of h = T / K (the rate nearest to
 ``control_rate_hz`` that divides T, so that every gait period meets the same control
-instants), M_k held (:class:`problems.walking.simulation.Plant`'s generated RK4). No
+instants), M_k held (:class:`problems.control.simulation.Plant`'s generated RK4). No
 saltation enters (a state change does not move the section, an instant) and no multiplier is
 pinned at 0 or 1: the time-forced system has no phase to drift along.
 
 * open loop, M_k = M_ff(t_k): the monodromy A_{K-1} ... A_0 along the plan
-  (:func:`problems.walking.lqr.linearise_along` with ``end=None``); its eigenvalues are
+  (:func:`problems.control.lqr.linearise_along` with ``end=None``); its eigenvalues are
   the open-loop multipliers;
 * closed loop, M_k = clip(M_ff(t_k) + K_k (x_ref(t_k) - x_k), -limit, limit) with the periodic
-  LQR (:func:`problems.walking.lqr.lqr_along`, jump = I, Bryson's weights): its multipliers
+  LQR (:func:`problems.control.lqr.lqr_along`, jump = I, Bryson's weights): its multipliers
   are those of the closed loop's own periodic orbit (Newton on :func:`period_map`, whose
   Jacobian is the exact chain of the periods' Jacobians), near the plan but not on it (the
   plan is a continuous optimum, the plant a held-torque RK4).
@@ -32,11 +32,11 @@ import numpy as np
 
 from planner.errors import DefinitionError, check_integer, check_positive
 from planner.trajectory import Trajectory
-from problems.walking.control import TimedReference
-from problems.walking.feedback import limit_metadata, with_gains
-from problems.walking.linearisation import ReturnMap, newton_fixed_point
-from problems.walking.lqr import Linearisation, LqrWeights, linearise_along, lqr_along
-from problems.walking.simulation import Plant, scaled_linkage
+from problems.control.feedback import limit_metadata, with_gains
+from problems.control.linearisation import ReturnMap, newton_fixed_point
+from problems.control.lqr import Linearisation, LqrWeights, linearise_along, lqr_along
+from problems.control.simulation import Plant, scaled_linkage
+from problems.control.tracking import TimedReference
 
 LAW = (
     "M = clip(M_ff(t_k) + K(t_k) (x_ref(t_k) - x), -limit, limit), t_k = k h the control "

@@ -28,11 +28,11 @@ import numpy as np
 
 from problems.human.joints import Body, joint_radians, leg_moments
 
-#: the swing ankle's PD on point feet, N m/rad and N m s/rad (problems.walking.mujoco's)
+#: the swing ankle's PD on point feet, N m/rad and N m s/rad (problems.control.mujoco's)
 SWING_ANKLE_KP = 20.0
 SWING_ANKLE_KD = 0.2
 #: a foot touches down when the ground's normal force on it passes this, N (the product's
-#: MuJoCo walker's, problems.walking.mujoco.TOUCHDOWN_FORCE)
+#: MuJoCo walker's, problems.control.mujoco.TOUCHDOWN_FORCE)
 TOUCHDOWN_N = 5.0
 #: the legs' joints, from the hip down
 LEG_JOINTS = ("hip", "knee", "ankle")

@@ -50,6 +50,7 @@ from model.points import LinkPoint
 from planner.errors import DefinitionError, DefinitionTypeError
 from planner.files import write_text_atomically
 from planner.trajectory import Trajectory
+from problems.control.feedback import gains_from
 from problems.gait.biped import Biped
 from problems.human.joints import Body, body_of, wrapped
 from problems.human.stride import foot_forces, strike_time
@@ -60,7 +61,6 @@ from problems.robot.controller import (
     joint_maps,
     specification,
 )
-from problems.walking.feedback import gains_from
 
 SCHEMA = "anthropoid-planner joint space"
 VERSION = 1

@@ -1,13 +1,11 @@
-"""Walking: a step with heel strike, leg swap and an optional double support, and the way from
-the plan to a robot.
+"""Walking: a step with heel strike, leg swap and an optional double support, planned.
 
-* :mod:`step`: the walking step as an optimal control problem (``walking_step``), its gait;
+* :mod:`step`: the walking step on point feet as an optimal control problem (``walking_step``),
+  its gait;
+* :mod:`footed`: the step on feet (flat foot, heel rise, double support);
 * :mod:`feet`: the walker's feet as contacts (stance H0, the swing leg's end), for both;
-* :mod:`simulation`: the hybrid plant (single and double support, strikes, falls, pushes);
-* :mod:`linearisation`: the return map, its exact Jacobian, fixed points, Floquet multipliers;
-* :mod:`lqr`: linearisation along the step and the periodic LQR through the impact;
-* :mod:`control`: references and the controllers that track them;
-* :mod:`feedback`: the designed feedback, its gains in the file, closed-loop checks;
-* :mod:`mujoco`: the plan and its feedback run in MuJoCo (``pip install ".[mujoco]"``);
 * :mod:`plots`: the gait's pictures and GIF.
+
+The way from a plan to a robot (the hybrid simulation, the return map, the LQR, the laws and
+MuJoCo) lives in :mod:`problems.control`.
 """

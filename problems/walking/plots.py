@@ -305,7 +305,7 @@ __all__ = [
 
 
 def closed_loop_figure(check) -> Figure:
-    """The closed-loop check (:class:`problems.walking.feedback.ClosedLoopCheck`): the
+    """The closed-loop check (:class:`problems.control.feedback.ClosedLoopCheck`): the
     largest angle error from the plan at the same phase, per step and case, and the open-loop
     replay's error against time until it falls."""
     figure = Figure(figsize=(11.0, 4.2))

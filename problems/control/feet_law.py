@@ -5,7 +5,7 @@ torque is no drive: the ground gives it) applies
     M = clip(M_ff(s) + kp (q_ref(s) - q) + kd (dq_ref(s) - dq), -limit, limit),
 
 with q each hinge's angle relative to its parent (what its encoder reads) and s the hip's
-progress over the stance ball (:class:`problems.walking.control.GaitReference`), so that an
+progress over the stance ball (:class:`problems.control.tracking.GaitReference`), so that an
 early or late heel strike re-indexes the plan instead of running out of step. The plan has
 two branches, the single support (its phases joined: flat foot and heel rise in the human
 cycle, up to the strike) and the double support, both indexed by the whole step's s: the law
@@ -32,9 +32,9 @@ import numpy as np
 
 from planner.errors import DefinitionError, check_positive
 from planner.trajectory import Trajectory
-from problems.walking.control import GaitReference, PhasePD
-from problems.walking.feedback import LAW, limit_metadata, with_gains
-from problems.walking.mujoco import TOUCHDOWN_FORCE
+from problems.control.feedback import LAW, limit_metadata, with_gains
+from problems.control.mujoco import TOUCHDOWN_FORCE
+from problems.control.tracking import GaitReference, PhasePD
 
 #: the hinge drives' PD gains, N m/rad and N m s/rad, and the bandwidth, rad/s, that caps them
 #: on light links (:func:`hinge_gains`): chosen from the sweep of
@@ -165,7 +165,7 @@ class FeetLaw:
         """``trajectory`` (the step's exported samples, ``gait.to_trajectory(rate_hz)``) with
         the phase s of each sample, its branch (``double_support``: 1 from the heel strike's
         instant on) and the branch's gains as columns ``K_<hinge>__<state>``, and the law in
-        ``metadata["feedback"]`` (:func:`problems.walking.feedback.with_gains`)."""
+        ``metadata["feedback"]`` (:func:`problems.control.feedback.with_gains`)."""
         step = self.step
         n = step.linkage.n
         if trajectory.psi.shape[1] != n:
@@ -202,7 +202,7 @@ class FeetLaw:
                 "control_rate_hz": self.rate_hz,
                 "design": "joint PD around the plan on the hinges' relative angles, K = "
                 "[kp R, kd R]; in the single support capped on light links at "
-                f"{self.bandwidth:g} rad/s (problems.walking.feet_control.hinge_gains)",
+                f"{self.bandwidth:g} rad/s (problems.control.feet_law.hinge_gains)",
                 "kp": {
                     "single": kp[0],
                     "double": kp[1],

@@ -2,7 +2,7 @@
 strike, applied by the phase.
 
 The digital controller's plant is linearised along the plan at its control instants
-t_k = k h (:class:`problems.walking.simulation.Plant`: the RK4 period's exact Jacobians),
+t_k = k h (:class:`problems.control.simulation.Plant`: the RK4 period's exact Jacobians),
 
     dx_{k+1} = A_k dx_k + B_k dM_k,
 
@@ -18,7 +18,7 @@ P(0) repeats (to 1e-10 relative); its gains K_k make the time-varying LQR of the
 orbit. Passive hinges get no input (their column of B is left out).
 
 :class:`PhaseLQR` applies them by the phase s(x) (the hip's progress,
-:class:`problems.walking.control.GaitReference`), not by the time since the strike:
+:class:`problems.control.tracking.GaitReference`), not by the time since the strike:
 
     M = M_ff(s) + K(s) (x_ref(s) - x),
 
@@ -32,8 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.errors import DefinitionError, check_positive
-from problems.walking.control import GaitReference, TimedReference
-from problems.walking.simulation import Plant
+from problems.control.simulation import Plant
+from problems.control.tracking import GaitReference, TimedReference
 
 #: the Riccati recursion stops when P(0) changes by less than this, relative, over a step
 RICCATI_TOLERANCE = 1e-10

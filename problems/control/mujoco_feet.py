@@ -4,7 +4,7 @@ touching the ground at two spheres, its heel and its ball (:func:`model.to_mjcf`
 step's contact points), on a plane with the plan's friction. MuJoCo decides every contact:
 the foot lies flat, its heel rises, the swing heel strikes, both feet stand, the rear foot
 leaves; nothing of the plan's phase sequence is imposed on it. The drives run the file's law
-(:class:`problems.walking.feet_control.FeetLaw`) at 1 kHz: the plan's torques and joint
+(:class:`problems.control.feet_law.FeetLaw`) at 1 kHz: the plan's torques and joint
 feedback around it, indexed by the hip's progress, switching to the double support's branch
 when the swing heel's normal force passes ``TOUCHDOWN_FORCE`` past half the step, the legs
 swapped (torques mapped by :meth:`model.Rerooting.map_torques`) at s = 1.
@@ -18,9 +18,9 @@ import numpy as np
 
 from model.mjcf import MjcfModel, to_mjcf
 from planner.errors import DefinitionError, DefinitionTypeError, check_integer, check_positive
-from problems.walking.feedback import PUSH_STEPS
-from problems.walking.feet_control import CONTROL_RATE_HZ, FeetLaw
-from problems.walking.mujoco import (
+from problems.control.feedback import PUSH_STEPS
+from problems.control.feet_law import CONTROL_RATE_HZ, FeetLaw
+from problems.control.mujoco import (
     CONTACT_TIME_CONSTANT,
     PRELOAD,
     TIMESTEP,
@@ -34,7 +34,7 @@ from problems.walking.mujoco import (
     import_mujoco,
     instability_reports,
 )
-from problems.walking.simulation import Disturbances, disturbances_for, largest_push
+from problems.control.simulation import Disturbances, disturbances_for, largest_push
 
 
 def feet_walker_mjcf(step, *, ground_mu: float | None = None) -> MjcfModel:
@@ -249,7 +249,7 @@ def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, prelo
 @dataclass(frozen=True)
 class FeetMujocoCheck:
     """What :func:`feet_mujoco_check` measured: runs by label (open loop, closed loop and
-    the disturbances of :func:`problems.walking.simulation.disturbances_for`), the largest
+    the disturbances of :func:`problems.control.simulation.disturbances_for`), the largest
     pushes survived (forward, back) N s (None when the undisturbed closed loop falls), the
     steps asked for, the law's gains per branch."""
 

@@ -3,7 +3,7 @@ its Floquet multipliers.
 
 The map P takes the state x0 (2n,) at a step's start (after the leg swap) to the next step's
 start: the digital controller's periods x_{k+1} = F(x_k, M_k, h) with M_k = C(t_k, x_k) held
-(:class:`problems.walking.simulation.Plant`: generated RK4), until the swing foot reaches the
+(:class:`problems.control.simulation.Plant`: generated RK4), until the swing foot reaches the
 ground inside a period at tau; then the impact and the leg swap Delta. Its Jacobian is the
 chain of the periods' Jacobians, all from the model's SX by CasADi's automatic
 differentiation (no finite differences):
@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.errors import check_positive
-from problems.walking.simulation import (
+from problems.control.simulation import (
     STRIKE_AHEAD,
     Plant,
     foot_height,
@@ -84,7 +84,7 @@ def return_map(
     dM/dx (n, 2n)) on ``plant``, on flat ground, as :func:`simulate_walking` integrates it.
 
     double_support : None, or the double support's reference (a
-        :class:`problems.walking.control.GaitReference`): the heel strike holds both feet
+        :class:`problems.control.tracking.GaitReference`): the heel strike holds both feet
         (``Plant.strike_held``; the controller's ``touchdown`` is called), the chain moves
         closed until that reference's phase reaches 1 (the guard's instant moved by the
         state, as the strike's), then the legs swap.

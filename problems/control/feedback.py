@@ -2,7 +2,7 @@
 
 :func:`design_feedback` takes a solved single-support walking step and returns a
 :class:`Feedback`: the plan as a phase-indexed reference, the periodic LQR gains
-(:mod:`problems.walking.lqr`), the controller (clipped to the drives' limits) and the plant it
+(:mod:`problems.control.lqr`), the controller (clipped to the drives' limits) and the plant it
 was designed on. :meth:`Feedback.channels` writes it into the exported profile: per sample the
 phase ``phase`` and every gain ``K_<hinge>__<state>`` (N m/rad, N m s/rad), with the law, the
 phase's definition, the control rate and the weights in ``metadata["feedback"]``; a drive reads
@@ -20,9 +20,8 @@ import numpy as np
 
 from planner.errors import DefinitionError
 from planner.trajectory import Trajectory
-from problems.walking.control import GaitReference, OpenLoop
-from problems.walking.linearisation import ReturnMap, fixed_point
-from problems.walking.lqr import (
+from problems.control.linearisation import ReturnMap, fixed_point
+from problems.control.lqr import (
     LqrWeights,
     PeriodicGains,
     PhaseLQR,
@@ -32,7 +31,7 @@ from problems.walking.lqr import (
     linearise_double_support,
     periodic_lqr,
 )
-from problems.walking.simulation import (
+from problems.control.simulation import (
     Disturbances,
     Plant,
     WalkingRun,
@@ -40,6 +39,7 @@ from problems.walking.simulation import (
     largest_push,
     simulate_walking,
 )
+from problems.control.tracking import GaitReference, OpenLoop
 
 #: a push is survived when the biped walks this many steps (the push comes in the second)
 PUSH_STEPS = 10
@@ -270,7 +270,7 @@ class ClosedLoopCheck:
 
 def disturbance_cases(feedback: Feedback) -> dict[str, Disturbances]:
     """The disturbances both checks run (the product's and MuJoCo's), by label
-    (:func:`problems.walking.simulation.disturbances_for` of the feedback's step)."""
+    (:func:`problems.control.simulation.disturbances_for` of the feedback's step)."""
     return disturbances_for(len(feedback.names), min(feedback.step.torque_limit.values()))
 
 

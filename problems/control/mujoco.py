@@ -31,9 +31,9 @@ import numpy as np
 
 from model.mjcf import MjcfModel, to_mjcf
 from planner.errors import DefinitionError, check_integer, check_positive
+from problems.control.feedback import PUSH_STEPS, disturbance_cases
+from problems.control.simulation import Disturbances, largest_push
 from problems.gait.biped import Biped
-from problems.walking.feedback import PUSH_STEPS, disturbance_cases
-from problems.walking.simulation import Disturbances, largest_push
 from problems.walking.step import WorldMotion, world_motion
 
 #: a swing foot touches down when its contact's normal force passes this, N
@@ -250,7 +250,7 @@ def run_in_mujoco(
     foot_mass: float = FOOT_MASS,
     preload: float = PRELOAD,
 ) -> MujocoRun:
-    """Walk ``steps`` steps in MuJoCo under ``feedback`` (:class:`problems.walking.feedback.
+    """Walk ``steps`` steps in MuJoCo under ``feedback`` (:class:`problems.control.feedback.
     Feedback`) from the plan's start; ``open_loop``: the plan's torques by the time since the
     step began, no feedback. Disturbances: a push on the torso, a mass scale (MuJoCo's body
     is changed, the controller keeps the plan's).
@@ -264,7 +264,7 @@ def run_in_mujoco(
             "`feedback`: a step with a double support does not run in MuJoCo yet (its front "
             "foot rebounds off the soft ground at touchdown, and the closed chain's law pulls "
             "on a foot that is not held); run it in the product's simulation "
-            "(problems.walking.simulation.simulate_walking)"
+            "(problems.control.simulation.simulate_walking)"
         )
     mujoco = import_mujoco()
     steps = check_integer("steps", steps, 1)
@@ -477,7 +477,7 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
 @dataclass(frozen=True)
 class MujocoCheck:
     """What :func:`mujoco_check` measured: runs by label (open loop, closed loop, and the
-    disturbances of :func:`problems.walking.feedback.disturbance_cases`), the largest pushes
+    disturbances of :func:`problems.control.feedback.disturbance_cases`), the largest pushes
     survived (forward, back) N s, the steps asked for, and the plan's largest stance ground
     reaction Fy, N."""
 
