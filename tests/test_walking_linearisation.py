@@ -9,7 +9,13 @@ import pytest
 from reference.checks import central_jacobian
 
 from problems import walking_step
-from problems.control.linearisation import fixed_point, return_map
+from problems.control.linearisation import (
+    CONTRACTION,
+    ReturnMap,
+    fixed_point,
+    newton_fixed_point,
+    return_map,
+)
 from problems.control.simulation import Plant, simulate_walking
 from problems.control.tracking import GaitReference, PhasePD
 
@@ -85,3 +91,61 @@ def test_the_multipliers_say_how_fast_the_simulation_returns_to_the_gait(closed_
     errors = np.array([np.abs(s - found.start).max() for s in starts])
     ratios = errors[2:] / errors[1:-1]  # the other multipliers (< 0.03) gone after a step
     assert np.all(ratios == pytest.approx(radius, rel=0.02)), (ratios, radius)
+
+
+def test_the_map_without_its_jacobian_is_the_same_map(closed_loop):
+    step, reference, controller, plant = closed_loop
+    x = reference.states[0] + 1e-4  # off the gait: a map that moves the state
+    full = return_map(plant, controller, x, **_options(step))
+    alone = return_map(plant, controller, x, jacobian=False, **_options(step))
+    assert alone.jacobian is None and full.jacobian.shape == (x.size, x.size)
+    np.testing.assert_array_equal(alone.end, full.end)
+    assert alone.duration == full.duration
+
+
+def _linear_map(multipliers, seed=3):
+    """P(x) = A x + b with the given eigenvalues (A = V diag V^-1), its fixed point in closed
+    form x* = (I - A)^-1 b, and call counters for the map with and without its Jacobian."""
+    rng = np.random.default_rng(seed)
+    n = len(multipliers)
+    basis = rng.normal(size=(n, n)) + 3 * np.eye(n)
+    matrix = basis @ np.diag(multipliers) @ np.linalg.inv(basis)
+    offset = rng.normal(size=n)
+    calls = {"mapping": 0, "value": 0}
+
+    def mapping(x):
+        calls["mapping"] += 1
+        return ReturnMap(x.copy(), matrix @ x + offset, matrix, 1.0)
+
+    def value(x):
+        calls["value"] += 1
+        return matrix @ x + offset
+
+    return mapping, value, np.linalg.solve(np.eye(n) - matrix, offset), matrix, calls
+
+
+def test_the_search_iterates_the_map_while_it_contracts_then_takes_one_jacobian():
+    # multipliers like the walking step's LQR (below 0.1): x <- P(x) gains a factor 10 a
+    # map, so the cheap maps do the search and the map with the Jacobian is taken once, at
+    # the fixed point, where the multipliers are read
+    mapping, value, exact, matrix, calls = _linear_map([0.08, -0.05, 0.02, 0.0])
+    found = newton_fixed_point(mapping, np.zeros(4), 1e-10, value=value)
+    assert calls["mapping"] == 1 and 3 <= calls["value"] <= 12, calls
+    np.testing.assert_allclose(found.start, exact, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(found.jacobian, matrix)
+    # without the cheap map, Newton's method on the exact Jacobian (here exact in one step)
+    mapping, _, exact, _, calls = _linear_map([0.08, -0.05, 0.02, 0.0])
+    newton = newton_fixed_point(mapping, np.zeros(4), 1e-10)
+    assert calls["mapping"] == 2
+    np.testing.assert_allclose(newton.start, exact, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("largest", [0.6, 0.99, 2.0, -1.5])
+def test_a_slow_or_diverging_map_turns_to_newton(largest):
+    # x <- P(x) contracts by less than CONTRACTION (or diverges): the substitution stops at
+    # once and Newton's method finds the fixed point in its few steps
+    assert abs(largest) > CONTRACTION
+    mapping, value, exact, _, calls = _linear_map([largest, 0.1, 0.0])
+    found = newton_fixed_point(mapping, np.zeros(3), 1e-10, value=value)
+    np.testing.assert_allclose(found.start, exact, rtol=0, atol=1e-9)
+    assert calls["value"] <= 2 and calls["mapping"] == 2, calls

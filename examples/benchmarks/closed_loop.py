@@ -6,9 +6,11 @@
 For the default steps (0.5 m in 0.5 s, Hermite-Simpson N = 30) this times, in one run:
 the solve (``WalkingStep.solve``, its hold rounds included); the design (the plan linearised
 along its 1 kHz control instants, the strike's saltation matrix, the periodic Riccati
-recursion); the closed loop's periodic gait and Floquet multipliers (Newton on the exact
-return map); one return map; 50 simulated steps in the product's hybrid simulation; 20 steps
-in MuJoCo (when installed). The same for the six-link step with a 0.05 s double support
+recursion); the closed loop's periodic gait and Floquet multipliers (``fixed_point``: maps
+without their Jacobian while the loop contracts, then the exact return map at the fixed
+point); one return map with its exact Jacobian and one without; 50 simulated steps in the
+product's hybrid simulation; 20 steps in MuJoCo (when installed). The same for the six-link
+step with a 0.05 s double support
 (ground friction 1.5; no MuJoCo run: refused, see run_in_mujoco) and for the paper's
 fixed-base periodic gait (``problems.pinned.feedback``: the period's LQR, the closed loop's
 orbit, 20 periods in the product and in MuJoCo). Ratios are to the solve's median of the
@@ -50,8 +52,12 @@ def _rows(linkage, repeat: int, run_in_mujoco) -> list[tuple[str, float, str]]:
     plant, controller = feedback.plant, feedback.controller
     one, _ = _median(lambda: return_map(plant, controller, start, **options), repeat)
     rows.append(("one exact return map", one, ""))
+    alone, _ = _median(
+        lambda: return_map(plant, controller, start, jacobian=False, **options), repeat
+    )
+    rows.append(("one return map, P(x) alone", alone, ""))
     loop_time, loop = _median(lambda: fixed_point(plant, controller, start, **options), repeat)
-    rows.append(("periodic gait + multipliers (Newton)", loop_time,
+    rows.append(("periodic gait + multipliers", loop_time,
                  f"largest |lambda| {loop.spectral_radius:.3f}"))  # fmt: skip
     walk_time, run = _median(
         lambda: simulate_walking(start, controller, linkage=step.linkage, mu=1.0, steps=50,
@@ -76,7 +82,7 @@ def _double_support_rows(repeat: int) -> list[tuple[str, float, str]]:
     loop_time, loop = _median(
         lambda: fixed_point(feedback.plant, feedback.controller, start, **options), repeat
     )
-    rows.append(("periodic gait + multipliers (Newton)", loop_time,
+    rows.append(("periodic gait + multipliers", loop_time,
                  f"largest |lambda| {loop.spectral_radius:.3f}"))  # fmt: skip
     walk_time, run = _median(
         lambda: simulate_walking(start, feedback.controller, steps=50,

@@ -38,7 +38,6 @@ from planner.errors import check_positive
 from problems.control.simulation import (
     STRIKE_AHEAD,
     Plant,
-    foot_height,
     locate_event,
     locate_strike,
 )
@@ -48,13 +47,14 @@ from problems.control.simulation import (
 class ReturnMap:
     """P(x0) and its Jacobian.
 
-    start (2n,): x0; end (2n,): P(x0); jacobian (2n, 2n): dP/dx0; duration s: the step's
-    time to heel strike.
+    start (2n,): x0; end (2n,): P(x0); jacobian (2n, 2n): dP/dx0, or None where only P(x0)
+    was asked for (:func:`return_map`'s ``jacobian=False``); duration s: the step's time to
+    heel strike.
     """
 
     start: np.ndarray
     end: np.ndarray
-    jacobian: np.ndarray
+    jacobian: np.ndarray | None
     duration: float
 
     @property
@@ -79,6 +79,7 @@ def return_map(
     control_rate_hz: float = 1000.0,
     max_step_factor: float = 2.0,
     double_support=None,
+    jacobian: bool = True,
 ) -> ReturnMap:
     """P(start) and dP/dstart for ``controller`` (``torques(t, x)`` and ``jacobian(t, x)``,
     dM/dx (n, 2n)) on ``plant``, on flat ground, as :func:`simulate_walking` integrates it.
@@ -88,6 +89,8 @@ def return_map(
         (``Plant.strike_held``; the controller's ``touchdown`` is called), the chain moves
         closed until that reference's phase reaches 1 (the guard's instant moved by the
         state, as the strike's), then the legs swap.
+    jacobian : False for P(start) alone: no period's Jacobian is formed (the controller's
+        ``jacobian`` is not called), about a fifth of the cost; the map's ``jacobian`` is None.
 
     Raises RuntimeError when no heel strike (or lift-off) comes within ``max_step_factor``
     step times.
@@ -95,6 +98,7 @@ def return_map(
     period = 1.0 / check_positive("control_rate_hz", control_rate_hz, "Hz")
     n = plant.n
     x = np.asarray(start, dtype=float).copy()
+    chained = bool(jacobian)
     sensitivity = np.eye(2 * n)
     controller.start_step(0, x)
 
@@ -103,7 +107,10 @@ def return_map(
 
     def through_event(jacobian, x, torques, tau, gradient):
         """The chain through the partial period to an event at tau whose guard has the
-        gradient ``gradient`` (2n,): the event's instant moves with the state."""
+        gradient ``gradient`` (2n,): the event's instant moves with the state (None without
+        the Jacobian)."""
+        if not chained:
+            return None
         dx, dm, dh = (np.asarray(v) for v in jacobian(x, torques, tau))
         through = (dx + dm @ feedback) @ sensitivity
         rate = dh.reshape(-1)
@@ -112,7 +119,8 @@ def return_map(
     t, double = 0.0, False
     while t <= max_step_factor * step_time:
         torques = np.asarray(controller.torques(t, x), dtype=float)
-        feedback = np.asarray(controller.jacobian(t, x), dtype=float)
+        if chained:
+            feedback = np.asarray(controller.jacobian(t, x), dtype=float)
         if double:
             x_next = np.asarray(plant.advance_double(x, torques, period)).ravel()
             if double_support.phase(x_next[:n]) >= 1.0:
@@ -121,33 +129,41 @@ def return_map(
                 gradient = np.r_[double_support.phase_gradient(x_end[:n]), np.zeros(n)]
                 before = through_event(plant.advance_double_jacobian, x, torques, tau, gradient)
                 end = np.asarray(plant.swap_map(x_end)).ravel()
-                return ReturnMap(
-                    np.asarray(start, dtype=float), end, plant.swap_jacobian @ before, t + tau
+                chain = None if before is None else plant.swap_jacobian @ before
+                return ReturnMap(np.asarray(start, dtype=float), end, chain, t + tau)
+            if chained:
+                dx, dm, _ = (
+                    np.asarray(v) for v in plant.advance_double_jacobian(x, torques, period)
                 )
-            dx, dm, _ = (np.asarray(v) for v in plant.advance_double_jacobian(x, torques, period))
-            sensitivity = (dx + dm @ feedback) @ sensitivity
+                sensitivity = (dx + dm @ feedback) @ sensitivity
             x = x_next
             t += period
             continue
         x_next = np.asarray(plant.advance(x, torques, period)).ravel()
-        ahead = complex(plant.foot.position(x_next[:n])).real
-        if foot_height(plant, x_next, 0j, ground) <= 0.0 and ahead > STRIKE_AHEAD * step_length:
+        foot = complex(plant.foot.position(x_next[:n]))  # the swing foot, the stance at 0
+        if foot.imag - ground(foot.real) <= 0.0 and foot.real > STRIKE_AHEAD * step_length:
             tau, x_minus = locate_strike(plant, x, torques, period, 0j, ground)
             gradient = np.zeros(2 * n)
             gradient[:n] = plant.foot.jacobian(x_minus[:n], floating=False)[1]
             before = through_event(plant.advance_jacobian, x, torques, tau, gradient)
             if double_support is None:
-                jacobian = np.asarray(plant.step_map_jacobian(x_minus)) @ before
                 end = np.asarray(plant.step_map(x_minus)).ravel()
-                return ReturnMap(np.asarray(start, dtype=float), end, jacobian, t + tau)
-            sensitivity = np.asarray(plant.strike_held_jacobian(x_minus)) @ before
+                chain = (
+                    None
+                    if before is None
+                    else np.asarray(plant.step_map_jacobian(x_minus)) @ before
+                )
+                return ReturnMap(np.asarray(start, dtype=float), end, chain, t + tau)
+            if chained:
+                sensitivity = np.asarray(plant.strike_held_jacobian(x_minus)) @ before
             x = np.asarray(plant.strike_held(x_minus)).ravel()
             t += tau
             double = True
             controller.touchdown(t, x)
             continue
-        dx, dm, _ = (np.asarray(v) for v in plant.advance_jacobian(x, torques, period))
-        sensitivity = (dx + dm @ feedback) @ sensitivity
+        if chained:
+            dx, dm, _ = (np.asarray(v) for v in plant.advance_jacobian(x, torques, period))
+            sensitivity = (dx + dm @ feedback) @ sensitivity
         x = x_next
         t += period
     raise RuntimeError(
@@ -169,12 +185,13 @@ def fixed_point(
     iterations: int = 10,
     double_support=None,
 ) -> ReturnMap:
-    """The periodic gait of the closed loop: x* = P(x*) by Newton's method on P(x) - x from
-    ``guess`` (the plan's start), with the exact Jacobian (quadratic convergence). Returns the
-    return map at x*; raises RuntimeError naming the residual when it does not converge.
+    """The periodic gait of the closed loop, x* = P(x*), from ``guess`` (the plan's start):
+    by :func:`newton_fixed_point`, first with maps without their Jacobian while the closed
+    loop contracts, then Newton's method with the exact Jacobian. Returns the return map at
+    x* with its Jacobian; raises RuntimeError naming the residual when it does not converge.
     """
 
-    def mapping(x):
+    def mapping(x, jacobian=True):
         return return_map(
             plant,
             controller,
@@ -183,17 +200,39 @@ def fixed_point(
             step_length=step_length,
             control_rate_hz=control_rate_hz,
             double_support=double_support,
+            jacobian=jacobian,
         )
 
-    return newton_fixed_point(mapping, guess, tolerance, iterations)
+    return newton_fixed_point(
+        mapping, guess, tolerance, iterations, value=lambda x: mapping(x, jacobian=False).end
+    )
 
 
-def newton_fixed_point(mapping, guess, tolerance: float = 1e-10, iterations: int = 10):
-    """x* = P(x*) by Newton's method on P(x) - x from ``guess``, ``mapping(x)`` returning a
-    :class:`ReturnMap` (P(x) and its exact Jacobian). Returns the map at x*; raises
-    RuntimeError naming the residual when it does not converge."""
+#: successive substitution x <- P(x) goes on while each map shrinks the residual to at most
+#: this part of the one before (a closed loop whose multipliers are this small); slower, the
+#: search turns to Newton's method
+CONTRACTION = 0.25
+
+
+def newton_fixed_point(
+    mapping, guess, tolerance: float = 1e-10, iterations: int = 10, value=None
+) -> ReturnMap:
+    """x* = P(x*) from ``guess``, ``mapping(x)`` returning a :class:`ReturnMap` (P(x) and
+    its exact Jacobian). Returns the map at x* (with its Jacobian); raises RuntimeError
+    naming the residual when it does not converge.
+
+    value : None, or x -> P(x) alone (cheaper than ``mapping``: no Jacobian). Then the search
+        first iterates x <- P(x) while each map contracts the residual |P(x) - x| by
+        :data:`CONTRACTION` or more, and stops at the first x whose residual is within
+        ``tolerance`` or is predicted to be (the last ratio squared: a linear contraction);
+        ``mapping`` then confirms it, and gives the Jacobian there (or Newton's method goes
+        on from it). A closed loop whose multipliers are about 0.07, as the walking step's
+        LQR, needs three of these maps and one with its Jacobian instead of three with it.
+    """
     x = np.asarray(guess, dtype=float).copy()
     residual = np.inf
+    if value is not None:
+        x = _substituted(value, x, tolerance, iterations)
     for _ in range(iterations):
         step = mapping(x)
         gap = step.end - x
@@ -205,6 +244,25 @@ def newton_fixed_point(mapping, guess, tolerance: float = 1e-10, iterations: int
         f"fixed_point: P(x) - x is still {residual:.2e} after {iterations} Newton steps "
         f"(tolerance {tolerance:g}); the closed loop may have no periodic orbit near the plan"
     )
+
+
+def _substituted(value, x: np.ndarray, tolerance: float, iterations: int) -> np.ndarray:
+    """The last x of x <- P(x) (:func:`newton_fixed_point`'s ``value``): within tolerance,
+    predicted within it, or where the contraction fell below :data:`CONTRACTION`."""
+    previous = None
+    for _ in range(iterations):
+        end = np.asarray(value(x), dtype=float)
+        residual = float(np.abs(end - x).max())
+        if residual <= tolerance:
+            return x
+        if previous is not None:
+            ratio = residual / previous
+            if ratio > CONTRACTION:
+                return x
+            if residual * ratio <= tolerance:
+                return end
+        previous, x = residual, end
+    return x
 
 
 __all__ = ["ReturnMap", "fixed_point", "newton_fixed_point", "return_map"]

@@ -368,14 +368,15 @@ class PhaseLQR:
         reference = self.reference
         n = reference.n
         s = reference.phase(x[:n])
-        state, _ = reference.at_phase(s)
+        state, feedforward = reference.at_phase(s)
         state_slope, torque_slope = reference.slopes_at_phase(s)
         gain, gain_slope = self._gain(s)
         along = torque_slope + gain @ state_slope + gain_slope @ (state - x)
         jacobian = -gain.copy()
         jacobian[:, :n] += np.outer(along, reference.phase_gradient(x[:n]))
         if self.limits is not None:  # a saturated drive does not respond to the state
-            saturated = np.abs(self.torques(t, x)) >= self.limits
+            # the law's torques from this phase's tables (not self.torques: the phase once)
+            saturated = np.abs(feedforward + gain @ (state - x)) >= self.limits
             jacobian[saturated] = 0.0
         return jacobian
 

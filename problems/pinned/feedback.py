@@ -197,11 +197,15 @@ def _one_period(plant: Plant, controller: PinnedLQR, x, jacobian: bool):
 
 
 def closed_loop_orbit(feedback: PinnedFeedback, tolerance: float = 1e-10) -> ReturnMap:
-    """The closed loop's periodic orbit (x* = P(x*), Newton from the plan's start) and its
-    return map there: ``.multipliers``, ``.spectral_radius``."""
+    """The closed loop's periodic orbit (x* = P(x*) from the plan's start: periods without
+    their Jacobian while they contract, then Newton) and its return map there:
+    ``.multipliers``, ``.spectral_radius``."""
     plant, controller = feedback.plant, feedback.controller
     return newton_fixed_point(
-        lambda x: period_map(plant, controller, x), feedback.reference.states[0], tolerance
+        lambda x: period_map(plant, controller, x),
+        feedback.reference.states[0],
+        tolerance,
+        value=lambda x: period_map(plant, controller, x, jacobian=False).end,
     )
 
 
