@@ -277,6 +277,23 @@ def forget() -> None:
         _said.clear()
 
 
+@contextlib.contextmanager
+def file_lock(path: Path):
+    """An exclusive lock on ``path`` across processes (POSIX; elsewhere none: the atomic
+    rename still keeps readers safe, two processes may then both compile)."""
+    try:
+        import fcntl
+    except ImportError:  # Windows
+        yield
+        return
+    with open(path, "a+") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 __all__ = [
     "CACHE_ENV",
     "Access",
@@ -285,6 +302,7 @@ __all__ = [
     "checked",
     "digest",
     "discard",
+    "file_lock",
     "folder",
     "forget",
     "library_path",

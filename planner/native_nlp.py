@@ -76,7 +76,7 @@ ORACLE = "nlp"
 #: disk, a file-size limit, a folder it cannot write): the solve runs interpreted.
 CACHE_FAILURE = 3
 #: What the compiler and linker say when they cannot write (errno texts).
-_WRITE_ERRORS = tuple(os.strerror(code) for code in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT))
+WRITE_ERRORS = tuple(os.strerror(code) for code in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT))
 
 _pending: dict[str, subprocess.Popen] = {}
 _failed: set[str] = set()
@@ -264,7 +264,7 @@ def _build(source: Path, cc: str) -> None:
     key = spec["key"]
     target = library_path(key)
     target.parent.mkdir(parents=True, exist_ok=True)
-    with _file_lock(target.with_suffix(".lock")):
+    with native_cache.file_lock(target.with_suffix(".lock")):
         if native_cache.checked(target) is not None:  # compiled while this one waited
             return
         # Work folders of this key that a killed compilation left (the lock is ours, so
@@ -318,25 +318,8 @@ def _main(source: Path, cc: str) -> int:
     except subprocess.CalledProcessError as error:
         said = (error.stderr or "").strip()
         print(said, file=sys.stderr)
-        return CACHE_FAILURE if any(text in said for text in _WRITE_ERRORS) else 1
+        return CACHE_FAILURE if any(text in said for text in WRITE_ERRORS) else 1
     return 0
-
-
-@contextlib.contextmanager
-def _file_lock(path: Path):
-    """An exclusive lock on ``path`` across processes (POSIX; elsewhere none: the atomic
-    rename still keeps readers safe, two processes may then both compile)."""
-    try:
-        import fcntl
-    except ImportError:  # Windows
-        yield
-        return
-    with open(path, "a+") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 if __name__ == "__main__":

@@ -41,8 +41,14 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
                         "gait (default: none; a walk on feet from the library wants 10: "
                         "unbounded, its gaits at 1.2 m/s and faster fall in MuJoCo)")  # fmt: skip
     parser.add_argument("--no-multipliers", action="store_true",
-                        help="skip the Floquet multipliers (0.9 s a gait of fixed-point "
-                        "search)")  # fmt: skip
+                        help="skip the Floquet multipliers (the closed loop's fixed point: "
+                        "about as long as the gait's solve)")  # fmt: skip
+    parser.add_argument("--compiled", action="store_true",
+                        help="compile the NLP's functions and the simulation's period "
+                        "Jacobians to native code with the system's C compiler first where "
+                        "the disk cache does not hold them (a minute or two the first time, "
+                        "once per structure and linkage); without it what the cache holds is "
+                        "used")  # fmt: skip
     parser.add_argument("--output-dir", default="library", metavar="DIR",
                         help="folder for library.npz (default: library)")  # fmt: skip
 
@@ -59,7 +65,9 @@ def run(args, out: TextIO, report: Reporter) -> int:
                 "speed_limit": args.joint_speed_limit}  # fmt: skip
             library = build_library(speeds, feet=args.feet,
                                     multipliers=not args.no_multipliers,
-                                    progress=report.step, **bound)  # fmt: skip
+                                    progress=report.step,
+                                    compiled=True if args.compiled else None,
+                                    **bound)  # fmt: skip
     for warning in caught:  # one line each, not Python's two with a source line
         report.warn(f"a gait of the library: {warning.message}")
     last = "contact phases s" if args.feet else "largest abs multiplier"

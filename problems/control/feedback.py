@@ -212,17 +212,19 @@ def design_feedback(
     weights: LqrWeights | None = None,
     control_rate_hz: float = 1000.0,
     ground_mu: float | None = None,
+    compiled: bool | None = None,
 ) -> Feedback:
     """The periodic LQR feedback of a solved walking step: through the heel strike, or with a
     double support through the held strike and the lift-off (one Riccati recursion over the
     whole step, a law per branch: :class:`SwitchedLQR`).
 
     ground_mu: the friction of the ground the plant's checks use (default the plan's mu).
+    compiled: the plant's period Jacobians through the compiled cache (:class:`Plant`).
     """
     step = gait.problem
     start = time.perf_counter()
     plant = Plant(step.linkage, mu=ground_mu if ground_mu is not None else step.mu,
-                  rotors=step.dynamics.rotors)  # fmt: skip
+                  rotors=step.dynamics.rotors, compiled=compiled)  # fmt: skip
     passive = tuple(step.linkage.index(name) for name in step.passive)
     limits = [step.torque_limit.get(name, np.inf) for name in step.linkage.names]
     options = {"weights": weights, "control_rate_hz": control_rate_hz, "passive": passive}

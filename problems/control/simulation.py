@@ -35,7 +35,9 @@ import numpy as np
 from model.contact import Contact
 from model.dynamics import Dynamics
 from model.linkage import Linkage
+from planner import native_nlp
 from planner.errors import DefinitionError, check_integer, check_positive, check_real
+from planner.native_function import native_derived
 from problems.gait.biped import Biped
 from problems.walking.feet import WalkerFeet
 from problems.walking.step import UNLOADED, WorldMotion, world_motion
@@ -207,15 +209,28 @@ class Plant(WalkerFeet):
 
     mu: the ground's friction coefficient for the contact checks (None for a body that only
     swings on its pinned root, e.g. the fixed-base gait: then only :attr:`advance` and
-    :attr:`advance_jacobian` are used, and the linkage need not be a biped)."""
+    :attr:`advance_jacobian` are used, and the linkage need not be a biped).
+
+    compiled: how the period Jacobians use the compiled cache (:mod:`planner.native_function`):
+    True compiles them at first use unless the cache holds them (about 40 s each for the
+    six-link walker, once per linkage; DefinitionError without a C compiler), None (default)
+    uses what the cache holds (nothing under ``ANTHROPOID_COMPILE=never``), False never."""
 
     def __init__(
-        self, linkage: Linkage, mu: float | None, substeps: int = 2, rotors: Sequence = ()
+        self,
+        linkage: Linkage,
+        mu: float | None,
+        substeps: int = 2,
+        rotors: Sequence = (),
+        compiled: bool | None = None,
     ) -> None:
         # rotors: a plan made with its drives' rotors (model.Rotor) is simulated with them
         self.dynamics = Dynamics(linkage, rotors=rotors)
         self.mu = None if mu is None else check_positive("mu", mu)
         self.substeps = check_integer("substeps", substeps, 1)
+        if compiled not in (None, True, False):
+            raise DefinitionError(f"`compiled`: True, False or None, got {compiled!r}")
+        self.compiled = compiled
 
     @property
     def n(self) -> int:
@@ -240,8 +255,9 @@ class Plant(WalkerFeet):
 
     @cached_property
     def advance_jacobian(self) -> ca.Function:
-        """(x, M, h) -> (dx_next/dx (2n, 2n), dx_next/dM (2n, n), dx_next/dh (2n,))."""
-        return _jacobians(self.advance)
+        """(x, M, h) -> (dx_next/dx (2n, 2n), dx_next/dM (2n, n), dx_next/dh (2n,)): native
+        code when the compiled cache holds it (:meth:`compile`), else interpreted."""
+        return _native_jacobians(self.advance, _cache_mode(self.compiled))
 
     @cached_property
     def advance_double(self) -> ca.Function:
@@ -252,8 +268,19 @@ class Plant(WalkerFeet):
 
     @cached_property
     def advance_double_jacobian(self) -> ca.Function:
-        """:attr:`advance_jacobian` of :attr:`advance_double`."""
-        return _jacobians(self.advance_double)
+        """:attr:`advance_jacobian` of :attr:`advance_double` (native code when cached)."""
+        return _native_jacobians(self.advance_double, _cache_mode(self.compiled))
+
+    def compile(self, double_support: bool = False) -> None:
+        """Compile the period's exact Jacobian (and, with ``double_support``, the closed
+        chain's) to native code in the disk cache now, unless it is there, and use it: about
+        12 times faster in the return map and the LQR's linearisation, for about 40 s of
+        compilation once per linkage (every Plant of the same linkage, substeps and rotors
+        finds it there after; :mod:`planner.native_function`). Raises DefinitionError without
+        a C compiler."""
+        self.__dict__["advance_jacobian"] = _native_jacobians(self.advance, "now")
+        if double_support:
+            self.__dict__["advance_double_jacobian"] = _native_jacobians(self.advance_double, "now")
 
     @cached_property
     def strike_held(self) -> ca.Function:
@@ -358,6 +385,25 @@ class Plant(WalkerFeet):
         jacobian = self.dynamics.com_velocities(np.tile(psi, (n, 1)), np.eye(n))[:, i]
         generalised = (np.conj(jacobian) * impulse).real
         return x[n:] + np.linalg.solve(self.dynamics.mass_matrix(psi), generalised)
+
+
+#: the derivation :func:`_jacobians` as the compiled cache names it (a new version when it
+#: changes, so that no library of the old one is loaded)
+JACOBIANS_TAG = "problems.control.simulation._jacobians v1"
+
+
+def _cache_mode(compiled: bool | None) -> str:
+    """How the plant's Jacobians use the compiled cache (:class:`Plant`'s ``compiled``):
+    True "now", False "never", None "never" under ``ANTHROPOID_COMPILE=never``, else "auto"
+    (its library when it holds one)."""
+    if compiled is not None:
+        return "now" if compiled else "never"
+    return "never" if native_nlp.mode() == "never" else "auto"
+
+
+def _native_jacobians(advance: ca.Function, how: str) -> ca.Function:
+    """:func:`_jacobians` of ``advance`` through the compiled cache (``how``)."""
+    return native_derived(advance, JACOBIANS_TAG, f"{advance.name()}_jacobian", _jacobians, how)
 
 
 def _jacobians(advance: ca.Function) -> ca.Function:

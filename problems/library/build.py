@@ -57,6 +57,7 @@ def build_library(
     feet: bool = False,
     multipliers: bool = True,
     progress: Callable[[str], None] | None = None,
+    compiled: bool | None = None,
     **step_options,
 ) -> GaitLibrary:
     """The library of periodic steps at ``speeds`` m/s (increasing; each step's length and
@@ -65,7 +66,11 @@ def build_library(
     on feet (:func:`problems.footed_step`; default ``model.presets.anthropoid_with_feet``),
     ``step_options`` as for that function; ``multipliers``: compute each point-foot closed
     loop's Floquet multipliers (the return map's eigenvalues at its fixed point; none on
-    feet); ``progress``: called with a line per gait."""
+    feet); ``progress``: called with a line per gait; ``compiled``: the NLP's functions and
+    the point-foot simulation's period Jacobians as native code (True: compiled into the disk
+    cache first where it does not hold them, once per structure and linkage; None: what the
+    cache holds; False: interpreted; :func:`planner.solve`, :class:`problems.control.
+    simulation.Plant`)."""
     speeds = [check_positive(f"speeds[{k}]", v, "m/s") for k, v in enumerate(speeds)]
     if not speeds or any(b <= a for a, b in itertools.pairwise(speeds)):
         raise DefinitionError(f"`speeds`: one or more, strictly increasing, got {speeds}")
@@ -81,18 +86,21 @@ def build_library(
         if neighbours:
             warm = solved[min(neighbours, key=lambda j: abs(speeds[j] - speeds[k]))]
             try:
-                gait = step.solve(step.problem.guess(warm.solution), progress=False)
+                gait = step.solve(
+                    step.problem.guess(warm.solution), progress=False, compiled=compiled
+                )
             except AnthropoidError:  # a failed solve, hold or verification
                 gait = None  # from the law, below
         if gait is None:
             try:
-                gait = step.solve(progress=False)  # verified at every sample, or raises
+                # verified at every sample, or raises
+                gait = step.solve(progress=False, compiled=compiled)
             except AnthropoidError as error:
                 raise AnthropoidError(
                     f"the library's step at {speeds[k]:g} m/s: {error}"
                 ) from error
         solved[k] = gait
-        gaits[k] = (_feet_gait if feet else _library_gait)(gait, speeds[k], multipliers)
+        gaits[k] = (_feet_gait if feet else _library_gait)(gait, speeds[k], multipliers, compiled)
         if progress is not None:
             progress(f"{speeds[k]:.3f} m/s: {gaits[k].iterations} iterations, "
                      f"{time.perf_counter() - clock:.2f} s")  # fmt: skip
@@ -116,7 +124,7 @@ def _step(speed: float, linkage: Linkage | None, feet: bool, options: dict):
     return walking_step(linkage, length, duration, **options)
 
 
-def _feet_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
+def _feet_gait(gait, speed: float, multipliers: bool, compiled=None) -> LibraryGait:
     """One step on feet's samples, verification, contact phases and joint PD gains
     (``multipliers`` is not used: the footed cycle has no return map, see the module)."""
     profile = FeetLaw(gait, rate_hz=RATE_HZ).channels(gait.exported(RATE_HZ))
@@ -174,10 +182,11 @@ def _law(feedback: dict) -> dict:
     return {key: value for key, value in feedback.items() if key not in ("state", "gains")}
 
 
-def _library_gait(gait, speed: float, multipliers: bool) -> LibraryGait:
+def _library_gait(gait, speed: float, multipliers: bool, compiled=None) -> LibraryGait:
     """One point-foot gait's samples, verification, periodic LQR gains and (with
-    ``multipliers``) its closed loop's Floquet multipliers."""
-    feedback = design_feedback(gait)
+    ``multipliers``) its closed loop's Floquet multipliers; ``compiled`` as for
+    :func:`build_library`."""
+    feedback = design_feedback(gait, compiled=compiled)
     profile = feedback.channels(gait.exported(RATE_HZ))
     values = np.full(2 * gait.problem.linkage.n, np.nan + 0j)
     if multipliers:
