@@ -149,3 +149,22 @@ def test_a_slow_or_diverging_map_turns_to_newton(largest):
     found = newton_fixed_point(mapping, np.zeros(3), 1e-10, value=value)
     np.testing.assert_allclose(found.start, exact, rtol=0, atol=1e-9)
     assert calls["value"] <= 2 and calls["mapping"] == 2, calls
+
+
+def test_the_references_buffered_phase_is_the_hips_progress(closed_loop):
+    # the phase and its gradient through the evaluation buffers against the checked model
+    # evaluation of the hip point, and the gradient against a central difference
+    _, reference, _, _ = closed_loop
+    hip = reference._hip
+    start, end = reference.hip_range
+    for psi in reference.states[::97, : reference.n]:
+        psi = psi + 0.01
+        assert reference.phase(psi) == pytest.approx(
+            (complex(hip.position(psi)).real - start) / (end - start), abs=1e-15
+        )
+        np.testing.assert_allclose(
+            reference.phase_gradient(psi),
+            central_jacobian(lambda p: np.array([reference.phase(p)]), psi, 1e-6)[0],
+            rtol=1e-7,
+            atol=1e-9,
+        )

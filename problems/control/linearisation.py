@@ -122,7 +122,7 @@ def return_map(
         if chained:
             feedback = np.asarray(controller.jacobian(t, x), dtype=float)
         if double:
-            x_next = np.asarray(plant.advance_double(x, torques, period)).ravel()
+            x_next = plant.advance_state(x, torques, period, double=True)
             if double_support.phase(x_next[:n]) >= 1.0:
                 tau, x_end = locate_event(plant.advance_double, x, torques, period,
                                           lambda y: 1.0 - double_support.phase(y[:n]))  # fmt: skip
@@ -139,8 +139,8 @@ def return_map(
             x = x_next
             t += period
             continue
-        x_next = np.asarray(plant.advance(x, torques, period)).ravel()
-        foot = complex(plant.foot.position(x_next[:n]))  # the swing foot, the stance at 0
+        x_next = plant.advance_state(x, torques, period)
+        foot = plant.swing_foot(x_next[:n])  # the stance foot at 0
         if foot.imag - ground(foot.real) <= 0.0 and foot.real > STRIKE_AHEAD * step_length:
             tau, x_minus = locate_strike(plant, x, torques, period, 0j, ground)
             gradient = np.zeros(2 * n)

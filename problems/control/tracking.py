@@ -17,11 +17,13 @@ torques hold their last value.
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
 from planner.errors import DefinitionError, check_real
 from planner.trajectory import Trajectory
+from problems.control.buffered import BufferedCall
 
 
 class TimedReference:
@@ -127,7 +129,15 @@ class GaitReference(TimedReference):
     def phase(self, psi) -> float:
         """s of the angles psi (n,): the hip's progress, 0 at the start, 1 at heel strike
         (or where the rear foot lifts, after a double support)."""
-        return float((complex(self._hip.position(psi)).real - self._start) / self._span)
+        # through the position function's evaluation buffer: called every control period
+        calls = self.__dict__.setdefault("_buffers", {})
+        if "hip" not in calls:
+            calls["hip"] = BufferedCall(self._hip.function("position"))
+        return float((calls["hip"](psi)[0][0] - self._start) / self._span)
+
+    def __getstate__(self) -> dict:
+        # evaluation buffers point into this process's memory: a copy makes its own
+        return {key: value for key, value in self.__dict__.items() if key != "_buffers"}
 
     def at_phase(self, s: float) -> tuple[np.ndarray, np.ndarray]:
         """(x_ref (2n,), M_ff (n,)) at the phase s: the plan for s in [0, 1], its start before
@@ -139,7 +149,14 @@ class GaitReference(TimedReference):
 
     def phase_gradient(self, psi) -> np.ndarray:
         """ds/dpsi (n,): the hip's forward Jacobian over the step's span."""
-        return self._hip.jacobian(psi, floating=False)[0] / self._span
+        calls = self.__dict__.setdefault("_buffers", {})
+        if "hip_jacobian" not in calls:
+            jacobian = self._hip.function("jacobian")
+            angles = ca.SX.sym("psi", self.n)
+            # the hip's x row over the angles (not the base's columns), dense for the buffer
+            row = ca.densify(jacobian(angles)[0, 2:])
+            calls["hip_jacobian"] = BufferedCall(ca.Function("hip_x_jacobian", [angles], [row]))
+        return calls["hip_jacobian"](psi)[0] / self._span
 
     @property
     def _end_slope(self) -> np.ndarray:

@@ -192,7 +192,7 @@ def _one_period(plant: Plant, controller: PinnedLQR, x, jacobian: bool):
         if jacobian:
             dx, dm, _ = (np.asarray(v) for v in plant.advance_jacobian(x, torques, controller.h))
             chain = (dx + dm @ controller.jacobian(t, x)) @ chain
-        x = np.asarray(plant.advance(x, torques, controller.h)).ravel()
+        x = plant.advance_state(x, torques, controller.h)
     return x, chain, peak
 
 
