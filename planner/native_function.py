@@ -35,10 +35,11 @@ from planner.errors import DefinitionError
 
 #: the ways :func:`native` takes
 HOWS = ("never", "auto", "now")
-#: the compiler's optimisation: ``-O1`` runs the walker's period Jacobian 12 times faster than
-#: interpreted and ``-O0`` only twice (measured: 85 and 508 us against 1000 us on a busy
-#: machine), for 42 s of compilation against 6 s
-OPTIMISATION = "-O1"
+#: the compiler's optimisation, the NLPs' (:data:`planner.native_nlp.OPTIMISATION`): ``-O1``
+#: runs the walker's period Jacobian 12 times faster than interpreted and ``-O0`` only twice
+#: (measured: 85 and 508 us against 1000 us on a busy machine), for 42 s of compilation
+#: against 6 s
+OPTIMISATION = native_nlp.OPTIMISATION
 
 _loaded: dict[str, ca.Function] = {}
 _lock = threading.Lock()
@@ -135,10 +136,8 @@ def _compile(function: ca.Function, name: str) -> Path | None:
                 code.write_text(generator.dump(), encoding="utf-8")
                 built = Path(work) / target.name
                 done = subprocess.run(
-                    [cc, "-shared", "-fPIC", OPTIMISATION, "-Wno-int-conversion", str(code),
-                     "-o", str(built), "-lm"],
-                    capture_output=True, text=True,
-                )  # fmt: skip
+                    native_nlp.compile_command(cc, code, built), capture_output=True, text=True
+                )
                 if done.returncode != 0:
                     said = " / ".join((done.stderr or done.stdout).strip().splitlines()[-3:])
                     if any(text in said for text in native_nlp.WRITE_ERRORS):

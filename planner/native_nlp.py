@@ -286,24 +286,27 @@ def _build(source: Path, cc: str) -> None:
             code.write_text(generator.dump(), encoding="utf-8")
             library = Path(work) / target.name
             subprocess.run(
-                [
-                    cc,
-                    "-shared",
-                    "-fPIC",
-                    OPTIMISATION,
-                    # CasADi's code copies empty blocks through integer 0 pointers, which
-                    # newer compilers refuse by default; those copies never run.
-                    "-Wno-int-conversion",
-                    str(code),
-                    "-o",
-                    str(library),
-                    "-lm",
-                ],
-                check=True,
-                capture_output=True,
-                text=True,
+                compile_command(cc, code, library), check=True, capture_output=True, text=True
             )
             native_cache.publish(library, target)
+
+
+def compile_command(cc: str, code: Path, library: Path) -> list[str]:
+    """The compiler's command that builds the shared ``library`` from CasADi's C ``code``
+    (:data:`OPTIMISATION`)."""
+    return [
+        cc,
+        "-shared",
+        "-fPIC",
+        OPTIMISATION,
+        # CasADi's code copies empty blocks through integer 0 pointers, which newer
+        # compilers refuse by default; those copies never run.
+        "-Wno-int-conversion",
+        str(code),
+        "-o",
+        str(library),
+        "-lm",
+    ]
 
 
 def _main(source: Path, cc: str) -> int:

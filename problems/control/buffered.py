@@ -61,4 +61,19 @@ class BufferedCall:
         return [result.copy() for result in self._results]
 
 
-__all__ = ["BufferedCall"]
+class BufferedCalls:
+    """A mixin for an object that keeps :class:`BufferedCall` s by name (made at first use,
+    dropped from its pickled or copied state: a buffer points into this process's memory)."""
+
+    def _buffered(self, name: str, make) -> BufferedCall:
+        """The buffered call of the Function ``make()`` under ``name``, made once."""
+        calls = self.__dict__.setdefault("_buffers", {})
+        if name not in calls:
+            calls[name] = BufferedCall(make())
+        return calls[name]
+
+    def __getstate__(self) -> dict:
+        return {key: value for key, value in self.__dict__.items() if key != "_buffers"}
+
+
+__all__ = ["BufferedCall", "BufferedCalls"]

@@ -105,6 +105,13 @@ def return_map(
     def ground(_):
         return 0.0
 
+    def through_period(jacobian, x, torques):
+        """The chain through one whole period (unchanged without the Jacobian)."""
+        if not chained:
+            return sensitivity
+        dx, dm, _ = (np.asarray(v) for v in jacobian(x, torques, period))
+        return (dx + dm @ feedback) @ sensitivity
+
     def through_event(jacobian, x, torques, tau, gradient):
         """The chain through the partial period to an event at tau whose guard has the
         gradient ``gradient`` (2n,): the event's instant moves with the state (None without
@@ -131,17 +138,13 @@ def return_map(
                 end = np.asarray(plant.swap_map(x_end)).ravel()
                 chain = None if before is None else plant.swap_jacobian @ before
                 return ReturnMap(np.asarray(start, dtype=float), end, chain, t + tau)
-            if chained:
-                dx, dm, _ = (
-                    np.asarray(v) for v in plant.advance_double_jacobian(x, torques, period)
-                )
-                sensitivity = (dx + dm @ feedback) @ sensitivity
+            sensitivity = through_period(plant.advance_double_jacobian, x, torques)
             x = x_next
             t += period
             continue
         x_next = plant.advance_state(x, torques, period)
-        foot = plant.swing_foot(x_next[:n])  # the stance foot at 0
-        if foot.imag - ground(foot.real) <= 0.0 and foot.real > STRIKE_AHEAD * step_length:
+        foot = plant.swing_foot(x_next[:n])  # the stance foot at 0, the ground flat
+        if foot.imag <= 0.0 and foot.real > STRIKE_AHEAD * step_length:
             tau, x_minus = locate_strike(plant, x, torques, period, 0j, ground)
             gradient = np.zeros(2 * n)
             gradient[:n] = plant.foot.jacobian(x_minus[:n], floating=False)[1]
@@ -161,9 +164,7 @@ def return_map(
             double = True
             controller.touchdown(t, x)
             continue
-        if chained:
-            dx, dm, _ = (np.asarray(v) for v in plant.advance_jacobian(x, torques, period))
-            sensitivity = (dx + dm @ feedback) @ sensitivity
+        sensitivity = through_period(plant.advance_jacobian, x, torques)
         x = x_next
         t += period
     raise RuntimeError(

@@ -38,7 +38,7 @@ from model.linkage import Linkage
 from planner import native_nlp
 from planner.errors import DefinitionError, check_integer, check_positive, check_real
 from planner.native_function import native_derived
-from problems.control.buffered import BufferedCall
+from problems.control.buffered import BufferedCalls
 from problems.gait.biped import Biped
 from problems.walking.feet import WalkerFeet
 from problems.walking.step import UNLOADED, WorldMotion, world_motion
@@ -204,7 +204,7 @@ class WalkingRun:
         )
 
 
-class Plant(WalkerFeet):
+class Plant(BufferedCalls, WalkerFeet):
     """The simulated body: a linkage's pinned-foot dynamics, its heel strike and leg swap, as
     generated functions (the plan's linkage, or one with changed masses).
 
@@ -268,17 +268,6 @@ class Plant(WalkerFeet):
         angles psi (n,), through the evaluation buffer of its position function."""
         x, y = self._buffered("swing_foot", lambda: self.foot.function("position"))(psi)
         return complex(x[0], y[0])
-
-    def _buffered(self, name: str, function) -> BufferedCall:
-        """The buffered call of the Function ``function()`` under ``name``, made once."""
-        calls = self.__dict__.setdefault("_buffers", {})
-        if name not in calls:
-            calls[name] = BufferedCall(function())
-        return calls[name]
-
-    def __getstate__(self) -> dict:
-        # evaluation buffers point into this process's memory: a copy makes its own
-        return {key: value for key, value in self.__dict__.items() if key != "_buffers"}
 
     @cached_property
     def advance_jacobian(self) -> ca.Function:

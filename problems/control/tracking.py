@@ -23,7 +23,7 @@ import numpy as np
 from model.dynamics import Dynamics
 from planner.errors import DefinitionError, check_real
 from planner.trajectory import Trajectory
-from problems.control.buffered import BufferedCall
+from problems.control.buffered import BufferedCalls
 
 
 class TimedReference:
@@ -60,7 +60,7 @@ class TimedReference:
         return states, torques
 
 
-class GaitReference(TimedReference):
+class GaitReference(BufferedCalls, TimedReference):
     """A planned step as tables over time and over the phase.
 
     Parameters
@@ -130,14 +130,8 @@ class GaitReference(TimedReference):
         """s of the angles psi (n,): the hip's progress, 0 at the start, 1 at heel strike
         (or where the rear foot lifts, after a double support)."""
         # through the position function's evaluation buffer: called every control period
-        calls = self.__dict__.setdefault("_buffers", {})
-        if "hip" not in calls:
-            calls["hip"] = BufferedCall(self._hip.function("position"))
-        return float((calls["hip"](psi)[0][0] - self._start) / self._span)
-
-    def __getstate__(self) -> dict:
-        # evaluation buffers point into this process's memory: a copy makes its own
-        return {key: value for key, value in self.__dict__.items() if key != "_buffers"}
+        hip = self._buffered("hip", lambda: self._hip.function("position"))
+        return float((hip(psi)[0][0] - self._start) / self._span)
 
     def at_phase(self, s: float) -> tuple[np.ndarray, np.ndarray]:
         """(x_ref (2n,), M_ff (n,)) at the phase s: the plan for s in [0, 1], its start before
@@ -149,14 +143,14 @@ class GaitReference(TimedReference):
 
     def phase_gradient(self, psi) -> np.ndarray:
         """ds/dpsi (n,): the hip's forward Jacobian over the step's span."""
-        calls = self.__dict__.setdefault("_buffers", {})
-        if "hip_jacobian" not in calls:
-            jacobian = self._hip.function("jacobian")
-            angles = ca.SX.sym("psi", self.n)
-            # the hip's x row over the angles (not the base's columns), dense for the buffer
-            row = ca.densify(jacobian(angles)[0, 2:])
-            calls["hip_jacobian"] = BufferedCall(ca.Function("hip_x_jacobian", [angles], [row]))
-        return calls["hip_jacobian"](psi)[0] / self._span
+        return self._buffered("hip_jacobian", self._hip_x_jacobian)(psi)[0] / self._span
+
+    def _hip_x_jacobian(self) -> ca.Function:
+        """psi -> d x_hip / dpsi (n,): the hip's x row over the angles (not the base's
+        columns), dense for the evaluation buffer."""
+        angles = ca.SX.sym("psi", self.n)
+        row = ca.densify(self._hip.function("jacobian")(angles)[0, 2:])
+        return ca.Function("hip_x_jacobian", [angles], [row])
 
     @property
     def _end_slope(self) -> np.ndarray:
