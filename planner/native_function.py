@@ -3,8 +3,9 @@ NLPs (:mod:`planner.native_cache`).
 
 For a function that a Python loop calls one state at a time, CasADi's virtual machine is the
 cost: a hybrid simulation's exact Jacobian of one control period is about 70 000 instructions
-for the six-link walker, about 0.55 ms interpreted and 12 times faster compiled at ``-O1``
-(``examples/benchmarks/gait_library.py``). Its compilation takes about 40 s, so it pays only
+for the six-link walker, about 0.55 ms interpreted and some 12 times faster compiled at ``-O1``
+(scratch timings of 300 calls, not a repo benchmark; ``examples/benchmarks/gait_library.py``
+measures what it does to a library's build). Its compilation takes about 40 s, so it pays only
 for a function kept in the cache and used again: nothing here compiles unasked.
 
 * **Key**: ``fn-`` and the SHA-256 of the serialised Function (the same expression graph
@@ -37,7 +38,7 @@ from planner.errors import DefinitionError
 HOWS = ("never", "auto", "now")
 #: the compiler's optimisation, the NLPs' (:data:`planner.native_nlp.OPTIMISATION`): ``-O1``
 #: runs the walker's period Jacobian 12 times faster than interpreted and ``-O0`` only twice
-#: (measured: 85 and 508 us against 1000 us on a busy machine), for 42 s of compilation
+#: (scratch timings: 85 and 508 us against 1000 us on a busy machine), for 42 s of compilation
 #: against 6 s
 OPTIMISATION = native_nlp.OPTIMISATION
 

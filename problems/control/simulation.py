@@ -290,10 +290,10 @@ class Plant(BufferedCalls, WalkerFeet):
     def compile(self, double_support: bool = False) -> None:
         """Compile the period's exact Jacobian (and, with ``double_support``, the closed
         chain's) to native code in the disk cache now, unless it is there, and use it: about
-        12 times faster in the return map and the LQR's linearisation, for about 40 s of
-        compilation once per linkage (every Plant of the same linkage, substeps and rotors
-        finds it there after; :mod:`planner.native_function`). Raises DefinitionError without
-        a C compiler."""
+        12 times faster (scratch timings) in the return map and the LQR's linearisation, for
+        about 40 s of compilation once per linkage (every Plant of the same linkage, substeps
+        and rotors finds it there after; :mod:`planner.native_function`). Raises
+        DefinitionError without a C compiler."""
         self.__dict__["advance_jacobian"] = _native_jacobians(self.advance, "now")
         if double_support:
             self.__dict__["advance_double_jacobian"] = _native_jacobians(self.advance_double, "now")
