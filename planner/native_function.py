@@ -24,6 +24,7 @@ for a function kept in the cache and used again: nothing here compiles unasked.
 from __future__ import annotations
 
 import hashlib
+import shutil
 import subprocess
 import tempfile
 import threading
@@ -128,6 +129,9 @@ def _compile(function: ca.Function, name: str) -> Path | None:
             found = native_cache.checked(target)  # compiled while this one waited
             if found is not None:
                 return found
+            # work folders of this key that a killed compilation left (the lock is ours)
+            for stale in target.parent.glob(f".{name}.work.*"):
+                shutil.rmtree(stale, ignore_errors=True)
             with tempfile.TemporaryDirectory(dir=target.parent, prefix=f".{name}.work.") as work:
                 generator = ca.CodeGenerator("function.c", {"with_header": False})
                 generator.add(function)

@@ -134,3 +134,31 @@ def test_the_walkers_multipliers_with_the_compiled_jacobian_are_the_interpreted_
     np.testing.assert_allclose(compiled.start, interpreted.start, rtol=0, atol=1e-9)
     np.testing.assert_allclose(np.abs(compiled.multipliers), np.abs(interpreted.multipliers),
                                rtol=0, atol=1e-9)  # fmt: skip
+
+
+@needs_compiler
+def test_a_killed_compilations_work_folder_is_cleared_by_the_next(function_cache):
+    # kill -9 in the middle of a compilation leaves its temporary folder: the next one of
+    # the same key, under the key's lock, removes it and publishes a complete library
+    x = ca.SX.sym("x", 2)
+    cube = ca.Function("cube", [x], [x**3])
+    name = native_function.key(cube)
+    folder = native_cache.folder()
+    folder.mkdir(parents=True, exist_ok=True)
+    left = folder / f".{name}.work.killed"
+    left.mkdir()
+    (left / "function.c").write_text("/* cut short */", encoding="utf-8")
+    compiled = native_function.native(cube, "now")
+    assert compiled.class_name() == "External" and not left.exists()
+    np.testing.assert_array_equal(np.asarray(compiled([2.0, -1.0])).ravel(), [8.0, -1.0])
+    assert [p.name for p in folder.iterdir() if p.name.startswith(".")] == []
+
+
+def test_bad_plant_and_derivation_settings_are_named():
+    with pytest.raises(DefinitionError, match=r"`compiled`: True, False or None, got 'yes'"):
+        Plant(n_link_chain(2), mu=None, compiled="yes")
+    x = ca.SX.sym("x")
+    square = ca.Function("square", [x], [x**2])
+    named = "the derived function is named 'square', not 'other'"
+    with pytest.raises(DefinitionError, match=named):
+        native_function.native_derived(square, "v1", "other", lambda f: f, "now")
