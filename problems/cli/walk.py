@@ -786,14 +786,6 @@ def _closed_loop(feedback, report, out):
         f"after: forward {forward:.1f} N s, back {back:.1f} N s (bisection to 0.5 N s)",
         file=out,
     )
-    if feedback.double is not None:
-        print(
-            "MuJoCo: not run for a step with a double support (its front foot rebounds off "
-            "MuJoCo's soft ground at touchdown, and the closed chain's law pulls on a foot that "
-            "is not held: open work)",
-            file=out,
-        )
-        return check
     try:
         import mujoco  # noqa: F401 - only whether the extra is there
     except ImportError:

@@ -22,6 +22,9 @@ from planner.errors import DefinitionError
 from planner.trajectory import Trajectory
 from problems.control.linearisation import ReturnMap, fixed_point
 from problems.control.lqr import (
+    SOFT_RAMP,
+    SOFT_SETTLE,
+    SOFT_TOUCHDOWN,
     LqrWeights,
     PeriodicGains,
     PhaseLQR,
@@ -141,7 +144,16 @@ class Feedback:
             laws = [double_law if held else single_law for held in double]
             gains = np.array([law.gain_at(s) for law, s in zip(laws, phases, strict=True)])
             trajectory = trajectory.with_extra("double_support", double.astype(float), "1")
-            law = {"branches": BRANCHES, "early_strike": EARLY_HELD, "late_strike": LATE}
+            law = {
+                "branches": BRANCHES,
+                "early_strike": EARLY_HELD,
+                "late_strike": LATE,
+                "soft_touchdown": SOFT_TOUCHDOWN.format(
+                    settle=1000 * SOFT_SETTLE, ramp=1000 * SOFT_RAMP
+                ),
+                "touchdown_settle_s": SOFT_SETTLE,
+                "touchdown_ramp_s": SOFT_RAMP,
+            }
         return with_gains(
             trajectory,
             self.names,

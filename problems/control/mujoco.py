@@ -32,6 +32,7 @@ import numpy as np
 from model.mjcf import MjcfModel, to_mjcf
 from planner.errors import DefinitionError, check_integer, check_positive
 from problems.control.feedback import PUSH_STEPS, disturbance_cases
+from problems.control.lqr import SOFT_RAMP, SOFT_SETTLE, SwitchedLQR
 from problems.control.simulation import Disturbances, largest_push
 from problems.gait.biped import Biped
 from problems.walking.step import WorldMotion, world_motion
@@ -84,7 +85,9 @@ class MujocoStep:
     the stance foot's ankle moved along the ground), peak_normal N (the stance foot's largest
     normal force), tracking rad (the largest angle error at the same phase), peak_torque N m
     (the largest motor command, ankles included), saturated: control periods in which a drive
-    was held at its limit (counted by the walk on feet; None where not counted)."""
+    was held at its limit (counted by the walk on feet; None where not counted),
+    double_support: s from the touchdown to the rear foot's lift-off (None: a step without
+    one)."""
 
     index: int
     duration: float
@@ -94,6 +97,7 @@ class MujocoStep:
     tracking: float
     peak_torque: float
     saturated: int | None = None
+    double_support: float | None = None
 
 
 @dataclass(frozen=True)
@@ -249,23 +253,23 @@ def run_in_mujoco(
     contact_time_constant: float = CONTACT_TIME_CONSTANT,
     foot_mass: float = FOOT_MASS,
     preload: float = PRELOAD,
+    touchdown_settle: float = SOFT_SETTLE,
+    touchdown_ramp: float = SOFT_RAMP,
 ) -> MujocoRun:
     """Walk ``steps`` steps in MuJoCo under ``feedback`` (:class:`problems.control.feedback.
     Feedback`) from the plan's start; ``open_loop``: the plan's torques by the time since the
     step began, no feedback. Disturbances: a push on the torso, a mass scale (MuJoCo's body
     is changed, the controller keeps the plan's).
 
-    Not for a step with a double support: its front foot rebounds off MuJoCo's soft ground
-    at touchdown, while the closed chain's law pulls as if it were held; that needs a
-    touchdown the law can wait for (open work).
+    A step with a double support: at the touchdown the law switches to the double
+    support's branch, and the step ends where that branch's phase reaches 1 (the rear foot
+    lifts; the legs are relabelled). MuJoCo's impact is soft: the front foot bounces for
+    some milliseconds while the rates are still the swing's, and the double support's stiff
+    gains (designed for a foot held at once) would throw it back off, so the branch's
+    feedback waits ``touchdown_settle`` s (its feedforward alone) and comes in over
+    ``touchdown_ramp`` s (:class:`problems.control.lqr.SwitchedLQR`'s settle; the file's law
+    says so).
     """
-    if feedback.double is not None:
-        raise DefinitionError(
-            "`feedback`: a step with a double support does not run in MuJoCo yet (its front "
-            "foot rebounds off the soft ground at touchdown, and the closed chain's law pulls "
-            "on a foot that is not held); run it in the product's simulation "
-            "(problems.control.simulation.simulate_walking)"
-        )
     mujoco = import_mujoco()
     steps = check_integer("steps", steps, 1)
     check_positive("contact_time_constant", contact_time_constant, "s")
@@ -274,9 +278,13 @@ def run_in_mujoco(
     mjcf = walker_mjcf(step, ground_mu=feedback.plant.mu, foot_mass=foot_mass)
     model, data = disturbed_model(mujoco, mjcf, disturbances, step.step_length,
                                   contact_time_constant)  # fmt: skip
+    controller = feedback.controller
+    if feedback.double is not None:
+        controller = SwitchedLQR(*controller.branches, settle=touchdown_settle,
+                                 ramp=touchdown_ramp)  # fmt: skip
     with instability_reports(mujoco) as unstable:
-        return _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop,
-                     foot_kp, foot_kd, preload, unstable)  # fmt: skip
+        return _walk(mujoco, model, data, mjcf, feedback, controller, steps, disturbances,
+                     open_loop, foot_kp, foot_kd, preload, unstable)  # fmt: skip
 
 
 class WalkerIo:
@@ -396,12 +404,14 @@ class WalkerIo:
         return float(np.min(hinges.imag[1:]))
 
 
-def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, foot_kp,
-          foot_kd, preload, unstable) -> MujocoRun:  # fmt: skip
+def _walk(mujoco, model, data, mjcf, feedback, controller, steps, disturbances, open_loop,
+          foot_kp, foot_kd, preload, unstable) -> MujocoRun:  # fmt: skip
     """The control loop of :func:`run_in_mujoco`."""
     step = feedback.step
     reference = feedback.reference
-    controller = feedback.controller
+    plan = feedback.whole  # the whole step by time: the open loop's torques
+    lift_off = feedback.lift_off  # None: the step ends at touchdown
+    tracker = reference if lift_off is None else controller  # the branch in force
     io = WalkerIo(mujoco, model, data, mjcf, step, disturbances.torque_limit)
     start = reference.states[0]
     if disturbances.initial is not None:
@@ -417,14 +427,17 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
     t_step, clock = 0.0, 0.0
     fell = None
     stance_start = io.ankle_position(stance)
+    landing = None  # the front foot's ankle from its touchdown on (a double support)
+    touched = 0.0  # the touchdown's instant in the step, s
     peak_normal, tracking, peak_torque, slip = 0.0, 0.0, 0.0, 0.0
     pushed = disturbances.push == 0.0
     lowest = min(0.0, disturbances.ground_rise) - 0.02
+    x = io.state(stance)
+    controller.start_step(0, x)
     while len(records) < steps:
         x = io.state(stance)
-        psi = x[: io.n]
-        torques = reference.at_time(t_step)[1] if open_loop else controller.torques(t_step, x)
-        tracking = max(tracking, reference.tracking(x))
+        torques = plan.at_time(t_step)[1] if open_loop else controller.torques(t_step, x)
+        tracking = max(tracking, tracker.tracking(x))
         peak_torque = max(peak_torque, io.drive(torques, stance, foot_kp, foot_kd))
         pushed, push = due_push(disturbances, pushed, len(records), t_step, step.step_time,
                                 torso, period)  # fmt: skip
@@ -444,11 +457,17 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
             fell = f"step {len(records)}, t = {t_step:.3f} s: a body point went under the ground"
             break
         if t_step > 2.0 * step.step_time:
-            fell = f"step {len(records)}: no touchdown within twice the step time"
+            fell = (
+                f"step {len(records)}: no touchdown within twice the step time"
+                if landing is None
+                else f"step {len(records)}: the rear foot did not lift within twice the step time"
+            )
             break
         swing = "B" if stance == "A" else "A"
-        s = reference.phase(psi)
-        if s > 0.5 and io.normal_force(swing) > TOUCHDOWN_FORCE:
+        if landing is None:  # x: the state before this period, as the law read it
+            s = reference.phase(x[: io.n])
+            if not (s > 0.5 and io.normal_force(swing) > TOUCHDOWN_FORCE):
+                continue
             landing = io.ankle_position(swing)
             if landing.real - stance_start.real < 0.25 * step.step_length:
                 fell = (
@@ -456,21 +475,32 @@ def _walk(mujoco, model, data, mjcf, feedback, steps, disturbances, open_loop, f
                     f"{landing.real - stance_start.real:+.3f} m from the stance foot"
                 )
                 break
-            records.append(
-                MujocoStep(
-                    index=len(records),
-                    duration=t_step,
-                    length=landing.real - stance_start.real,
-                    slip=slip,
-                    peak_normal=peak_normal,
-                    tracking=tracking,
-                    peak_torque=peak_torque,
-                )
+            if lift_off is not None:
+                # both feet on the ground: the double support's law until the rear foot lifts
+                # where the plan's double support ends (its phase reaches 1)
+                touched = t_step
+                controller.touchdown(t_step, x)
+                continue
+        elif lift_off(x) < 0.0:
+            continue
+        records.append(
+            MujocoStep(
+                index=len(records),
+                duration=t_step,
+                length=landing.real - stance_start.real,
+                slip=slip,
+                peak_normal=peak_normal,
+                tracking=tracking,
+                peak_torque=peak_torque,
+                double_support=None if lift_off is None else t_step - touched,
             )
-            stance = swing
-            stance_start = landing
-            t_step = 0.0
-            peak_normal, tracking, peak_torque, slip = 0.0, 0.0, 0.0, 0.0
+        )
+        stance = swing
+        stance_start = landing
+        landing = None
+        t_step = 0.0
+        peak_normal, tracking, peak_torque, slip = 0.0, 0.0, 0.0, 0.0
+        controller.start_step(len(records), io.state(stance))
     return MujocoRun(tuple(records), fell, np.asarray(times), np.asarray(states), mjcf)
 
 

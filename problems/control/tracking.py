@@ -234,27 +234,27 @@ class PhasePD:
         out[self._has_parent] -= angles[self._parents[self._has_parent]]
         return out
 
-    def torques(self, t: float, x: np.ndarray) -> np.ndarray:
+    def torques(self, t: float, x: np.ndarray, share: float = 1.0) -> np.ndarray:
+        """M (n,) N m at state x; ``share``: the PD's part (1: the law; 0: the feedforward
+        alone, see ``SwitchedLQR``'s settle)."""
         n = self.reference.n
         s = self.reference.phase(x[:n])
         state, feedforward = self.reference.at_phase(s)
         error = state - x
         feedback = self.kp * self.relative(error[:n]) + self.kd * self.relative(error[n:])
-        return self._active * (feedforward + feedback)
+        return self._active * (feedforward + share * feedback)
 
-    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+    def jacobian(self, t: float, x: np.ndarray, share: float = 1.0) -> np.ndarray:
         """dM/dx (n, 2n) of :meth:`torques` (within a sample interval of the phase table)."""
         reference = self.reference
         n = reference.n
         s = reference.phase(x[:n])
         state_slope, torque_slope = reference.slopes_at_phase(s)
         relative = self._relative_matrix
-        along = (
-            torque_slope
-            + self.kp * (relative @ state_slope[:n])
-            + self.kd * (relative @ state_slope[n:])
+        along = torque_slope + share * (
+            self.kp * (relative @ state_slope[:n]) + self.kd * (relative @ state_slope[n:])
         )
-        jacobian = np.hstack([-self.kp[:, None] * relative, -self.kd[:, None] * relative])
+        jacobian = -share * np.hstack([self.kp[:, None] * relative, self.kd[:, None] * relative])
         jacobian[:, :n] += np.outer(along, reference.phase_gradient(x[:n]))
         return self._active[:, None] * jacobian
 

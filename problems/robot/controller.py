@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from problems.control.lqr import SOFT_RAMP, SOFT_SETTLE, SOFT_TOUCHDOWN
 from problems.human.joints import Body, joint_radians, leg_moments
 
 #: the swing ankle's PD on point feet, N m/rad and N m s/rad (problems.control.mujoco's)
@@ -192,6 +193,9 @@ def specification(*, feet: bool, double: bool, rate_hz: float, sides, steps: int
             f"{SWING_ANKLE_KD:g} N m s/rad on its own q and dq"
         ),
     }  # fmt: skip
+    if double and not feet:  # the point feet's double support: the LQR's stiff gains
+        spec["soft_touchdown"] = SOFT_TOUCHDOWN.format(settle=1000 * SOFT_SETTLE,
+                                                       ramp=1000 * SOFT_RAMP)  # fmt: skip
     if robot is not None:
         spec["robot"] = robot
     return spec
