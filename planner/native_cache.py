@@ -114,7 +114,7 @@ def warn_once(message: str) -> None:
 def _fix() -> str:
     where = "is set" if os.environ.get(CACHE_ENV) else "is not set (the default folder)"
     return (
-        f"solving interpreted; set {CACHE_ENV} to a folder you can write ({CACHE_ENV} {where}), "
+        f"running interpreted; set {CACHE_ENV} to a folder you can write ({CACHE_ENV} {where}), "
         "or ANTHROPOID_COMPILE=never to solve interpreted without this warning"
     )
 
@@ -214,8 +214,8 @@ def checked(library: Path) -> Path | None:
     except FileNotFoundError:
         return None
     except OSError as error:
-        warn_once(f"the compiled NLP {str(library)!r} cannot be read ({_said_by(error, library)}); "
-                  + _fix())  # fmt: skip
+        said = _said_by(error, library)
+        warn_once(f"the compiled library {str(library)!r} cannot be read ({said}); " + _fix())
         return None
     stamp = (status.st_ino, status.st_size, status.st_mtime_ns)
     with _lock:
@@ -264,8 +264,10 @@ def discard(library: Path, problem: str) -> None:
     with _lock:
         _checked.pop(library, None)
     action = "removed" if removed else "left in place (the folder is read-only to this process)"
-    warn_once(f"the compiled NLP {library.name} is not loaded: {problem}; {action}, solving "
-              "interpreted")  # fmt: skip
+    # a library holds an NLP's functions or one function (planner.native_function): what
+    # runs without it is the same, interpreted
+    warn_once(f"the compiled library {library.name} is not loaded: {problem}; {action}, "
+              "running interpreted")  # fmt: skip
 
 
 def forget() -> None:

@@ -111,7 +111,7 @@ def test_a_truncated_library_is_removed_and_every_solve_runs_interpreted(nlp_cac
     assert_interpreted_and_right(status, results, reference_cost, count=2)
     assert len(warnings) == 1, warnings
     assert f"{size // 2} bytes where {size} were published: truncated" in warnings[0]
-    assert "removed, solving interpreted" in warnings[0]
+    assert "removed, running interpreted" in warnings[0]
     assert not library.exists() and not native_cache.record_path(library).exists()
     # the next process finds nothing to warn about, and compiles it again when asked
     status, results, warnings = child(nlp_cache, compiled=True)

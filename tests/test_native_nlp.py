@@ -247,7 +247,7 @@ def test_a_library_that_does_not_load_is_removed_and_the_solve_runs_interpreted(
     assert solution.cost == pytest.approx(reference.cost, rel=1e-12)
     assert not damaged.exists()
     assert "is not loaded: it has no publication record" in caplog.text
-    assert "removed, solving interpreted" in caplog.text
+    assert "removed, running interpreted" in caplog.text
     damaged.write_bytes(b"not a shared library")
     with pytest.raises(DefinitionError, match=r"`options`: IPOPT refused the options"):
         solve(ocp, progress=False, options={"no_such_option": 1})
