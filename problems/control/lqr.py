@@ -386,8 +386,9 @@ class PhaseLQR:
 #: On a compliant ground, the double support's feedback after the touchdown: none for this
 #: long, s (about four of MuJoCo's contact time constants, 4 ms: the soft impact's bounces
 #: are over), then linearly all of it over the ramp, s (:class:`SwitchedLQR`). Measured on the
-#: default step with a 0.05 s double support in MuJoCo (README): 10 to 20 ms walk the same
-#: disturbances; at once (0 and 0) it falls in the second step.
+#: default step with a 0.05 s double support in MuJoCo (examples/benchmarks/
+#: double_support_mujoco.py): 5 to 30 ms walk 20 steps as planned and 10 % heavier; with the
+#: feedback at once it falls in its first three steps.
 SOFT_SETTLE = 0.015
 SOFT_RAMP = 0.01
 #: the rule as a file states it (the law's metadata, the joint-space controller's)
