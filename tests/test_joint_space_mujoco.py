@@ -9,8 +9,10 @@ MJCF is built here from the robot's numbers (not by model.to_mjcf), the controll
 joints.csv with numpy and the sidecar with json, maps its encoders with the sidecar's sign
 and zero, measures the phase on the robot's kinematics, detects strikes from contact forces
 and runs the law the sidecar states. It must walk 20 steps on point feet (the robot given
-0.5 kg soles the plan does not know, the swing sole held level as the sidecar says) and on
-feet; a controller that swaps the rows but skips the gains must fall (the test can fail).
+0.5 kg soles the plan does not know, the swing sole held level as the sidecar says), on point
+feet with a double support (its feedback waiting out the soft touchdown as the sidecar says)
+and on feet; a controller that swaps the rows but skips the gains must fall, and so must one
+that skips the touchdown's wait (the test can fail).
 """
 
 from __future__ import annotations
@@ -41,7 +43,7 @@ POINT_FOOT_MASS = 0.5
 
 
 # ---- the product: URDF in, files out -------------------------------------------------------
-def _files(tmp_path, feet: bool):
+def _files(tmp_path, feet: bool, double_support: float = 0.0):
     """(joints.csv path, its sidecar path) of the test robot's planned step with feedback."""
     urdf = tmp_path / "robot.urdf"
     urdf.write_text(biped_urdf(feet))
@@ -50,8 +52,9 @@ def _files(tmp_path, feet: bool):
         gait = footed_step(walker.linkage, points=walker.points).solve()
         profile = FeetLaw(gait, rate_hz=RATE_HZ).channels(gait.to_trajectory(RATE_HZ))
     else:
-        gait = walking_step(walker.linkage).solve()
-        profile = design_feedback(gait, ground_mu=1.0).channels(gait.to_trajectory(RATE_HZ))
+        gait = walking_step(walker.linkage, double_support=double_support).solve()
+        feedback = design_feedback(gait, ground_mu=1.5 if double_support else 1.0)
+        profile = feedback.channels(gait.to_trajectory(RATE_HZ))
     profile = profile.with_metadata(robot=walker.metadata(str(urdf)))
     profile.save(tmp_path / "torques.csv")
     view = joint_space(LinkageTrajectory.load(tmp_path / "torques.csv"))
@@ -59,10 +62,15 @@ def _files(tmp_path, feet: bool):
     return path, path.with_name(path.name + ".meta.json")
 
 
-@pytest.fixture(scope="module", params=["point feet", "feet"])
+#: the point-foot step with a double support: 0.05 s, on a ground of friction 1.5 (its plan
+#: lifts the rear foot along its cone's edge: examples/feedback.md)
+DOUBLE = "point feet, double support"
+
+
+@pytest.fixture(scope="module", params=["point feet", "feet", DOUBLE])
 def files(request, tmp_path_factory):
-    return _files(tmp_path_factory.mktemp(request.param.replace(" ", "_")),
-                  request.param == "feet")  # fmt: skip
+    folder = tmp_path_factory.mktemp(request.param.replace(" ", "_").replace(",", ""))
+    return _files(folder, request.param == "feet", 0.05 if request.param == DOUBLE else 0.0)
 
 
 # ---- the robot, described again here from its numbers ---------------------------------------
@@ -150,6 +158,8 @@ class FileController:
         self.double = any(self.columns["double_support"] > 0)
         self.d0, self.d1 = spec["hip_ahead_m"]
         self.use_gains = gains
+        # on point feet with a double support: its feedback waits out the soft touchdown
+        self.settle = (spec.get("touchdown_settle_s", 0.0), spec.get("touchdown_ramp_s", 0.0))
         self.branches = {}
         for step in range(self.steps):
             for branch in (0, 1):
@@ -166,7 +176,15 @@ class FileController:
                 assert np.all(np.diff(s) > 0), "the phase rises along a branch"
                 self.branches[(step, branch)] = (s, z, tau, K)
 
-    def law(self, step: int, branch: int, s: float, z: np.ndarray) -> np.ndarray:
+    def share(self, since_touchdown: float | None) -> float:
+        """The part of the feedback applied ``since_touchdown`` s into a double support (None:
+        in a single support): the sidecar's touchdown_settle_s, then touchdown_ramp_s."""
+        settle, ramp = self.settle
+        if since_touchdown is None or since_touchdown >= settle + ramp:
+            return 1.0
+        return 0.0 if since_touchdown < settle else (since_touchdown - settle) / ramp
+
+    def law(self, step: int, branch: int, s: float, z: np.ndarray, share: float = 1.0):
         grid, Z, TAU, K = self.branches[(step % self.steps, branch)]
         if s <= grid[0]:  # before the first row: the first row
             z_ref, tau, gain = Z[0], TAU[0], K[0]
@@ -180,7 +198,7 @@ class FileController:
             tau = (1 - w) * TAU[k] + w * TAU[k + 1]
             gain = (1 - w) * K[k] + w * K[k + 1]
         if self.use_gains:
-            tau = tau + gain @ (z_ref - z)
+            tau = tau + share * (gain @ (z_ref - z))
         return np.clip(tau, -self.limits, self.limits)
 
     def first_row(self) -> dict:
@@ -192,8 +210,9 @@ class Walker:
     URDF sign and zero from the sidecar; the point-foot robot's own ankles: sign -1 right, +1
     left, zero with the sole flat), its base pitch, its contact forces."""
 
-    def __init__(self, controller: FileController, feet: bool, mass_scale: float = 1.0):
-        self.model = mujoco.MjModel.from_xml_string(robot_mjcf(feet))
+    def __init__(self, controller: FileController, feet: bool, mass_scale: float = 1.0,
+                 mu: float = 1.0):  # fmt: skip
+        self.model = mujoco.MjModel.from_xml_string(robot_mjcf(feet, mu))
         self.model.geom_solref[:, 0] = 0.004
         if mass_scale != 1.0:
             self.model.body_mass[1:] *= mass_scale
@@ -303,11 +322,12 @@ def walk(controller: FileController, feet: bool, steps: int = 20, **robot) -> tu
     walker.start(controller.first_row(), sides[0])
     substeps = round(1.0 / RATE_HZ / TIMESTEP)
     step_time = controller.meta["step_time_s"]
-    step, branch, t_step = 0, 0, 0.0
+    step, branch, t_step, touched = 0, 0, 0.0, 0.0
     while step < steps:
         stance, swing = sides[step % 2], sides[(step + 1) % 2]
         s = walker.phase(stance)
-        walker.command(controller.law(step, branch, s, walker.read()))
+        share = controller.share(t_step - touched if branch == 1 else None)
+        walker.command(controller.law(step, branch, s, walker.read(), share))
         for _ in range(substeps):
             mujoco.mj_step(walker.model, walker.data)
         t_step += 1.0 / RATE_HZ
@@ -318,7 +338,7 @@ def walk(controller: FileController, feet: bool, steps: int = 20, **robot) -> tu
         s = walker.phase(stance)
         if branch == 0 and s > 0.5 and walker.normal_force(swing, heel_only=feet) > 5.0:
             if controller.double:
-                branch = 1
+                branch, touched = 1, t_step
             else:
                 step, t_step = step + 1, 0.0
         elif branch == 1 and s >= 1.0:
@@ -344,11 +364,22 @@ def test_the_files_say_everything_the_controller_reads(files):
     assert spec["rate_hz"] == RATE_HZ
 
 
+def _ground(meta_path) -> dict:
+    """The robot's ground: friction 1.5 under a point-foot double support's plan."""
+    spec = json.loads(meta_path.read_text())["controller"]
+    return {"mu": 1.5} if "touchdown_settle_s" in spec else {}
+
+
 def test_a_controller_from_the_files_alone_walks_twenty_steps(files):
     csv_path, meta_path = files
     feet = json.loads(meta_path.read_text())["feet"] != "points"
-    walked, why = walk(FileController(csv_path, meta_path), feet)
+    walked, why = walk(FileController(csv_path, meta_path), feet, **_ground(meta_path))
     assert walked == 20, why
+    if _ground(meta_path):  # a point-foot double support: the sidecar's touchdown rule matters
+        ignoring = FileController(csv_path, meta_path)
+        ignoring.settle = (0.0, 0.0)  # its feedback at once, as on a rigid ground
+        walked, why = walk(ignoring, feet, **_ground(meta_path))
+        assert walked < 20, why
 
 
 def test_heavier_and_without_the_gains(files):
@@ -356,9 +387,11 @@ def test_heavier_and_without_the_gains(files):
     gains left out) fall: the walk depends on the law the file states."""
     csv_path, meta_path = files
     feet = json.loads(meta_path.read_text())["feet"] != "points"
-    walked, why = walk(FileController(csv_path, meta_path), feet, mass_scale=1.1)
+    ground = _ground(meta_path)
+    walked, why = walk(FileController(csv_path, meta_path), feet, mass_scale=1.1, **ground)
     assert walked == 20, why
-    walked, why = walk(FileController(csv_path, meta_path, gains=False), feet, steps=20)
+    walked, why = walk(FileController(csv_path, meta_path, gains=False), feet, steps=20,
+                       **ground)  # fmt: skip
     assert walked < 20, why
 
 
