@@ -41,6 +41,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -139,6 +140,11 @@ def contacts_at(
     return tuple(contacts)
 
 
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.setflags(write=False)
+    return array
+
+
 @dataclass(frozen=True)
 class MjcfModel:
     """An MJCF text and the map between its coordinates and the model's.
@@ -173,21 +179,26 @@ class MjcfModel:
         """Length of MuJoCo's qpos (= qvel: no quaternions in a planar model)."""
         return self.linkage.n + (2 if self.floating else 0) + len(self.feet)
 
-    @property
+    @cached_property
     def ancestry(self) -> np.ndarray:
-        """A (n, n): psi = A q, A[i, k] = 1 when link k is link i or one of its ancestors."""
-        return self.linkage.ancestry()
+        """A (n, n): psi = A q, A[i, k] = 1 when link k is link i or one of its ancestors
+        (read-only: built once, a controller reads it every period)."""
+        return _read_only(self.linkage.ancestry())
 
-    @property
+    @cached_property
     def coordinates(self) -> np.ndarray:
         """T (m, nq): the model's coordinates, (x0, y0, psi) (m = n + 2) or psi (m = n), are
-        T times MuJoCo's qpos (the feet's ankles do not enter)."""
+        T times MuJoCo's qpos (the feet's ankles do not enter). Read-only: built once."""
         n = self.linkage.n
         base = 2 if self.floating else 0
         matrix = np.zeros((n + base, self.nq))
         matrix[:base, :base] = np.eye(base)
         matrix[base:, list(self.hinge_index)] = self.ancestry
-        return matrix
+        return _read_only(matrix)
+
+    @cached_property
+    def _foot_links(self) -> list[int]:
+        return [self.linkage.index(foot.link) for foot in self.feet]
 
     def qpos(self, psi, base=(0.0, 0.0), feet=None) -> np.ndarray:
         """MuJoCo's qpos (nq,) or (K, nq) from the model's angles psi (n,) or (K, n) rad,
@@ -209,8 +220,7 @@ class MjcfModel:
         """The feet's absolute angles (or rates, from qvel), rad: the ankle plus its link's."""
         qpos = self._check_q(qpos)
         psi = self.model_coordinates(qpos)[..., 2 if self.floating else 0 :]
-        links = [self.linkage.index(foot.link) for foot in self.feet]
-        return psi[..., links] + qpos[..., list(self.ankle_index)]
+        return psi[..., self._foot_links] + qpos[..., list(self.ankle_index)]
 
     def joint_forces(self, torques) -> np.ndarray:
         """MuJoCo's generalised forces (nq,) of the model's hinge torques M (n,) N m.

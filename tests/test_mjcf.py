@@ -79,6 +79,11 @@ def test_inverse_dynamics_and_mass_matrix_are_mujocos_fixed_base(name):
     model, data = _compiled(mjcf)
     assert (model.nq, model.nv, model.nu) == (linkage.n, linkage.n, linkage.n)
     coordinates = mjcf.coordinates  # psi = T q
+    # built once and shared by every call (a walker reads it each control period): read-only,
+    # so that no caller can change what the next one reads
+    assert mjcf.coordinates is coordinates
+    with pytest.raises(ValueError, match="read-only"):
+        coordinates[0, 0] = 2.0
     rng = np.random.default_rng(RNG_SEED)
     for _ in range(5):
         psi, dpsi, ddpsi = _random_state(rng, linkage.n, floating=False)

@@ -31,6 +31,7 @@ import numpy as np
 
 from model.mjcf import MjcfModel, to_mjcf
 from planner.errors import DefinitionError, check_integer, check_positive
+from problems.control.buffered import BufferedCall
 from problems.control.feedback import PUSH_STEPS, disturbance_cases
 from problems.control.lqr import SOFT_RAMP, SOFT_SETTLE, SwitchedLQR
 from problems.control.simulation import Disturbances, largest_push
@@ -328,6 +329,7 @@ class WalkerIo:
         if limit is not None:
             self.drive_limits = np.minimum(self.drive_limits, limit)
         self.limit = limit
+        self._hinges = None  # (dynamics, its buffered hinge positions): lowest_hinge's
 
     def place(self, start: np.ndarray, preload: float) -> None:
         """The walker at the plan's state ``start`` (2n,), ``preload`` m into the ground."""
@@ -400,8 +402,11 @@ class WalkerIo:
         if not np.all(np.isfinite(self.data.qpos)):
             return math.nan
         hip = self.mjcf.model_coordinates(self.data.qpos)
-        hinges = dynamics.hinge_positions(hip[2:]) + complex(hip[0], hip[1])
-        return float(np.min(hinges.imag[1:]))
+        if self._hinges is None or self._hinges[0] is not dynamics:
+            # every control period: through CasADi's buffer, not the checked batch evaluation
+            self._hinges = (dynamics, BufferedCall(dynamics.function("hinge_positions")))
+        _, heights = self._hinges[1](hip[2:])
+        return float(np.min(heights[1:] + hip[1]))
 
 
 def _walk(mujoco, model, data, mjcf, feedback, controller, steps, disturbances, open_loop,
