@@ -53,7 +53,8 @@ class TimedReference:
 
     def _blend(self, grid: np.ndarray, value: float):
         value = min(max(float(value), grid[0]), grid[-1])
-        k = int(np.clip(np.searchsorted(grid, value, side="right") - 1, 0, grid.size - 2))
+        # the interval holding value (plain ints: called several times every control period)
+        k = min(max(int(np.searchsorted(grid, value, side="right")) - 1, 0), grid.size - 2)
         w = (value - grid[k]) / (grid[k + 1] - grid[k])
         states = (1.0 - w) * self.states[k] + w * self.states[k + 1]
         torques = (1.0 - w) * self.torques[k] + w * self.torques[k + 1]
