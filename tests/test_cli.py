@@ -1124,7 +1124,7 @@ def test_walk_on_feet_toe_walking_writes_verified_files(tmp_path):
 
 def test_walk_on_feet_refuses_the_point_foot_options_by_name(capsys):
     for option in (["-N", "12"], ["--double-support-s", "0.05"], ["--passive-ankle"],
-                   ["--ground-friction", "1.5"]):  # fmt: skip
+                   ["--ground-friction", "1.5"], ["--landing-speed-mps", "1"]):  # fmt: skip
         assert_one_line_error(
             capsys, rf"{option[0]}: not for --preset six-link-feet", "walk", "--preset",
             "six-link-feet", *option,

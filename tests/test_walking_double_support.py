@@ -34,6 +34,7 @@ from problems.control.simulation import (
     simulate_walking,
 )
 from problems.control.tracking import GaitReference, PhasePD
+from problems.gait.verification import verify_gait
 from problems.robot import joint_space
 
 #: the plan's rear foot lifts carrying 5 % of the weight along its cone's edge: the closed
@@ -261,6 +262,58 @@ def test_the_settle_holds_the_double_supports_feedback_back_then_ramps_it_in(pla
 
     with pytest.raises(DefinitionError, match=r"`settle`: a duration >= 0 s, got -0\.01"):
         SwitchedLQR(single, double, settle=-0.01)
+
+
+@pytest.fixture(scope="module")
+def bounded_landing():
+    """The same step with the landing foot's horizontal speed at heel strike within 1 m/s."""
+    step = walking_step(double_support=0.05, landing_speed=1.0)
+    return step, step.solve(progress=False)
+
+
+def test_the_landing_speed_bounds_the_foot_at_the_strike_and_the_file_says_so(
+    plan, bounded_landing
+):
+    step, gait = bounded_landing
+    n = step.linkage.n
+    plant = Plant(step.linkage, mu=GROUND_MU)  # its own foot kinematics, not the OCP's
+
+    def landing_velocity(gait):
+        single, _ = GaitReference.branches(gait, rate_hz=1000.0)
+        x = single.states[-1]  # the state before the held strike
+        return complex(plant.foot.velocity(x[:n], x[n:]))
+
+    assert gait.verified
+    velocity = landing_velocity(gait)
+    assert abs(velocity.real) <= 1.0 + 1e-6 and velocity.imag <= -step.touchdown_speed + 1e-6
+    # unbounded, the optimum swings the foot in far faster and lets the impact stop it
+    assert landing_velocity(plan[1]).real > 5.0
+    # the file carries the bound and the verification checks it: a tighter bound fails
+    trajectory = gait.to_trajectory(1000.0)
+    assert trajectory.metadata["gait"]["landing_speed"] == 1.0
+    report = verify_gait(trajectory, step.linkage)
+    (check,) = [c for c in report.checks if c.name == "landing speed"]
+    assert check.passed and check.margin == pytest.approx(1.0 - abs(velocity.real), abs=1e-9)
+    tighter = verify_gait(trajectory, step.linkage, settings={"landing_speed": 0.5})
+    assert "landing speed" in [c.name for c in tighter.failures]
+    from model import DefinitionError
+
+    with pytest.raises(DefinitionError, match="`landing_speed`"):
+        walking_step(double_support=0.05, landing_speed=0.0)
+
+
+def test_a_bounded_landing_walks_a_lower_ground_in_mujoco(bounded_landing):
+    pytest.importorskip("mujoco")
+    from problems.control.mujoco import run_in_mujoco
+
+    _, gait = bounded_landing
+    feedback = design_feedback(gait, ground_mu=GROUND_MU)
+    # measured: the unbounded plan falls in its first step on a ground 5 mm lower (its foot
+    # swings on forward at 7 m/s past the planned strike) and its landing foot slides up to
+    # 47 mm; bounded to 1 m/s it walks 20 steps there, sliding under 8 mm
+    lower = run_in_mujoco(feedback, steps=10, disturbances=Disturbances(ground_rise=-0.005))
+    assert lower.walked == 10, lower.fell
+    assert max(r.slip for r in lower.steps) < 0.015
 
 
 def test_an_unknown_end_of_a_linearised_stretch_is_named(plan):

@@ -18,6 +18,11 @@ for 10 steps (bisection to 0.5 N s).
 Table 2: the settle swept on the 0.05 s step (ramp ``SOFT_RAMP``): the steps walked of 20 as
 planned and 10 % heavier, the largest tracking error, and each step's double support in
 MuJoCo (from the touchdown to the rear foot's lift-off; planned 0.05 s).
+
+Table 3: the landing foot's horizontal speed at heel strike bounded (``walking_step(...,
+landing_speed=)``) on the 0.05 s step: the plan's cost and its foot's speed before the
+strike, the disturbances in the rigid model and in MuJoCo (settled), the largest slip of a
+stance foot in MuJoCo as planned, the pushes.
 """
 
 from __future__ import annotations
@@ -32,6 +37,9 @@ from problems.control.simulation import Disturbances, simulate_walking
 GROUND_MU = 1.5
 STEPS = 20
 SETTLES = (0.0, 0.005, 0.01, 0.015, 0.02, 0.03)
+
+
+LANDING_SPEEDS = (None, 1.0, 0.5)
 
 
 def _feedback(double_support: float):
@@ -113,6 +121,47 @@ def settle_table() -> None:
     print()
 
 
+def landing_table() -> None:
+    from problems.control.mujoco import mujoco_check
+
+    print("Table 3: the landing foot's horizontal speed at heel strike bounded, 0.05 s double "
+          "support; each case: rigid model / MuJoCo settled, of 20 steps\n")  # fmt: skip
+    columns = []
+    for bound in LANDING_SPEEDS:
+        step = walking_step(double_support=0.05, landing_speed=bound)
+        gait = step.solve(progress=False)
+        feedback = design_feedback(gait, ground_mu=GROUND_MU)
+        n = len(feedback.names)
+        before = feedback.reference.states[-1]  # the state before the held strike
+        speed = complex(feedback.plant.foot.velocity(before[:n], before[n:]))
+        start = feedback.reference.states[0]
+        rigid = {label: simulate_walking(start, feedback.controller, steps=STEPS,
+                                         disturbances=disturbances, **feedback.simulation_options)
+                 for label, disturbances in disturbance_cases(feedback).items()}  # fmt: skip
+        engine = mujoco_check(feedback, steps=STEPS)
+        columns.append((gait.cost, speed, rigid, engine))
+    heads = ["free" if b is None else f"{b:g} m/s" for b in LANDING_SPEEDS]
+    print("| landing speed bound | " + " | ".join(heads) + " |")
+    print("|---" * (len(heads) + 1) + "|")
+    print("| the plan's cost | " + " | ".join(f"{c[0]:.1f}" for c in columns) + " |")
+    print("| foot before the strike (x, y), m/s | "
+          + " | ".join(f"{c[1].real:+.2f}, {c[1].imag:+.2f}" for c in columns) + " |")  # fmt: skip
+    for label in columns[0][2]:
+        name = "closed loop" if label == "plan" else label
+        cells = [f"{_walked(c[2][label])} / {_walked(c[3].runs[name])}" for c in columns]
+        print(f"| {label} | " + " | ".join(cells) + " |")
+    slips = [max((r.slip for r in c[3].runs["closed loop"].steps), default=float("nan"))
+             for c in columns]  # fmt: skip
+    print("| largest slip in MuJoCo as planned, mm | "
+          + " | ".join(f"{1000 * v:.1f}" for v in slips) + " |")  # fmt: skip
+    print(
+        "| pushes in MuJoCo, forward / back, N s | "
+        + " | ".join(f"{c[3].pushes[0]:.1f} / {c[3].pushes[1]:.1f}" for c in columns)
+        + " |"
+    )
+    print()
+
+
 def main() -> int:
     try:
         import mujoco  # noqa: F401 - whether the extra is there
@@ -121,6 +170,7 @@ def main() -> int:
         return 1
     battery_table()
     settle_table()
+    landing_table()
     return 0
 
 

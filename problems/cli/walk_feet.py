@@ -50,6 +50,7 @@ NOT_WITH_FEET = (
     ("ground_margin_m", "--ground-margin-m", WALKING_DEFAULTS["ground_margin"]),
     ("double_support_s", "--double-support-s", WALKING_DEFAULTS["double_support"]),
     ("ground_friction", "--ground-friction", 1.0),
+    ("landing_speed_mps", "--landing-speed-mps", None),
 )
 
 #: What the cost is, per --objective.

@@ -738,6 +738,16 @@ def _swing_foot(kin: _Kinematics, settings, mu: float) -> Contact:
     return Contact(LinkPoint(kin.linkage.names[_foot(kin, settings)[0]]), friction=mu)
 
 
+def _landing_speed(add, settings, velocity: complex, where: str) -> None:
+    """The landing foot's horizontal speed at heel strike within the plan's
+    ``landing_speed`` (m/s), when it has one; ``velocity``: the foot's before the impact."""
+    bound = settings.get("landing_speed")
+    if bound is not None:
+        bound = float(bound)
+        add("landing speed", np.array([bound - abs(velocity.real)]), "m/s",
+            where=f"{where} (at most {bound:g} m/s along the ground)")  # fmt: skip
+
+
 def _foot(kin: _Kinematics, settings) -> tuple[int, complex]:
     name = settings.get("swing_foot")
     if name is None:
@@ -836,6 +846,7 @@ def _verify_walking(add, kin: _Kinematics, settings, trajectory, weight) -> None
         "m/s",
         where=f"t = T (foot coming down at {speed:g} m/s or faster)",
     )
+    _landing_speed(add, settings, approach[0], "t = T")
     add(
         "landing",
         -np.abs(np.array([landing[0].real - step_length, landing[0].imag])),
@@ -976,6 +987,7 @@ def _verify_double_support(add, kin: _Kinematics, settings, trajectory, weight, 
     add("periodic rates", -np.abs(dpsi[0] - swapped_rates), "rad/s", where="t = 0 vs swap(T)")
     landing, approach, _ = kin.point(foot_link, foot_offset, pre[None, :n], pre[None, n:])
     add("heel strike", np.array([-approach[0].imag]), "m/s", where=f"t = {strike_time:.4g} s")
+    _landing_speed(add, settings, approach[0], f"t = {strike_time:.4g} s")
     target = complex(step_length, 0.0)
     add("landing", -np.array([abs(landing[0] - target)]), "m", where=f"t = {strike_time:.4g} s")
     add("impact pose", -np.abs(psi[j] - pre[:n]), "rad", where=f"t = {strike_time:.4g} s")

@@ -170,6 +170,7 @@ class WalkingStep(WalkerFeet):
     approach_time: float = 0.03
     hip_limit: float | None = None
     speed_limit: float | None = None
+    landing_speed: float | None = None
 
     @property
     def linkage(self) -> Linkage:
@@ -364,6 +365,7 @@ class WalkingStep(WalkerFeet):
             "swing_foot": self.biped.swing_shank,
             "double_support": self.double_support,
             "touchdown_speed": self.touchdown_speed,
+            "landing_speed": self.landing_speed,
             "approach_time": self.approach_time,
             "leg_length": self.biped.leg_length,
             "foot": None if self.foot_sole is None else list(self.foot_sole),
@@ -407,6 +409,7 @@ def walking_step(
     hip_limit: float | None = None,
     speed_limit: float | None = None,
     rotors: Sequence[Rotor] = (),
+    landing_speed: float | None = None,
 ) -> WalkingStep:
     """A periodic walking step of a biped (see the module docstring).
 
@@ -454,6 +457,12 @@ def walking_step(
     rotors : geared motors' rotors in the equations of motion (``model.Rotor``: their
         reflected inertia; :func:`problems.drives.drives_in_the_loop` mounts a walker's
         drives), () for ideal torque sources.
+    landing_speed : the landing foot's largest horizontal speed at heel strike, m/s (> 0), or
+        None: free. The impact stops the foot whatever its speed, so the optimum may swing it
+        in fast: with a 0.05 s double support the default step's foot lands at 7.2 m/s
+        (1.9 m/s without one); a real floor stops it by friction over milliseconds, and a
+        foot that fast slides (examples/feedback.md: 1 m/s lets MuJoCo's walker take a
+        lower ground too).
     knee_range : (lower, upper) knee flexion psi_thigh - psi_shank, rad, both legs.
     posture : largest deviation of an upright link from the vertical, rad.
     upright : links kept near upright (default: every upper-body link).
@@ -542,6 +551,9 @@ def walking_step(
         speed_limit=None
         if speed_limit is None
         else check_positive("speed_limit", speed_limit, "rad/s"),
+        landing_speed=None
+        if landing_speed is None
+        else check_positive("landing_speed", landing_speed, "m/s"),
     )
     N, transcription, degree = mesh["N"], mesh["transcription"], mesh["degree"]
     step = replace(step, ocp=_walking_ocp(step, N, transcription, degree, formulation))
@@ -673,6 +685,9 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
     def foot_vertical_velocity(p):
         return velocity(p.x[:n], p.x[n:])[1]
 
+    def foot_horizontal_velocity(p):
+        return velocity(p.x[:n], p.x[n:])[0]
+
     def pressure(p):
         _, fy = reaction(p.psi, p.dpsi, p.ddpsi)
         return centre_of_pressure_rows(step, p, fy)
@@ -715,6 +730,10 @@ def _walking_ocp(step: WalkingStep, N, transcription, degree, formulation) -> OC
         )
         .boundary("impulse", impulse, at="end", lower=0.0, scale=biped.total_mass * speed)
     )
+    if step.landing_speed is not None:
+        v = step.landing_speed
+        ocp = ocp.boundary("landing speed", foot_horizontal_velocity, at="end", lower=-v,
+                           upper=v, scale=speed)  # fmt: skip
     if step.double_support == 0.0:
         ocp = ocp.periodic(step.step_map)
     ocp = keep_off_the_ground(ocp, step)
