@@ -47,6 +47,14 @@ def _feedback(double_support: float):
     return design_feedback(gait, ground_mu=GROUND_MU)
 
 
+def _rigid_runs(feedback) -> dict:
+    """The closed-loop check's disturbances, each walked 20 steps in the product's simulation."""
+    start = feedback.reference.states[0]
+    return {label: simulate_walking(start, feedback.controller, steps=STEPS,
+                                    disturbances=disturbances, **feedback.simulation_options)
+            for label, disturbances in disturbance_cases(feedback).items()}  # fmt: skip
+
+
 def _walked(run) -> str:
     return f"{run.walked}/{STEPS}" + ("" if run.fell is None else " fell")
 
@@ -62,8 +70,7 @@ def battery_table() -> None:
     pushes = []
     for double_support in (0.05, 0.1):
         feedback = _feedback(double_support)
-        start = feedback.reference.states[0]
-        options = feedback.simulation_options
+        rigid = _rigid_runs(feedback)
         settled = mujoco_check(feedback, steps=STEPS)
         at_once = None
         if double_support == 0.05:
@@ -77,12 +84,10 @@ def battery_table() -> None:
                 )
                 for label, disturbances in disturbance_cases(feedback).items()
             }
-        for label, disturbances in disturbance_cases(feedback).items():
-            rigid = simulate_walking(start, feedback.controller, steps=STEPS,
-                                     disturbances=disturbances, **options)  # fmt: skip
+        for label in disturbance_cases(feedback):
             name = "closed loop" if label == "plan" else label
             once = "" if at_once is None else _walked(at_once[label])
-            print(f"| {double_support:g} s | {label} | {_walked(rigid)} | "
+            print(f"| {double_support:g} s | {label} | {_walked(rigid[label])} | "
                   f"{_walked(settled.runs[name])} | {once} |")  # fmt: skip
         pushes.append((double_support, settled.pushes))
     print()
@@ -134,12 +139,7 @@ def landing_table() -> None:
         n = len(feedback.names)
         before = feedback.reference.states[-1]  # the state before the held strike
         speed = complex(feedback.plant.foot.velocity(before[:n], before[n:]))
-        start = feedback.reference.states[0]
-        rigid = {label: simulate_walking(start, feedback.controller, steps=STEPS,
-                                         disturbances=disturbances, **feedback.simulation_options)
-                 for label, disturbances in disturbance_cases(feedback).items()}  # fmt: skip
-        engine = mujoco_check(feedback, steps=STEPS)
-        columns.append((gait.cost, speed, rigid, engine))
+        columns.append((gait.cost, speed, _rigid_runs(feedback), mujoco_check(feedback, STEPS)))
     heads = ["free" if b is None else f"{b:g} m/s" for b in LANDING_SPEEDS]
     print("| landing speed bound | " + " | ".join(heads) + " |")
     print("|---" * (len(heads) + 1) + "|")

@@ -148,9 +148,7 @@ class Feedback:
                 "branches": BRANCHES,
                 "early_strike": EARLY_HELD,
                 "late_strike": LATE,
-                "soft_touchdown": SOFT_TOUCHDOWN.format(
-                    settle=1000 * SOFT_SETTLE, ramp=1000 * SOFT_RAMP
-                ),
+                "soft_touchdown": SOFT_TOUCHDOWN,
                 "touchdown_settle_s": SOFT_SETTLE,
                 "touchdown_ramp_s": SOFT_RAMP,
             }

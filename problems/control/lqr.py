@@ -394,9 +394,9 @@ SOFT_RAMP = 0.01
 #: the rule as a file states it (the law's metadata, the joint-space controller's)
 SOFT_TOUCHDOWN = (
     "on a compliant ground (a floor; the plan's impact is instantaneous) the double "
-    "support's feedback waits {settle:g} ms after the touchdown (its feedforward alone: the "
-    "front foot bounces while the rates are still the swing's) and then comes in linearly "
-    "over {ramp:g} ms"
+    f"support's feedback waits {1000 * SOFT_SETTLE:g} ms after the touchdown (its feedforward "
+    "alone: the front foot bounces while the rates are still the swing's) and then comes in "
+    f"linearly over {1000 * SOFT_RAMP:g} ms"
 )
 
 

@@ -409,6 +409,37 @@ class WalkerIo:
         return float(np.min(heights[1:] + hip[1]))
 
 
+@dataclass
+class _StepTally:
+    """What one step in MuJoCo measured so far: the stance ankle at its start, the front
+    foot's ankle and instant at its touchdown (None before), and the running peaks."""
+
+    start: complex
+    landing: complex | None = None
+    touched: float = 0.0
+    peak_normal: float = 0.0
+    tracking: float = 0.0
+    peak_torque: float = 0.0
+    slip: float = 0.0
+
+    def observe(self, io: WalkerIo, stance: str) -> None:
+        """The stance foot's normal force and slip after a control period."""
+        self.peak_normal = max(self.peak_normal, io.normal_force(stance))
+        self.slip = max(self.slip, abs(io.ankle_position(stance).real - self.start.real))
+
+    def record(self, index: int, duration: float, double: bool) -> MujocoStep:
+        return MujocoStep(
+            index=index,
+            duration=duration,
+            length=self.landing.real - self.start.real,
+            slip=self.slip,
+            peak_normal=self.peak_normal,
+            tracking=self.tracking,
+            peak_torque=self.peak_torque,
+            double_support=duration - self.touched if double else None,
+        )
+
+
 def _walk(mujoco, model, data, mjcf, feedback, controller, steps, disturbances, open_loop,
           foot_kp, foot_kd, preload, unstable) -> MujocoRun:  # fmt: skip
     """The control loop of :func:`run_in_mujoco`."""
@@ -426,24 +457,19 @@ def _walk(mujoco, model, data, mjcf, feedback, controller, steps, disturbances, 
     substeps = max(1, round(period / model.opt.timestep))
     biped = step.biped
     torso = model.body(biped.upper_body[0] if biped.upper_body else biped.stance_thigh).id
-    records = []
-    times, states = [], []
+    records, times, states = [], [], []
     stance = "A"
     t_step, clock = 0.0, 0.0
     fell = None
-    stance_start = io.ankle_position(stance)
-    landing = None  # the front foot's ankle from its touchdown on (a double support)
-    touched = 0.0  # the touchdown's instant in the step, s
-    peak_normal, tracking, peak_torque, slip = 0.0, 0.0, 0.0, 0.0
+    tally = _StepTally(io.ankle_position(stance))
     pushed = disturbances.push == 0.0
     lowest = min(0.0, disturbances.ground_rise) - 0.02
-    x = io.state(stance)
-    controller.start_step(0, x)
+    controller.start_step(0, io.state(stance))
     while len(records) < steps:
         x = io.state(stance)
         torques = plan.at_time(t_step)[1] if open_loop else controller.torques(t_step, x)
-        tracking = max(tracking, tracker.tracking(x))
-        peak_torque = max(peak_torque, io.drive(torques, stance, foot_kp, foot_kd))
+        tally.tracking = max(tally.tracking, tracker.tracking(x))
+        tally.peak_torque = max(tally.peak_torque, io.drive(torques, stance, foot_kp, foot_kd))
         pushed, push = due_push(disturbances, pushed, len(records), t_step, step.step_time,
                                 torso, period)  # fmt: skip
         report = advance(mujoco, model, data, substeps, unstable, push)
@@ -454,59 +480,49 @@ def _walk(mujoco, model, data, mjcf, feedback, controller, steps, disturbances, 
         clock += period
         times.append(clock)
         states.append(data.qpos.copy())
-        peak_normal = max(peak_normal, io.normal_force(stance))
-        position = io.ankle_position(stance)
-        slip = max(slip, abs(position.real - stance_start.real))
-        # 2 cm under the lowest ground there is: a knee, hip or head that low has fallen
-        if not io.lowest_hinge(feedback.plant.dynamics) >= lowest:
-            fell = f"step {len(records)}, t = {t_step:.3f} s: a body point went under the ground"
-            break
-        if t_step > 2.0 * step.step_time:
-            fell = (
-                f"step {len(records)}: no touchdown within twice the step time"
-                if landing is None
-                else f"step {len(records)}: the rear foot did not lift within twice the step time"
-            )
+        tally.observe(io, stance)
+        fell = _fall(io, feedback, tally, len(records), t_step, lowest)
+        if fell is not None:
             break
         swing = "B" if stance == "A" else "A"
-        if landing is None:  # x: the state before this period, as the law read it
-            s = reference.phase(x[: io.n])
-            if not (s > 0.5 and io.normal_force(swing) > TOUCHDOWN_FORCE):
+        if tally.landing is None:  # x: the state before this period, as the law read it
+            if not (reference.phase(x[: io.n]) > 0.5 and io.normal_force(swing) > TOUCHDOWN_FORCE):
                 continue
-            landing = io.ankle_position(swing)
-            if landing.real - stance_start.real < 0.25 * step.step_length:
-                fell = (
-                    f"step {len(records)}, t = {t_step:.3f} s: the swing foot came down "
-                    f"{landing.real - stance_start.real:+.3f} m from the stance foot"
-                )
+            tally.landing = io.ankle_position(swing)
+            ahead = tally.landing.real - tally.start.real
+            if ahead < 0.25 * step.step_length:
+                fell = (f"step {len(records)}, t = {t_step:.3f} s: the swing foot came down "
+                        f"{ahead:+.3f} m from the stance foot")  # fmt: skip
                 break
             if lift_off is not None:
                 # both feet on the ground: the double support's law until the rear foot lifts
                 # where the plan's double support ends (its phase reaches 1)
-                touched = t_step
+                tally.touched = t_step
                 controller.touchdown(t_step, x)
                 continue
         elif lift_off(x) < 0.0:
             continue
-        records.append(
-            MujocoStep(
-                index=len(records),
-                duration=t_step,
-                length=landing.real - stance_start.real,
-                slip=slip,
-                peak_normal=peak_normal,
-                tracking=tracking,
-                peak_torque=peak_torque,
-                double_support=None if lift_off is None else t_step - touched,
-            )
-        )
+        records.append(tally.record(len(records), t_step, lift_off is not None))
         stance = swing
-        stance_start = landing
-        landing = None
+        tally = _StepTally(tally.landing)
         t_step = 0.0
-        peak_normal, tracking, peak_torque, slip = 0.0, 0.0, 0.0, 0.0
         controller.start_step(len(records), io.state(stance))
     return MujocoRun(tuple(records), fell, np.asarray(times), np.asarray(states), mjcf)
+
+
+def _fall(io: WalkerIo, feedback, tally: _StepTally, index: int, t_step: float,
+          lowest: float) -> str | None:  # fmt: skip
+    """Why step ``index`` has failed at t_step s into it, or None: a body point under the
+    ground (2 cm under ``lowest``, the lowest ground there is: a knee, hip or head that low
+    has fallen), or no touchdown (or, in a double support, no lift-off) within twice the
+    step time."""
+    if not io.lowest_hinge(feedback.plant.dynamics) >= lowest:
+        return f"step {index}, t = {t_step:.3f} s: a body point went under the ground"
+    if t_step > 2.0 * feedback.step.step_time:
+        if tally.landing is None:
+            return f"step {index}: no touchdown within twice the step time"
+        return f"step {index}: the rear foot did not lift within twice the step time"
+    return None
 
 
 @dataclass(frozen=True)

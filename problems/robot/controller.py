@@ -195,7 +195,7 @@ def specification(*, feet: bool, double: bool, rate_hz: float, sides, steps: int
     }  # fmt: skip
     if double and not feet:  # the point feet's double support: the LQR's stiff gains
         spec["soft_touchdown"] = (
-            SOFT_TOUCHDOWN.format(settle=1000 * SOFT_SETTLE, ramp=1000 * SOFT_RAMP)
+            SOFT_TOUCHDOWN
             + " (touchdown_settle_s, touchdown_ramp_s): tau = clip(tau_ff + w K (z_ref - z)), "
             "w 0 then rising to 1"
         )
