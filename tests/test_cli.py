@@ -1122,6 +1122,14 @@ def test_walk_on_feet_toe_walking_writes_verified_files(tmp_path):
     assert "F_swing_toe_x/_y the front ball's force in the double support" in out
 
 
+def test_walk_refuses_a_landing_speed_that_is_not_positive(capsys):
+    for value in ("0", "-1"):
+        assert_one_line_error(
+            capsys, rf"--landing-speed-mps: must be a finite number > 0 m/s, got '{value}'",
+            "walk", f"--landing-speed-mps={value}",
+        )  # fmt: skip
+
+
 def test_walk_on_feet_refuses_the_point_foot_options_by_name(capsys):
     for option in (["-N", "12"], ["--double-support-s", "0.05"], ["--passive-ankle"],
                    ["--ground-friction", "1.5"], ["--landing-speed-mps", "1"]):  # fmt: skip
