@@ -147,9 +147,9 @@ def test_the_files_law_is_each_steps_drive_law(walk):
             assert trajectory.extras["phase"][0][row] == pytest.approx(laws[j].phase(x[:n]))
 
 
-def test_a_walk_on_feet_refuses_standing_and_a_library():
-    with pytest.raises(DefinitionError, match="quiet standing"):
-        plan_sequence([0.0, 1.0], feet=True)
+def test_a_walk_on_feet_refuses_a_stop_and_a_library():
+    with pytest.raises(DefinitionError, match=r"stopping at 0 m/s \(quiet standing\)"):
+        plan_sequence([0.0, 1.0, 0.0], feet=True)
     with pytest.raises(DefinitionTypeError, match=r"`library`: a problems\.library\.GaitLibrary"):
         plan_sequence([1.0, 0.6], feet=True, library=object())
 

@@ -105,21 +105,66 @@ def test_a_transition_on_feet_is_its_steps_joined_by_the_leg_swap(footed_gait):
     assert [s.label for s in steps] == ["_1", "_2"]
 
 
+def test_a_start_from_standing_on_feet_fixes_the_feet_flat_together_at_rest(footed_gait):
+    """The first phase of a standing start: the swing ball at the stance ball and both soles
+    flat (rows evaluated on a pose built by hand), at rest (dpsi fixed, ddpsi rows), the
+    stance foot's own ``foot flat`` row left out (its rate is fixed); the later steps as a
+    speed change's."""
+    problem, steps = footed_transition_problem("standing", footed_gait, 2)
+    assert problem.names[:3] == ("step 1 flat", "step 1 heel rise", "step 1 double")
+    first = {c.name: c for c in problem.phases[0][1].constraints}
+    assert {"standing feet", "standing flat", "at rest", "initial dpsi"} <= set(first)
+    assert "foot flat" not in first and "initial psi" not in first
+    assert "foot flat" in [c.name for c in problem.phases[3][1].constraints]
+    # the ramp: half the gait's speed, then the gait's own step
+    assert steps[0].speed == pytest.approx(0.5 * footed_gait.speed, rel=1e-12)
+    assert steps[1].step_length == footed_gait.problem.step_length
+    # a hand-built pose: the stance foot flat, the swing foot copied onto it (the swing
+    # leg's angles equal the stance leg's, the tree mirrored at the hip), the trunk up
+    step = steps[0]
+    linkage, biped = step.linkage, step.biped
+    psi = np.zeros(linkage.n)
+    for stance, swing in zip(biped.stance_leg, reversed(biped.swing_leg), strict=True):
+        index = linkage.index(stance)
+        psi[index] = step.flat_angles[0] if index == 0 else np.pi / 2 - 0.1
+        psi[linkage.index(swing)] = psi[index] + np.pi  # the swing leg runs hip -> foot
+    psi[linkage.index(biped.swing_leg[-1])] = step.flat_angles[1]
+    ball = step.point("swing_toe").function("position")
+    base = step.point("stance_toe").function("position")
+    gap = np.ravel(ball(psi)) - np.ravel(base(psi))
+    assert np.max(np.abs(gap)) < 1e-12, "the hand-built pose: the swing ball on the stance ball"
+    # the verification's standing checks on that pose, and on the periodic step's first
+    # state (the swing foot behind, coming off its ball): the latter fails them by name
+    trajectory = footed_gait.exported()
+    report = verify_gait(trajectory, linkage, settings={"start": "standing"})
+    failed = {check.name for check in report.checks if not check.passed}
+    assert {"standing feet", "standing flat", "standing at rest"} <= failed, str(report)
+    (feet,) = [c.margin for c in report.checks if c.name == "standing feet"]
+    x0 = np.r_[trajectory.psi[0]]
+    behind = np.ravel(ball(x0)) - np.ravel(base(x0))
+    assert feet == pytest.approx(-np.max(np.abs(behind)), rel=1e-9)
+
+
 def test_a_transition_on_feet_refuses_what_it_cannot_join(footed_gait):
     from problems import walking_step
 
     point_foot = walking_step().solve()
     with pytest.raises(DefinitionError, match="step on feet"):
         footed_transition_problem(footed_gait, point_foot, 1)
-    with pytest.raises(DefinitionError, match="standing on feet"):
-        footed_transition_problem("standing", footed_gait, 1)
     with pytest.raises(DefinitionError, match="step_options"):
         plan_transition(footed_gait, footed_gait, steps=1, torque_limit=100.0)
     flat_footed = FootedGait(
         replace(footed_gait.problem, sequence=SEQUENCES["flat-footed"]), footed_gait.solution, 0.0
     )
+    toe_walking = FootedGait(
+        replace(footed_gait.problem, sequence=SEQUENCES["toe-walking"]), footed_gait.solution, 0.0
+    )
     with pytest.raises(DefinitionError, match=r"contact phases .* are not the start's"):
         footed_transition_problem(footed_gait, flat_footed, 1)
+    with pytest.raises(DefinitionError, match="stopping at quiet standing on feet"):
+        footed_transition_problem(footed_gait, "standing", 1)
+    with pytest.raises(DefinitionError, match="steps begin with 'heel rise'"):
+        footed_transition_problem("standing", toe_walking, 1)
     with pytest.raises(DefinitionError, match="`steps`"):
         footed_transition_problem(footed_gait, footed_gait, 0)
 
@@ -156,5 +201,45 @@ def test_a_speed_change_on_feet_is_verified_joins_at_every_boundary_and_walks():
     from problems.control.mujoco_feet import run_feet_steps_in_mujoco
 
     steps = [a] * 3 + list(transition.gaits) + [b] * 4
+    run = run_feet_steps_in_mujoco(steps)
+    assert (run.walked, run.fell) == (len(steps), None)
+
+
+@pytest.mark.slow
+def test_a_start_from_standing_on_feet_is_verified_joins_its_gait_and_walks():
+    """Quiet standing into the 1 m/s step on feet in three steps: every step verified at
+    every exported sample; the first sample has both feet flat side by side at rest (from the
+    model's own point kinematics), each boundary is the leg swap of the step before, the last
+    sample is the gait's last; walked in MuJoCo (when installed) from standing through four
+    steps of the gait without a fall."""
+    gait = footed_step_at(1.0).solve()
+    transition = plan_transition("standing", gait, steps=3)
+    assert transition.steps == 3 and all(report.ok for report in transition.reports)
+    checks = {c.name for c in transition.reports[0].checks}
+    assert {"standing feet", "standing flat", "standing at rest"} <= checks
+    samples = [g.exported() for g in transition.gaits]
+    step = transition.gaits[0].problem
+    psi0 = samples[0].psi[0]
+    ball = np.ravel(step.point("swing_toe").function("position")(psi0))
+    base = np.ravel(step.point("stance_toe").function("position")(psi0))
+    np.testing.assert_allclose(ball, base, rtol=0, atol=1e-9)
+    root, foot = (step.linkage.index(name) for name in (step.biped.stance_leg[0],
+                                                         step.biped.swing_leg[-1]))  # fmt: skip
+    np.testing.assert_allclose(psi0[[root, foot]], step.flat_angles, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(samples[0].dpsi[0], 0.0, rtol=0, atol=1e-9)
+    swap = swap_legs(step.linkage)
+    for before, after in itertools.pairwise(samples):
+        psi, dpsi = swap.map_state(before.psi[-1], before.dpsi[-1])
+        np.testing.assert_allclose(after.psi[0], psi, atol=1e-9)
+        np.testing.assert_allclose(after.dpsi[0], dpsi, atol=1e-9)
+    last = gait.exported()
+    np.testing.assert_allclose(samples[-1].psi[-1], last.psi[-1], atol=1e-9)
+    np.testing.assert_allclose(samples[-1].dpsi[-1], last.dpsi[-1], atol=1e-9)
+    speeds = [g.speed for g in transition.gaits]
+    assert all(np.diff([0.0, *speeds]) > 0) and speeds[-1] == pytest.approx(gait.speed)
+    pytest.importorskip("mujoco")
+    from problems.control.mujoco_feet import run_feet_steps_in_mujoco
+
+    steps = list(transition.gaits) + [gait] * 4
     run = run_feet_steps_in_mujoco(steps)
     assert (run.walked, run.fell) == (len(steps), None)

@@ -68,11 +68,18 @@ def _feet_options(args, speeds) -> dict:
     options = footed_options(args)
     if args.joint_speed_limit is None:
         options["speed_limit"] = FEET_SEQUENCE_SPEED_LIMIT
-    if 0.0 in speeds:
+    if speeds[0] == 0.0 and args.feedback:
         raise UsageError(
-            f"--speeds {args.speeds} on feet: 0 m/s (quiet standing) on feet is not planned "
-            "yet (both feet flat at rest is a double support the step on feet lacks); start "
-            "and end at a speed, e.g. 1.0,0.6,1.0,1.4"
+            f"--speeds {args.speeds} on feet with --feedback: the law on feet indexes each step "
+            "by the hip's progress, which a start from rest does not have at t = 0 (a law by "
+            "the time for the start's steps is not built yet); plan the start without "
+            "--feedback, or start the walk at a speed"
+        )
+    if speeds[-1] == 0.0:
+        raise UsageError(
+            f"--speeds {args.speeds} on feet: stopping at 0 m/s (quiet standing) on feet is "
+            "not planned yet (both feet flat at rest at the end is a double support the step "
+            "on feet lacks); end at a speed, e.g. 0,1.0,1.4"
         )
     return {**options, "feet": True}
 

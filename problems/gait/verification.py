@@ -1050,7 +1050,9 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
     support, the front foot's other point above the ground, the front foot flat and at rest
     at the end after a heel strike; ankles in their range; the legs swap at the end
     (periodic angles and rates; ``join angles`` and ``join rates`` against ``next_state``
-    in a sequence of steps)."""
+    in a sequence of steps). A step that starts from quiet standing (``start`` "standing")
+    checks ``standing feet`` (the swing ball at the stance ball at t = 0, m), ``standing
+    flat`` (both soles flat at t = 0, rad) and ``standing at rest`` (dpsi(0), rad/s)."""
     linkage = kin.linkage
     n = linkage.n
     mu = float(settings["mu"])
@@ -1155,6 +1157,17 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
         add("front foot flat", -np.array([abs(_wrap(psi[-1, foot] - flat_swing)),
                                           abs(dpsi[-1, foot])]),
             "rad(/s)", where=f"t = {times[-1]:.4g} s")  # fmt: skip
+    if settings.get("start") == "standing":
+        # Quiet standing at t = 0: both feet flat side by side (the swing ball at the stance
+        # ball), the body at rest.
+        ball, _, _ = kin.point(*named["swing_toe"], psi[:1])
+        base, _, _ = kin.point(*named["stance_toe"], psi[:1])
+        gap = ball[0] - base[0]
+        add("standing feet", -np.abs([gap.real, gap.imag]), "m", where="t = 0")
+        add("standing flat", -np.abs(_wrap(np.array([psi[0, root] - flat_stance,
+                                                     psi[0, foot] - flat_swing]))),
+            "rad", where="t = 0")  # fmt: skip
+        add("standing at rest", -np.abs(dpsi[0]), "rad/s", where="t = 0")
     low, high = (float(v) for v in settings["ankle_range"])
     neutral = [float(v) for v in settings["neutral_ankles"]]
     ankles = np.column_stack([psi[:, stance[1]] - psi[:, root] - neutral[0],

@@ -37,6 +37,12 @@ def sequence_laws(sequence, rate_hz: float = CONTROL_RATE_HZ) -> tuple[FeetLaw, 
             "`sequence`: a walk on feet (plan_sequence(..., feet=True)); its steps are "
             f"{sorted({type(g).__name__ for g in gaits})}"
         )
+    if sequence.speeds[0] == 0:
+        raise DefinitionError(
+            "`sequence`: it starts from quiet standing; the law on feet indexes each step by the "
+            "hip's progress, which a start from rest does not have at t = 0 (a law by the time "
+            "for the start's steps is not built yet)"
+        )
     made: dict[int, FeetLaw] = {}
     return tuple(made.setdefault(id(gait), FeetLaw(gait, rate_hz=rate_hz)) for gait in gaits)
 

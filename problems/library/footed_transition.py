@@ -21,33 +21,88 @@ rear foot, clearance, ranges, drives); only the periodicity goes:
 * the last step ends at gait b's last state, before b's toe-off, so the next step of b starts
   at b's x(0) exactly.
 
-Not on feet yet: starting from or stopping at quiet standing (both feet flat at rest is a
-double support of its own, not a phase this step has).
+From quiet standing (``start`` :data:`STANDING`): at t = 0 both
+feet lie flat side by side (the planar picture: the swing foot's ball at the stance ball, both
+soles flat) and the body is at rest (dpsi = 0, and ddpsi = 0 but for the welded stance foot's,
+which its bound holds at 0 already: the standing torques hold the pose statically and the
+plan's torques start from them). The pose itself is planned: the whole weight on the stance
+foot at t = 0, its centre of pressure on the sole like every other instant (the swing foot
+touches the ground unloaded and lifts, as the point-foot start's does). The first step walks
+from there at the ramp's first speed (its ball lands one step length ahead of the stance
+ball: the swing foot travels one step length, where a periodic step's travels two). Its first phase must be the flat foot
+(the human cycle or the flat-footed one; a toe-walking step starts on the ball and is refused).
+
+Not on feet yet: stopping at quiet standing (both feet flat at rest at the end is a double
+support of its own, not a phase this step has).
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
 
+import casadi as ca
 import numpy as np
 
 from planner.errors import DefinitionError, check_integer
 from planner.problem import Phases
+from problems.gait.problem import rate_scales
+from problems.gait.similarity import WalkerScales
 from problems.library.library import _guessed
 from problems.library.ramp import speed_ramp
 from problems.walking.footed import FootedGait, FootedStep, resized
 
-#: the first phase's rows a fixed start makes dependent (the gait there satisfied them)
+#: the first phase's rows a fixed start makes dependent (the gait there satisfied them; a
+#: standing start states the stance foot's angle in its own row, its rate fixed at rest)
 START_ROWS = ("foot flat",)
+#: quiet standing as a transition's end (:data:`problems.library.transition.STANDING`)
+STANDING = "standing"
 
 
-def _checked_gait(field: str, gait) -> FootedGait:
+def _checked_gait(field: str, gait, standing: bool = False) -> FootedGait | str:
+    """``gait`` when it is a solved periodic step on feet (or, with ``standing``, quiet
+    standing), else a refusal naming ``field``."""
+    if standing and gait == STANDING:
+        return gait
+    if isinstance(gait, str) and gait == STANDING:
+        raise DefinitionError(
+            f"`{field}`: stopping at quiet standing on feet is not planned yet (both feet flat "
+            "at rest at the end is a double support the step on feet does not have); end the "
+            "walk at a speed"
+        )
     if not isinstance(gait, FootedGait) or not isinstance(gait.problem, FootedStep):
         raise DefinitionError(
-            f"`{field}`: a solved periodic step on feet (FootedGait of problems.footed_step), "
-            f"got {type(gait).__name__}; quiet standing on feet is not planned yet"
+            f"`{field}`: a solved periodic step on feet (FootedGait of problems.footed_step)"
+            f"{f' or {STANDING!r}' if standing else ''}, got {type(gait).__name__}"
         )
     return gait
+
+
+def _standing_start(step: FootedStep, ocp):
+    """The first phase of ``step`` (its flat foot) starting from quiet standing (see the
+    module): ``standing feet`` (the swing ball at the stance ball, m), ``standing flat`` (both
+    soles flat, rad), at rest (dpsi = 0; ``at rest``: ddpsi = 0 but the welded root's)."""
+    n = step.linkage.n
+    root, foot = step.biped.stance_leg[0], step.biped.swing_leg[-1]
+    flat_stance, flat_swing = step.flat_angles
+    swing_toe = step.point("swing_toe").function("position")
+    stance_toe = step.point("stance_toe").function("position")
+
+    def feet(p):
+        return ca.vertcat(*swing_toe(p.x[:n])) - ca.vertcat(*stance_toe(p.x[:n]))
+
+    moving = [i for i in range(n) if step.linkage.names[i] != root]
+    time_unit = WalkerScales(step.leg_length, step.linkage.gravity).relative["time"]
+    scale = rate_scales(time_unit)["ddpsi"]  # the accelerations' nominal size, as the step's
+    return (
+        ocp.boundary("standing feet", feet, at="start", lower=[0.0, 0.0], upper=[0.0, 0.0],
+                     scale=step.leg_length)
+        .boundary("standing flat", lambda p: ca.vertcat(p[f"psi_{root}"] - flat_stance,
+                                                        p[f"psi_{foot}"] - flat_swing),
+                  at="start", lower=[0.0, 0.0], upper=[0.0, 0.0])
+        .initial(dpsi=[0.0] * n)
+        .boundary("at rest", lambda p: p.ddpsi[moving], at="start", lower=0.0, upper=0.0,
+                  scale=scale)
+    )  # fmt: skip
 
 
 def _step_guess(step: FootedStep, nearest: FootedGait) -> Phases:
@@ -62,31 +117,44 @@ def footed_transition_problem(start, end, steps: int) -> tuple[Phases, tuple[Foo
     """(Phases, the k FootedSteps) of a speed change on feet from the gait ``start`` to the
     gait ``end`` in ``steps`` steps (see the module); each step's phases are named
     ``"step <j> <phase>"``."""
-    start, end = _checked_gait("start", start), _checked_gait("end", end)
-    if start.problem.sequence != end.problem.sequence:
+    start = _checked_gait("start", start, standing=True)
+    end = _checked_gait("end", end)
+    standing = start == STANDING
+    if standing and end.problem.sequence[0] != "flat":
+        raise DefinitionError(
+            f"`end`: a start from quiet standing begins with the stance foot flat; this gait's "
+            f"steps begin with {end.problem.sequence[0]!r} ({end.problem.sequence_name}): plan "
+            "the walk in the human or the flat-footed sequence"
+        )
+    if not standing and start.problem.sequence != end.problem.sequence:
         raise DefinitionError(
             f"`end`: its contact phases {end.problem.sequence} are not the start's "
             f"{start.problem.sequence}; a transition joins steps of one sequence"
         )
-    if start.problem.linkage.names != end.problem.linkage.names:
+    if not standing and start.problem.linkage.names != end.problem.linkage.names:
         raise DefinitionError("`end`: another walker than the start's; join gaits of one walker")
     k = check_integer("steps", steps, 1)
-    n = start.problem.linkage.n
-    first_state = start.segments()[0][0].states[0]
+    template = end.problem if standing else start.problem
+    n = template.linkage.n
+    first_state = None if standing else start.segments()[0][0].states[0]
     last_state = end.segments()[-1][0].states[-1]
     entries, mappings, controls, problems = [], [], [], []
     ramp = speed_ramp(start, end, k)
+    gaits = (end,) if standing else (start, end)
     for j, (speed, length, duration) in enumerate(ramp):
-        step = resized(start.problem, length, duration, label=f"_{j + 1}")
-        nearest = min((start, end), key=lambda g: abs(g.speed - speed))
+        step = resized(template, length, duration, label=f"_{j + 1}")
+        nearest = min(gaits, key=lambda g: abs(g.speed - speed))
         phases = _step_guess(step, nearest)
         last = len(phases.phases) - 1
         for p, (name, ocp) in enumerate(phases.phases):
             if j == 0 and p == 0:
                 rows = tuple(c for c in ocp.constraints if c.name not in START_ROWS)
-                ocp = replace(ocp, constraints=rows).initial(
-                    psi=first_state[:n].tolist(), dpsi=first_state[n:].tolist()
-                )
+                ocp = replace(ocp, constraints=rows)
+                if standing:
+                    ocp = _standing_start(step, ocp)
+                else:
+                    ocp = ocp.initial(psi=first_state[:n].tolist(),
+                                      dpsi=first_state[n:].tolist())  # fmt: skip
             if j == k - 1 and p == last:
                 ocp = ocp.final(psi=last_state[:n].tolist(), dpsi=last_state[n:].tolist())
             entries.append((f"step {j + 1} {name}", ocp))
@@ -110,4 +178,4 @@ def step_parts(solution, problems: tuple[FootedStep, ...]) -> list:
     return parts
 
 
-__all__ = ["footed_transition_problem", "step_parts"]
+__all__ = ["STANDING", "footed_transition_problem", "step_parts"]

@@ -29,8 +29,10 @@ without an impact (its heel strike lies inside it, its state before in its setti
 ``F_swing_heel_x``/``_y``, the centre of pressure; the law's when it has one), the sidecar
 each step's last sample with those channels (``before_impact["extras"]``) and its phases, and
 :func:`verify_sequence` checks each step with the step on feet's verification, its toe-off
-against the next step's first row (``join angles``, ``join rates``). A walk on feet starts and
-ends at a speed: quiet standing on feet is not planned yet.
+against the next step's first row (``join angles``, ``join rates``). A walk on feet may start
+from quiet standing (both feet flat side by side at rest,
+:mod:`problems.library.footed_transition`) and ends at a speed: stopping at quiet standing on
+feet is not planned yet.
 """
 
 from __future__ import annotations
@@ -306,12 +308,11 @@ def _gaits(speeds, linkage, library, say, step_options, feet) -> dict[float, Any
 def _checked_feet(speeds, linkage, library, step_options) -> dict[str, Any]:
     """The options of a walk on feet (``footed_step_at``'s, the walker's too; a library's
     own), what it cannot do refused by name."""
-    standing = [k for k, v in enumerate(speeds) if v == 0]
-    if standing:
+    if speeds[-1] == 0:
         raise DefinitionError(
-            f"`speeds[{standing[0]}]`: 0 m/s (quiet standing) on feet is not planned yet (both "
-            "feet flat at rest is a double support the step on feet does not have); start and "
-            "end the walk at a speed"
+            f"`speeds[{len(speeds) - 1}]`: stopping at 0 m/s (quiet standing) on feet is not "
+            "planned yet (both feet flat at rest at the end is a double support the step on "
+            "feet does not have); end the walk at a speed (it may start at 0)"
         )
     if library is None:
         return step_options if linkage is None else {**step_options, "linkage": linkage}
@@ -349,8 +350,9 @@ def plan_sequence(
     (:meth:`GaitLibrary.solve_at`: a grid speed's own gait, or the step between two of them
     solved exactly); the speeds must lie within its grid. ``feet``: every step on feet
     (:func:`problems.walking.footed.footed_step_at`, ``step_options`` its options, e.g.
-    ``speed_limit``; the transitions :mod:`problems.library.footed_transition`), speeds > 0
-    only. ``transition_iterations``: IPOPT's iterations for each count a transition tries;
+    ``speed_limit``; the transitions :mod:`problems.library.footed_transition`), from 0 (quiet
+    standing) first or a speed, ending at a speed. ``transition_iterations``: IPOPT's
+    iterations for each count a transition tries;
     ``retry_iterations``: a second pass's, for the counts that stopped on the first cap when
     none solved (:func:`plan_transition`; None: no second pass; on feet slowing from 1.4 m/s
     needs it: 1.4 -> 1.2 m/s failed 1-3 steps at 300 and solved in 1 at 1000). Every step is

@@ -29,9 +29,10 @@ the time of the ramp's first speed). ``steps=None`` finds k: 1, 2, ... ``max_ste
 first whose problem solves within the limits and whose every step passes its verification
 (a faster change needs larger torques; the limits decide how many steps it takes).
 
-On feet (both ends periodic steps on feet, :class:`problems.walking.footed.FootedGait`), the
-steps are the gaits' own contact phases with the same ends and the same search:
-:mod:`problems.library.footed_transition`.
+On feet (both ends periodic steps on feet, :class:`problems.walking.footed.FootedGait`, or
+quiet standing into one), the steps are the gaits' own contact phases with the same ends and
+the same search: :mod:`problems.library.footed_transition` (:data:`STANDING`, an end that is
+quiet standing, not a gait, is defined there).
 """
 
 from __future__ import annotations
@@ -56,14 +57,12 @@ from planner.solver import SolverError
 from planner.transcription import Transcription
 from problems.gait.problem import RATE_HZ, rate_scales, solve_and_hold, total_iterations
 from problems.gait.verification import GaitReport, verify_gait
-from problems.library.footed_transition import footed_transition_problem, step_parts
+from problems.library.footed_transition import STANDING, footed_transition_problem, step_parts
 from problems.library.ramp import end_speed, speed_ramp
 from problems.walking.footed import PINNED as FOOTED_PINNED
 from problems.walking.footed import FootedGait, FootedStep
 from problems.walking.step import PINNED, WalkingGait, WalkingStep, walking_step
 
-#: an end of a transition that is quiet standing, not a gait
-STANDING = "standing"
 #: the largest number of steps a transition's search tries by default
 MAX_STEPS = 6
 #: IPOPT iterations a try of the search may take: a transition that solves takes 20-70 (the
