@@ -207,14 +207,16 @@ def test_a_speed_change_on_feet_is_verified_joins_at_every_boundary_and_walks():
 
 @pytest.mark.slow
 def test_a_start_from_standing_on_feet_is_verified_joins_its_gait_and_walks():
-    """Quiet standing into the 1 m/s step on feet in three steps: every step verified at
-    every exported sample; the first sample has both feet flat side by side at rest (from the
-    model's own point kinematics), each boundary is the leg swap of the step before, the last
-    sample is the gait's last; walked in MuJoCo (when installed) from standing through four
-    steps of the gait without a fall."""
-    gait = footed_step_at(1.0).solve()
-    transition = plan_transition("standing", gait, steps=3)
-    assert transition.steps == 3 and all(report.ok for report in transition.reports)
+    """Quiet standing into the 1 m/s step on feet (joints bounded at 10 rad/s, the walk
+    command's) in four steps: every step verified at every exported sample; the first sample
+    has both feet flat side by side at rest (from the model's own point kinematics), each
+    boundary is the leg swap of the step before, the last sample is the gait's last; the
+    swing foot lifts from rest without a jerk (the drives' torques in the first 50 ms within
+    30 N m of their first sample's, 14.5 in the walk command's run: with the periodic step's
+    floor the swing knee jumped by 80 N m in 3 ms)."""
+    gait = footed_step_at(1.0, speed_limit=10.0).solve()
+    transition = plan_transition("standing", gait, steps=4)
+    assert transition.steps == 4 and all(report.ok for report in transition.reports)
     checks = {c.name for c in transition.reports[0].checks}
     assert {"standing feet", "standing flat", "standing at rest"} <= checks
     samples = [g.exported() for g in transition.gaits]
@@ -237,9 +239,8 @@ def test_a_start_from_standing_on_feet_is_verified_joins_its_gait_and_walks():
     np.testing.assert_allclose(samples[-1].dpsi[-1], last.dpsi[-1], atol=1e-9)
     speeds = [g.speed for g in transition.gaits]
     assert all(np.diff([0.0, *speeds]) > 0) and speeds[-1] == pytest.approx(gait.speed)
-    pytest.importorskip("mujoco")
-    from problems.control.mujoco_feet import run_feet_steps_in_mujoco
-
-    steps = list(transition.gaits) + [gait] * 4
-    run = run_feet_steps_in_mujoco(steps)
-    assert (run.walked, run.fell) == (len(steps), None)
+    early = samples[0].time <= 0.05
+    drives = samples[0].torques[early][:, 1:]  # the root's is the ground's
+    assert np.max(np.abs(drives - drives[0])) < 30.0
+    assert transition.gaits[0].problem.lift_time > 0
+    assert all(g.problem.lift_time == 0 for g in transition.gaits[1:])

@@ -662,3 +662,32 @@ def test_steps_of_other_lengths_and_times_share_one_nlp_structure():
     # inside an expression
     other = Transcription(walking_step(clearance=0.08).ocp).structure_key
     assert other not in keys
+
+
+def test_a_lifted_clearance_floor_starts_flat_and_joins_the_plain_one():
+    """clearance_profile(..., lift): its second derivative at t = 0 is 0 (central differences
+    of the numpy and CasADi forms), where the plain floor's is 2 h pi^2 / T^2 (closed form);
+    past a few lift times it is the plain floor; the verification's floor is the same."""
+    import casadi as ca
+
+    from problems.gait.verification import _clearance_profile
+    from problems.walking.step import clearance_profile
+
+    T, h, lift = 0.4, 0.05, 0.05
+    plain = functools.partial(clearance_profile, T=T, height=h, touchdown_speed=0.0, window=0.03)
+    lifted = functools.partial(plain, lift=lift)
+    dt = 1e-4
+
+    def curvature(floor):  # f'' at 0 by a one-sided second difference (f(0) = 0 = f'(0))
+        return float(2.0 * (floor(np.array(dt / T)) - floor(np.array(0.0))) / dt**2)
+
+    assert curvature(plain) == pytest.approx(2.0 * h * math.pi**2 / T**2, rel=1e-3)
+    assert abs(curvature(lifted)) < 1e-3 * 2.0 * h * math.pi**2 / T**2
+    s = np.linspace(0.0, 1.0, 41)
+    symbol = ca.SX.sym("s")
+    as_sx = ca.Function("floor", [symbol], [lifted(symbol)])
+    np.testing.assert_allclose(np.ravel(as_sx(s)), lifted(s), rtol=0, atol=1e-15)
+    late = s * T > 4.0 * lift
+    np.testing.assert_allclose(lifted(s)[late], plain(s)[late], rtol=0, atol=h * np.exp(-16))
+    settings = {"clearance": h, "step_time": T, "lift_time": lift}
+    np.testing.assert_allclose(_clearance_profile(settings, s), lifted(s), rtol=0, atol=1e-15)

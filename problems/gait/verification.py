@@ -779,7 +779,9 @@ def _clearance_profile(settings, s: np.ndarray, single: float | None = None):
     values at the exported samples themselves, linear in between), else the default
     h sin^2(pi s) + v_td (T - t) exp(-((T - t) / w)^4) with h = ``settings["clearance"]``
     (0 when None: height >= 0), v_td = ``touchdown_speed``, w = ``approach_time`` and T the
-    single support's duration (the approach term only when all three are given)."""
+    single support's duration (the approach term only when all three are given); with
+    ``lift_time`` > 0 the sine term times 1 - exp(-(s T / lift_time)^2) (a floor that starts
+    flat: a start from standing on feet)."""
     table = settings.get("clearance_profile")
     if table is None:
         clearance = settings.get("clearance")
@@ -787,6 +789,14 @@ def _clearance_profile(settings, s: np.ndarray, single: float | None = None):
         speed, window = settings.get("touchdown_speed"), settings.get("approach_time")
         if single is None and settings.get("step_time"):
             single = float(settings["step_time"]) - float(settings.get("double_support") or 0)
+        lift = float(settings.get("lift_time") or 0.0)
+        if lift > 0:
+            if not single:
+                raise DefinitionError(
+                    "`settings`: a clearance floor with 'lift_time' needs the single support's "
+                    "duration ('step_time')"
+                )
+            height = height * (1.0 - np.exp(-((s * single / lift) ** 2)))
         if speed and window and single:
             left = (1.0 - s) * single
             height = height + float(speed) * left * np.exp(-((left / float(window)) ** 4))

@@ -29,8 +29,10 @@ plan's torques start from them). The pose itself is planned: the whole weight on
 foot at t = 0, its centre of pressure on the sole like every other instant (the swing foot
 touches the ground unloaded and lifts, as the point-foot start's does). The first step walks
 from there at the ramp's first speed (its ball lands one step length ahead of the stance
-ball: the swing foot travels one step length, where a periodic step's travels two). Its first phase must be the flat foot
-(the human cycle or the flat-footed one; a toe-walking step starts on the ball and is refused).
+ball: the swing foot travels one step length, where a periodic step's travels two), under a
+clearance floor that starts flat (:data:`LIFT_TIME`). Its first phase must be the flat foot
+(the human cycle or the flat-footed one; a toe-walking step starts on the ball and is
+refused).
 
 Not on feet yet: stopping at quiet standing (both feet flat at rest at the end is a double
 support of its own, not a phase this step has).
@@ -56,6 +58,12 @@ from problems.walking.footed import FootedGait, FootedStep, resized
 START_ROWS = ("foot flat",)
 #: quiet standing as a transition's end (:data:`problems.library.transition.STANDING`)
 STANDING = "standing"
+#: s: the first step of a start from standing lifts its swing foot from rest under a floor
+#: that starts flat over this time (:attr:`problems.walking.footed.FootedStep.lift_time`):
+#: under the periodic step's floor, which curves up at once, the foot jerked off the ground
+#: in the first 10 ms (the swing knee -80.6 N m at 3 ms, the ground's torque on the stance
+#: foot -159 N m; measured at 0 -> 1 m/s)
+LIFT_TIME = 0.05
 
 
 def _checked_gait(field: str, gait, standing: bool = False) -> FootedGait | str:
@@ -142,7 +150,8 @@ def footed_transition_problem(start, end, steps: int) -> tuple[Phases, tuple[Foo
     ramp = speed_ramp(start, end, k)
     gaits = (end,) if standing else (start, end)
     for j, (speed, length, duration) in enumerate(ramp):
-        step = resized(template, length, duration, label=f"_{j + 1}")
+        lifted = replace(template, lift_time=LIFT_TIME) if standing and j == 0 else template
+        step = resized(lifted, length, duration, label=f"_{j + 1}")
         nearest = min(gaits, key=lambda g: abs(g.speed - speed))
         phases = _step_guess(step, nearest)
         last = len(phases.phases) - 1

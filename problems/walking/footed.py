@@ -182,6 +182,10 @@ class FootedStep:
     #: appended to the duration parameters' names (``T_flat`` + label): the steps of a
     #: transition, solved together, each have their own (static parameters are shared by name)
     label: str = ""
+    #: s: the swing foot's clearance floor starts flat over this time (``clearance_profile``'s
+    #: ``lift``): the first step of a start from standing, whose swing foot lifts from rest; 0
+    #: for a step whose swing foot leaves the ground moving (toe-off)
+    lift_time: float = 0.0
 
     @property
     def limits(self) -> dict[str, float]:
@@ -362,6 +366,7 @@ class FootedStep:
             "clearance": self.clearance,
             "touchdown_speed": self.touchdown_speed,
             "approach_time": self.approach_time,
+            "lift_time": self.lift_time,
             "leg_length": self.leg_length,
             "torque_limit": self.limits,
             "hip_limit": self.hip_limit,
@@ -768,7 +773,8 @@ def _swing_clearance(step: FootedStep, phase: int, p):
     """Swing heel and ball above the clearance profile of the single support."""
     single = _summed(p, _parameters(step))
     s = (p.t + _offset(step, phase, p)) / single
-    floor = clearance_profile(s, single, step.clearance, step.touchdown_speed, step.approach_time)
+    floor = clearance_profile(s, single, step.clearance, step.touchdown_speed, step.approach_time,
+                              step.lift_time)  # fmt: skip
     heights = step.heights("swing_heel", "swing_toe")(p.psi)
     return heights - ca.vertcat(floor, floor)
 

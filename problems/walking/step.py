@@ -122,16 +122,24 @@ FOOT = (0.05 / 0.86, 0.15 / 0.86)
 DEFAULT = "default"
 
 
-def clearance_profile(s, T, height: float, touchdown_speed: float, window: float):
+def clearance_profile(s, T, height: float, touchdown_speed: float, window: float,
+                      lift: float = 0.0):  # fmt: skip
     """The swing foot's least height at normalised times s = t / T of a single support of
     T s (numpy or SX), m: h sin^2(pi s) + v_td (T - t) exp(-((T - t) / w)^4), w = ``window``,
-    s (the step's ``approach_time``; see the module docstring)."""
-    if isinstance(s, ca.SX | ca.MX) or isinstance(T, ca.SX | ca.MX):
+    s (the step's ``approach_time``; see the module docstring). ``lift`` > 0 (s): the swing
+    term times 1 - exp(-(t / lift)^2), a floor that starts flat for a foot that lifts from
+    rest (a start from standing: h sin^2 alone curves up at once, and a foot at rest with no
+    acceleration meets that curvature only by a jerk in the first interval)."""
+    symbolic = isinstance(s, ca.SX | ca.MX) or isinstance(T, ca.SX | ca.MX)
+    if symbolic:
         swing, fade = ca.sin(math.pi * s) ** 2, ca.exp(-(((1 - s) * T / window) ** 4))
     else:
         s = np.asarray(s, dtype=float)
         swing = np.sin(np.pi * s) ** 2
         fade = np.exp(-(((1 - s) * T / window) ** 4))
+    if lift > 0:
+        onset = ca.exp(-((s * T / lift) ** 2)) if symbolic else np.exp(-((s * T / lift) ** 2))
+        swing = swing * (1 - onset)
     return height * swing + touchdown_speed * (1 - s) * T * fade
 
 
