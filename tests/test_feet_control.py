@@ -78,3 +78,49 @@ def test_channels_refuse_a_trajectory_of_another_linkage(law):
     other = walking_step().solve().to_trajectory()
     with pytest.raises(DefinitionError, match="`trajectory`: 6 angles, the step on feet has 8"):
         law.channels(other)
+
+
+def test_a_law_by_the_time_follows_its_plan_by_the_time_while_the_hip_stalls(footed_gait, law):
+    """A plan whose hip stands still for its first 20 samples (the step's rows frozen there,
+    as at a start from rest): the phase refuses it, ``by_time`` takes it; until the hip
+    moves the PD law at a sample's time gives that sample's torque at its state, and
+    M_ff + Kp R (q_ref - q) + Kd R (dq_ref - dq) (written out) away from it, its Jacobian
+    the PD's alone; after, it reads the phase as before. A periodic step is followed by the
+    phase, and its file says so."""
+    import dataclasses
+
+    from problems.control.tracking import GaitReference, PhasePD
+
+    step = footed_gait.problem
+    n = step.linkage.n
+    plan = footed_gait.to_trajectory(1000.0)
+    states = plan.states.copy()
+    states[:20] = states[0]
+    still = dataclasses.replace(plan, states=states)
+    with pytest.raises(DefinitionError, match="does not move forward"):
+        GaitReference(still, step.dynamics, step.biped.stance_thigh)
+    reference = GaitReference(still, step.dynamics, step.biped.stance_thigh, by_time=True)
+    assert reference.time_indexed_until == pytest.approx(plan.time[19] - plan.time[0])
+    assert np.all(np.diff(reference.phases) > 0)
+    pd = PhasePD(reference, step.linkage.parents, 800.0, 20.0, passive=(0,))
+    k = 12
+    t, x, torque = reference.time[k], reference.states[k], reference.torques[k]
+    np.testing.assert_allclose(pd.torques(t, x)[1:], torque[1:], rtol=0, atol=1e-12)
+    off = x + np.random.default_rng(5).normal(scale=0.02, size=2 * n)
+    relative = np.eye(n)
+    for i, parent in enumerate(step.linkage.parents):
+        if parent >= 0:
+            relative[i, parent] = -1.0
+    error = x - off
+    by_hand = torque + 800.0 * relative @ error[:n] + 20.0 * relative @ error[n:]
+    np.testing.assert_allclose(pd.torques(t, off)[1:], by_hand[1:], rtol=1e-12, atol=1e-9)
+    pd_alone = -np.hstack([800.0 * relative, 20.0 * relative])
+    np.testing.assert_allclose(pd.jacobian(t, off)[1:], pd_alone[1:], rtol=0, atol=1e-12)
+    # past the stall: by the phase, the same as a law of the plan itself there
+    phased = PhasePD(GaitReference(plan, step.dynamics, step.biped.stance_thigh),
+                     step.linkage.parents, 800.0, 20.0, passive=(0,))  # fmt: skip
+    late = reference.states[200] + 0.01
+    np.testing.assert_allclose(pd.torques(0.2, late), phased.torques(0.2, late), atol=1e-9)
+    assert law.indexed_by == "phase"
+    trajectory = law.channels(footed_gait.to_trajectory(1000.0))
+    assert trajectory.metadata["feedback"]["indexed_by"] == "phase"

@@ -213,7 +213,12 @@ def test_a_start_from_standing_on_feet_is_verified_joins_its_gait_and_walks():
     boundary is the leg swap of the step before, the last sample is the gait's last; the
     swing foot lifts from rest without a jerk (the drives' torques in the first 50 ms within
     30 N m of their first sample's, 14.5 in the walk command's run: with the periodic step's
-    floor the swing knee jumped by 80 N m in 3 ms)."""
+    floor the swing knee jumped by 80 N m in 3 ms); its first step's law by the time while
+    the hip sways, then by the phase; walked in MuJoCo (when installed) from standing through
+    four steps of the gait without a fall, the first step's length within 10 % of the
+    plan's."""
+    from problems.control.feet_law import FeetLaw
+
     gait = footed_step_at(1.0, speed_limit=10.0).solve()
     transition = plan_transition("standing", gait, steps=4)
     assert transition.steps == 4 and all(report.ok for report in transition.reports)
@@ -244,3 +249,14 @@ def test_a_start_from_standing_on_feet_is_verified_joins_its_gait_and_walks():
     assert np.max(np.abs(drives - drives[0])) < 30.0
     assert transition.gaits[0].problem.lift_time > 0
     assert all(g.problem.lift_time == 0 for g in transition.gaits[1:])
+    # the first step's law goes by the time while its hip sways, the others' by the phase
+    laws = [FeetLaw(g) for g in transition.gaits]
+    assert [law.indexed_by for law in laws] == ["time", "phase", "phase", "phase"]
+    assert 0.0 < laws[0].references[0].time_indexed_until < transition.gaits[0].duration
+    pytest.importorskip("mujoco")
+    from problems.control.mujoco_feet import run_feet_steps_in_mujoco
+
+    steps = list(transition.gaits) + [gait] * 4
+    run = run_feet_steps_in_mujoco(steps)
+    assert (run.walked, run.fell) == (len(steps), None)
+    assert run.steps[0].length == pytest.approx(transition.gaits[0].problem.step_length, rel=0.1)

@@ -68,13 +68,6 @@ def _feet_options(args, speeds) -> dict:
     options = footed_options(args)
     if args.joint_speed_limit is None:
         options["speed_limit"] = FEET_SEQUENCE_SPEED_LIMIT
-    if speeds[0] == 0.0 and args.feedback:
-        raise UsageError(
-            f"--speeds {args.speeds} on feet with --feedback: the law on feet indexes each step "
-            "by the hip's progress, which a start from rest does not have at t = 0 (a law by "
-            "the time for the start's steps is not built yet); plan the start without "
-            "--feedback, or start the walk at a speed"
-        )
     if speeds[-1] == 0.0:
         raise UsageError(
             f"--speeds {args.speeds} on feet: stopping at 0 m/s (quiet standing) on feet is "

@@ -51,12 +51,14 @@ SEQUENCE_GAINS = {"toe-walking": (1000.0, 50.0, 70.0)}
 CONTROL_RATE_HZ = 1000.0
 
 
-def feet_references(gait, rate_hz: float = CONTROL_RATE_HZ) -> tuple[GaitReference, GaitReference]:
+def feet_references(gait, rate_hz: float = CONTROL_RATE_HZ,
+                    by_time: bool = False) -> tuple[GaitReference, GaitReference]:  # fmt: skip
     """(single support, double support) of a solved step on feet, each the consistent
     motion sampled at ``rate_hz`` from its start (the single support the flat foot then the
     heel rise: one motion, its torques continuous where the heel rises; its last sample the
     state before the heel strike), both indexed by the whole step's phase: s = 0 at the
-    step's start, 1 where the rear foot leaves."""
+    step's start, 1 where the rear foot leaves (``by_time``: followed by the time since each
+    branch began, the phase only saying where the step ends)."""
     step = gait.problem
     *singles, last = (part.to_trajectory(rate_hz) for part, _ in gait.segments())
     single = dataclasses.replace(singles[0], extras={}, metadata={})
@@ -71,7 +73,7 @@ def feet_references(gait, rate_hz: float = CONTROL_RATE_HZ) -> tuple[GaitReferen
     hip = step.dynamics.point(step.biped.stance_thigh)
     ends = (complex(hip.position(single.psi[0])).real, complex(hip.position(last.psi[-1])).real)
     return tuple(
-        GaitReference(part, step.dynamics, step.biped.stance_thigh, hip_range=ends)
+        GaitReference(part, step.dynamics, step.biped.stance_thigh, hip_range=ends, by_time=by_time)
         for part in (single, last)
     )
 
@@ -102,6 +104,16 @@ def hinge_gains(inertias, kp: float, kd: float, bandwidth: float):
     return (np.minimum(kp, bandwidth**2 * inertias), np.minimum(kd, 2.0 * bandwidth * inertias))
 
 
+def _hip_stalls(gait, rate_hz: float) -> bool:
+    """Whether the hip of the step ``gait`` fails to advance somewhere over its samples at
+    ``rate_hz`` (the phase could not index its plan)."""
+    try:
+        feet_references(gait, rate_hz)
+    except DefinitionError:
+        return True
+    return False
+
+
 class FeetLaw:
     """The drives' law on the step on feet (module docstring): joint PD around the plan,
     indexed by the hip's progress, with the single and double support's branches.
@@ -119,7 +131,9 @@ class FeetLaw:
         The reference's sample rate (the file's), Hz.
 
     Attributes: ``references`` (single, double) :class:`GaitReference`; ``gains`` per branch,
-    (kp (n,), kd (n,)).
+    (kp (n,), kd (n,)); ``indexed_by``: "phase", or "time" for a step whose hip does not
+    always advance (the first step of a start from rest: followed by the time since the step
+    began until its hip advances for good, then by the phase; ``GaitReference.by_time``).
     """
 
     def __init__(
@@ -138,7 +152,10 @@ class FeetLaw:
         bandwidth = defaults[2] if bandwidth is None else bandwidth
         self.rate_hz = check_positive("rate_hz", rate_hz, "Hz")
         self.bandwidth = bandwidth
-        self.references = feet_references(gait, self.rate_hz)
+        # a step whose hip does not always advance (a start from rest) has no phase to
+        # follow its plan by: its law goes by the time since each branch began
+        self.indexed_by = "time" if _hip_stalls(gait, self.rate_hz) else "phase"
+        self.references = feet_references(gait, self.rate_hz, self.indexed_by == "time")
         n = step.linkage.n
         inertias = hinge_inertias(step.dynamics, self.references[0].states[:, :n])
         # In the double support both feet are on the ground: every drive moves the closed
@@ -156,10 +173,11 @@ class FeetLaw:
         """The step's phase s of the angles psi (n,) in the plan's labels."""
         return self.references[0].phase(psi)
 
-    def torques(self, branch: int, x: np.ndarray) -> np.ndarray:
+    def torques(self, branch: int, x: np.ndarray, t: float = 0.0) -> np.ndarray:
         """Hinge torques (n,) N m in the plan's labels (the root's 0) for the state x (2n,)
-        and the branch (0: single support, 1: double)."""
-        return self.branches[branch].torques(0.0, x)
+        and the branch (0: single support, 1: double); ``t``: s since the branch began, read
+        only by a law by the time (:attr:`indexed_by` "time": a start from rest)."""
+        return self.branches[branch].torques(t, x)
 
     def channels(self, trajectory: Trajectory) -> Trajectory:
         """``trajectory`` (the step's exported samples, ``gait.to_trajectory(rate_hz)``) with
@@ -197,6 +215,7 @@ class FeetLaw:
             {
                 "law": LAW,
                 "phase": FEET_PHASE.format(hip=step.biped.stance_thigh),
+                "indexed_by": self.indexed_by if self.indexed_by == "phase" else BY_TIME,
                 "branches": FEET_BRANCHES.format(single=single, point=point),
                 "limit_N_m": limit_metadata(limits),
                 "control_rate_hz": self.rate_hz,
@@ -218,6 +237,12 @@ FEET_PHASE = (
     "s = (x_hip - x_hip(0)) / (x_hip(T) - x_hip(0)): the hip (end of {hip}) ahead of the "
     "stance ball along x, 0 at the step's start (the rear foot's toe-off), 1 where the next "
     "rear foot leaves; psi absolute angles from +x, stance ball at H0"
+)
+#: how a law by the time follows its plan, as the file's metadata says it
+BY_TIME = (
+    "time: each branch's rows by the time since it began (the single support's since the "
+    "step's start, the double support's since the strike), not by the phase (the hip of a "
+    "start from rest does not always advance); the phase still ends the step at s = 1"
 )
 #: the branches and their switches, as the file's metadata says them
 FEET_BRANCHES = (

@@ -173,7 +173,7 @@ def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, prelo
     records: list[MujocoStep] = []
     times, states = [], []
     label, branch = "A", 0
-    t_step = clock = 0.0
+    t_step = clock = t_strike = 0.0
     fell = None
     stance_ball = ball(label, 0)
     peak_normal = tracking = peak_torque = slip = 0.0
@@ -192,7 +192,10 @@ def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, prelo
             since = t_step - (single.duration if branch else 0.0)
             torques = reference.at_time(since)[1].copy()
         else:
-            torques = law.torques(branch, x)
+            # the time since the branch began: read only by a law by the time (a start from
+            # rest), whose double support's plan starts at the strike
+            since = t_step - (t_strike if branch else 0.0)
+            torques = law.torques(branch, x, since)
         torques[0] = 0.0  # the ground's torque on the stance foot: no drive gives it
         tracking = max(tracking, reference.tracking(x))
         hinge = torques if label == "A" else swap.map_torques(torques)
@@ -227,7 +230,7 @@ def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, prelo
         swing_load = contact_normal_force(mujoco, model, data, grounds, {geom[
             f"{feet[label][1]}_{striking}"]})  # fmt: skip
         if branch == 0 and s > 0.5 and swing_load > TOUCHDOWN_FORCE:
-            branch = 1  # the swing heel struck: the double support's branch
+            branch, t_strike = 1, t_step  # the swing heel struck: the double support's branch
         elif branch == 1 and s >= 1.0:
             landing = ball(label, 1)
             if landing - stance_ball < 0.25 * step.step_length:

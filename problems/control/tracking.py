@@ -76,6 +76,11 @@ class GaitReference(BufferedCalls, TimedReference):
     hip_range : (float, float) or None
         The hip's x, m, where s = 0 and s = 1 (default: its first and last sample): a part of
         a step (one side of a double support's heel strike) indexed by the whole step's s.
+    by_time : bool
+        A law follows the plan by the time since the step began while its hip stalls or
+        sways back (a start from rest: the hip is still at t = 0 and may sway back), and by
+        the phase from where the hip advances for good (:attr:`time_indexed_until`, s); the
+        phase table's rows before that point are read only by the time.
     """
 
     def __init__(
@@ -84,14 +89,29 @@ class GaitReference(BufferedCalls, TimedReference):
         dynamics: Dynamics,
         hip: str,
         hip_range: tuple[float, float] | None = None,
+        by_time: bool = False,
     ) -> None:
         super().__init__(trajectory)
+        self.by_time = bool(by_time)
         self._hip = dynamics.point(hip)
         hips = np.asarray(self._hip.position(trajectory.psi)).real
         start, end = (hips[0], hips[-1]) if hip_range is None else hip_range
         self._start, self._span = float(start), float(end - start)
         self.phases = (hips - self._start) / self._span if self._span != 0 else hips * 0
         stalls = np.flatnonzero(np.diff(self.phases) <= 0.0)
+        #: s since the start up to which a law by the time follows the plan by the time: where
+        #: the hip moves forward for good (0 when it always does)
+        self.time_indexed_until = 0.0
+        if self.by_time and stalls.size and stalls[-1] + 1 < self.phases.size - 1:
+            # by the time while the hip stalls or sways, by the phase once it advances for
+            # good; the table's rows before that point get phases just below it (read only
+            # by the time), so the phase table stays increasing
+            switch = int(stalls[-1]) + 1
+            self.time_indexed_until = float(self.time[switch])
+            self.phases = self.phases.copy()
+            below = np.arange(switch, 0, -1) * 1e-12 * max(1.0, abs(self.phases[switch]))
+            self.phases[:switch] = self.phases[switch] - below
+            stalls = stalls[:0]
         if self._span <= 0 or stalls.size:
             where = f"at t = {self.time[stalls[0]]:.3f} s" if stalls.size else "over the step"
             raise DefinitionError(
@@ -198,13 +218,15 @@ class OpenLoop:
 class PhasePD:
     """Feedforward plus PD on the relative joint angles, all indexed by the phase:
 
-        M = M_ff(s) + Kp (q_ref(s) - q) + Kd (dq_ref(s) - dq),   s = s(psi),
+            M = M_ff(s) + Kp (q_ref(s) - q) + Kd (dq_ref(s) - dq),   s = s(psi),
 
-    with q the hinge's relative angle (psi_i - psi_parent(i); the stance ankle's is psi_1
-    from the ground), which each drive measures and on which its torque acts.
+    (or by the time t given to :meth:`torques` for a reference ``by_time``),
 
-    kp N m/rad, kd N m s/rad: scalars or (n,) per hinge; ``passive``: hinge indices with no
-    drive (their torque is 0).
+        with q the hinge's relative angle (psi_i - psi_parent(i); the stance ankle's is psi_1
+        from the ground), which each drive measures and on which its torque acts.
+
+        kp N m/rad, kd N m s/rad: scalars or (n,) per hinge; ``passive``: hinge indices with no
+        drive (their torque is 0).
     """
 
     def __init__(self, reference: GaitReference, parents, kp, kd, passive=()) -> None:
@@ -239,8 +261,10 @@ class PhasePD:
         """M (n,) N m at state x; ``share``: the PD's part (1: the law; 0: the feedforward
         alone, see ``SwitchedLQR``'s settle)."""
         n = self.reference.n
-        s = self.reference.phase(x[:n])
-        state, feedforward = self.reference.at_phase(s)
+        if t < self.reference.time_indexed_until:  # t: s since the step began
+            state, feedforward = self.reference.at_time(t)
+        else:
+            state, feedforward = self.reference.at_phase(self.reference.phase(x[:n]))
         error = state - x
         feedback = self.kp * self.relative(error[:n]) + self.kd * self.relative(error[n:])
         return self._active * (feedforward + share * feedback)
@@ -249,13 +273,15 @@ class PhasePD:
         """dM/dx (n, 2n) of :meth:`torques` (within a sample interval of the phase table)."""
         reference = self.reference
         n = reference.n
+        relative = self._relative_matrix
+        jacobian = -share * np.hstack([self.kp[:, None] * relative, self.kd[:, None] * relative])
+        if t < reference.time_indexed_until:  # the reference does not read the state
+            return self._active[:, None] * jacobian
         s = reference.phase(x[:n])
         state_slope, torque_slope = reference.slopes_at_phase(s)
-        relative = self._relative_matrix
         along = torque_slope + share * (
             self.kp * (relative @ state_slope[:n]) + self.kd * (relative @ state_slope[n:])
         )
-        jacobian = -share * np.hstack([self.kp[:, None] * relative, self.kd[:, None] * relative])
         jacobian[:, :n] += np.outer(along, reference.phase_gradient(x[:n]))
         return self._active[:, None] * jacobian
 

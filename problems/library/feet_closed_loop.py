@@ -6,7 +6,10 @@ walk has, :mod:`problems.library.closed_loop`): the periodic step on feet runs u
 already (its LQR through the feet's four contact modes is open work), and a step of a speed
 change is a step on feet like any other (the start gait's step, resized), so its plan carries
 the same law. The law hands over at the leg swap, where the next step's plan starts
-(:func:`problems.control.mujoco_feet.run_feet_steps_in_mujoco`).
+(:func:`problems.control.mujoco_feet.run_feet_steps_in_mujoco`). The first step of a start
+from quiet standing has a hip at rest that sways back before it walks off: its law follows
+the plan by the time since the step began until the hip advances for good, then by the
+phase (``FeetLaw.indexed_by`` "time", in the file's law of that step).
 
 In the file (:func:`with_feet_laws`) every row carries its step's law as the single step's
 file does (``phase``: the hip's progress s over the stance ball, ``double_support``, the gains
@@ -37,12 +40,6 @@ def sequence_laws(sequence, rate_hz: float = CONTROL_RATE_HZ) -> tuple[FeetLaw, 
             "`sequence`: a walk on feet (plan_sequence(..., feet=True)); its steps are "
             f"{sorted({type(g).__name__ for g in gaits})}"
         )
-    if sequence.speeds[0] == 0:
-        raise DefinitionError(
-            "`sequence`: it starts from quiet standing; the law on feet indexes each step by the "
-            "hip's progress, which a start from rest does not have at t = 0 (a law by the time "
-            "for the start's steps is not built yet)"
-        )
     made: dict[int, FeetLaw] = {}
     return tuple(made.setdefault(id(gait), FeetLaw(gait, rate_hz=rate_hz)) for gait in gaits)
 
@@ -65,9 +62,16 @@ def with_feet_laws(sequence, laws, rate_hz: float = CONTROL_RATE_HZ) -> LinkageT
     for j, entry in enumerate(steps):
         single, _ = laws[j].references
         law = described[j]
-        entry["law"] = {"indexed_by": "phase", "hip_ahead_m": list(single.hip_range),
+        entry["law"] = {"indexed_by": laws[j].indexed_by, "hip_ahead_m": list(single.hip_range),
                         "kp": law["kp"], "kd": law["kd"]}  # fmt: skip
+        if laws[j].indexed_by == "time":  # by the time since the step began up to here
+            entry["law"]["time_indexed_until_s"] = single.time_indexed_until
     first = {key: value for key, value in described[0].items() if key not in ("kp", "kd")}
+    first["indexed_by"] = (
+        "each step's own (sequence.steps[j].law.indexed_by): 'phase', or 'time' for a step "
+        "whose hip does not always advance (a start from rest), followed by the time since "
+        "the step began up to its law's time_indexed_until_s, then by the phase"
+    )
     first["gains_per_step"] = (
         "each step's kp and kd (per branch and hinge) and its phase's "
         "hip range: sequence.steps[j].law; its K in its rows"
