@@ -282,7 +282,8 @@ def test_human_prediction_benchmark_quick_run(winter_xlsx):
 @pytest.mark.slow  # two steps on feet and a transition solved: about a minute
 def test_transition_retry_benchmark_runs_and_prints_its_table():
     """The script behind the README's second-pass numbers: a change on feet it solves in one
-    step, its table row naming the count taken and its tries."""
+    step, its table row naming the count taken and its tries (the first pass's, and the
+    second's when the first stopped on its iteration cap)."""
     # its own timeout: a busy CI worker can double its minute (_call allows 120 s)
     result = subprocess.run(
         [
@@ -301,4 +302,7 @@ def test_transition_retry_benchmark_runs_and_prints_its_table():
     assert result.returncode == 0, result.stderr
     row = next(line for line in result.stdout.splitlines() if line.startswith("| 1 -> 0.8"))
     cells = [cell.strip() for cell in row.strip("|").split("|")]
-    assert cells[1] == "1" and cells[2] == "1" and int(cells[3]) > 0, row
+    # the one step solves in the first pass or, stopped on its 300 iterations, in the second
+    # (the first pass's path moves with the solver's round-off: on 2026-11-29 the clone of
+    # the commit that had passed CI two days before took the second pass as well)
+    assert cells[1] == "1" and cells[2] in ("1", "1, 1+") and int(cells[3]) > 0, row
