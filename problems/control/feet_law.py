@@ -57,8 +57,9 @@ def feet_references(gait, rate_hz: float = CONTROL_RATE_HZ,
     motion sampled at ``rate_hz`` from its start (the single support the flat foot then the
     heel rise: one motion, its torques continuous where the heel rises; its last sample the
     state before the heel strike), both indexed by the whole step's phase: s = 0 at the
-    step's start, 1 where the rear foot leaves (``by_time``: followed by the time since each
-    branch began, the phase only saying where the step ends)."""
+    step's start, 1 where the rear foot leaves (``by_time``: a law follows a branch by the
+    time since it began while its hip stalls or sways back, then by the phase;
+    :class:`GaitReference`)."""
     step = gait.problem
     *singles, last = (part.to_trajectory(rate_hz) for part, _ in gait.segments())
     single = dataclasses.replace(singles[0], extras={}, metadata={})
@@ -104,16 +105,6 @@ def hinge_gains(inertias, kp: float, kd: float, bandwidth: float):
     return (np.minimum(kp, bandwidth**2 * inertias), np.minimum(kd, 2.0 * bandwidth * inertias))
 
 
-def _hip_stalls(gait, rate_hz: float) -> bool:
-    """Whether the hip of the step ``gait`` fails to advance somewhere over its samples at
-    ``rate_hz`` (the phase could not index its plan)."""
-    try:
-        feet_references(gait, rate_hz)
-    except DefinitionError:
-        return True
-    return False
-
-
 class FeetLaw:
     """The drives' law on the step on feet (module docstring): joint PD around the plan,
     indexed by the hip's progress, with the single and double support's branches.
@@ -154,8 +145,11 @@ class FeetLaw:
         self.bandwidth = bandwidth
         # a step whose hip does not always advance (a start from rest) has no phase to
         # follow its plan by: its law goes by the time since each branch began
-        self.indexed_by = "time" if _hip_stalls(gait, self.rate_hz) else "phase"
-        self.references = feet_references(gait, self.rate_hz, self.indexed_by == "time")
+        try:
+            self.references, self.indexed_by = feet_references(gait, self.rate_hz), "phase"
+        except DefinitionError:  # the phase refused it: the hip stalls or sways back
+            self.references = feet_references(gait, self.rate_hz, by_time=True)
+            self.indexed_by = "time"
         n = step.linkage.n
         inertias = hinge_inertias(step.dynamics, self.references[0].states[:, :n])
         # In the double support both feet are on the ground: every drive moves the closed
@@ -240,9 +234,10 @@ FEET_PHASE = (
 )
 #: how a law by the time follows its plan, as the file's metadata says it
 BY_TIME = (
-    "time: each branch's rows by the time since it began (the single support's since the "
-    "step's start, the double support's since the strike), not by the phase (the hip of a "
-    "start from rest does not always advance); the phase still ends the step at s = 1"
+    "time, then phase: a branch's rows by the time since it began (the single support's "
+    "since the step's start, the double support's since the strike) while its hip stalls or "
+    "sways back (a start from rest), then by the phase from where the hip advances for good; "
+    "the phase ends the step at s = 1"
 )
 #: the branches and their switches, as the file's metadata says them
 FEET_BRANCHES = (

@@ -218,15 +218,15 @@ class OpenLoop:
 class PhasePD:
     """Feedforward plus PD on the relative joint angles, all indexed by the phase:
 
-            M = M_ff(s) + Kp (q_ref(s) - q) + Kd (dq_ref(s) - dq),   s = s(psi),
+        M = M_ff(s) + Kp (q_ref(s) - q) + Kd (dq_ref(s) - dq),   s = s(psi),
 
-    (or by the time t given to :meth:`torques` for a reference ``by_time``),
+    (by the time t given to :meth:`torques` instead while t is below the reference's
+    ``time_indexed_until``: a start from rest, ``GaitReference(by_time=True)``), with q the
+    hinge's relative angle (psi_i - psi_parent(i); the stance ankle's is psi_1 from the
+    ground), which each drive measures and on which its torque acts.
 
-        with q the hinge's relative angle (psi_i - psi_parent(i); the stance ankle's is psi_1
-        from the ground), which each drive measures and on which its torque acts.
-
-        kp N m/rad, kd N m s/rad: scalars or (n,) per hinge; ``passive``: hinge indices with no
-        drive (their torque is 0).
+    kp N m/rad, kd N m s/rad: scalars or (n,) per hinge; ``passive``: hinge indices with no
+    drive (their torque is 0).
     """
 
     def __init__(self, reference: GaitReference, parents, kp, kd, passive=()) -> None:
