@@ -691,3 +691,5 @@ def test_a_lifted_clearance_floor_starts_flat_and_joins_the_plain_one():
     np.testing.assert_allclose(lifted(s)[late], plain(s)[late], rtol=0, atol=h * np.exp(-16))
     settings = {"clearance": h, "step_time": T, "lift_time": lift}
     np.testing.assert_allclose(_clearance_profile(settings, s), lifted(s), rtol=0, atol=1e-15)
+    with pytest.raises(DefinitionError, match="'lift_time' needs the single support's duration"):
+        _clearance_profile({"clearance": h, "lift_time": lift}, s)

@@ -48,7 +48,6 @@ import numpy as np
 from planner.errors import DefinitionError, check_integer
 from planner.problem import Phases
 from problems.gait.problem import rate_scales
-from problems.gait.similarity import WalkerScales
 from problems.library.library import _guessed
 from problems.library.ramp import speed_ramp
 from problems.walking.footed import FootedGait, FootedStep, resized
@@ -99,8 +98,7 @@ def _standing_start(step: FootedStep, ocp):
         return ca.vertcat(*swing_toe(p.x[:n])) - ca.vertcat(*stance_toe(p.x[:n]))
 
     moving = [i for i in range(n) if step.linkage.names[i] != root]
-    time_unit = WalkerScales(step.leg_length, step.linkage.gravity).relative["time"]
-    scale = rate_scales(time_unit)["ddpsi"]  # the accelerations' nominal size, as the step's
+    scale = rate_scales(step.time_unit)["ddpsi"]  # the accelerations' nominal size
     return (
         ocp.boundary("standing feet", feet, at="start", lower=[0.0, 0.0], upper=[0.0, 0.0],
                      scale=step.leg_length)

@@ -203,6 +203,12 @@ class FootedStep:
         return self.points[role].offset(self.linkage)
 
     @cached_property
+    def time_unit(self) -> float:
+        """The walker's time unit sqrt(L / g) relative to the six-link walker's: the nominal
+        rates and accelerations of the NLP's rows (:func:`problems.gait.problem.rate_scales`)."""
+        return WalkerScales(self.leg_length, self.linkage.gravity).relative["time"]
+
+    @cached_property
     def sole(self) -> float:
         """Heel to ball, m (the stance foot's points)."""
         return abs(self._offset("stance_heel") - self._offset("stance_toe"))
@@ -714,12 +720,11 @@ def _base_ocp(step: FootedStep, phase: int, transcription: str, contacts=()):
     ocp = bound_joint_speeds(ocp, step.linkage, biped, step.drives, step.speed_limit)
     limit = step.torque_limit
     drives = [step.linkage.index(name) for name in step.drives]
-    time_unit = WalkerScales(step.leg_length, step.linkage.gravity).relative["time"]
     if step.human is None:
         integrand = lambda p: ca.sumsqr(p.M[drives])  # noqa: E731
     else:
         integrand = human_integrand(step.linkage, step.human, step.drives, step.neutral_ankles)
-    ocp = ocp.minimize(integral=integrand).scale(M=limit / 3.0, **rate_scales(time_unit))
+    ocp = ocp.minimize(integral=integrand).scale(M=limit / 3.0, **rate_scales(step.time_unit))
     return ocp, duration
 
 
