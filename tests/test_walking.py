@@ -693,3 +693,40 @@ def test_a_lifted_clearance_floor_starts_flat_and_joins_the_plain_one():
     np.testing.assert_allclose(_clearance_profile(settings, s), lifted(s), rtol=0, atol=1e-15)
     with pytest.raises(DefinitionError, match="'lift_time' needs the single support's duration"):
         _clearance_profile({"clearance": h, "lift_time": lift}, s)
+
+
+def test_a_landed_clearance_floor_ends_flat_and_mirrors_the_lifted_one():
+    """clearance_profile(..., land): the lifted floor mirrored in time (h sin^2 is symmetric
+    about s = 1/2, so land at s is lift at 1 - s, without the approach term); its second
+    derivative at t = T is 0 where the plain floor's is 2 h pi^2 / T^2; both together; the
+    verification's floor reads ``land_time``."""
+    import casadi as ca
+
+    from problems.gait.verification import _clearance_profile
+    from problems.walking.step import clearance_profile
+
+    T, h, land = 0.4, 0.05, 0.05
+    plain = functools.partial(clearance_profile, T=T, height=h, touchdown_speed=0.0, window=0.03)
+    s = np.linspace(0.0, 1.0, 41)
+    np.testing.assert_allclose(plain(s, land=land), plain(1.0 - s, lift=land), rtol=0,
+                               atol=1e-15)  # fmt: skip
+    dt = 1e-4
+
+    def curvature(floor):  # f'' at T by a one-sided second difference (f(T) = 0 = f'(T))
+        return float(2.0 * (floor(np.array(1.0 - dt / T)) - floor(np.array(1.0))) / dt**2)
+
+    assert curvature(plain) == pytest.approx(2.0 * h * math.pi**2 / T**2, rel=1e-3)
+    assert abs(curvature(functools.partial(plain, land=land))) < 1e-3 * 2.0 * h * math.pi**2 / T**2
+    both = plain(s, lift=land, land=land)
+    np.testing.assert_allclose(both, plain(s) * (1 - np.exp(-((s * T / land) ** 2)))
+                               * (1 - np.exp(-(((1 - s) * T / land) ** 2))), rtol=0,
+                               atol=1e-15)  # fmt: skip
+    symbol = ca.SX.sym("s")
+    as_sx = ca.Function("floor", [symbol], [plain(symbol, lift=land, land=land)])
+    np.testing.assert_allclose(np.ravel(as_sx(s)), both, rtol=0, atol=1e-15)
+    settings = {"clearance": h, "step_time": T, "lift_time": land, "land_time": land}
+    np.testing.assert_allclose(_clearance_profile(settings, s), both, rtol=0, atol=1e-15)
+    with pytest.raises(DefinitionError, match="'land_time' needs the single support's duration"):
+        _clearance_profile({"clearance": h, "land_time": land}, s)
+    with pytest.raises(DefinitionError, match="`land_time`: must be >= 0 s"):
+        walking_step(land_time=-0.01)

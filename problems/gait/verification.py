@@ -781,7 +781,8 @@ def _clearance_profile(settings, s: np.ndarray, single: float | None = None):
     (0 when None: height >= 0), v_td = ``touchdown_speed``, w = ``approach_time`` and T the
     single support's duration (the approach term only when all three are given); with
     ``lift_time`` > 0 the sine term times 1 - exp(-(s T / lift_time)^2) (a floor that starts
-    flat: a start from standing on feet)."""
+    flat: a start from standing on feet), with ``land_time`` > 0 times
+    1 - exp(-((1 - s) T / land_time)^2) (a floor that ends flat: a stop at standing on feet)."""
     table = settings.get("clearance_profile")
     if table is None:
         clearance = settings.get("clearance")
@@ -790,13 +791,17 @@ def _clearance_profile(settings, s: np.ndarray, single: float | None = None):
         if single is None and settings.get("step_time"):
             single = float(settings["step_time"]) - float(settings.get("double_support") or 0)
         lift = float(settings.get("lift_time") or 0.0)
+        land = float(settings.get("land_time") or 0.0)
+        if (lift > 0 or land > 0) and not single:
+            named = "lift_time" if lift > 0 else "land_time"
+            raise DefinitionError(
+                f"`settings`: a clearance floor with '{named}' needs the single support's "
+                "duration ('step_time')"
+            )
         if lift > 0:
-            if not single:
-                raise DefinitionError(
-                    "`settings`: a clearance floor with 'lift_time' needs the single support's "
-                    "duration ('step_time')"
-                )
             height = height * (1.0 - np.exp(-((s * single / lift) ** 2)))
+        if land > 0:
+            height = height * (1.0 - np.exp(-(((1.0 - s) * single / land) ** 2)))
         if speed and window and single:
             left = (1.0 - s) * single
             height = height + float(speed) * left * np.exp(-((left / float(window)) ** 4))

@@ -123,23 +123,27 @@ DEFAULT = "default"
 
 
 def clearance_profile(s, T, height: float, touchdown_speed: float, window: float,
-                      lift: float = 0.0):  # fmt: skip
+                      lift: float = 0.0, land: float = 0.0):  # fmt: skip
     """The swing foot's least height at normalised times s = t / T of a single support of
     T s (numpy or SX), m: h sin^2(pi s) + v_td (T - t) exp(-((T - t) / w)^4), w = ``window``,
     s (the step's ``approach_time``; see the module docstring). ``lift`` > 0 (s): the swing
     term times 1 - exp(-(t / lift)^2), a floor that starts flat for a foot that lifts from
     rest (a start from standing: h sin^2 alone curves up at once, and a foot at rest with no
-    acceleration meets that curvature only by a jerk in the first interval)."""
+    acceleration meets that curvature only by a jerk in the first interval). ``land`` > 0
+    (s): the same at the end, times 1 - exp(-((T - t) / land)^2), a floor that ends flat for
+    a foot that sets down at rest (a stop at standing)."""
     symbolic = isinstance(s, ca.SX | ca.MX) or isinstance(T, ca.SX | ca.MX)
+    exp = ca.exp if symbolic else np.exp
     if symbolic:
-        swing, fade = ca.sin(math.pi * s) ** 2, ca.exp(-(((1 - s) * T / window) ** 4))
+        swing = ca.sin(math.pi * s) ** 2
     else:
         s = np.asarray(s, dtype=float)
         swing = np.sin(np.pi * s) ** 2
-        fade = np.exp(-(((1 - s) * T / window) ** 4))
+    fade = exp(-(((1 - s) * T / window) ** 4))
     if lift > 0:
-        onset = ca.exp(-((s * T / lift) ** 2)) if symbolic else np.exp(-((s * T / lift) ** 2))
-        swing = swing * (1 - onset)
+        swing = swing * (1 - exp(-((s * T / lift) ** 2)))
+    if land > 0:
+        swing = swing * (1 - exp(-(((1 - s) * T / land) ** 2)))
     return height * swing + touchdown_speed * (1 - s) * T * fade
 
 
@@ -179,6 +183,13 @@ class WalkingStep(WalkerFeet):
     hip_limit: float | None = None
     speed_limit: float | None = None
     landing_speed: float | None = None
+    #: s: the clearance floor starts flat over this time (``clearance_profile``'s ``lift``):
+    #: the first step of a start from standing, whose foot lifts from rest; 0 for a step whose
+    #: foot leaves the ground moving
+    lift_time: float = 0.0
+    #: s: the floor ends flat over this time (``land``): the last step of a stop, whose foot
+    #: sets down at rest
+    land_time: float = 0.0
 
     @property
     def linkage(self) -> Linkage:
@@ -248,7 +259,8 @@ class WalkingStep(WalkerFeet):
         if callable(self.clearance):
             return self.clearance(s)
         T = self.single_support_time if T is None else T
-        return clearance_profile(s, T, self.clearance, self.touchdown_speed, self.approach_time)
+        return clearance_profile(s, T, self.clearance, self.touchdown_speed, self.approach_time,
+                                 self.lift_time, self.land_time)  # fmt: skip
 
     def _transcription(self, problem: OCP | Phases | None):
         problem = self.problem if problem is None else problem
@@ -375,6 +387,8 @@ class WalkingStep(WalkerFeet):
             "touchdown_speed": self.touchdown_speed,
             "landing_speed": self.landing_speed,
             "approach_time": self.approach_time,
+            "lift_time": self.lift_time,
+            "land_time": self.land_time,
             "leg_length": self.biped.leg_length,
             "foot": None if self.foot_sole is None else list(self.foot_sole),
             "ground_points": list(self.ground_points),
@@ -418,6 +432,8 @@ def walking_step(
     speed_limit: float | None = None,
     rotors: Sequence[Rotor] = (),
     landing_speed: float | None = None,
+    lift_time: float = 0.0,
+    land_time: float = 0.0,
 ) -> WalkingStep:
     """A periodic walking step of a biped (see the module docstring).
 
@@ -471,6 +487,11 @@ def walking_step(
         (1.9 m/s without one); a real floor stops it by friction over milliseconds, and a
         foot that fast slides (examples/feedback.md: 1 m/s lets MuJoCo's walker take a
         lower ground too).
+    lift_time, land_time : s (>= 0): the clearance floor's sine term starts (ends) flat over
+        this time (:func:`clearance_profile`'s ``lift`` and ``land``): a first step from
+        standing, whose foot lifts from rest, and a stop's last, whose foot sets down at rest
+        (the floor's curvature at its ends meets a foot at rest with no acceleration only by a
+        jerk in the first or last mesh interval); 0, the default, for steps between steps.
     knee_range : (lower, upper) knee flexion psi_thigh - psi_shank, rad, both legs.
     posture : largest deviation of an upright link from the vertical, rad.
     upright : links kept near upright (default: every upper-body link).
@@ -516,6 +537,11 @@ def walking_step(
     posture = check_positive("posture", posture, "rad")
     upright = biped.upper_body if upright is None else check_links("upright", upright, linkage)
     touchdown_speed, approach_time = _checked_touchdown(touchdown_speed, approach_time, scales)
+    lift_time, land_time = (check_real(name, value) for name, value in
+                            (("lift_time", lift_time), ("land_time", land_time)))  # fmt: skip
+    for name, value in (("lift_time", lift_time), ("land_time", land_time)):
+        if value < 0:
+            raise DefinitionError(f"`{name}`: must be >= 0 s, got {value!r}")
     foot = _checked_foot(foot, biped.leg_length)
     ground_points, ground_margin = _checked_ground(biped, ground_points, ground_margin)
     if step_time <= 0:
@@ -562,6 +588,8 @@ def walking_step(
         landing_speed=None
         if landing_speed is None
         else check_positive("landing_speed", landing_speed, "m/s"),
+        lift_time=lift_time,
+        land_time=land_time,
     )
     N, transcription, degree = mesh["N"], mesh["transcription"], mesh["degree"]
     step = replace(step, ocp=_walking_ocp(step, N, transcription, degree, formulation))
