@@ -9,16 +9,18 @@ exported samples), and a next state moved by a known angle (the join check fails
 
 from __future__ import annotations
 
+import copy
 import itertools
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from model.linkage_trajectory import LinkageTrajectory
 from model.rerooting import swap_legs
 from planner.errors import DefinitionError
 from problems.gait.verification import verify_gait
-from problems.library.footed_transition import footed_transition_problem
+from problems.library.footed_transition import STOP_TIME, footed_transition_problem
 from problems.library.transition import plan_transition
 from problems.walking.footed import SEQUENCES, FootedGait, footed_step_at, resized
 
@@ -145,6 +147,95 @@ def test_a_start_from_standing_on_feet_fixes_the_feet_flat_together_at_rest(foot
     assert feet == pytest.approx(-np.max(np.abs(behind)), rel=1e-9)
 
 
+@pytest.fixture(scope="module")
+def stop_from_slow():
+    """The periodic step on feet at 0.6 m/s and its stop at quiet standing in one step (its
+    capture point at the stop's start, 4 cm behind the stance ball, lies on the sole; from
+    1 m/s it lies 6 cm ahead of the ball)."""
+    gait = footed_step_at(0.6).solve()
+    return gait, plan_transition(gait, "standing", steps=1)
+
+
+def test_a_stop_on_feet_sets_the_swing_foot_down_flat_beside_the_stance_foot(stop_from_slow):
+    """The stop's one flat phase from the gait's x(0) to quiet standing: the swing ball at the
+    stance ball and both soles flat at T (the model's point kinematics on the last exported
+    sample), the body at rest; the drives in the last 20 ms below 0.4 of the stop's
+    peak (the floor ends flat and the foot comes down at touchdown speed 0: with the walk's
+    0.3 m/s approach term the optimum slammed the swing leg to rest in the last interval);
+    its rows, fixed duration and verification (a last sample moved off standing fails it by
+    name)."""
+    gait, transition = stop_from_slow
+    problem, steps = footed_transition_problem(gait, "standing", 1)
+    assert problem.names == ("step 1 flat",) and problem.periodicity is None
+    rows = {c.name for c in problem.phases[0][1].constraints}
+    assert {"standing feet", "standing flat", "standing still", "at rest"} <= rows
+    assert "landing" not in rows and "foot flat" not in rows and "initial psi" in rows
+    stop = steps[0]
+    assert stop.stop and stop.step_length == 0.0 and stop.touchdown_speed == 0.0
+    assert stop.land_time > 0 and stop.durations == (stop.step_time,)
+    assert stop.step_time == pytest.approx(STOP_TIME * gait.problem.step_time, rel=1e-12)
+    assert transition.steps == 1 and all(report.ok for report in transition.reports)
+    (solved,) = transition.gaits
+    n = solved.problem.linkage.n
+    np.testing.assert_allclose(solved.solution.states[0], gait.segments()[0][0].states[0],
+                               atol=1e-9)  # fmt: skip
+    samples = solved.exported()
+    psi_T = samples.psi[-1]
+    ball = np.ravel(stop.point("swing_toe").function("position")(psi_T))
+    base = np.ravel(stop.point("stance_toe").function("position")(psi_T))
+    np.testing.assert_allclose(ball, base, atol=1e-9)
+    root, foot = (
+        stop.linkage.index(stop.biped.stance_leg[0]),
+        stop.linkage.index(stop.biped.swing_leg[-1]),
+    )
+    np.testing.assert_allclose(psi_T[[root, foot]], stop.flat_angles, atol=1e-9)
+    np.testing.assert_allclose(samples.dpsi[-1], 0.0, atol=1e-9)
+    drives = samples.torques[:, 1:]
+    end = samples.time > samples.time[-1] - 0.02
+    assert np.abs(drives[end]).max() < 0.4 * np.abs(drives).max()
+    assert samples.torques.shape[1] == n
+    # a last sample moved off standing (the swing foot turned by 0.05 rad) fails by name
+    moved = samples.psi.copy()
+    moved[-1, foot] += 0.05
+    wrong = LinkageTrajectory.from_linkage(
+        samples.time, moved, samples.dpsi, samples.torques, samples.link_names,
+        ddpsi=samples.ddpsi, ground_reaction=samples.ground_reaction, metadata=samples.metadata,
+    )  # fmt: skip
+    report = verify_gait(wrong, stop.linkage)
+    failed = {check.name for check in report.checks if not check.passed}
+    assert "standing flat" in failed, str(report)
+
+
+def test_a_walk_on_feet_ends_standing_in_one_verified_file(tmp_path):
+    """plan_sequence(..., feet=True) ending at 0: the gait, then the stop; the file (the
+    stop's rows carry the front contact's force channels, zero) saved, read back and
+    verified step by step, the stop's end against standing (``next_state``: its pose
+    relabelled, at rest); a file whose last sample is moved off standing fails by name."""
+    from planner.trajectory import Trajectory
+    from problems.library import plan_sequence, verify_sequence
+
+    sequence = plan_sequence([0.6, 0], feet=True, steps_at_speed=1)
+    assert [step.kind for step in sequence.steps] == ["gait", "stop"]
+    linkage = sequence.steps[0].gait.problem.linkage
+    path = tmp_path / "sequence.csv"
+    sequence.trajectory().save(path)
+    back = Trajectory.load(path)
+    report = verify_sequence(back, linkage)
+    assert report.ok, str(report)
+    assert {"standing feet", "standing flat", "standing at rest"} <= {
+        check.name for check in report.reports[-1].checks
+    }
+    # the stop's last sample is the sidecar's (its state at T): turn its swing foot
+    trajectory = LinkageTrajectory.of(back)
+    metadata = copy.deepcopy(trajectory.metadata)
+    last = metadata["sequence"]["steps"][-1]["before_impact"]["x"]
+    last[linkage.index(sequence.steps[-1].gait.problem.biped.swing_leg[-1])] += 0.05
+    moved = trajectory.with_metadata(sequence=metadata["sequence"])
+    failed = verify_sequence(moved, linkage)
+    assert not failed.ok
+    assert "standing flat" in {c.name for c in failed.reports[-1].checks if not c.passed}
+
+
 def test_a_transition_on_feet_refuses_what_it_cannot_join(footed_gait):
     from problems import walking_step
 
@@ -161,10 +252,12 @@ def test_a_transition_on_feet_refuses_what_it_cannot_join(footed_gait):
     )
     with pytest.raises(DefinitionError, match=r"contact phases .* are not the start's"):
         footed_transition_problem(footed_gait, flat_footed, 1)
-    with pytest.raises(DefinitionError, match="stopping at quiet standing on feet"):
-        footed_transition_problem(footed_gait, "standing", 1)
-    with pytest.raises(DefinitionError, match="steps begin with 'heel rise'"):
+    with pytest.raises(DefinitionError, match=r"`start`: a stop at quiet standing .* 'heel rise'"):
+        footed_transition_problem(toe_walking, "standing", 1)
+    with pytest.raises(DefinitionError, match=r"`end`: a start from quiet standing .* 'heel rise'"):
         footed_transition_problem("standing", toe_walking, 1)
+    with pytest.raises(DefinitionError, match="standing to standing is no walk"):
+        footed_transition_problem("standing", "standing", 1)
     with pytest.raises(DefinitionError, match="`steps`"):
         footed_transition_problem(footed_gait, footed_gait, 0)
 

@@ -140,8 +140,6 @@ def test_a_walk_takes_a_library_on_feet_only_on_feet(built, capsys):
     library, _, path = built
     with pytest.raises(DefinitionError, match="its gaits walk on feet; plan the walk on feet"):
         plan_sequence([0.0, 1.0, 0.0], library=library)
-    with pytest.raises(DefinitionError, match="quiet standing"):
-        plan_sequence([1.0, 0.0], library=library, feet=True)
     code = main(["walk", "--speeds", "0,1.0,0", "--library", str(path)])
     assert code == 2
     assert "give --preset six-link-feet" in capsys.readouterr().err

@@ -68,11 +68,11 @@ def _feet_options(args, speeds) -> dict:
     options = footed_options(args)
     if args.joint_speed_limit is None:
         options["speed_limit"] = FEET_SEQUENCE_SPEED_LIMIT
-    if speeds[-1] == 0.0:
+    if speeds[-1] == 0.0 and args.feedback:
         raise UsageError(
-            f"--speeds {args.speeds} on feet: stopping at 0 m/s (quiet standing) on feet is "
-            "not planned yet (both feet flat at rest at the end is a double support the step "
-            "on feet lacks); end at a speed, e.g. 0,1.0,1.4"
+            f"--speeds {args.speeds} on feet with --feedback: the closed loop of a stop at "
+            "quiet standing on feet is not built yet (its plan is: drop --feedback, or end "
+            "at a speed, e.g. 0,1.0,1.4)"
         )
     return {**options, "feet": True}
 

@@ -1067,14 +1067,13 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
     (periodic angles and rates; ``join angles`` and ``join rates`` against ``next_state``
     in a sequence of steps). A step that starts from quiet standing (``start`` "standing")
     checks ``standing feet`` (the swing ball at the stance ball at t = 0, m), ``standing
-    flat`` (both soles flat at t = 0, rad) and ``standing at rest`` (dpsi(0), rad/s)."""
+    flat`` (both soles flat at t = 0, rad) and ``standing at rest`` (dpsi(0), rad/s). A stop
+    (``stop``: one flat phase, no strike) checks the clearance until its end and the same
+    three at t = T instead of the strike and the double support."""
     linkage = kin.linkage
-    n = linkage.n
-    mu = float(settings["mu"])
     named = _named_contacts(kin, settings)
     psi, dpsi, times = trajectory.psi, trajectory.dpsi, trajectory.time
     sequence = tuple(settings.get("phases") or FOOTED_PHASES)
-    strike_role = str(settings.get("strike") or "swing_heel")
     events = settings.get("before_events") or []
     if len(events) != len(sequence) - 1:
         raise DefinitionError(
@@ -1082,8 +1081,9 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
             f"{len(sequence) - 1} events (metadata['gait']['before_events'], written by "
             f"Gait.to_trajectory), got {len(events)}"
         )
-    strike = float(events[-1]["t"])
-    pre = np.asarray(events[-1]["x"], dtype=float)
+    stop = bool(settings.get("stop"))
+    # a stop's single support is the whole step: it ends at rest, with no strike
+    strike = float(times[-1]) if stop else float(events[-1]["t"])
     stance, swing = _legs(linkage)
     flat_stance, flat_swing = (float(v) for v in settings["flat_angles"])
     root, foot = stance[0], swing[-1]
@@ -1121,11 +1121,62 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
     add("centre of pressure", np.where(flat[:, None], rows, np.inf), "N m", weight * (heel + toe))
     scale = _torque_scale(kin, settings)
     add("ball passive", np.where(flat, np.inf, passive * scale - np.abs(moment)), "N m", scale)
-    single = times < strike - edge
+    single = times <= strike + edge if stop else times < strike - edge
     fraction = np.clip(times / strike, 0.0, 1.0)
     floor = _clearance_profile(settings, fraction, single=strike)
     swing_feet = np.column_stack([height("swing_heel") - floor, height("swing_toe") - floor])
     add("clearance", np.where(single[:, None], swing_feet, np.inf), "m")
+    if stop:
+        _standing_on_feet(add, kin, named, psi, dpsi, -1, f"t = {times[-1]:.4g} s",
+                          (root, foot), (flat_stance, flat_swing))  # fmt: skip
+    else:
+        _footed_strike(add, kin, settings, trajectory, events[-1], weight, hold, strike)
+    if settings.get("start") == "standing":
+        # Quiet standing at t = 0: both feet flat side by side, the body at rest.
+        _standing_on_feet(add, kin, named, psi, dpsi, 0, "t = 0", (root, foot),
+                          (flat_stance, flat_swing))  # fmt: skip
+    low, high = (float(v) for v in settings["ankle_range"])
+    neutral = [float(v) for v in settings["neutral_ankles"]]
+    ankles = np.column_stack([psi[:, stance[1]] - psi[:, root] - neutral[0],
+                              psi[:, swing[1]] - psi[:, foot] - neutral[1]])  # fmt: skip
+    add("ankles", np.minimum(ankles - low, high - ankles), "rad")
+
+
+def _standing_on_feet(add, kin: _Kinematics, named, psi, dpsi, k: int, where: str, feet,
+                      flat) -> None:  # fmt: skip
+    """Quiet standing at sample ``k``: ``standing feet`` (the swing ball at the stance ball,
+    m), ``standing flat`` (both soles flat, rad: ``feet`` (root, swing foot) link indices at
+    their ``flat`` angles), ``standing at rest`` (dpsi, rad/s)."""
+    ball, _, _ = kin.point(*named["swing_toe"], psi[k : k + 1 or None])
+    base, _, _ = kin.point(*named["stance_toe"], psi[k : k + 1 or None])
+    gap = ball[0] - base[0]
+    add("standing feet", -np.abs([gap.real, gap.imag]), "m", where=where)
+    angles = np.array([psi[k, feet[0]] - flat[0], psi[k, feet[1]] - flat[1]])
+    add("standing flat", -np.abs(_wrap(angles)), "rad", where=where)
+    add("standing at rest", -np.abs(dpsi[k]), "rad/s", where=where)
+
+
+def _footed_strike(add, kin: _Kinematics, settings, trajectory, event, weight, hold,
+                   strike: float) -> None:  # fmt: skip
+    """The strike of a step on feet at ``strike`` s (``event``: the state just before it)
+    and the double support after it (see :func:`_verify_footed`)."""
+    linkage = kin.linkage
+    n = linkage.n
+    mu = float(settings["mu"])
+    named = _named_contacts(kin, settings)
+    psi, dpsi, times = trajectory.psi, trajectory.dpsi, trajectory.time
+    sequence = tuple(settings.get("phases") or FOOTED_PHASES)
+    strike_role = str(settings.get("strike") or "swing_heel")
+    pre = np.asarray(event["x"], dtype=float)
+    rear_flat = "heel rise" not in sequence
+    foot = _legs(linkage)[1][-1]
+    flat_swing = float(settings["flat_angles"][1])
+    heel, toe = (float(v) for v in settings["foot"])
+
+    def height(name):
+        link, offset = named[name]
+        return kin.point(link, offset, psi)[0].imag
+
     # The strike, from the state just before it.
     by_heel = strike_role == "swing_heel"
     point = "heel" if by_heel else "ball"
@@ -1172,22 +1223,6 @@ def _verify_footed(add, kin: _Kinematics, settings, trajectory, weight, hold, pa
         add("front foot flat", -np.array([abs(_wrap(psi[-1, foot] - flat_swing)),
                                           abs(dpsi[-1, foot])]),
             "rad(/s)", where=f"t = {times[-1]:.4g} s")  # fmt: skip
-    if settings.get("start") == "standing":
-        # Quiet standing at t = 0: both feet flat side by side (the swing ball at the stance
-        # ball), the body at rest.
-        ball, _, _ = kin.point(*named["swing_toe"], psi[:1])
-        base, _, _ = kin.point(*named["stance_toe"], psi[:1])
-        gap = ball[0] - base[0]
-        add("standing feet", -np.abs([gap.real, gap.imag]), "m", where="t = 0")
-        add("standing flat", -np.abs(_wrap(np.array([psi[0, root] - flat_stance,
-                                                     psi[0, foot] - flat_swing]))),
-            "rad", where="t = 0")  # fmt: skip
-        add("standing at rest", -np.abs(dpsi[0]), "rad/s", where="t = 0")
-    low, high = (float(v) for v in settings["ankle_range"])
-    neutral = [float(v) for v in settings["neutral_ankles"]]
-    ankles = np.column_stack([psi[:, stance[1]] - psi[:, root] - neutral[0],
-                              psi[:, swing[1]] - psi[:, foot] - neutral[1]])  # fmt: skip
-    add("ankles", np.minimum(ankles - low, high - ankles), "rad")
 
 
 __all__ = [

@@ -40,6 +40,13 @@ def sequence_laws(sequence, rate_hz: float = CONTROL_RATE_HZ) -> tuple[FeetLaw, 
             "`sequence`: a walk on feet (plan_sequence(..., feet=True)); its steps are "
             f"{sorted({type(g).__name__ for g in gaits})}"
         )
+    stops = [j for j, step in enumerate(sequence.steps) if step.gait.problem.stop]
+    if stops:
+        raise DefinitionError(
+            f"`sequence`: step {stops[0]} is a stop at quiet standing on feet, whose closed "
+            "loop is not built yet (a law that holds the pose after the foot sets down); "
+            "walk it open loop, or end the walk at a speed"
+        )
     made: dict[int, FeetLaw] = {}
     return tuple(made.setdefault(id(gait), FeetLaw(gait, rate_hz=rate_hz)) for gait in gaits)
 

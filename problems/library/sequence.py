@@ -31,8 +31,9 @@ each step's last sample with those channels (``before_impact["extras"]``) and it
 :func:`verify_sequence` checks each step with the step on feet's verification, its toe-off
 against the next step's first row (``join angles``, ``join rates``). A walk on feet may start
 from quiet standing (both feet flat side by side at rest,
-:mod:`problems.library.footed_transition`) and ends at a speed: stopping at quiet standing on
-feet is not planned yet.
+:mod:`problems.library.footed_transition`) and end at it (a stop: its last step one flat
+phase that sets the swing foot down beside the stance foot, the body at rest; its rows carry
+the front foot's force channels, zero, and its end is checked against standing).
 """
 
 from __future__ import annotations
@@ -308,12 +309,6 @@ def _gaits(speeds, linkage, library, say, step_options, feet) -> dict[float, Any
 def _checked_feet(speeds, linkage, library, step_options) -> dict[str, Any]:
     """The options of a walk on feet (``footed_step_at``'s, the walker's too; a library's
     own), what it cannot do refused by name."""
-    if speeds[-1] == 0:
-        raise DefinitionError(
-            f"`speeds[{len(speeds) - 1}]`: stopping at 0 m/s (quiet standing) on feet is not "
-            "planned yet (both feet flat at rest at the end is a double support the step on "
-            "feet does not have); end the walk at a speed (it may start at 0)"
-        )
     if library is None:
         return step_options if linkage is None else {**step_options, "linkage": linkage}
     if not library.feet:

@@ -66,6 +66,7 @@ import numpy as np
 from model.contact import Contact
 from model.dynamics import Dynamics
 from model.linkage import Linkage
+from model.linkage_naming import contact_force_names
 from model.points import LinkPoint
 from model.presets import anthropoid_feet, anthropoid_with_feet
 from model.rotors import Rotor, rotor_settings
@@ -116,6 +117,10 @@ SEQUENCES = {
     "flat-footed": ("flat", "double"),
     "toe-walking": ("heel rise", "double"),
 }
+#: The contact phases of a stop at quiet standing (:func:`stopping`): the stance foot flat
+#: while the swing foot swings from behind and sets down flat beside it, at rest; not a
+#: periodic step's sequence (``footed_step`` takes none but :data:`SEQUENCES`).
+STOP = ("flat",)
 #: Default shares of the step time per sequence (the guess, and inside the bounds): the
 #: human cycle (Perry's phases: opposite toe-off at 12 % of the stride, heel rise at 31 %,
 #: heel strike at 50 %, toe-off at 62 %) as shares of one step, half a stride; the other
@@ -186,6 +191,12 @@ class FootedStep:
     #: ``lift``): the first step of a start from standing, whose swing foot lifts from rest; 0
     #: for a step whose swing foot leaves the ground moving (toe-off)
     lift_time: float = 0.0
+    #: s: the floor ends flat over this time (``clearance_profile``'s ``land``): a stop's
+    #: swing foot sets down at rest
+    land_time: float = 0.0
+    #: a stop at quiet standing (:func:`stopping`): the one flat phase ends with both feet
+    #: flat side by side and the body at rest; no strike, no leg swap
+    stop: bool = False
 
     @property
     def limits(self) -> dict[str, float]:
@@ -286,7 +297,10 @@ class FootedStep:
 
     @property
     def sequence_name(self) -> str:
-        """The name of :attr:`sequence` in :data:`SEQUENCES` (``footed_step`` takes no other)."""
+        """The name of :attr:`sequence` in :data:`SEQUENCES` (``footed_step`` takes no other),
+        or "stop" for a stop's (:data:`STOP`)."""
+        if self.stop:
+            return "stop"
         return next(name for name, phases in SEQUENCES.items() if phases == self.sequence)
 
     @property
@@ -373,6 +387,8 @@ class FootedStep:
             "touchdown_speed": self.touchdown_speed,
             "approach_time": self.approach_time,
             "lift_time": self.lift_time,
+            "land_time": self.land_time,
+            "stop": self.stop,
             "leg_length": self.leg_length,
             "torque_limit": self.limits,
             "hip_limit": self.hip_limit,
@@ -554,6 +570,77 @@ def resized(step: FootedStep, step_length: float, step_time: float, label: str =
     return replace(other, phases=_phases(other, transcription))
 
 
+#: s: a stop's floor ends flat over this time (:attr:`FootedStep.land_time`): the swing
+#: foot sets down at rest with no acceleration, which the periodic floor's curvature at its
+#: end allows only by a jerk in the last interval (as the start's at its first:
+#: :data:`problems.library.footed_transition.LIFT_TIME`)
+LAND_TIME = 0.05
+
+
+def stopping(step: FootedStep, step_time: float, label: str = "") -> FootedStep:
+    """The stop at quiet standing after a step of ``step``'s walk (its walker, feet, limits,
+    objective and every other option): one flat phase (:data:`STOP`) of ``step_time`` s in
+    which the stance foot lies flat, the swing foot swings from behind over a floor that
+    ends flat (:data:`LAND_TIME`) and sets down flat with its ball at the stance ball at
+    touchdown speed 0 (the floor's approach term would make it come down at the walk's
+    touchdown speed to the last instant, where it must be at rest: a slam in the last mesh
+    interval), and the body comes to rest (dpsi = 0, ddpsi = 0 but the welded stance foot's):
+    :func:`standing_rows` at the end. Its step length is 0 (the feet side by side); ``label``
+    as for :func:`resized`. Its mesh is twice the single support's of ``step`` (the phases
+    before the double support): it spans about a step and a half."""
+    step_time = check_positive("step_time", step_time, "s")
+    if step.sequence[0] != "flat":
+        raise DefinitionError(
+            f"`step`: a stop at standing ends with the stance foot flat; this walk's steps "
+            f"begin with {step.sequence[0]!r} ({step.sequence_name}): plan the walk in the "
+            "human or the flat-footed sequence"
+        )
+    transcription = step.phases.phases[0][1].transcription
+    other = replace(
+        step, step_length=0.0, step_time=step_time, durations=(step_time,), label=label,
+        sequence=STOP, stop=True, lift_time=0.0, land_time=LAND_TIME, touchdown_speed=0.0,
+        mesh=(2 * sum(step.mesh[:-1]),), phases=None,
+    )  # fmt: skip
+    return replace(other, phases=_phases(other, transcription))
+
+
+def standing_rows(step: FootedStep, ocp: OCP, at: str) -> OCP:
+    """``ocp`` (a flat phase of ``step``) with quiet standing at ``at`` ("start" or "end"):
+    ``standing feet`` (the swing ball at the stance ball, m), ``standing flat`` (the soles
+    flat, rad), at rest (dpsi = 0; ``at rest``: ddpsi = 0). At the start both feet's angles
+    and every rate are rows (the phase's ``foot flat`` row must go: it would repeat them); at
+    the end the welded stance foot's are left out (its bound ddpsi = 0 from a flat start at
+    rest holds them already: rows that repeat it would be dependent)."""
+    n = step.linkage.n
+    root, foot = step.biped.stance_leg[0], step.biped.swing_leg[-1]
+    flat_stance, flat_swing = step.flat_angles
+    swing_toe = step.point("swing_toe").function("position")
+    stance_toe = step.point("stance_toe").function("position")
+
+    def feet(p):
+        return ca.vertcat(*swing_toe(p.x[:n])) - ca.vertcat(*stance_toe(p.x[:n]))
+
+    def flat(p):
+        swing = p[f"psi_{foot}"] - flat_swing
+        return ca.vertcat(p[f"psi_{root}"] - flat_stance, swing) if at == "start" else swing
+
+    moving = [i for i in range(n) if step.linkage.names[i] != root]
+    rows = 2 if at == "start" else 1
+    scale = rate_scales(step.time_unit)  # the rates' and accelerations' nominal sizes
+    ocp = (
+        ocp.boundary("standing feet", feet, at=at, lower=[0.0, 0.0], upper=[0.0, 0.0],
+                     scale=step.leg_length)
+        .boundary("standing flat", flat, at=at, lower=[0.0] * rows, upper=[0.0] * rows)
+    )  # fmt: skip
+    if at == "start":
+        ocp = ocp.initial(dpsi=[0.0] * n)
+    else:
+        ocp = ocp.boundary("standing still", lambda p: p.dpsi[moving], at=at, lower=0.0,
+                           upper=0.0, scale=scale["dpsi"])  # fmt: skip
+    return ocp.boundary("at rest", lambda p: p.ddpsi[moving], at=at, lower=0.0, upper=0.0,
+                        scale=scale["ddpsi"])  # fmt: skip
+
+
 #: Default intervals per phase of each sequence.
 MESHES = {
     PHASES: (20, 10, 30),
@@ -608,7 +695,16 @@ def _guessed_durations(step: FootedStep) -> tuple[float, ...]:
 
 
 def _single_support_guess(step: FootedStep) -> float:
+    """The single support's guessed duration, s (a stop's whole step)."""
+    if step.stop:
+        return step.step_time
     return math.fsum(_guessed_durations(step)[:-1])
+
+
+#: The step length of a stop's guess law, a fraction of the leg (the stop's own is 0: the
+#: law (22) fits a step that goes somewhere; the transition guesses the stop from its
+#: nearest gait's flat phase in any case)
+GUESS_STOP_LENGTH = 0.5
 
 
 def _law(step: FootedStep) -> GaitLaw:
@@ -626,8 +722,9 @@ def _law(step: FootedStep) -> GaitLaw:
                          gravity=welded.gravity)  # fmt: skip
     leg = step.leg_length
     lift = GUESS_LIFT * leg
+    length = step.step_length if step.step_length > 0 else GUESS_STOP_LENGTH * leg
     law = Biped.of(point_foot).step_law(
-        step.step_length, _single_support_guess(step), clearance=max(step.clearance, lift) + lift
+        length, _single_support_guess(step), clearance=max(step.clearance, lift) + lift
     )
     names = point_foot.names
     zeta, varpi, center = (np.zeros(linkage.n) for _ in range(3))
@@ -650,6 +747,8 @@ def _phases(step: FootedStep, transcription: str) -> Phases:
     builders = {"flat": _flat_ocp, "heel rise": _heel_rise_ocp, "double": _double_ocp}
     ocps = [builders[name](step, k, transcription) for k, name in enumerate(step.sequence)]
     phases = Phases.sequence((step.sequence[0], ocps[0]))
+    if step.stop:  # standing at the end: no strike, no leg swap
+        return phases
     for name, ocp in zip(step.sequence[1:], ocps[1:], strict=True):
         if name == "heel rise":
             # The heel rises when the centre of pressure reaches the ball: the torques pass
@@ -776,10 +875,11 @@ def _offset(step: FootedStep, phase: int, p):
 
 def _swing_clearance(step: FootedStep, phase: int, p):
     """Swing heel and ball above the clearance profile of the single support."""
-    single = _summed(p, _parameters(step))
+    parameters = _parameters(step)
+    single = _summed(p, parameters) if parameters else p.T  # a stop's: its one phase
     s = (p.t + _offset(step, phase, p)) / single
     floor = clearance_profile(s, single, step.clearance, step.touchdown_speed, step.approach_time,
-                              step.lift_time)  # fmt: skip
+                              step.lift_time, step.land_time)  # fmt: skip
     heights = step.heights("swing_heel", "swing_toe")(p.psi)
     return heights - ca.vertcat(floor, floor)
 
@@ -862,6 +962,8 @@ def _flat_ocp(step: FootedStep, phase: int, transcription: str) -> OCP:
     ocp = _pressure_row(step, ocp.constrain("friction", cone, lower=0.0, scale=step.weight))
     ocp = ocp.constrain("clearance", lambda p: _swing_clearance(step, phase, p), lower=0.0,
                         scale=step.clearance_scale)  # fmt: skip
+    if step.stop:  # the duration free in its bounds; standing at the end
+        return standing_rows(step, ocp, "end").guess(_guess_law(step, 0.0))
     ocp = _duration_row(step, ocp, duration)
     if step.sequence[phase + 1] == "double":  # flat-footed: the swing heel strikes now
         ocp = _strike_rows(step, ocp)
@@ -1015,6 +1117,18 @@ class FootedGait(SteppingGait):
 
     def durations(self) -> tuple[float, ...]:
         return tuple(float(solution.T) for solution, _ in self.segments())
+
+    def to_trajectory(self, rate_hz: float | None = None):
+        """:meth:`Gait.to_trajectory`; a stop's (:attr:`FootedStep.stop`) with the front
+        contact's force channels too, zero (its swing foot sets down unloaded), so that its
+        rows join a walk's file, whose steps carry them for their double supports."""
+        trajectory = super().to_trajectory(rate_hz)
+        if not self.problem.stop:
+            return trajectory
+        zero = np.zeros(np.asarray(trajectory.time).size)
+        for name in contact_force_names(self.problem.strike_role):
+            trajectory = trajectory.with_extra(name, zero, "N")
+        return trajectory
 
 
 def push_off(stance: Mapping[str, np.ndarray]) -> dict[str, float]:
