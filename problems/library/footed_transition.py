@@ -30,9 +30,9 @@ foot at t = 0, its centre of pressure on the sole like every other instant (the 
 touches the ground unloaded and lifts, as the point-foot start's does). The first step walks
 from there at the ramp's first speed (its ball lands one step length ahead of the stance
 ball: the swing foot travels one step length, where a periodic step's travels two), under a
-clearance floor that starts flat (:data:`LIFT_TIME`). Its first phase must be the flat foot
-(the human cycle or the flat-footed one; a toe-walking step starts on the ball and is
-refused).
+clearance floor that starts flat (:data:`problems.walking.step.LIFT_TIME`). Its first phase
+must be the flat foot (the human cycle or the flat-footed one; a toe-walking step starts on
+the ball and is refused).
 
 To quiet standing (``end`` :data:`STANDING`): the last step is a stop
 (:func:`problems.walking.footed.stopping`): one flat phase in which the swing foot swings
@@ -54,18 +54,13 @@ from planner.problem import Phases
 from problems.library.library import _guessed
 from problems.library.ramp import speed_ramp
 from problems.walking.footed import FootedGait, FootedStep, resized, standing_rows, stopping
+from problems.walking.step import LIFT_TIME
 
 #: the first phase's rows a fixed start makes dependent (the gait there satisfied them; a
 #: standing start states the stance foot's angle in its own row, its rate fixed at rest)
 START_ROWS = ("foot flat",)
 #: quiet standing as a transition's end (:data:`problems.library.transition.STANDING`)
 STANDING = "standing"
-#: s: the first step of a start from standing lifts its swing foot from rest under a floor
-#: that starts flat over this time (:attr:`problems.walking.footed.FootedStep.lift_time`):
-#: under the periodic step's floor, which curves up at once, the foot jerked off the ground
-#: in the first 10 ms (the swing knee -80.6 N m at 3 ms, the ground's torque on the stance
-#: foot -159 N m; measured at 0 -> 1 m/s)
-LIFT_TIME = 0.05
 
 
 #: A stop's duration, a multiple of the ramp's step time there (the time of its first speed):
@@ -103,8 +98,8 @@ def _checked_ends(start, end) -> tuple[FootedGait | str, FootedGait | str]:
     start, end = _checked_gait("start", start), _checked_gait("end", end)
     if start == STANDING and end == STANDING:
         raise DefinitionError("`start`, `end`: a transition from standing to standing is no walk")
-    for field, gait, what in (("end", end, "start from"), ("start", start, "stop at")):
-        other = start if field == "end" else end
+    for field, gait, other, what in (("end", end, start, "start from"),
+                                     ("start", start, end, "stop at")):  # fmt: skip
         if other == STANDING and gait.problem.sequence[0] != "flat":
             raise DefinitionError(
                 f"`{field}`: a {what} quiet standing has the stance foot flat; this gait's "

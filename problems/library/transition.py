@@ -61,7 +61,7 @@ from problems.library.footed_transition import STANDING, footed_transition_probl
 from problems.library.ramp import end_speed, speed_ramp
 from problems.walking.footed import PINNED as FOOTED_PINNED
 from problems.walking.footed import FootedGait, FootedStep
-from problems.walking.step import PINNED, WalkingGait, WalkingStep, walking_step
+from problems.walking.step import LAND_TIME, PINNED, WalkingGait, WalkingStep, walking_step
 
 #: the largest number of steps a transition's search tries by default
 MAX_STEPS = 6
@@ -92,9 +92,6 @@ RETRIED = "again at"
 #: simulation of the walk 10 % heavier or lighter turns into a foot pulled off the ground;
 #: the periodic gaits at 0.6-1.4 m/s start their steps at 14-21 % (measured)
 SUPPORT = 0.1
-#: s: the last step of a stop sets its foot down under a floor that ends flat over this time
-#: (``walking_step(land_time=...)``)
-LAND_TIME = 0.05
 #: the rows a fixed start or end makes constants (the gait there satisfied them already)
 START_ROWS = ("lift off",)
 END_ROWS = ("landing", "heel strike", "impulse")
@@ -217,10 +214,7 @@ def transition_problem(
         options = dict(step_options)
         if last and isinstance(end, str):
             options["touchdown_speed"] = 0.0  # the foot sets down at rest ...
-            # ... under a floor that ends flat: without it the swing shank braked at 75.8 N m
-            # in the last 20 ms of a stop from 1 m/s (its peak), 6.7 N m with it (and 26.5 N m
-            # at most over the stop)
-            options["land_time"] = LAND_TIME
+            options["land_time"] = LAND_TIME  # ... under a floor that ends flat
         # the law guesses a step of some length: a stop's last one lands at 0
         guide = length if length > 0 else ramp[0][1] or 0.5
         step = walking_step(linkage, guide, duration, **options)

@@ -94,6 +94,7 @@ from problems.human.effort import check_objective as check_human_objective
 from problems.walking.step import (
     CLEARANCE_SCALE,
     GUESS_LIFT,
+    LAND_TIME,
     SPEED_SCALE,
     UNLOADED,
     SteppingGait,
@@ -570,24 +571,17 @@ def resized(step: FootedStep, step_length: float, step_time: float, label: str =
     return replace(other, phases=_phases(other, transcription))
 
 
-#: s: a stop's floor ends flat over this time (:attr:`FootedStep.land_time`): the swing
-#: foot sets down at rest with no acceleration, which the periodic floor's curvature at its
-#: end allows only by a jerk in the last interval (as the start's at its first:
-#: :data:`problems.library.footed_transition.LIFT_TIME`)
-LAND_TIME = 0.05
-
-
 def stopping(step: FootedStep, step_time: float, label: str = "") -> FootedStep:
     """The stop at quiet standing after a step of ``step``'s walk (its walker, feet, limits,
     objective and every other option): one flat phase (:data:`STOP`) of ``step_time`` s in
     which the stance foot lies flat, the swing foot swings from behind over a floor that
-    ends flat (:data:`LAND_TIME`) and sets down flat with its ball at the stance ball at
-    touchdown speed 0 (the floor's approach term would make it come down at the walk's
-    touchdown speed to the last instant, where it must be at rest: a slam in the last mesh
-    interval), and the body comes to rest (dpsi = 0, ddpsi = 0 but the welded stance foot's):
-    :func:`standing_rows` at the end. Its step length is 0 (the feet side by side); ``label``
-    as for :func:`resized`. Its mesh is twice the single support's of ``step`` (the phases
-    before the double support): it spans about a step and a half."""
+    ends flat (:data:`problems.walking.step.LAND_TIME`) and sets down flat with its ball at
+    the stance ball at touchdown speed 0 (the floor's approach term would make it come down
+    at the walk's touchdown speed to the last instant, where it must be at rest: a slam in
+    the last mesh interval), and the body comes to rest (dpsi = 0, ddpsi = 0 but the welded
+    stance foot's): :func:`standing_rows` at the end. Its step length is 0 (the feet side
+    by side); ``label`` as for :func:`resized`. Its mesh is twice the single support's of
+    ``step`` (the phases before the double support): it spans about a step and a half."""
     step_time = check_positive("step_time", step_time, "s")
     if step.sequence[0] != "flat":
         raise DefinitionError(
