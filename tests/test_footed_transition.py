@@ -22,7 +22,7 @@ from planner.errors import DefinitionError
 from problems.gait.verification import verify_gait
 from problems.library.footed_transition import STOP_TIME, footed_transition_problem
 from problems.library.transition import plan_transition
-from problems.walking.footed import SEQUENCES, FootedGait, footed_step_at, resized
+from problems.walking.footed import SEQUENCES, FootedGait, footed_step_at, resized, stopping
 
 
 def test_a_part_of_a_solution_is_its_phases_on_their_own_time_axis(footed_gait):
@@ -258,6 +258,10 @@ def test_a_transition_on_feet_refuses_what_it_cannot_join(footed_gait):
         footed_transition_problem("standing", toe_walking, 1)
     with pytest.raises(DefinitionError, match="standing to standing is no walk"):
         footed_transition_problem("standing", "standing", 1)
+    with pytest.raises(DefinitionError, match="a stop at standing ends with the stance foot flat"):
+        stopping(toe_walking.problem, 1.0)
+    with pytest.raises(DefinitionError, match="`step_time`: must be > 0 s"):
+        stopping(footed_gait.problem, 0.0)
     with pytest.raises(DefinitionError, match="`steps`"):
         footed_transition_problem(footed_gait, footed_gait, 0)
 
