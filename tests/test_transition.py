@@ -291,7 +291,6 @@ def plan_linkage():
     (["--speeds", "1,0,1"], "only first or last"),
     (["--speeds", "0,1", "--urdf", "x.urdf"], "cannot read 'x.urdf'"),
     (["--speeds", "0,1", "--step-time-s", "0.6"], "--step-time-s"),
-    (["--speeds", "0,1,0", "--preset", "six-link-feet", "--feedback"], "closed loop of a stop"),
     (["--speeds", "1,0.6", "--preset", "six-link-feet", "--library", "x.npz"], "--library"),
     (["--speeds", "1,0.6", "--preset", "six-link-feet", "-N", "20"], "-N"),
     (["--speeds", "1,0.6", "--preset", "six-link-feet", "--objective", "work"], "torque or human"),

@@ -23,6 +23,7 @@ from problems.cli.common import (
     with_robot,
 )
 from problems.cli.walk_feet import FEET_SEQUENCE_SPEED_LIMIT, footed_options
+from problems.control.mujoco_feet import STAND as FEET_STAND_S
 from problems.library.closed_loop import STAND as STAND_S
 from problems.library.transition import RETRIED
 from problems.walking.footed import FootedStep
@@ -68,12 +69,6 @@ def _feet_options(args, speeds) -> dict:
     options = footed_options(args)
     if args.joint_speed_limit is None:
         options["speed_limit"] = FEET_SEQUENCE_SPEED_LIMIT
-    if speeds[-1] == 0.0 and args.feedback:
-        raise UsageError(
-            f"--speeds {args.speeds} on feet with --feedback: the closed loop of a stop at "
-            "quiet standing on feet is not built yet (its plan is: drop --feedback, or end "
-            "at a speed, e.g. 0,1.0,1.4)"
-        )
     return {**options, "feet": True}
 
 
@@ -271,14 +266,19 @@ def _feet_closed_loop(laws, sequence, args, report, out):
 
     with report.working(f"walking it in MuJoCo ({len(sequence.steps)} steps, 3 cases)"):
         runs, push_step = walk_in_mujoco(sequence, laws)
-    print(f"closed loop ({len(sequence.steps)} steps; each step's joint PD around its own plan, "
-          "handed over at the leg swap; the product's hybrid simulation does not model feet, "
-          "so MuJoCo only: heel and ball spheres, soft contacts):", file=out)  # fmt: skip
+    standing = (f", then {FEET_STAND_S:g} s standing after the stop" if sequence.speeds[-1] == 0
+                else "")  # fmt: skip
+    print(f"closed loop ({len(sequence.steps)} steps{standing}; each step's joint PD around its "
+          "own plan, handed over at the leg swap; the product's hybrid simulation does not "
+          "model feet, so MuJoCo only: heel and ball spheres, soft contacts):",
+          file=out)  # fmt: skip
     print(f"  {'case':<26} {'MuJoCo':<28}", file=out)
+    stops = sequence.speeds[-1] == 0
     for label, run in runs.items():
         where = f", step {push_step}" if "push" in label else ""
-        outcome = f"{run.walked}/{len(sequence.steps)} steps" + ("" if run.fell is None
-                                                                 else " (fell)")  # fmt: skip
+        stood = ", stood" if stops and run.fell is None else ""
+        outcome = f"{run.walked}/{len(sequence.steps)} steps{stood}" + (
+            "" if run.fell is None else " (fell)")  # fmt: skip
         print(f"  {label + where:<26} {outcome:<28}", file=out)
         if run.fell is not None:
             print(f"    MuJoCo: {run.fell[:160]}", file=out)

@@ -13,6 +13,12 @@ switches to the second when the swing foot's striking point (its heel; its ball 
 walking) touches the ground past half the step, and the legs swap (the plan's labels follow
 the new stance foot) when s reaches 1, where the plan's rear foot leaves.
 
+A stop at quiet standing (``step.stop``: one flat phase, the swing foot set down beside the
+stance foot at rest) has one branch and no phase (its hip sways back and settles): the law
+follows it by the time since it began, blends its gains over its last :data:`STAND_RAMP` s
+into standing's (:func:`standing_gains`: the stance ankle also damps the whole body's sway),
+and after its end holds its last sample, both feet on the ground.
+
 In the file (:meth:`FeetLaw.channels`) the law is the point-foot feedback's form,
 M = clip(M_ff(s) + K(s) (x_ref(s) - x)): K = [kp R, kd R] (n, 2n) with R the relative angles
 of the absolute ones (q = R psi), one K per branch, in the columns ``K_<hinge>__<state>``.
@@ -30,7 +36,7 @@ import dataclasses
 
 import numpy as np
 
-from planner.errors import DefinitionError, check_positive
+from planner.errors import DefinitionError, check_positive, check_real
 from planner.trajectory import Trajectory
 from problems.control.feedback import LAW, limit_metadata, with_gains
 from problems.control.mujoco import TOUCHDOWN_FORCE
@@ -47,21 +53,32 @@ FEET_BANDWIDTH = 50.0
 #: walker's sweep in examples/benchmarks/feet_mujoco.py: its light feet and 30 ms double
 #: support want more damping)
 SEQUENCE_GAINS = {"toe-walking": (1000.0, 50.0, 70.0)}
+#: a stop's hinges are damped at least at this ratio of critical (:func:`standing_gains`)
+STAND_DAMPING = 0.7
+#: s: a stop's law blends the walk's gains into standing's over its last this long, while the
+#: swing foot comes down onto the ground under its floor's flat end
+#: (:data:`problems.walking.step.LAND_TIME` 0.05 s) and the body comes to rest
+STAND_RAMP = 0.1
 #: the law's rate, Hz (the torque file's)
 CONTROL_RATE_HZ = 1000.0
 
 
 def feet_references(gait, rate_hz: float = CONTROL_RATE_HZ,
-                    by_time: bool = False) -> tuple[GaitReference, GaitReference]:  # fmt: skip
+                    by_time: bool = False) -> tuple[GaitReference, ...]:  # fmt: skip
     """(single support, double support) of a solved step on feet, each the consistent
     motion sampled at ``rate_hz`` from its start (the single support the flat foot then the
     heel rise: one motion, its torques continuous where the heel rises; its last sample the
     state before the heel strike), both indexed by the whole step's phase: s = 0 at the
     step's start, 1 where the rear foot leaves (``by_time``: a law follows a branch by the
     time since it began while its hip stalls or sways back, then by the phase;
-    :class:`GaitReference`)."""
+    :class:`GaitReference`). A stop at quiet standing (``step.stop``: one flat phase, no
+    strike) has one branch, (stop,): followed by the time since it began throughout, its last
+    sample (standing at rest) held after its end (``GaitReference(to_rest=True)``)."""
     step = gait.problem
     *singles, last = (part.to_trajectory(rate_hz) for part, _ in gait.segments())
+    if step.stop:  # one flat phase to rest: by the time throughout, its end held
+        stop = dataclasses.replace(last, extras={}, metadata={})
+        return (GaitReference(stop, step.dynamics, step.biped.stance_thigh, to_rest=True),)
     single = dataclasses.replace(singles[0], extras={}, metadata={})
     for second in singles[1:]:
         # the heel rise's first sample is the flat foot's last (the same instant): kept once
@@ -105,6 +122,90 @@ def hinge_gains(inertias, kp: float, kd: float, bandwidth: float):
     return (np.minimum(kp, bandwidth**2 * inertias), np.minimum(kd, 2.0 * bandwidth * inertias))
 
 
+def standing_gains(
+    gain: np.ndarray, inertias, ankle: int, shank: int, damping: float = STAND_DAMPING
+) -> np.ndarray:
+    """K (n, 2n) of standing held: the walk's joint PD ``gain`` (n, 2n) on x = (psi, dpsi)
+    with the stance ankle's row (hinge ``ankle``) also damping the stance shank's absolute
+    rate (column n + ``shank``) at 2 damping sqrt(kp_ankle I_ankle), the ratio ``damping``
+    of critical for the whole body swaying on that ankle (I_ankle :func:`hinge_inertias`,
+    about 70 kg m^2 on the scene). The other rows are the walk's: the swing ankle's capped
+    gains too (uncapped, as in the double support, a walker pushed 10 N s in the stop that
+    stood with them toppled: measured).
+
+    Why: standing, the whole body sways on the stance ankle against kp = 1000 N m/rad less
+    its weight's toppling 600 N m/rad, and the walk's kd = 30 N m s/rad damps that at 0.09 of
+    critical: pushed 10 N s in the stop, the body rocked on its soles with a 2.7 s period and
+    toppled within 3 s (measured). Why on the shank's absolute rate and not the ankle's
+    relative one: a relative damping that large reads the stance foot's own rocking on its
+    soft contact (kd dt / I_foot ~ 40 at 1 kHz) and shook the walker off its feet (measured:
+    every hinge damped at 0.7 of critical toppled even the undisturbed stop)."""
+    if not damping >= 0:
+        raise DefinitionError(f"`stand_damping`: a ratio of critical >= 0 (0: the walk's PD "
+                              f"alone), got {damping!r}")  # fmt: skip
+    gain = np.array(gain, dtype=float)
+    n = gain.shape[0]
+    inertias = np.asarray(inertias, dtype=float)
+    kp_ankle = gain[ankle, :n] @ np.eye(n)[:, shank]  # kp on the ankle's angle (R's +1 entry)
+    gain[ankle, n + shank] += 2.0 * damping * np.sqrt(max(kp_ankle, 0.0) * inertias[ankle])
+    return gain
+
+
+class BlendedPD:
+    """Two PD laws around one reference, blended by the time t s since the step began:
+    M = (1 - w) M_first + w M_second, w = 0 up to ``start``, 3 u^2 - 2 u^3 (u = (t - start)
+    / (end - start)) up to ``end``, 1 after: the same as one PD whose gains blend so (the
+    feedforward is the reference's in both). A stop's law (:class:`FeetLaw`): the walk's
+    :class:`PhasePD` into standing's :class:`TimedGainLaw` (:func:`standing_gains`) over its
+    last :data:`STAND_RAMP` s."""
+
+    def __init__(self, first, second, start: float, end: float) -> None:
+        if not end > start:
+            raise DefinitionError(f"`end`: after `start` ({start!r} s), got {end!r} s")
+        self.first, self.second = first, second
+        self.start, self.end = float(start), float(end)
+        self.reference = first.reference
+
+    def weight(self, t) -> np.ndarray:
+        """w at the times t s (any shape): the second law's share."""
+        u = np.clip((np.asarray(t, dtype=float) - self.start) / (self.end - self.start), 0, 1)
+        return u * u * (3.0 - 2.0 * u)
+
+    def start_step(self, index: int, x: np.ndarray) -> None:
+        pass
+
+    def torques(self, t: float, x: np.ndarray) -> np.ndarray:
+        w = float(self.weight(t))
+        return (1.0 - w) * self.first.torques(t, x) + w * self.second.torques(t, x)
+
+    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        """dM/dx (n, 2n) of :meth:`torques`."""
+        w = float(self.weight(t))
+        return (1.0 - w) * self.first.jacobian(t, x) + w * self.second.jacobian(t, x)
+
+
+class TimedGainLaw:
+    """M = active (M_ff(t) + K (x_ref(t) - x)) with one gain K (n, 2n) on x = (psi, dpsi),
+    the reference by the time t s since the step began (clamped to the plan: its last sample
+    held after its end); ``passive``: hinges with no drive (their torque 0)."""
+
+    def __init__(self, reference, gain: np.ndarray, passive=()) -> None:
+        self.reference = reference
+        self.gain = np.array(gain, dtype=float)
+        self._active = np.ones(self.gain.shape[0])
+        self._active[list(passive)] = 0.0
+
+    def start_step(self, index: int, x: np.ndarray) -> None:
+        pass
+
+    def torques(self, t: float, x: np.ndarray) -> np.ndarray:
+        state, feedforward = self.reference.at_time(t)
+        return self._active * (feedforward + self.gain @ (state - x))
+
+    def jacobian(self, t: float, x: np.ndarray) -> np.ndarray:
+        return -self._active[:, None] * self.gain
+
+
 class FeetLaw:
     """The drives' law on the step on feet (module docstring): joint PD around the plan,
     indexed by the hip's progress, with the single and double support's branches.
@@ -120,11 +221,16 @@ class FeetLaw:
         :data:`SEQUENCE_GAINS` or (:data:`FEET_KP`, :data:`FEET_KD`, :data:`FEET_BANDWIDTH`).
     rate_hz : float
         The reference's sample rate (the file's), Hz.
+    stand_damping : float
+        A stop's standing held after it: the stance ankle's damping of the whole body's sway,
+        as a ratio of critical (:func:`standing_gains`; 0: the walk's joint PD alone).
 
-    Attributes: ``references`` (single, double) :class:`GaitReference`; ``gains`` per branch,
-    (kp (n,), kd (n,)); ``indexed_by``: "phase", or "time" for a step whose hip does not
-    always advance (the first step of a start from rest: followed by the time since the step
-    began until its hip advances for good, then by the phase; ``GaitReference.by_time``).
+    Attributes: ``references`` (single, double) :class:`GaitReference`, or (stop,) for a
+    stop at quiet standing; ``gains`` per branch, (kp (n,), kd (n,)); ``indexed_by``:
+    "phase", or "time" for a step whose hip does not always advance (the first step of a
+    start from rest: followed by the time since the step began until its hip advances for
+    good, then by the phase; ``GaitReference.by_time``), or :data:`HELD` for a stop (by the
+    time since it began, its last sample, standing at rest, held after its end).
     """
 
     def __init__(
@@ -134,6 +240,7 @@ class FeetLaw:
         kd: float | None = None,
         bandwidth: float | None = None,
         rate_hz: float = CONTROL_RATE_HZ,
+        stand_damping: float = STAND_DAMPING,
     ) -> None:
         step = gait.problem
         self.step = step
@@ -144,12 +251,16 @@ class FeetLaw:
         self.rate_hz = check_positive("rate_hz", rate_hz, "Hz")
         self.bandwidth = bandwidth
         # a step whose hip does not always advance (a start from rest) has no phase to
-        # follow its plan by: its law goes by the time since each branch began
-        try:
-            self.references, self.indexed_by = feet_references(gait, self.rate_hz), "phase"
-        except DefinitionError:  # the phase refused it: the hip stalls or sways back
-            self.references = feet_references(gait, self.rate_hz, by_time=True)
-            self.indexed_by = "time"
+        # follow its plan by: its law goes by the time since each branch began; a stop's
+        # hip sways back and settles: by the time throughout, standing held after its end
+        if step.stop:
+            self.references, self.indexed_by = feet_references(gait, self.rate_hz), HELD
+        else:
+            try:
+                self.references, self.indexed_by = feet_references(gait, self.rate_hz), "phase"
+            except DefinitionError:  # the phase refused it: the hip stalls or sways back
+                self.references = feet_references(gait, self.rate_hz, by_time=True)
+                self.indexed_by = "time"
         n = step.linkage.n
         inertias = hinge_inertias(step.dynamics, self.references[0].states[:, :n])
         # In the double support both feet are on the ground: every drive moves the closed
@@ -158,10 +269,38 @@ class FeetLaw:
         # drifted until the hip stalled, at step 24: measured)
         self.gains = (hinge_gains(inertias, kp, kd, bandwidth),
                       (np.full(n, float(kp)), np.full(n, float(kd))))  # fmt: skip
-        self.branches = tuple(
-            PhasePD(reference, step.linkage.parents, *gains, passive=(0,))
-            for reference, gains in zip(self.references, self.gains, strict=True)
-        )
+        if step.stop:  # one branch: the walk's gains, blended into standing's at its end
+            self.gains = self.gains[:1]
+            stop = self.references[0]
+            walk = PhasePD(stop, step.linkage.parents, *self.gains[0], passive=(0,))
+            names = step.linkage.names
+            #: K (n, 2n) of standing held after the stop (:func:`standing_gains`)
+            shank = names.index(step.biped.stance_leg[1])  # its hinge: the stance ankle
+            self.standing_gain = standing_gains(
+                self._gain_matrix(*self.gains[0], walk.relative_matrix),
+                inertias,
+                shank,
+                shank,
+                check_real("stand_damping", stand_damping),
+            )
+            self.branches = (BlendedPD(walk, TimedGainLaw(stop, self.standing_gain, (0,)),
+                                       stop.duration - STAND_RAMP, stop.duration),)  # fmt: skip
+        else:
+            self.branches = tuple(
+                PhasePD(reference, step.linkage.parents, *gains, passive=(0,))
+                for reference, gains in zip(self.references, self.gains, strict=True)
+            )
+
+    def _gain_matrix(self, kp, kd, relative=None) -> np.ndarray:
+        """K = [kp R, kd R] (n, 2n) of per-hinge gains kp, kd (n,) on x = (psi, dpsi), R the
+        relative angles' matrix (q = R psi); row 0 (the ground's torque on the stance foot:
+        no drive) zero."""
+        relative = self.branches[0].first.relative_matrix if relative is None and isinstance(
+            self.branches[0], BlendedPD) else (
+            self.branches[0].relative_matrix if relative is None else relative)  # fmt: skip
+        gain = np.hstack([np.asarray(kp)[:, None] * relative, np.asarray(kd)[:, None] * relative])
+        gain[0] = 0.0
+        return gain
 
     def phase(self, psi) -> float:
         """The step's phase s of the angles psi (n,) in the plan's labels."""
@@ -184,23 +323,36 @@ class FeetLaw:
             raise DefinitionError(
                 f"`trajectory`: {trajectory.psi.shape[1]} angles, the step on feet has {n}"
             )
-        phases = np.array([self.phase(psi) for psi in trajectory.psi])
         times = np.asarray(trajectory.time, dtype=float) - float(trajectory.time[0])
-        # the joined file keeps the state after the impact at the strike's instant
+        if step.stop:  # by the time: the phase column is the law's index, t / T
+            phases = times / times[-1]
+        else:
+            phases = np.array([self.phase(psi) for psi in trajectory.psi])
+        # the joined file keeps the state after the impact at the strike's instant (a stop
+        # has no strike: one branch)
         double = times >= self.references[0].duration - 1e-9
-        relative = self.branches[0].relative_matrix  # q = R psi
-        rows = []
-        for kp, kd in self.gains:
-            gain = np.hstack([kp[:, None] * relative, kd[:, None] * relative])
-            gain[0] = 0.0  # the ground's torque on the stance foot: no drive
-            rows.append(gain)
-        gains = np.where(double[:, None, None], rows[1], rows[0])
+        if len(self.references) == 1:
+            double = np.zeros(times.size, dtype=bool)
+        rows = [self._gain_matrix(kp, kd) for kp, kd in self.gains]
+        if step.stop:  # the walk's gains blended into standing's by the time
+            w = self.branches[0].weight(times)[:, None, None]
+            gains = (1.0 - w) * rows[0] + w * self.standing_gain
+        else:
+            gains = np.where(double[:, None, None], rows[-1], rows[0])
         limits = [np.inf] + [step.limits[name] for name in step.linkage.names[1:]]
         # the gains as the file's K rows hold them: none for the ground's torque on the root
         kp = [np.r_[0.0, gains[1:]].tolist() for gains, _ in self.gains]
         kd = [np.r_[0.0, gains[1:]].tolist() for _, gains in self.gains]
-        single = " + ".join(step.sequence[:-1])
-        point = step.striking_point
+        if step.stop:
+            branches, indexed_by = STOP_BRANCH, HELD_TEXT
+            kp_entry = {"stop": kp[0], "unit": KP_UNIT}
+            kd_entry = {"stop": kd[0], "unit": "N m s/rad"}
+        else:
+            single = " + ".join(step.sequence[:-1])
+            branches = FEET_BRANCHES.format(single=single, point=step.striking_point)
+            indexed_by = self.indexed_by if self.indexed_by == "phase" else BY_TIME
+            kp_entry = {"single": kp[0], "double": kp[1], "unit": KP_UNIT}
+            kd_entry = {"single": kd[0], "double": kd[1], "unit": "N m s/rad"}
         return with_gains(
             trajectory.with_extra("double_support", double.astype(float), "1"),
             step.linkage.names,
@@ -209,19 +361,17 @@ class FeetLaw:
             {
                 "law": LAW,
                 "phase": FEET_PHASE.format(hip=step.biped.stance_thigh),
-                "indexed_by": self.indexed_by if self.indexed_by == "phase" else BY_TIME,
-                "branches": FEET_BRANCHES.format(single=single, point=point),
+                "indexed_by": indexed_by,
+                "branches": branches,
                 "limit_N_m": limit_metadata(limits),
                 "control_rate_hz": self.rate_hz,
                 "design": "joint PD around the plan on the hinges' relative angles, K = "
                 "[kp R, kd R]; in the single support capped on light links at "
                 f"{self.bandwidth:g} rad/s (problems.control.feet_law.hinge_gains)",
-                "kp": {
-                    "single": kp[0],
-                    "double": kp[1],
-                    "unit": "N m/rad, per hinge (the root's 0: the ground's torque, no drive)",
-                },
-                "kd": {"single": kd[0], "double": kd[1], "unit": "N m s/rad"},
+                "kp": kp_entry,
+                "kd": kd_entry,
+                # how a stop goes over into standing, beside its gains
+                **({"standing": STAND_BLEND} if step.stop else {}),
             },
         )
 
@@ -239,6 +389,27 @@ BY_TIME = (
     "sways back (a start from rest), then by the phase from where the hip advances for good; "
     "the phase ends the step at s = 1"
 )
+#: how a stop's law follows its plan (FeetLaw.indexed_by), and as the file's metadata says it
+HELD = "time, then held"
+HELD_TEXT = (
+    "time, then held: a stop at quiet standing (its hip sways back and settles) is followed "
+    "by the time since it began; after its last row (both feet flat side by side, at rest) "
+    "the law holds that row: x_ref, tau_ff and K of the last row"
+)
+#: how a stop's gains go over into standing's, as the file's metadata says it
+STAND_BLEND = (
+    "standing held: the stance ankle also damps the stance shank's absolute rate (its K "
+    "column of that rate); the rows' K blend the stop's PD into standing's by the time since "
+    f"the step began, w = 3 u^2 - 2 u^3, u = (t - (T - {STAND_RAMP:g} s)) / {STAND_RAMP:g} s "
+    "within [0, 1], T the stop's duration: its last row's K are standing's, held after T"
+)
+#: a stop's one branch, as the file's metadata says it
+STOP_BRANCH = (
+    "one branch (double_support = 0 throughout): the stop's flat phase, the swing foot set "
+    "down beside the stance foot at its end; no strike and no leg swap follow"
+)
+#: the unit of the file's kp, per hinge
+KP_UNIT = "N m/rad, per hinge (the root's 0: the ground's torque, no drive)"
 #: the branches and their switches, as the file's metadata says them
 FEET_BRANCHES = (
     "rows with double_support = 0: the single support ({single}) up to the strike; 1: the "
@@ -252,9 +423,11 @@ __all__ = [
     "FEET_BANDWIDTH",
     "FEET_KD",
     "FEET_KP",
+    "HELD",
     "SEQUENCE_GAINS",
     "FeetLaw",
     "feet_references",
     "hinge_gains",
     "hinge_inertias",
+    "standing_gains",
 ]

@@ -50,6 +50,9 @@ FOOT_MASS = 0.5
 #: the swing foot's ankle PD that keeps it flat, N m/rad and N m s/rad
 FOOT_KP = 20.0
 FOOT_KD = 0.2
+#: m/s: at the end of a walk that stops, after its stand, the hip moves slower than this, or
+#: the walker has not come to rest
+REST_SPEED = 0.05
 #: the walker starts this far into the ground, m: a soft contact at zero depth carries nothing
 #: yet, and the first instants would drop the body
 PRELOAD = 3e-4

@@ -23,6 +23,7 @@ from problems.control.feet_law import CONTROL_RATE_HZ, FeetLaw
 from problems.control.mujoco import (
     CONTACT_TIME_CONSTANT,
     PRELOAD,
+    REST_SPEED,
     TIMESTEP,
     TOUCHDOWN_FORCE,
     MujocoRun,
@@ -35,6 +36,12 @@ from problems.control.mujoco import (
     instability_reports,
 )
 from problems.control.simulation import Disturbances, disturbances_for, largest_push
+
+#: s: a walk that stops holds its standing pose this long after the stop's end, both feet down
+STAND = 1.0
+#: m: a stop ends standing with the swing ball at most this far from the stance ball (the plan
+#: sets it down at the stance ball, side by side)
+STAND_GAP = 0.05
 
 
 def feet_walker_mjcf(step, *, ground_mu: float | None = None) -> MjcfModel:
@@ -99,6 +106,7 @@ def run_feet_steps_in_mujoco(
     contact_time_constant: float = CONTACT_TIME_CONSTANT,
     preload: float = PRELOAD,
     laws=None,
+    stand: float = STAND,
 ) -> MujocoRun:
     """Walk the steps on feet ``gaits`` (:class:`problems.walking.footed.FootedGait`, one per
     step, in order: e.g. the steps of a walk through speeds, each periodic step repeated and
@@ -106,7 +114,13 @@ def run_feet_steps_in_mujoco(
     step j under ``laws[j]`` (default ``FeetLaw(gaits[j])``, made once per distinct gait):
     the law follows step j's own plan and hands over to step j + 1's at the leg swap.
     Disturbances, returns and fall criteria as for :func:`run_feet_in_mujoco` (a push's
-    step index counts the walk's steps)."""
+    step index counts the walk's steps).
+
+    A walk that ends at quiet standing (its last gait a stop, ``problem.stop``) walks the
+    stop under its law by the time, then the law holds the stop's last sample for ``stand``
+    s, both feet on MuJoCo's ground; the stop counts as walked when, at the end, the swing
+    foot's ball lies within :data:`STAND_GAP` of the stance ball and the hip moves slower
+    than :data:`problems.control.mujoco.REST_SPEED` (else the run says it did not stand)."""
     from problems.walking.footed import FootedGait
 
     gaits = tuple(gaits)
@@ -115,6 +129,13 @@ def run_feet_steps_in_mujoco(
             "`gaits`: solved steps on feet (FootedGait), at least one, got "
             f"{[type(gait).__name__ for gait in gaits]}"
         )
+    stops = [j for j, gait in enumerate(gaits) if gait.problem.stop]
+    if stops and stops != [len(gaits) - 1]:
+        raise DefinitionError(
+            f"`gaits`: a stop at quiet standing ends a walk; step {stops[0]} of {len(gaits)} "
+            "is one: end the walk there"
+        )
+    check_positive("stand", stand, "s")
     names = gaits[0].problem.linkage.names
     if any(gait.problem.linkage.names != names for gait in gaits):
         raise DefinitionError("`gaits`: steps of one walker (the same links)")
@@ -134,11 +155,13 @@ def run_feet_steps_in_mujoco(
                                   contact_time_constant)  # fmt: skip
     with instability_reports(mujoco) as unstable:
         return _walk(mujoco, model, data, mjcf, laws, len(gaits), disturbances, False, preload,
-                     unstable)  # fmt: skip
+                     unstable, stand)  # fmt: skip
 
 
-def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, preload, unstable):
-    """The control loop of :func:`run_feet_in_mujoco`: step j under ``laws[j % len(laws)]``."""
+def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, preload, unstable,
+          stand=STAND):  # fmt: skip
+    """The control loop of :func:`run_feet_in_mujoco`: step j under ``laws[j % len(laws)]``
+    (a stop, the walk's last, then ``stand`` s held)."""
     law = laws[0]
     step = law.step
     linkage = step.linkage
@@ -180,6 +203,13 @@ def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, prelo
     saturated = 0
     pushed = disturbances.push == 0.0
     lowest = min(0.0, disturbances.ground_rise) - 0.02
+    # the hip's x in the world (both thighs end there: either label's stance thigh)
+    hip_point = step.dynamics.point(step.biped.stance_thigh)
+    hips: list[float] = []
+
+    def hips_x(coordinates) -> float:
+        return complex(hip_point.position(coordinates[2:])).real + coordinates[0]
+
     while len(records) < steps:
         coordinates = mjcf.model_coordinates(data.qpos)
         rates = mjcf.model_coordinates(data.qvel)
@@ -197,7 +227,7 @@ def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, prelo
             since = t_step - (t_strike if branch else 0.0)
             torques = law.torques(branch, x, since)
         torques[0] = 0.0  # the ground's torque on the stance foot: no drive gives it
-        tracking = max(tracking, reference.tracking(x))
+        tracking = max(tracking, reference.tracking(x, since))
         hinge = torques if label == "A" else swap.map_torques(torques)
         data.ctrl[motors] = np.clip(hinge[1:], -limit, limit)
         command = float(np.abs(data.ctrl[motors]).max())
@@ -221,6 +251,17 @@ def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, prelo
         # 2 cm under the lowest ground there is: a knee, hip or head that low has fallen
         if np.min(hinges.imag[1:]) < lowest or not np.all(np.isfinite(data.qpos)):
             fell = f"step {len(records)}, t = {t_step:.3f} s: a body point went under the ground"
+            break
+        if step.stop:  # quiet standing: the stop, then its last sample held
+            hips.append(float(hips_x(here)))
+            if t_step < single.duration + stand - 1e-12:
+                continue
+            landing = ball(label, 1)
+            fell = _stood(len(records), landing - stance_ball, hips, period)
+            if fell is None:  # the stop is walked when it ends standing
+                records.append(MujocoStep(len(records), t_step, landing - stance_ball, slip,
+                                          peak_normal, tracking, peak_torque,
+                                          saturated))  # fmt: skip
             break
         if t_step > 2.0 * step.step_time:
             fell = f"step {len(records)}: the step did not end within twice the step time"
@@ -247,6 +288,20 @@ def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, prelo
             peak_normal = tracking = peak_torque = slip = 0.0
             saturated = 0
     return MujocoRun(tuple(records), fell, np.asarray(times), np.asarray(states), mjcf)
+
+
+def _stood(index: int, gap: float, hips, period: float) -> str | None:
+    """Why the stop (step ``index``) did not end standing, or None: the swing ball ``gap`` m
+    from the stance ball, the hip's x over the stop and its stand ``hips`` (m, one a control
+    period of ``period`` s)."""
+    if abs(gap) > STAND_GAP:
+        return (f"step {index} (the stop): the swing ball came down {gap:+.3f} m from the "
+                f"stance ball, not beside it (within {STAND_GAP:g} m)")  # fmt: skip
+    speed = abs(hips[-1] - hips[-2]) / period if len(hips) > 1 else float("nan")
+    if not speed < REST_SPEED:
+        return f"step {index} (the stop): the walk ended with the hip still moving at " \
+               f"{speed:.3f} m/s"  # fmt: skip
+    return None
 
 
 @dataclass(frozen=True)

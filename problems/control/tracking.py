@@ -25,6 +25,10 @@ from planner.errors import DefinitionError, check_real
 from planner.trajectory import Trajectory
 from problems.control.buffered import BufferedCalls
 
+#: rad/s: a step that ends at rest (``GaitReference(to_rest=True)``) ends with every rate
+#: within this (the stop's plan holds dpsi = 0 at its end to round-off)
+REST_RATE = 1e-9
+
 
 class TimedReference:
     """A plan as tables over time: time (K,) s from 0, states (K, 2n) (psi, dpsi), torques
@@ -81,6 +85,12 @@ class GaitReference(BufferedCalls, TimedReference):
         sways back (a start from rest: the hip is still at t = 0 and may sway back), and by
         the phase from where the hip advances for good (:attr:`time_indexed_until`, s); the
         phase table's rows before that point are read only by the time.
+    to_rest : bool
+        The step ends at rest (a stop at quiet standing): a law follows it by the time since
+        it began throughout (its hip sways back and settles: it has no phase to follow;
+        :attr:`time_indexed_until` is inf) and holds its last sample, at rest, after its end
+        (:meth:`at_time` clamps to the plan). Its last sample must be at rest (every rate 0
+        to 1e-9 rad/s), or the hold would be no equilibrium of the plan.
     """
 
     def __init__(
@@ -90,14 +100,27 @@ class GaitReference(BufferedCalls, TimedReference):
         hip: str,
         hip_range: tuple[float, float] | None = None,
         by_time: bool = False,
+        to_rest: bool = False,
     ) -> None:
         super().__init__(trajectory)
-        self.by_time = bool(by_time)
+        self.by_time = bool(by_time) or bool(to_rest)
+        self.to_rest = bool(to_rest)
         self._hip = dynamics.point(hip)
         hips = np.asarray(self._hip.position(trajectory.psi)).real
         start, end = (hips[0], hips[-1]) if hip_range is None else hip_range
         self._start, self._span = float(start), float(end - start)
         self.phases = (hips - self._start) / self._span if self._span != 0 else hips * 0
+        if self.to_rest:
+            moving = float(np.abs(self.states[-1, self.n :]).max())
+            if not moving <= REST_RATE:
+                raise DefinitionError(
+                    f"`trajectory`: a step that ends at rest (to_rest) ends with its rates "
+                    f"within {REST_RATE:g} rad/s, this one's reach {moving:.3g} rad/s: give "
+                    "the stop's samples, or index the step by its phase"
+                )
+            #: by the time throughout: the phase table is not read
+            self.time_indexed_until = float("inf")
+            return
         stalls = np.flatnonzero(np.diff(self.phases) <= 0.0)
         #: s since the start up to which a law by the time follows the plan by the time: where
         #: the hip moves forward for good (0 when it always does)
@@ -191,10 +214,15 @@ class GaitReference(BufferedCalls, TimedReference):
             (self.torques[k + 1] - self.torques[k]) / width,
         )
 
-    def tracking(self, x) -> float:
-        """The largest |psi - psi_ref| at the phase of x, rad."""
+    def tracking(self, x, t: float | None = None) -> float:
+        """The largest |psi - psi_ref| at the phase of x, rad; at the time ``t`` s since the
+        step began instead while a law follows it by the time (t below
+        :attr:`time_indexed_until`: a start from rest, a stop to rest)."""
         psi = np.asarray(x[: self.n])
-        reference, _ = self.at_phase(self.phase(psi))
+        if t is not None and t < self.time_indexed_until:
+            reference, _ = self.at_time(t)
+        else:
+            reference, _ = self.at_phase(self.phase(psi))
         return float(np.abs(psi - reference[: self.n]).max())
 
 

@@ -9,7 +9,11 @@ the same law. The law hands over at the leg swap, where the next step's plan sta
 (:func:`problems.control.mujoco_feet.run_feet_steps_in_mujoco`). The first step of a start
 from quiet standing has a hip at rest that sways back before it walks off: its law follows
 the plan by the time since the step began until the hip advances for good, then by the
-phase (``FeetLaw.indexed_by`` "time", in the file's law of that step).
+phase (``FeetLaw.indexed_by`` "time", in the file's law of that step). A stop at quiet
+standing (the walk's last step) has no phase either (its hip sways back and settles): its law
+follows it by the time since it began and then holds its last sample, both feet flat side by
+side at rest (``FeetLaw.indexed_by`` "time, then held"); in MuJoCo the walk ends standing
+that way for :data:`problems.control.mujoco_feet.STAND` s.
 
 In the file (:func:`with_feet_laws`) every row carries its step's law as the single step's
 file does (``phase``: the hip's progress s over the stance ball, ``double_support``, the gains
@@ -21,7 +25,7 @@ from __future__ import annotations
 
 from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import DefinitionError
-from problems.control.feet_law import CONTROL_RATE_HZ, FeetLaw
+from problems.control.feet_law import CONTROL_RATE_HZ, HELD, FeetLaw
 
 #: the closed loop's cases: label -> (mass scale, push N s at the middle of the first step
 #: that changes speed); as the point-foot walk's (walk --speeds --feedback)
@@ -39,13 +43,6 @@ def sequence_laws(sequence, rate_hz: float = CONTROL_RATE_HZ) -> tuple[FeetLaw, 
         raise DefinitionError(
             "`sequence`: a walk on feet (plan_sequence(..., feet=True)); its steps are "
             f"{sorted({type(g).__name__ for g in gaits})}"
-        )
-    stops = [j for j, step in enumerate(sequence.steps) if step.gait.problem.stop]
-    if stops:
-        raise DefinitionError(
-            f"`sequence`: step {stops[0]} is a stop at quiet standing on feet, whose closed "
-            "loop is not built yet (a law that holds the pose after the foot sets down); "
-            "walk it open loop, or end the walk at a speed"
         )
     made: dict[int, FeetLaw] = {}
     return tuple(made.setdefault(id(gait), FeetLaw(gait, rate_hz=rate_hz)) for gait in gaits)
@@ -67,17 +64,24 @@ def with_feet_laws(sequence, laws, rate_hz: float = CONTROL_RATE_HZ) -> LinkageT
     trajectory = sequence.trajectory(rate_hz, channels=channels)
     steps = trajectory.metadata["sequence"]["steps"]
     for j, entry in enumerate(steps):
-        single, _ = laws[j].references
+        single = laws[j].references[0]  # the single support's, or a stop's only one
         law = described[j]
-        entry["law"] = {"indexed_by": laws[j].indexed_by, "hip_ahead_m": list(single.hip_range),
-                        "kp": law["kp"], "kd": law["kd"]}  # fmt: skip
+        entry["law"] = {"indexed_by": laws[j].indexed_by, "kp": law["kp"], "kd": law["kd"]}
+        if laws[j].indexed_by != HELD:  # a stop reads no phase: no hip range
+            entry["law"]["hip_ahead_m"] = list(single.hip_range)
         if laws[j].indexed_by == "time":  # by the time since the step began up to here
             entry["law"]["time_indexed_until_s"] = single.time_indexed_until
-    first = {key: value for key, value in described[0].items() if key not in ("kp", "kd")}
+        elif laws[j].indexed_by == HELD:  # a stop: by the time, then its last row held
+            entry["law"]["held_after_s"] = single.duration
+            entry["law"]["standing"] = law["standing"]
+    first = {key: value for key, value in described[0].items()
+             if key not in ("kp", "kd", "standing")}  # fmt: skip
     first["indexed_by"] = (
         "each step's own (sequence.steps[j].law.indexed_by): 'phase', or 'time' for a step "
         "whose hip does not always advance (a start from rest), followed by the time since "
-        "the step began up to its law's time_indexed_until_s, then by the phase"
+        "the step began up to its law's time_indexed_until_s, then by the phase, or 'time, "
+        "then held' for a stop at quiet standing, followed by the time since it began and "
+        "its last row held after its law's held_after_s"
     )
     first["gains_per_step"] = (
         "each step's kp and kd (per branch and hinge) and its phase's "
@@ -89,7 +93,9 @@ def with_feet_laws(sequence, laws, rate_hz: float = CONTROL_RATE_HZ) -> LinkageT
 def walk_in_mujoco(sequence, laws, cases=None):
     """The walk on feet in MuJoCo under its laws, once per case ({label: (mass scale, push
     N s)}, default :data:`CASES`; the push at the middle of the first step that changes speed,
-    else of the second step): {label: MujocoRun}."""
+    else of the second step): ({label: MujocoRun}, the push's step). A walk that ends at
+    quiet standing stands for :data:`problems.control.mujoco_feet.STAND` s after its stop
+    and has walked it only if it came to rest there."""
     from problems.control.mujoco_feet import run_feet_steps_in_mujoco
     from problems.control.simulation import Disturbances
 

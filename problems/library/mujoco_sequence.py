@@ -27,6 +27,7 @@ from problems.control.mujoco import (
     CONTACT_TIME_CONSTANT,
     FOOT_MASS,
     PRELOAD,
+    REST_SPEED,
     TOUCHDOWN_FORCE,
     MujocoRun,
     MujocoStep,
@@ -50,8 +51,6 @@ SOLE_USE = 0.9
 #: 0.15 rad toe-down and its toe catches the ground at s = 0.8 (measured; the walk 0 -> 1.0
 #: -> 0 m/s then falls at its third step); critically damped for the 0.5 kg foot
 FOOT_KP, FOOT_KD = 100.0, 1.0
-#: m/s: at the end of the stand the hip moves slower than this, or the walker has not stopped
-REST_SPEED = 0.05
 
 
 @dataclass(frozen=True)

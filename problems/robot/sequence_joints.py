@@ -160,7 +160,9 @@ def _metadata(views, sides, joined, walk) -> dict[str, Any]:
     controller["phase"] = (
         "each step's column phase is its law's index (sequence_steps[j].law.indexed_by): "
         "'phase', the hip's progress s = (d - d0) / (d1 - d0) over the stance foot's contact "
-        "point, [d0, d1] its law's hip_ahead_m; 'time', t / T since the step's start"
+        "point, [d0, d1] its law's hip_ahead_m; 'time', t / T since the step's start; "
+        "'time, then held' (a stop at quiet standing, the walk's last step), t / T since the "
+        "step's start, and after its last row that row held: z_ref, tau_ff and K"
     )
     controller["law"] = controller["law"].replace("at the phase s", "at the step's phase")
     metadata["controller"] = controller
