@@ -18,6 +18,18 @@ Table 3, on feet: the stop from 0.6 m/s (``plan_transition(footed_step_at(0.6).s
 "standing")``): steps, iterations, seconds, the largest drive torque (and its hinge), the
 largest over the last 20 ms, and the end's verification margins (``standing feet``,
 ``standing flat``, ``standing at rest``).
+
+Table 4, on feet, closed loop in MuJoCo: four periodic steps at 0.6 m/s (joints bounded at
+10 rad/s, as ``walk --speeds`` plans them) and the stop, each under its file's law (the
+stop's: by the time, blended into standing's, its last sample held for 1 s after it;
+``FeetLaw``), undisturbed and disturbed (the body 10 % heavier or lighter, the start 0.02 rad
+off, a push on the torso in the middle of the first step or of the stop), with the standing
+damping (0.7 of critical at the stance ankle, ``FeetLaw(stand_damping=)``) and without it (0:
+the walk's joint PD alone): steps walked of 5, and how the walk ended (``stood``, or why not).
+
+Table 5, the same walk in MuJoCo over the standing damping (ratio of critical 0 to 1): the
+pushes of +-2.5, 5 and 10 N s in the middle of the first step or of the stop it stands
+(where :data:`problems.control.feet_law.STAND_DAMPING` comes from).
 """
 
 from __future__ import annotations
@@ -115,11 +127,82 @@ def _on_feet() -> None:
     print()
 
 
+def _stop_in_mujoco(gait, stop) -> None:
+    from problems.control.feet_law import STAND_DAMPING, FeetLaw
+    from problems.control.mujoco_feet import run_feet_steps_in_mujoco
+    from problems.control.simulation import Disturbances
+
+    gaits = [gait] * 4 + [stop]
+    n = gait.problem.linkage.n
+    off = np.zeros(2 * n)
+    off[1:n] = 0.02
+    cases = {
+        "as planned": Disturbances(),
+        "mass +10 %": Disturbances(mass_scale=1.1),
+        "mass -10 %": Disturbances(mass_scale=0.9),
+        "start 0.02 rad off": Disturbances(initial=off),
+        "push +10 N s, step 0": Disturbances(push=10.0, push_step=0),
+        "push -10 N s, step 0": Disturbances(push=-10.0, push_step=0),
+        "push +10 N s, the stop": Disturbances(push=10.0, push_step=4),
+        "push -10 N s, the stop": Disturbances(push=-10.0, push_step=4),
+        "push +5 N s, the stop": Disturbances(push=5.0, push_step=4),
+        "push -5 N s, the stop": Disturbances(push=-5.0, push_step=4),
+    }
+    walk = FeetLaw(gait)
+    laws = {damping: [walk] * 4 + [FeetLaw(stop, stand_damping=damping)]
+            for damping in (STAND_DAMPING, 0.0)}  # fmt: skip
+    print("Table 4: on feet, 4 steps at 0.6 m/s and the stop in MuJoCo, standing 1 s after it")
+    print()
+    print(f"| case | standing damping {STAND_DAMPING:g}: steps | how it ended | none: steps "
+          "| how it ended |")  # fmt: skip
+    print("|---|---|---|---|---|")
+    for label, disturbances in cases.items():
+        cells = []
+        for damping in (STAND_DAMPING, 0.0):
+            run = run_feet_steps_in_mujoco(gaits, disturbances=disturbances, laws=laws[damping])
+            ended = "stood" if run.fell is None else run.fell.split(": ", 1)[-1][:70]
+            cells += [f"{run.walked}/{len(gaits)}", ended]
+        print(f"| {label} | " + " | ".join(cells) + " |")
+    print()
+
+
+def _damping_sweep(gait, stop) -> None:
+    from problems.control.feet_law import FeetLaw
+    from problems.control.mujoco_feet import run_feet_steps_in_mujoco
+    from problems.control.simulation import Disturbances
+
+    gaits = [gait] * 4 + [stop]
+    pushes = [(push, step) for step in (0, 4) for push in (10.0, -10.0, 5.0, -5.0, 2.5, -2.5)]
+    walk = FeetLaw(gait)
+    print("Table 5: the same walk in MuJoCo over the standing damping: the pushes it stands "
+          "(N s, in the first step / in the stop)")  # fmt: skip
+    print()
+    print("| damping, of critical | stood | pushes stood in step 0 | in the stop |")
+    print("|---|---|---|---|")
+    for damping in (0.0, 0.2, 0.35, 0.5, 0.7, 1.0):
+        laws = [walk] * 4 + [FeetLaw(stop, stand_damping=damping)]
+        stood = {
+            (push, step): run_feet_steps_in_mujoco(
+                gaits, disturbances=Disturbances(push=push, push_step=step), laws=laws
+            ).fell is None
+            for push, step in pushes
+        }  # fmt: skip
+        held = [", ".join(f"{push:+g}" for (push, k), ok in stood.items() if ok and k == step)
+                for step in (0, 4)]  # fmt: skip
+        print(f"| {damping:g} | {sum(stood.values())} of {len(pushes)} | {held[0] or '-'} | "
+              f"{held[1] or '-'} |")  # fmt: skip
+    print()
+
+
 def main() -> int:
     warnings.simplefilter("ignore")  # the accuracy notes of the scratch solves
     _point_feet()
     _capture_points()
     _on_feet()
+    gait = footed_step_at(0.6, speed_limit=10.0).solve(progress=False)
+    (stop,) = plan_transition(gait, "standing").gaits
+    _stop_in_mujoco(gait, stop)
+    _damping_sweep(gait, stop)
     return 0
 
 
