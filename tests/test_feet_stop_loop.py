@@ -116,7 +116,7 @@ def test_the_blend_into_standing_is_a_smoothstep_and_its_jacobian_is_the_laws(sl
 
 def test_standing_gains_refuse_a_negative_damping():
     with pytest.raises(DefinitionError, match=r"stand_damping.*-1"):
-        standing_gains(np.zeros((2, 4)), np.ones(2), 1, 1, -1.0)
+        standing_gains(np.zeros((2, 4)), np.ones(2), 1, -1.0)
 
 
 def test_the_walks_file_carries_the_stops_law_row_by_row(tmp_path):

@@ -127,11 +127,12 @@ def hinge_gains(inertias, kp: float, kd: float, bandwidth: float):
 
 
 def standing_gains(
-    gain: np.ndarray, inertias, ankle: int, shank: int, damping: float = STAND_DAMPING
+    gain: np.ndarray, inertias, ankle: int, damping: float = STAND_DAMPING
 ) -> np.ndarray:
     """K (n, 2n) of standing held: the walk's joint PD ``gain`` (n, 2n) on x = (psi, dpsi)
-    with the stance ankle's row (hinge ``ankle``) also damping the stance shank's absolute
-    rate (column n + ``shank``) at 2 damping sqrt(kp_ankle I_ankle), the ratio ``damping``
+    with the stance ankle's row (hinge ``ankle``, whose child link is the stance shank, of the
+    same index) also damping the stance shank's absolute rate (column n + ``ankle``) at
+    2 damping sqrt(kp_ankle I_ankle), the ratio ``damping``
     of critical for the whole body swaying on that ankle (I_ankle :func:`hinge_inertias`,
     about 70 kg m^2 on the scene). The other rows are the walk's: the swing ankle's capped
     gains too (uncapped, as in the double support, a walker pushed 10 N s in the stop that
@@ -150,8 +151,8 @@ def standing_gains(
     gain = np.array(gain, dtype=float)
     n = gain.shape[0]
     inertias = np.asarray(inertias, dtype=float)
-    kp_ankle = gain[ankle, :n] @ np.eye(n)[:, shank]  # kp on the ankle's angle (R's +1 entry)
-    gain[ankle, n + shank] += 2.0 * damping * np.sqrt(max(kp_ankle, 0.0) * inertias[ankle])
+    kp_ankle = gain[ankle, ankle]  # kp on the ankle's angle (R's +1 entry: the shank's)
+    gain[ankle, n + ankle] += 2.0 * damping * np.sqrt(max(kp_ankle, 0.0) * inertias[ankle])
     return gain
 
 
@@ -273,35 +274,34 @@ class FeetLaw:
         # drifted until the hip stalled, at step 24: measured)
         self.gains = (hinge_gains(inertias, kp, kd, bandwidth),
                       (np.full(n, float(kp)), np.full(n, float(kd))))  # fmt: skip
+        branch_gains = self.gains[: len(self.references)]  # a stop's one: the walk's
+        self.branches = tuple(
+            PhasePD(reference, step.linkage.parents, *gains, passive=(0,))
+            for reference, gains in zip(self.references, branch_gains, strict=True)
+        )
+        #: R (n, n): the hinges' relative angles of the absolute ones, q = R psi
+        self.relative_matrix = self.branches[0].relative_matrix
         if step.stop:  # one branch: the walk's gains, blended into standing's at its end
             self.gains = self.gains[:1]
-            stop = self.references[0]
-            walk = PhasePD(stop, step.linkage.parents, *self.gains[0], passive=(0,))
-            names = step.linkage.names
-            #: K (n, 2n) of standing held after the stop (:func:`standing_gains`)
-            shank = names.index(step.biped.stance_leg[1])  # its hinge: the stance ankle
-            self.standing_gain = standing_gains(
-                self._gain_matrix(*self.gains[0], walk.relative_matrix),
-                inertias,
-                shank,
-                shank,
-                check_real("stand_damping", stand_damping),
-            )
-            self.branches = (BlendedPD(walk, TimedGainLaw(stop, self.standing_gain, (0,)),
-                                       stop.duration - STAND_RAMP, stop.duration),)  # fmt: skip
-        else:
-            self.branches = tuple(
-                PhasePD(reference, step.linkage.parents, *gains, passive=(0,))
-                for reference, gains in zip(self.references, self.gains, strict=True)
-            )
+            self.branches = (self._stop_branch(inertias, stand_damping),)
 
-    def _gain_matrix(self, kp, kd, relative=None) -> np.ndarray:
+    def _stop_branch(self, inertias, stand_damping: float) -> BlendedPD:
+        """A stop's law: the walk's PD around it, blended over its last :data:`STAND_RAMP` s
+        into standing's (:func:`standing_gains`, kept as :attr:`standing_gain` K (n, 2n))."""
+        step = self.step
+        walk = self.branches[0]
+        ankle = step.linkage.names.index(step.biped.stance_leg[1])  # the stance shank's hinge
+        self.standing_gain = standing_gains(self._gain_matrix(*self.gains[0]), inertias, ankle,
+                                            check_real("stand_damping", stand_damping))  # fmt: skip
+        stop = walk.reference
+        return BlendedPD(walk, TimedGainLaw(stop, self.standing_gain, (0,)),
+                         stop.duration - STAND_RAMP, stop.duration)  # fmt: skip
+
+    def _gain_matrix(self, kp, kd) -> np.ndarray:
         """K = [kp R, kd R] (n, 2n) of per-hinge gains kp, kd (n,) on x = (psi, dpsi), R the
         relative angles' matrix (q = R psi); row 0 (the ground's torque on the stance foot:
         no drive) zero."""
-        relative = self.branches[0].first.relative_matrix if relative is None and isinstance(
-            self.branches[0], BlendedPD) else (
-            self.branches[0].relative_matrix if relative is None else relative)  # fmt: skip
+        relative = self.relative_matrix
         gain = np.hstack([np.asarray(kp)[:, None] * relative, np.asarray(kd)[:, None] * relative])
         gain[0] = 0.0
         return gain
