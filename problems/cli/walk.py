@@ -170,7 +170,8 @@ def _add_sequence_options(walk: argparse.ArgumentParser) -> None:
         default=None,
         metavar="V0,V1,..",
         help="plan a walk through these speeds, m/s (0: quiet standing, first or last; on "
-        "feet a stop plans from 0.6 m/s, not yet from 1 m/s; e.g. 0,1.0,1.4,0.6,0): each speed's periodic step, "
+        "feet a stop plans from 0.6 m/s, not yet from 1 m/s; e.g. 0,1.0,1.4,0.6,0): each "
+        "speed's periodic step, "
         "the steps between them (as many as the limits need), one file sequence.csv of every "
         "step, verified step by step, and "
         "sequence.png, walk.png, walk.gif; each step's length and time follow its speed "

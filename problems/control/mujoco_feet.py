@@ -257,7 +257,7 @@ def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, prelo
             if t_step < single.duration + stand - 1e-12:
                 continue
             landing = ball(label, 1)
-            fell = _stood(len(records), landing - stance_ball, hips, period)
+            fell = stood(len(records), landing - stance_ball, hips, period)
             if fell is None:  # the stop is walked when it ends standing
                 records.append(MujocoStep(len(records), t_step, landing - stance_ball, slip,
                                           peak_normal, tracking, peak_torque,
@@ -290,7 +290,7 @@ def _walk(mujoco, model, data, mjcf, laws, steps, disturbances, open_loop, prelo
     return MujocoRun(tuple(records), fell, np.asarray(times), np.asarray(states), mjcf)
 
 
-def _stood(index: int, gap: float, hips, period: float) -> str | None:
+def stood(index: int, gap: float, hips, period: float) -> str | None:
     """Why the stop (step ``index``) did not end standing, or None: the swing ball ``gap`` m
     from the stance ball, the hip's x over the stop and its stand ``hips`` (m, one a control
     period of ``period`` s)."""
@@ -339,9 +339,12 @@ def feet_mujoco_check(gait, steps: int = 20, law: FeetLaw | None = None) -> Feet
 
 
 __all__ = [
+    "STAND",
+    "STAND_GAP",
     "FeetMujocoCheck",
     "feet_mujoco_check",
     "feet_walker_mjcf",
     "run_feet_in_mujoco",
     "run_feet_steps_in_mujoco",
+    "stood",
 ]

@@ -1,0 +1,508 @@
+"""Many steps of a walker on feet in the product's own simulation: the plan's equations of
+motion on a floating base, the ground a compliant contact at each foot's heel and ball, the
+drives under the file's law; beside MuJoCo's engine (:mod:`problems.control.mujoco_feet`),
+the same walk through another model of contact and other equations.
+
+The plant is the plan's tree (:class:`problems.walking.footed.FootedStep`), its masses and
+inertias the plan's or scaled (``Disturbances.mass_scale``), on a floating base: q = (x0, y0,
+psi) with z0 = x0 + j y0 the first stance foot's ball in the world (the tree never re-roots:
+as in MuJoCo, the legs keep their bodies and only the law's labels swap). With the coupling G
+(``momentum_jacobian``: the body's linear momentum is m z0' + G psi') its equations are the
+fixed base's with the base's acceleration and the contacts' forces F_P at the four foot
+points P (``model.floating``):
+
+    M(psi) psi'' + [Re G, Im G]^T z0'' = M a_free + sum_P J_P^T F_P,
+    m z0'' + G psi'' + at_rest = sum_P F_P,
+
+a_free the fixed base's forward dynamics under the drives (``Dynamics.forward_dynamics``),
+at_rest its ground reaction at psi'' = 0 (the body's weight m g in it), J_P the point's
+Jacobian: one (n + 2) solve per evaluation, ``substeps`` steps per control period, the
+drives' torques held over each period (a digital controller at
+:data:`problems.control.feet_law.CONTROL_RATE_HZ`).
+
+The ground (:class:`Ground`): a point d = -y m under it is pushed up by k d + c d' (never
+pulling: 0.3 mm of sink under a flat foot's share of the six-link walker's weight, damped
+past critical: nearly plastic), and along the ground by a tangential spring and damper from
+where it touched down, capped at mu times the normal force: past the cap the anchor slides
+with the point (Coulomb friction). The contacts' damping is stiff, so the step is
+semi-implicit Euler with the damping implicit (:func:`_step`). Nothing of the plan's contact
+phases is imposed: the feet lie flat, rise, strike and leave as these forces make them.
+
+The law (:class:`problems.control.feet_law.FeetLaw`) runs as in MuJoCo: its single support's
+branch until the swing foot's striking point carries more than ``TOUCHDOWN_FORCE`` past half
+the step, its double support's until the hip's phase reaches 1, then the next step's law, in
+the other foot's labels (``biped.swap``). A fall is named: a knee, hip or head 2 cm under
+the ground, a step longer than twice its plan, a state that is no longer finite; a stop that
+does not end standing (the swing ball beside the stance ball, the hip at rest) is named too.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from model.dynamics import Dynamics
+from planner.errors import DefinitionError, DefinitionTypeError, check_integer, check_positive
+from problems.control.feet_law import CONTROL_RATE_HZ, FeetLaw
+from problems.control.mujoco import TOUCHDOWN_FORCE
+from problems.control.mujoco_feet import STAND, stood
+from problems.control.simulation import Disturbances, scaled_linkage
+
+#: integration steps per control period (0.25 ms at 1 kHz: the ground's stiffness against
+#: a foot point's effective mass, a few thousand rad/s, wants it)
+SUBSTEPS = 4
+#: m: a knee, hip or head this far under the ground has fallen (MuJoCo's loop's criterion)
+FALL_DEPTH = 0.02
+#: the foot points, by the plan's role (the plant's labels: the first stance foot's)
+FOOT_POINTS = ("stance_heel", "stance_toe", "swing_heel", "swing_toe")
+
+
+@dataclass(frozen=True)
+class Ground:
+    """The ground's compliance at a foot point: the normal force k d + c d' for a sink d m
+    (never pulling), the tangential spring ``tangential_stiffness`` N/m and damper
+    ``tangential_damping`` N s/m from where the point touched down, capped at ``mu`` times
+    the normal force (None: the plan's mu).
+
+    The defaults: k = 1e6 N/m sinks a flat foot's heel or ball 0.3 mm under half the six-link
+    walker's weight, as MuJoCo's walker sinks into its ground (its ``PRELOAD``); c = 2e4 N s/m
+    is critical damping for 100 kg on k, so every foot point's contact is overdamped: nearly
+    plastic, as the plan's impacts are. Measured on the 1 m/s step on feet (``python
+    examples/benchmarks/feet_simulation.py``): softer damping (5e3 N s/m) lets the heel,
+    landing at 2 m/s forward, slide 3 cm at each strike and the law saturate the front ankle
+    through the double support; at 2e4 the steps, tracking and forces are MuJoCo's."""
+
+    stiffness: float = 1e6
+    damping: float = 2e4
+    tangential_stiffness: float = 2e5
+    tangential_damping: float = 5e3
+    mu: float | None = None
+
+    def __post_init__(self) -> None:
+        check_positive("stiffness", self.stiffness, "N/m")
+        check_positive("damping", self.damping, "N s/m")
+        check_positive("tangential_stiffness", self.tangential_stiffness, "N/m")
+        check_positive("tangential_damping", self.tangential_damping, "N s/m")
+        if self.mu is not None:
+            check_positive("mu", self.mu)
+
+
+class FeetPlant:
+    """The plan's tree on a floating base with compliant feet (module docstring).
+
+    Parameters
+    ----------
+    step : FootedStep
+        The plan's step (its tree, foot points, friction, leg swap).
+    mass_scale : float
+        The plant's masses and moments of inertia are the plan's times this (its rotors as
+        they are).
+    ground : Ground
+        The ground's compliance (default :class:`Ground`).
+    """
+
+    def __init__(self, step, mass_scale: float = 1.0, ground: Ground | None = None) -> None:
+        check_positive("mass_scale", mass_scale)
+        self.step = step
+        plan = step.linkage
+        linkage = plan if mass_scale == 1.0 else scaled_linkage(plan, mass_scale)
+        self.dynamics = (step.dynamics if mass_scale == 1.0
+                         else Dynamics(linkage, rotors=step.dynamics.rotors))  # fmt: skip
+        self.n = linkage.n
+        self.ground = ground or Ground()
+        self.mu = float(step.mu if self.ground.mu is None else self.ground.mu)
+        self.points = [self.dynamics.point(step.points[role]) for role in FOOT_POINTS]
+        self.swap = step.biped.swap
+        self.masses = np.array([link.mass for link in linkage.links])
+        self.mass = float(self.masses.sum())
+        self.weight = self.mass * linkage.gravity
+        # the knees, hips, neck and head: the ends of every link but the feet and the shanks
+        # (hinge_positions lists H0, then each link's end)
+        low = {*step.biped.stance_leg[:2], *step.biped.swing_leg[-2:]}
+        self._body_points = [1 + i for i, name in enumerate(linkage.names) if name not in low]
+
+    def momentum_jacobian(self, psi) -> np.ndarray:
+        """G (n,) complex, kg m: the fixed base's linear momentum is G . dpsi (the floating
+        base's coupling row, ``model.floating``)."""
+        n = self.n
+        velocities = self.dynamics.com_velocities(np.tile(psi, (n, 1)), np.eye(n))  # (n, n)
+        return velocities @ self.masses
+
+    def equations(self, psi, dpsi, torques, impulse: bool = False):
+        """(M_e (n + 2, n + 2), b (n + 2,)): the floating base's equations M_e (psi'', z0'')
+        = b + (the contacts' generalised forces), unknowns in the order (psi'', x0'', y0'')
+        (module docstring); ``impulse``: b the generalised impulse ``torques`` (n,) alone."""
+        n = self.n
+        mass = np.zeros((n + 2, n + 2))
+        matrix = self.dynamics.mass_matrix(psi)
+        coupling = self.momentum_jacobian(psi)
+        mass[:n, :n] = matrix
+        mass[:n, n], mass[:n, n + 1] = coupling.real, coupling.imag
+        mass[n, :n], mass[n + 1, :n] = coupling.real, coupling.imag
+        mass[n, n] = mass[n + 1, n + 1] = self.mass
+        right = np.zeros(n + 2)
+        if impulse:
+            right[:n] = torques
+            return mass, right
+        right[:n] = matrix @ self.dynamics.forward_dynamics(psi, dpsi, torques)
+        at_rest = complex(self.dynamics.ground_reaction(psi, dpsi, np.zeros(n)))
+        right[n], right[n + 1] = -at_rest.real, -at_rest.imag
+        return mass, right
+
+    def point_jacobian(self, index: int, psi) -> np.ndarray:
+        """d(x, y)/d(psi, x0, y0) (2, n + 2) of foot point ``index`` (:data:`FOOT_POINTS`)."""
+        n = self.n
+        jacobian = np.zeros((2, n + 2))
+        jacobian[:, :n] = self.points[index].jacobian(psi, floating=False)
+        jacobian[0, n] = jacobian[1, n + 1] = 1.0
+        return jacobian
+
+    def accelerations(self, psi, dpsi, torques, forces=(), base_force: complex = 0j,
+                      impulse: bool = False):  # fmt: skip
+        """(psi'' (n,), z0'' complex m/s^2) under the hinge ``torques`` (n,) N m (the root's,
+        the ground's torque on the first stance foot, 0: the ground acts through the points),
+        the point ``forces`` (one complex N per :data:`FOOT_POINTS`, or none) and a force on
+        the whole body ``base_force`` (complex N, through its centre of mass: none of the
+        angles' generalised forces).
+
+        ``impulse``: the jumps (dpsi, dz0) instead, ``torques`` then the generalised impulse on
+        the angles (n,) N m s and ``base_force`` the linear impulse (N s); no bias terms."""
+        n = self.n
+        mass, right = self.equations(psi, dpsi, torques, impulse)
+        right[n] += base_force.real
+        right[n + 1] += base_force.imag
+        for index, force in enumerate(forces):
+            if force != 0:
+                right += self.point_jacobian(index, psi).T @ np.array([force.real, force.imag])
+        solution = np.linalg.solve(mass, right)
+        return solution[:n], complex(solution[n], solution[n + 1])
+
+    def positions(self, psi, base: complex) -> np.ndarray:
+        """The four foot points in the world (complex m), ``base`` the root's position."""
+        return np.array([base + complex(p.position(psi)) for p in self.points])
+
+    def velocities(self, psi, dpsi, base_rate: complex) -> np.ndarray:
+        return np.array([base_rate + complex(p.velocity(psi, dpsi)) for p in self.points])
+
+    def contact_forces(self, positions, velocities, anchors):
+        """(forces (4,) complex N, anchors (4,) m, ``None`` where free): the ground's force on
+        each foot point and where its tangential spring is anchored after it (a new anchor
+        at a point that touches down; one dragged along where the cap binds)."""
+        ground = self.ground
+        forces = np.zeros(4, dtype=complex)
+        after = list(anchors)
+        for i, (z, v) in enumerate(zip(positions, velocities, strict=True)):
+            sink = -z.imag
+            if sink <= 0.0:
+                after[i] = None
+                continue
+            normal = max(0.0, ground.stiffness * sink - ground.damping * v.imag)
+            anchor = z.real if after[i] is None else after[i]
+            tangential = -ground.tangential_stiffness * (z.real - anchor) - \
+                ground.tangential_damping * v.real  # fmt: skip
+            cap = self.mu * normal
+            if abs(tangential) > cap:  # it slides: the anchor follows, the force at the cap
+                tangential = float(np.sign(tangential)) * cap
+                anchor = z.real + (tangential + ground.tangential_damping * v.real) / \
+                    ground.tangential_stiffness  # fmt: skip
+            forces[i] = complex(tangential, normal)
+            after[i] = anchor
+        return forces, after
+
+    def body_clearance(self, psi, base: complex) -> float:
+        """The lowest of the knees, hips, neck and head, m above the ground."""
+        hinges = self.dynamics.hinge_positions(psi)
+        return float(base.imag + np.min(hinges.imag[self._body_points]))
+
+
+@dataclass(frozen=True)
+class FeetStep:
+    """One step of the product's simulation on feet: ``duration`` s (the law's, from its start
+    to its hand-over), ``length`` m (between the stance balls at the hand-overs), ``slip`` m
+    (how far the stance ball moved along the ground), ``peak_normal`` N (the stance foot's
+    largest normal force), ``tracking`` rad (the largest angle error at the same phase),
+    ``peak_torque`` N m (the largest drive command), ``saturated`` (control periods with a
+    drive at its limit), ``double_support`` s (from the strike to the hand-over)."""
+
+    index: int
+    duration: float
+    length: float
+    slip: float
+    peak_normal: float
+    tracking: float
+    peak_torque: float
+    saturated: int
+    double_support: float
+
+
+@dataclass(frozen=True)
+class FeetRun:
+    """The outcome of :func:`simulate_feet_steps`: the steps walked, why it ended early
+    (``fell``, None: it walked them all), each control instant's ``time`` (K,) s and state
+    ``states`` (K, 2n + 4): psi, dpsi in the first stance foot's labels, then x0, y0, x0',
+    y0' of its ball, m and m/s."""
+
+    steps: tuple[FeetStep, ...]
+    fell: str | None
+    time: np.ndarray
+    states: np.ndarray
+
+    @property
+    def walked(self) -> int:
+        return len(self.steps)
+
+
+class _Walk:
+    """The plant's state through a walk: z = (psi, dpsi, x0, y0, x0', y0') and the contacts'
+    anchors."""
+
+    def __init__(self, plant: FeetPlant, x: np.ndarray) -> None:
+        self.plant = plant
+        n = plant.n
+        self.z = np.concatenate([x, np.zeros(4)])
+        psi = x[:n]
+        # the first stance foot flat at rest on the ground, sunk to carry the body's weight
+        # on its heel and ball (half each): the start neither drops nor bounces
+        self.z[2 * n + 1] = -0.5 * plant.weight / plant.ground.stiffness
+        positions = plant.positions(psi, complex(0.0, self.z[2 * n + 1]))
+        self.anchors = [z.real if z.imag < 0.0 else None for z in positions]
+
+    def advance(self, torques, h: float) -> np.ndarray:
+        """One step of h s (semi-implicit Euler, the contacts' damping implicit: see
+        :func:`_step`); returns the contact forces (4,) at its end."""
+        self.z = _step(self.plant, self.z, torques, self.anchors, h)
+        return self.forces()
+
+    def forces(self) -> np.ndarray:
+        """The contact forces at the state, and the anchors moved to it."""
+        plant, z = self.plant, self.z
+        n = plant.n
+        forces, self.anchors = plant.contact_forces(
+            plant.positions(z[:n], complex(z[-4], z[-3])),
+            plant.velocities(z[:n], z[n:2 * n], complex(z[-2], z[-1])), self.anchors)  # fmt: skip
+        return forces
+
+    def push(self, link: str, impulse: float) -> None:
+        """A horizontal impulse (N s) on ``link``'s centre of mass (the contacts' forces are
+        finite: they give no impulse within the instant)."""
+        plant = self.plant
+        n = plant.n
+        psi = self.z[:n]
+        i = plant.dynamics.linkage.index(link)
+        # column k: the centre of mass's velocity for dpsi = e_k; the base moves it as z0'
+        jacobian = plant.dynamics.com_velocities(np.tile(psi, (n, 1)), np.eye(n))[:, i]
+        generalised = (np.conj(jacobian) * complex(impulse)).real
+        jump, base = plant.accelerations(psi, None, generalised, base_force=complex(impulse),
+                                         impulse=True)  # fmt: skip
+        self.z[n : 2 * n] += jump
+        self.z[-2] += base.real
+        self.z[-1] += base.imag
+
+
+def _step(plant: FeetPlant, z: np.ndarray, torques, anchors, h: float) -> np.ndarray:
+    """z (2n + 4,) after h s: the velocities u = (dpsi, z0') first, from the equations of
+    motion with the contacts' damping taken at the new velocities (linearly implicit:
+    (M_e - h sum_P J_P^T C_P J_P) du = h (b + sum_P J_P^T F_P), C_P the forces' derivatives
+    by the point's velocity), then the positions from the new velocities (semi-implicit
+    Euler, as MuJoCo's default integrator): stable under the ground's damping, which an
+    explicit step would need a hundred times shorter steps for."""
+    n = plant.n
+    ground = plant.ground
+    psi, dpsi = z[:n], z[n : 2 * n]
+    base, rate = complex(z[-4], z[-3]), complex(z[-2], z[-1])
+    mass, right = plant.equations(psi, dpsi, torques)
+    forces, _ = plant.contact_forces(plant.positions(psi, base),
+                                     plant.velocities(psi, dpsi, rate), anchors)  # fmt: skip
+    lhs = mass
+    for index, force in enumerate(forces):
+        if force == 0:
+            continue
+        jacobian = plant.point_jacobian(index, psi)
+        right += jacobian.T @ np.array([force.real, force.imag])
+        damping = np.zeros(2)
+        if force.imag > 0.0:
+            damping[1] = ground.damping
+        if abs(force.real) < plant.mu * force.imag:  # stuck: the tangential damper acts
+            damping[0] = ground.tangential_damping
+        lhs = lhs + h * jacobian.T @ (damping[:, None] * jacobian)
+    u = np.concatenate([dpsi, [rate.real, rate.imag]]) + h * np.linalg.solve(lhs, right)
+    q = np.concatenate([psi, [base.real, base.imag]]) + h * u
+    return np.concatenate([q[:n], u[:n], q[n:], u[n:]])
+
+
+def simulate_feet_steps(
+    gaits,
+    *,
+    disturbances: Disturbances | None = None,
+    laws=None,
+    stand: float = STAND,
+    substeps: int = SUBSTEPS,
+    ground: Ground | None = None,
+    open_loop: bool = False,
+) -> FeetRun:
+    """Walk the steps on feet ``gaits`` (:class:`problems.walking.footed.FootedGait`, one per
+    step, in order) once each from the first one's start in the product's plant on feet
+    (module docstring), step j under ``laws[j]`` (default ``FeetLaw(gaits[j])``, made once
+    per distinct gait). A walk that ends with a stop holds standing ``stand`` s after it and
+    counts the stop walked as MuJoCo's loop does (:func:`problems.control.mujoco_feet.stood`:
+    the swing ball beside the stance ball, the hip at rest). ``open_loop``: the plan's torques
+    by the time since the branch began, no feedback. Disturbances: the start off the plan, a
+    push on the torso (an impulse at ``push_at`` of step ``push_step``), the masses scaled,
+    the drives saturated lower (the ground stays level: ``ground_rise`` is refused)."""
+    from problems.walking.footed import FootedGait
+
+    gaits = tuple(gaits)
+    if not gaits or not all(isinstance(gait, FootedGait) for gait in gaits):
+        raise DefinitionTypeError(
+            "`gaits`: solved steps on feet (FootedGait), at least one, got "
+            f"{[type(gait).__name__ for gait in gaits]}"
+        )
+    stops = [j for j, gait in enumerate(gaits) if gait.problem.stop]
+    if stops and stops != [len(gaits) - 1]:
+        raise DefinitionError(
+            f"`gaits`: a stop at quiet standing ends a walk; step {stops[0]} of {len(gaits)} "
+            "is one: end the walk there"
+        )
+    check_positive("stand", stand, "s")
+    substeps = check_integer("substeps", substeps, 1)
+    disturbances = disturbances or Disturbances()
+    if disturbances.ground_rise != 0.0:
+        raise DefinitionError(
+            f"`disturbances.ground_rise`: {disturbances.ground_rise!r} m; the product's plant "
+            "on feet walks level ground: leave it 0 (MuJoCo's loop takes a step of the ground)"
+        )
+    if laws is None:
+        made: dict[int, FeetLaw] = {}
+        laws = tuple(made.setdefault(id(gait), FeetLaw(gait)) for gait in gaits)
+    laws = tuple(laws)
+    if len(laws) != len(gaits):
+        raise DefinitionError(f"`laws`: one per step, {len(gaits)}, got {len(laws)}")
+    plant = FeetPlant(gaits[0].problem, disturbances.mass_scale, ground)
+    return _run(plant, laws, disturbances, stand, substeps, open_loop)
+
+
+def simulate_feet(gait, *, steps: int = 20, **options) -> FeetRun:
+    """:func:`simulate_feet_steps` of one periodic step on feet repeated ``steps`` times
+    (``law=`` one law for all; other options as there)."""
+    steps = check_integer("steps", steps, 1)
+    law = options.pop("law", None)
+    law = FeetLaw(gait) if law is None else law
+    return simulate_feet_steps((gait,) * steps, laws=(law,) * steps, **options)
+
+
+def _run(plant: FeetPlant, laws, disturbances, stand, substeps, open_loop) -> FeetRun:
+    n = plant.n
+    swap = plant.swap
+    law = laws[0]
+    step = law.step
+    single = law.references[0]
+    start = single.states[0].copy()
+    if disturbances.initial is not None:
+        start = start + np.asarray(disturbances.initial, dtype=float)
+    walk = _Walk(plant, start)
+    period = 1.0 / CONTROL_RATE_HZ
+    h = period / substeps
+    limit = np.array([0.0] + [step.limits[name] for name in step.linkage.names[1:]])
+    if disturbances.torque_limit is not None:
+        limit = np.minimum(limit, disturbances.torque_limit)
+    torso = step.biped.upper_body[0]
+    hip = plant.dynamics.point(step.biped.stance_thigh)
+    records: list[FeetStep] = []
+    times, states, hips = [], [], []
+    clock = t_step = t_strike = 0.0
+    branch, law_id = 0, 0  # the law's branch; the physical foot its stance foot is (0, 1)
+    pushed = disturbances.push == 0.0
+    peak_normal = tracking = peak_torque = 0.0
+    saturated = 0
+    fell = None
+    # the foot points of each physical foot in the plant's labels (the first stance foot's)
+    heel, ball = ((0, 2), (1, 3))
+    forces = walk.forces()
+
+    def ball_x(foot: int) -> float:
+        return float(plant.positions(walk.z[:n], complex(walk.z[-4], walk.z[-3]))[ball[foot]].real)
+
+    stance_ball = ball_x(0)
+    while len(records) < len(laws):
+        psi, dpsi = walk.z[:n], walk.z[n : 2 * n]
+        if law_id:  # the law's labels: the other foot in stance
+            psi, dpsi = swap.map_state(psi, dpsi)
+        x = np.concatenate([psi, dpsi])
+        reference = law.references[branch]
+        since = t_step - (t_strike if branch else 0.0)
+        if open_loop:
+            torques = reference.at_time(since)[1].copy()
+        else:
+            torques = law.torques(branch, x, since)
+        torques[0] = 0.0  # the ground's torque on the stance foot: no drive gives it
+        tracking = max(tracking, reference.tracking(x, since))
+        command = np.clip(torques, -limit, limit)
+        peak_torque = max(peak_torque, float(np.max(np.abs(command))))
+        saturated += bool(np.any(np.abs(command[1:]) >= limit[1:]))
+        applied = swap.map_torques(command) if law_id else command
+        applied[0] = 0.0
+        if not pushed and len(records) == disturbances.push_step and \
+                t_step >= disturbances.push_at * step.step_time - 1e-12:  # fmt: skip
+            walk.push(torso, disturbances.push)
+            pushed = True
+        for _ in range(substeps):
+            forces = walk.advance(applied, h)
+        t_step += period
+        clock += period
+        times.append(clock)
+        states.append(walk.z.copy())
+        if not np.all(np.isfinite(walk.z)):
+            fell = f"step {len(records)}, t = {t_step:.3f} s: the state is no longer finite"
+            break
+        base = complex(walk.z[-4], walk.z[-3])
+        if plant.body_clearance(walk.z[:n], base) < -FALL_DEPTH:
+            fell = f"step {len(records)}, t = {t_step:.3f} s: a body point went under the ground"
+            break
+        peak_normal = max(peak_normal, float(forces[heel[law_id]].imag + forces[ball[law_id]].imag))
+        slip = abs(ball_x(law_id) - stance_ball)
+        if step.stop:  # quiet standing: the stop, then its last sample held
+            hips.append(float((base + complex(hip.position(walk.z[:n]))).real))
+            if t_step < single.duration + stand - 1e-12:
+                continue
+            gap = ball_x(1 - law_id) - ball_x(law_id)
+            fell = stood(len(records), gap, hips, period)
+            if fell is None:
+                records.append(FeetStep(len(records), t_step, gap, slip, peak_normal, tracking,
+                                        peak_torque, saturated, 0.0))  # fmt: skip
+            break
+        if t_step > 2.0 * step.step_time:
+            fell = f"step {len(records)}: the step did not end within twice the step time"
+            break
+        s = law.phase(psi)
+        striking = heel[1 - law_id] if step.strike_role == "swing_heel" else ball[1 - law_id]
+        if branch == 0 and s > 0.5 and forces[striking].imag > TOUCHDOWN_FORCE:
+            branch, t_strike = 1, t_step  # the swing foot struck: the double support's branch
+        elif branch == 1 and s >= 1.0:
+            landing = ball_x(1 - law_id)
+            if landing - stance_ball < 0.25 * step.step_length:
+                fell = (f"step {len(records)}, t = {t_step:.3f} s: the front ball came down "
+                        f"{landing - stance_ball:+.3f} m from the stance ball")  # fmt: skip
+                break
+            records.append(FeetStep(len(records), t_step, landing - stance_ball, slip,
+                                    peak_normal, tracking, peak_torque, saturated,
+                                    t_step - t_strike))  # fmt: skip
+            law_id, branch = 1 - law_id, 0
+            law = laws[len(records) % len(laws)]
+            step, single = law.step, law.references[0]
+            stance_ball = landing
+            t_step = 0.0
+            peak_normal = tracking = peak_torque = 0.0
+            saturated = 0
+    return FeetRun(tuple(records), fell, np.asarray(times),
+                   np.asarray(states).reshape(-1, 2 * n + 4))  # fmt: skip
+
+
+__all__ = [
+    "FeetPlant",
+    "FeetRun",
+    "FeetStep",
+    "Ground",
+    "simulate_feet",
+    "simulate_feet_steps",
+]
