@@ -252,37 +252,49 @@ def _closed_loop(feedback, sequence, args, report, out):
 
 
 def _feet_closed_loop(laws, sequence, args, report, out):
-    """The walk on feet under its laws in MuJoCo (when installed): as planned, the body 10 %
-    heavier, a 10 N s forward push in the middle of the first step that changes speed; a
-    table; returns MuJoCo's run as planned (None without MuJoCo)."""
+    """The walk on feet under its laws in the product's simulation on feet and in MuJoCo
+    (when installed): as planned, the body 10 % heavier, a 10 N s forward push in the middle
+    of the first step that changes speed; a table; returns MuJoCo's run as planned (None
+    without MuJoCo)."""
+    from problems.library.feet_closed_loop import walk_in_mujoco, walk_in_simulation
+
     try:
         from problems.control.mujoco import import_mujoco
 
         import_mujoco()
+        has_mujoco = True
     except AnthropoidError as error:
         print(f"MuJoCo: {error}", file=out)
-        return None
-    from problems.library.feet_closed_loop import walk_in_mujoco
-
-    with report.working(f"walking it in MuJoCo ({len(sequence.steps)} steps, 3 cases)"):
-        runs, push_step = walk_in_mujoco(sequence, laws)
-    standing = (f", then {FEET_STAND_S:g} s standing after the stop" if sequence.speeds[-1] == 0
-                else "")  # fmt: skip
-    print(f"closed loop ({len(sequence.steps)} steps{standing}; each step's joint PD around its "
-          "own plan, handed over at the leg swap; the product's hybrid simulation does not "
-          "model feet, so MuJoCo only: heel and ball spheres, soft contacts):",
-          file=out)  # fmt: skip
-    print(f"  {'case':<26} {'MuJoCo':<28}", file=out)
+        has_mujoco = False
+    count = len(sequence.steps)
+    with report.working(f"walking it in the product's simulation ({count} steps, 3 cases)"):
+        product, push_step = walk_in_simulation(sequence, laws)
+    mujoco = None
+    if has_mujoco:
+        with report.working(f"walking it in MuJoCo ({count} steps, 3 cases)"):
+            mujoco, _ = walk_in_mujoco(sequence, laws)
     stops = sequence.speeds[-1] == 0
-    for label, run in runs.items():
-        where = f", step {push_step}" if "push" in label else ""
+    standing = f", then {FEET_STAND_S:g} s standing after the stop" if stops else ""
+    print(f"closed loop ({count} steps{standing}; each step's joint PD around its own plan, "
+          "handed over at the leg swap; the product's simulation: the plan's equations on a "
+          "floating base, compliant heels and balls; MuJoCo: heel and ball spheres, soft "
+          "contacts):", file=out)  # fmt: skip
+    print(f"  {'case':<26} {'product simulation':<28} {'MuJoCo':<28}", file=out)
+
+    def outcome(run) -> str:
+        if run is None:
+            return "-"
         stood = ", stood" if stops and run.fell is None else ""
-        outcome = f"{run.walked}/{len(sequence.steps)} steps{stood}" + (
-            "" if run.fell is None else " (fell)")  # fmt: skip
-        print(f"  {label + where:<26} {outcome:<28}", file=out)
-        if run.fell is not None:
-            print(f"    MuJoCo: {run.fell[:160]}", file=out)
-    return runs["as planned"]
+        return f"{run.walked}/{count} steps{stood}" + ("" if run.fell is None else " (fell)")
+
+    for label, run in product.items():
+        where = f", step {push_step}" if "push" in label else ""
+        other = None if mujoco is None else mujoco[label]
+        print(f"  {label + where:<26} {outcome(run):<28} {outcome(other):<28}", file=out)
+        for name, each in (("product", run), ("MuJoCo", other)):
+            if each is not None and each.fell is not None:
+                print(f"    {name}: {each.fell[:160]}", file=out)
+    return None if mujoco is None else mujoco["as planned"]
 
 
 def _outcome(run) -> str:

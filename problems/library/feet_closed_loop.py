@@ -1,5 +1,6 @@
 """A walk through speeds on feet under its drives' law: each step's joint PD around its own
-plan (:class:`problems.control.feet_law.FeetLaw`), in the walk's file and in MuJoCo.
+plan (:class:`problems.control.feet_law.FeetLaw`), in the walk's file, in the product's own
+simulation on feet (:mod:`problems.control.feet_simulation`) and in MuJoCo.
 
 Why each step's own law and not one finite-horizon LQR along the walk (what the point-foot
 walk has, :mod:`problems.library.closed_loop`): the periodic step on feet runs under joint PD
@@ -97,6 +98,20 @@ def walk_in_mujoco(sequence, laws, cases=None):
     quiet standing stands for :data:`problems.control.mujoco_feet.STAND` s after its stop
     and has walked it only if it came to rest there."""
     from problems.control.mujoco_feet import run_feet_steps_in_mujoco
+
+    return _walk_cases(run_feet_steps_in_mujoco, sequence, laws, cases)
+
+
+def walk_in_simulation(sequence, laws, cases=None):
+    """:func:`walk_in_mujoco` in the product's own simulation on feet
+    (:func:`problems.control.feet_simulation.simulate_feet_steps`: the plan's equations on a
+    floating base, compliant heels and balls): ({label: FeetRun}, the push's step)."""
+    from problems.control.feet_simulation import simulate_feet_steps
+
+    return _walk_cases(simulate_feet_steps, sequence, laws, cases)
+
+
+def _walk_cases(walk, sequence, laws, cases):
     from problems.control.simulation import Disturbances
 
     kinds = [step.kind for step in sequence.steps]
@@ -105,8 +120,8 @@ def walk_in_mujoco(sequence, laws, cases=None):
     runs = {}
     for label, (mass, push) in (cases or CASES).items():
         disturbances = Disturbances(mass_scale=mass, push=push, push_step=push_step)
-        runs[label] = run_feet_steps_in_mujoco(gaits, disturbances=disturbances, laws=laws)
+        runs[label] = walk(gaits, disturbances=disturbances, laws=laws)
     return runs, push_step
 
 
-__all__ = ["CASES", "sequence_laws", "walk_in_mujoco", "with_feet_laws"]
+__all__ = ["CASES", "sequence_laws", "walk_in_mujoco", "walk_in_simulation", "with_feet_laws"]
