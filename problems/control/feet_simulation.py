@@ -39,7 +39,9 @@ does not end standing (the swing ball beside the stance ball, the hip at rest) i
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
+import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
@@ -122,6 +124,48 @@ class FeetPlant:
         low = {*step.biped.stance_leg[:2], *step.biped.swing_leg[-2:]}
         self._body_points = [1 + i for i, name in enumerate(linkage.names) if name not in low]
 
+    @cached_property
+    def _terms(self) -> ca.Function:
+        """One SX Function of what a step evaluates: (psi, dpsi, M) -> the floating base's
+        mass matrix M_e (n + 2, n + 2) and right-hand side b (n + 2,) (:meth:`equations`),
+        the foot points' positions and velocities relative to the root (4, 2) each, and
+        their Jacobians d(x, y)/d(psi, x0, y0) stacked (8, n + 2): one call instead of a
+        dozen (the model's own Functions, composed)."""
+        dynamics = self.dynamics
+        n = self.n
+        psi, dpsi, torques = ca.SX.sym("psi", n), ca.SX.sym("dpsi", n), ca.SX.sym("M", n)
+        matrix = dynamics.function("mass_matrix")(psi)
+        vx, vy = dynamics.function("com_velocities")(psi, dpsi)
+        masses = ca.DM(self.masses)
+        coupling_x = ca.jacobian(ca.dot(masses, vx), dpsi)  # (1, n): Re G
+        coupling_y = ca.jacobian(ca.dot(masses, vy), dpsi)
+        mass = ca.blockcat([[matrix, coupling_x.T, coupling_y.T],
+                            [coupling_x, ca.DM(self.mass), ca.DM(0.0)],
+                            [coupling_y, ca.DM(0.0), ca.DM(self.mass)]])  # fmt: skip
+        free = dynamics.function("forward_dynamics")(psi, dpsi, torques)
+        fx, fy = dynamics.function("ground_reaction")(psi, dpsi, ca.DM.zeros(n))
+        right = ca.vertcat(ca.mtimes(matrix, free), -fx, -fy)
+        positions, velocities, jacobians = [], [], []
+        for point in self.points:
+            positions.append(ca.horzcat(*point.function("position")(psi)))
+            velocities.append(ca.horzcat(*point.function("velocity")(psi, dpsi)))
+            floating = point.function("jacobian")(psi)  # columns (x0, y0, psi)
+            jacobians.append(ca.horzcat(floating[:, 2:], floating[:, :2]))
+        return ca.Function("feet_plant", [psi, dpsi, torques],
+                           [ca.densify(mass), right, ca.vertcat(*positions),
+                            ca.vertcat(*velocities), ca.vertcat(*jacobians)],
+                           ["psi", "dpsi", "M"],
+                           ["mass", "right", "positions", "velocities", "jacobians"])  # fmt: skip
+
+    def terms(self, psi, dpsi, torques):
+        """(M_e, b, positions (4,) complex, velocities (4,) complex relative to the root,
+        Jacobians (4, 2, n + 2)) at one state (:attr:`_terms`)."""
+        mass, right, positions, velocities, jacobians = self._terms(psi, dpsi, torques)
+        positions, velocities = np.asarray(positions), np.asarray(velocities)
+        return (np.asarray(mass), np.asarray(right).ravel(),
+                positions[:, 0] + 1j * positions[:, 1], velocities[:, 0] + 1j * velocities[:, 1],
+                np.asarray(jacobians).reshape(4, 2, self.n + 2))  # fmt: skip
+
     def momentum_jacobian(self, psi) -> np.ndarray:
         """G (n,) complex, kg m: the fixed base's linear momentum is G . dpsi (the floating
         base's coupling row, ``model.floating``)."""
@@ -134,20 +178,10 @@ class FeetPlant:
         = b + (the contacts' generalised forces), unknowns in the order (psi'', x0'', y0'')
         (module docstring); ``impulse``: b the generalised impulse ``torques`` (n,) alone."""
         n = self.n
-        mass = np.zeros((n + 2, n + 2))
-        matrix = self.dynamics.mass_matrix(psi)
-        coupling = self.momentum_jacobian(psi)
-        mass[:n, :n] = matrix
-        mass[:n, n], mass[:n, n + 1] = coupling.real, coupling.imag
-        mass[n, :n], mass[n + 1, :n] = coupling.real, coupling.imag
-        mass[n, n] = mass[n + 1, n + 1] = self.mass
-        right = np.zeros(n + 2)
+        mass, right = self.terms(psi, np.zeros(n) if dpsi is None else dpsi,
+                                 np.zeros(n) if impulse else torques)[:2]  # fmt: skip
         if impulse:
-            right[:n] = torques
-            return mass, right
-        right[:n] = matrix @ self.dynamics.forward_dynamics(psi, dpsi, torques)
-        at_rest = complex(self.dynamics.ground_reaction(psi, dpsi, np.zeros(n)))
-        right[n], right[n + 1] = -at_rest.real, -at_rest.imag
+            right = np.concatenate([np.asarray(torques, dtype=float), np.zeros(2)])
         return mass, right
 
     def point_jacobian(self, index: int, psi) -> np.ndarray:
@@ -180,10 +214,11 @@ class FeetPlant:
 
     def positions(self, psi, base: complex) -> np.ndarray:
         """The four foot points in the world (complex m), ``base`` the root's position."""
-        return np.array([base + complex(p.position(psi)) for p in self.points])
+        return self.terms(psi, np.zeros(self.n), np.zeros(self.n))[2] + base
 
     def velocities(self, psi, dpsi, base_rate: complex) -> np.ndarray:
-        return np.array([base_rate + complex(p.velocity(psi, dpsi)) for p in self.points])
+        """The four foot points' velocities (complex m/s), ``base_rate`` the root's."""
+        return self.terms(psi, dpsi, np.zeros(self.n))[3] + base_rate
 
     def contact_forces(self, positions, velocities, anchors):
         """(forces (4,) complex N, anchors (4,) m, ``None`` where free): the ground's force on
@@ -268,19 +303,19 @@ class _Walk:
         positions = plant.positions(psi, complex(0.0, self.z[2 * n + 1]))
         self.anchors = [z.real if z.imag < 0.0 else None for z in positions]
 
-    def advance(self, torques, h: float) -> np.ndarray:
+    def advance(self, torques, h: float) -> None:
         """One step of h s (semi-implicit Euler, the contacts' damping implicit: see
-        :func:`_step`); returns the contact forces (4,) at its end."""
-        self.z = _step(self.plant, self.z, torques, self.anchors, h)
-        return self.forces()
+        :func:`_step`), the contacts' anchors moved with it."""
+        self.z, self.anchors = _step(self.plant, self.z, torques, self.anchors, h)
 
     def forces(self) -> np.ndarray:
-        """The contact forces at the state, and the anchors moved to it."""
+        """The contact forces (4,) complex N at the state (its anchors as they are)."""
         plant, z = self.plant, self.z
         n = plant.n
-        forces, self.anchors = plant.contact_forces(
-            plant.positions(z[:n], complex(z[-4], z[-3])),
-            plant.velocities(z[:n], z[n:2 * n], complex(z[-2], z[-1])), self.anchors)  # fmt: skip
+        _, _, positions, velocities, _ = plant.terms(z[:n], z[n : 2 * n], np.zeros(n))
+        forces, _ = plant.contact_forces(positions + complex(z[-4], z[-3]),
+                                         velocities + complex(z[-2], z[-1]),
+                                         self.anchors)  # fmt: skip
         return forces
 
     def push(self, link: str, impulse: float) -> None:
@@ -300,9 +335,10 @@ class _Walk:
         self.z[-1] += base.imag
 
 
-def _step(plant: FeetPlant, z: np.ndarray, torques, anchors, h: float) -> np.ndarray:
-    """z (2n + 4,) after h s: the velocities u = (dpsi, z0') first, from the equations of
-    motion with the contacts' damping taken at the new velocities (linearly implicit:
+def _step(plant: FeetPlant, z: np.ndarray, torques, anchors, h: float):
+    """(z (2n + 4,) after h s, the contacts' anchors at its start): the velocities
+    u = (dpsi, z0') first, from the equations of motion with the contacts' damping taken at
+    the new velocities (linearly implicit:
     (M_e - h sum_P J_P^T C_P J_P) du = h (b + sum_P J_P^T F_P), C_P the forces' derivatives
     by the point's velocity), then the positions from the new velocities (semi-implicit
     Euler, as MuJoCo's default integrator): stable under the ground's damping, which an
@@ -311,15 +347,13 @@ def _step(plant: FeetPlant, z: np.ndarray, torques, anchors, h: float) -> np.nda
     ground = plant.ground
     psi, dpsi = z[:n], z[n : 2 * n]
     base, rate = complex(z[-4], z[-3]), complex(z[-2], z[-1])
-    mass, right = plant.equations(psi, dpsi, torques)
-    forces, _ = plant.contact_forces(plant.positions(psi, base),
-                                     plant.velocities(psi, dpsi, rate), anchors)  # fmt: skip
+    mass, right, positions, velocities, jacobians = plant.terms(psi, dpsi, torques)
+    forces, anchors = plant.contact_forces(positions + base, velocities + rate, anchors)
     lhs = mass
-    for index, force in enumerate(forces):
+    for jacobian, force in zip(jacobians, forces, strict=True):
         if force == 0:
             continue
-        jacobian = plant.point_jacobian(index, psi)
-        right += jacobian.T @ np.array([force.real, force.imag])
+        right = right + jacobian.T @ np.array([force.real, force.imag])
         damping = np.zeros(2)
         if force.imag > 0.0:
             damping[1] = ground.damping
@@ -328,7 +362,7 @@ def _step(plant: FeetPlant, z: np.ndarray, torques, anchors, h: float) -> np.nda
         lhs = lhs + h * jacobian.T @ (damping[:, None] * jacobian)
     u = np.concatenate([dpsi, [rate.real, rate.imag]]) + h * np.linalg.solve(lhs, right)
     q = np.concatenate([psi, [base.real, base.imag]]) + h * u
-    return np.concatenate([q[:n], u[:n], q[n:], u[n:]])
+    return np.concatenate([q[:n], u[:n], q[n:], u[n:]]), anchors
 
 
 def simulate_feet_steps(
@@ -447,7 +481,8 @@ def _run(plant: FeetPlant, laws, disturbances, stand, substeps, open_loop) -> Fe
             walk.push(torso, disturbances.push)
             pushed = True
         for _ in range(substeps):
-            forces = walk.advance(applied, h)
+            walk.advance(applied, h)
+        forces = walk.forces()
         t_step += period
         clock += period
         times.append(clock)

@@ -1,0 +1,158 @@
+"""The product's own simulation of the walker on feet against MuJoCo (issue #35, part 4):
+the same plans under the same laws in two models of the world.
+
+    python examples/benchmarks/feet_simulation.py [--write]
+
+The product's (:mod:`problems.control.feet_simulation`): the plan's equations of motion on a
+floating base, each foot's heel and ball a compliant contact (k d + c d', a tangential spring
+capped at mu Fy), semi-implicit Euler at 0.25 ms; MuJoCo's (:mod:`problems.control.mujoco_feet`):
+the plan's bodies in MuJoCo's engine, heel and ball spheres, soft contacts, 0.5 ms.
+
+Table 1: the step on feet at 1 m/s (joints bounded at 10 rad/s, as a walk through speeds
+plans it), 10 steps under its law in both, undisturbed and under the disturbances every
+closed-loop check runs on level ground (the body 10 % heavier or lighter, the start 0.02
+rad off, the drives limited to 2/3 of the plan's, a 10 N s push forward or back in the middle
+of the second step): steps walked, the mean step length (m, the plan's 0.5), the largest
+angle error from the plan at the same phase (rad), the control periods with a drive at its
+limit, the stance ball's largest slip (mm), and the seconds of each run.
+
+Table 2: the largest forward and backward pushes (N s, in the middle of the second of four
+steps) each survives, bisected to 1 N s.
+
+Table 3: the product's ground over its damping and stiffness: the same 10 steps undisturbed,
+each ground's steps walked, mean length, largest error and saturated periods (why the
+defaults are what they are).
+
+Table 4: a walk through speeds on feet in both, from the walk command's planner
+(``plan_sequence``): 1.0 -> 0.6 m/s and a stop at quiet standing, two periodic steps at each
+speed, as planned, 10 % heavier and pushed 10 N s in the speed change: steps walked and how
+the walk ended (stood, or why not).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+
+import numpy as np
+
+from problems.control.feet_law import FeetLaw
+from problems.control.feet_simulation import Ground, simulate_feet, simulate_feet_steps
+from problems.control.mujoco_feet import run_feet_in_mujoco, run_feet_steps_in_mujoco
+from problems.control.simulation import Disturbances, disturbances_for, largest_push
+from problems.walking.footed import footed_step_at
+
+STEPS = 10
+
+
+def _row(run, seconds: float) -> str:
+    steps = run.steps
+    if not steps:
+        return f"0/{STEPS} | - | - | - | - | {seconds:.1f}"
+    length = np.mean([s.length for s in steps])
+    tracking = max(s.tracking for s in steps)
+    saturated = sum(s.saturated or 0 for s in steps)
+    slip = 1e3 * max(s.slip for s in steps)
+    return (f"{run.walked}/{STEPS} | {length:.3f} | {tracking:.3f} | {saturated} | {slip:.1f} "
+            f"| {seconds:.1f}")  # fmt: skip
+
+
+def _disturbances(gait, law) -> None:
+    step = gait.problem
+    cases = {label: d for label, d in disturbances_for(step.linkage.n, step.torque_limit).items()
+             if "ground" not in label}  # fmt: skip
+    cases["push +10 N s, step 1"] = Disturbances(push=10.0, push_step=1)
+    cases["push -10 N s, step 1"] = Disturbances(push=-10.0, push_step=1)
+    print(f"Table 1: the step on feet at 1 m/s, {STEPS} steps, in the product's simulation and "
+          "in MuJoCo")  # fmt: skip
+    print()
+    print("| case | product: steps | length m | error rad | saturated | slip mm | s "
+          "| MuJoCo: steps | length m | error rad | saturated | slip mm | s |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for label, disturbances in cases.items():
+        cells = []
+        for simulate in (simulate_feet, run_feet_in_mujoco):
+            start = time.perf_counter()
+            run = simulate(gait, steps=STEPS, disturbances=disturbances, law=law)
+            cells.append(_row(run, time.perf_counter() - start))
+        print(f"| {label} | " + " | ".join(cells) + " |")
+    print()
+
+
+def _pushes(gait, law) -> None:
+    print("Table 2: the largest push survived, N s, in the middle of the second of 4 steps")
+    print()
+    print("| simulation | forward | back |")
+    print("|---|---|---|")
+    for name, simulate in (("product", simulate_feet), ("MuJoCo", run_feet_in_mujoco)):
+
+        def walk(disturbances, simulate=simulate):
+            return simulate(gait, steps=4, disturbances=disturbances, law=law)
+
+        forward, _ = largest_push(walk, direction=1.0, steps=4)
+        back, _ = largest_push(walk, direction=-1.0, steps=4)
+        print(f"| {name} | {forward:.0f} | {back:.0f} |")
+    print()
+
+
+def _grounds(gait, law) -> None:
+    print(f"Table 3: the product's ground, {STEPS} steps undisturbed")
+    print()
+    print("| stiffness N/m | damping N s/m | steps | length m | error rad | saturated | slip mm "
+          "| s |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|")
+    default = Ground()
+    for stiffness, damping in ((default.stiffness, 5e3), (default.stiffness, default.damping),
+                               (default.stiffness, 5e4), (3e5, default.damping),
+                               (3e6, default.damping)):  # fmt: skip
+        start = time.perf_counter()
+        run = simulate_feet(gait, steps=STEPS, law=law,
+                            ground=Ground(stiffness=stiffness, damping=damping))  # fmt: skip
+        print(f"| {stiffness:.0e} | {damping:.0e} | {_row(run, time.perf_counter() - start)} |")
+    print()
+
+
+def _sequence() -> None:
+    from problems.library import plan_sequence
+    from problems.library.feet_closed_loop import sequence_laws
+
+    start = time.perf_counter()
+    walk = plan_sequence([1.0, 0.6, 0.0], feet=True, steps_at_speed=2, speed_limit=10.0)
+    seconds = time.perf_counter() - start
+    laws = sequence_laws(walk)
+    gaits = [step.gait for step in walk.steps]
+    kinds = [step.kind for step in walk.steps]
+    change = kinds.index("change")
+    print(f"Table 4: the walk 1.0 -> 0.6 -> 0 m/s on feet ({len(gaits)} steps: "
+          f"{', '.join(kinds)}; planned in {seconds:.0f} s), then 1 s standing")  # fmt: skip
+    print()
+    print("| case | product: steps | how it ended | MuJoCo: steps | how it ended |")
+    print("|---|---|---|---|---|")
+    cases = {"as planned": Disturbances(), "mass +10 %": Disturbances(mass_scale=1.1),
+             f"push +10 N s, step {change}": Disturbances(push=10.0, push_step=change)}  # fmt: skip
+    for label, disturbances in cases.items():
+        cells = []
+        for simulate in (simulate_feet_steps, run_feet_steps_in_mujoco):
+            run = simulate(gaits, disturbances=disturbances, laws=laws)
+            ended = "stood" if run.fell is None else run.fell.split(": ", 1)[-1][:70]
+            cells += [f"{run.walked}/{len(gaits)}", ended]
+        print(f"| {label} | " + " | ".join(cells) + " |")
+    print()
+
+
+def main() -> int:
+    warnings.simplefilter("ignore")  # the accuracy notes of the solves
+    gait = footed_step_at(1.0, speed_limit=10.0).solve(progress=False)
+    law = FeetLaw(gait)
+    _disturbances(gait, law)
+    _pushes(gait, law)
+    _grounds(gait, law)
+    _sequence()
+    return 0
+
+
+if __name__ == "__main__":
+    import _tables  # beside this script, whose folder a script's run puts on sys.path
+
+    sys.exit(_tables.run(main, __file__))
