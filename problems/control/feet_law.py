@@ -36,7 +36,7 @@ import dataclasses
 
 import numpy as np
 
-from planner.errors import DefinitionError, check_positive, check_real
+from planner.errors import DefinitionError, DefinitionTypeError, check_positive, check_real
 from planner.trajectory import Trajectory
 from problems.control.feedback import LAW, limit_metadata, with_gains
 from problems.control.mujoco import TOUCHDOWN_FORCE
@@ -423,6 +423,38 @@ FEET_BRANCHES = (
 )
 
 
+def walk_laws(gaits, laws=None) -> tuple[tuple, tuple]:
+    """(gaits, laws) of a walk on feet, checked: ``gaits`` solved steps on feet
+    (:class:`problems.walking.footed.FootedGait`, one per step) of one walker, a stop at
+    quiet standing only as the last; ``laws`` one per step (default ``FeetLaw(gaits[j])``,
+    made once per distinct gait). The walks in MuJoCo and in the product's simulation take
+    them so."""
+    from problems.walking.footed import FootedGait
+
+    gaits = tuple(gaits)
+    if not gaits or not all(isinstance(gait, FootedGait) for gait in gaits):
+        raise DefinitionTypeError(
+            "`gaits`: solved steps on feet (FootedGait), at least one, got "
+            f"{[type(gait).__name__ for gait in gaits]}"
+        )
+    stops = [j for j, gait in enumerate(gaits) if gait.problem.stop]
+    if stops and stops != [len(gaits) - 1]:
+        raise DefinitionError(
+            f"`gaits`: a stop at quiet standing ends a walk; step {stops[0]} of {len(gaits)} "
+            "is one: end the walk there"
+        )
+    names = gaits[0].problem.linkage.names
+    if any(gait.problem.linkage.names != names for gait in gaits):
+        raise DefinitionError("`gaits`: steps of one walker (the same links)")
+    if laws is None:
+        made: dict[int, FeetLaw] = {}
+        laws = tuple(made.setdefault(id(gait), FeetLaw(gait)) for gait in gaits)
+    laws = tuple(laws)
+    if len(laws) != len(gaits):
+        raise DefinitionError(f"`laws`: one per step, {len(gaits)}, got {len(laws)}")
+    return gaits, laws
+
+
 __all__ = [
     "FEET_BANDWIDTH",
     "FEET_KD",
@@ -434,4 +466,5 @@ __all__ = [
     "hinge_gains",
     "hinge_inertias",
     "standing_gains",
+    "walk_laws",
 ]

@@ -45,9 +45,9 @@ import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
-from planner.errors import DefinitionError, DefinitionTypeError, check_integer, check_positive
-from problems.control.feet_law import CONTROL_RATE_HZ, FeetLaw
-from problems.control.mujoco import TOUCHDOWN_FORCE
+from planner.errors import DefinitionError, check_integer, check_positive
+from problems.control.feet_law import CONTROL_RATE_HZ, FeetLaw, walk_laws
+from problems.control.mujoco import TOUCHDOWN_FORCE, MujocoStep
 from problems.control.mujoco_feet import STAND, stood
 from problems.control.simulation import Disturbances, scaled_linkage
 
@@ -252,33 +252,15 @@ class FeetPlant:
 
 
 @dataclass(frozen=True)
-class FeetStep:
-    """One step of the product's simulation on feet: ``duration`` s (the law's, from its start
-    to its hand-over), ``length`` m (between the stance balls at the hand-overs), ``slip`` m
-    (how far the stance ball moved along the ground), ``peak_normal`` N (the stance foot's
-    largest normal force), ``tracking`` rad (the largest angle error at the same phase),
-    ``peak_torque`` N m (the largest drive command), ``saturated`` (control periods with a
-    drive at its limit), ``double_support`` s (from the strike to the hand-over)."""
-
-    index: int
-    duration: float
-    length: float
-    slip: float
-    peak_normal: float
-    tracking: float
-    peak_torque: float
-    saturated: int
-    double_support: float
-
-
-@dataclass(frozen=True)
 class FeetRun:
-    """The outcome of :func:`simulate_feet_steps`: the steps walked, why it ended early
+    """The outcome of :func:`simulate_feet_steps`: the steps walked (each the record MuJoCo's
+    loop keeps, :class:`problems.control.mujoco.MujocoStep`, so that the two compare field by
+    field), why it ended early
     (``fell``, None: it walked them all), each control instant's ``time`` (K,) s and state
     ``states`` (K, 2n + 4): psi, dpsi in the first stance foot's labels, then x0, y0, x0',
     y0' of its ball, m and m/s."""
 
-    steps: tuple[FeetStep, ...]
+    steps: tuple[MujocoStep, ...]
     fell: str | None
     time: np.ndarray
     states: np.ndarray
@@ -384,20 +366,7 @@ def simulate_feet_steps(
     by the time since the branch began, no feedback. Disturbances: the start off the plan, a
     push on the torso (an impulse at ``push_at`` of step ``push_step``), the masses scaled,
     the drives saturated lower (the ground stays level: ``ground_rise`` is refused)."""
-    from problems.walking.footed import FootedGait
-
-    gaits = tuple(gaits)
-    if not gaits or not all(isinstance(gait, FootedGait) for gait in gaits):
-        raise DefinitionTypeError(
-            "`gaits`: solved steps on feet (FootedGait), at least one, got "
-            f"{[type(gait).__name__ for gait in gaits]}"
-        )
-    stops = [j for j, gait in enumerate(gaits) if gait.problem.stop]
-    if stops and stops != [len(gaits) - 1]:
-        raise DefinitionError(
-            f"`gaits`: a stop at quiet standing ends a walk; step {stops[0]} of {len(gaits)} "
-            "is one: end the walk there"
-        )
+    gaits, laws = walk_laws(gaits, laws)
     check_positive("stand", stand, "s")
     substeps = check_integer("substeps", substeps, 1)
     disturbances = disturbances or Disturbances()
@@ -406,12 +375,6 @@ def simulate_feet_steps(
             f"`disturbances.ground_rise`: {disturbances.ground_rise!r} m; the product's plant "
             "on feet walks level ground: leave it 0 (MuJoCo's loop takes a step of the ground)"
         )
-    if laws is None:
-        made: dict[int, FeetLaw] = {}
-        laws = tuple(made.setdefault(id(gait), FeetLaw(gait)) for gait in gaits)
-    laws = tuple(laws)
-    if len(laws) != len(gaits):
-        raise DefinitionError(f"`laws`: one per step, {len(gaits)}, got {len(laws)}")
     plant = FeetPlant(gaits[0].problem, disturbances.mass_scale, ground)
     return _run(plant, laws, disturbances, stand, substeps, open_loop)
 
@@ -442,7 +405,7 @@ def _run(plant: FeetPlant, laws, disturbances, stand, substeps, open_loop) -> Fe
         limit = np.minimum(limit, disturbances.torque_limit)
     torso = step.biped.upper_body[0]
     hip = plant.dynamics.point(step.biped.stance_thigh)
-    records: list[FeetStep] = []
+    records: list[MujocoStep] = []
     times, states, hips = [], [], []
     clock = t_step = t_strike = 0.0
     branch, law_id = 0, 0  # the law's branch; the physical foot its stance foot is (0, 1)
@@ -503,7 +466,7 @@ def _run(plant: FeetPlant, laws, disturbances, stand, substeps, open_loop) -> Fe
             gap = ball_x(1 - law_id) - ball_x(law_id)
             fell = stood(len(records), gap, hips, period)
             if fell is None:
-                records.append(FeetStep(len(records), t_step, gap, slip, peak_normal, tracking,
+                records.append(MujocoStep(len(records), t_step, gap, slip, peak_normal, tracking,
                                         peak_torque, saturated, 0.0))  # fmt: skip
             break
         if t_step > 2.0 * step.step_time:
@@ -519,7 +482,7 @@ def _run(plant: FeetPlant, laws, disturbances, stand, substeps, open_loop) -> Fe
                 fell = (f"step {len(records)}, t = {t_step:.3f} s: the front ball came down "
                         f"{landing - stance_ball:+.3f} m from the stance ball")  # fmt: skip
                 break
-            records.append(FeetStep(len(records), t_step, landing - stance_ball, slip,
+            records.append(MujocoStep(len(records), t_step, landing - stance_ball, slip,
                                     peak_normal, tracking, peak_torque, saturated,
                                     t_step - t_strike))  # fmt: skip
             law_id, branch = 1 - law_id, 0
@@ -536,7 +499,6 @@ def _run(plant: FeetPlant, laws, disturbances, stand, substeps, open_loop) -> Fe
 __all__ = [
     "FeetPlant",
     "FeetRun",
-    "FeetStep",
     "Ground",
     "simulate_feet",
     "simulate_feet_steps",

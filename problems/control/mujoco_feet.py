@@ -17,9 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from model.mjcf import MjcfModel, to_mjcf
-from planner.errors import DefinitionError, DefinitionTypeError, check_integer, check_positive
+from planner.errors import DefinitionTypeError, check_integer, check_positive
 from problems.control.feedback import PUSH_STEPS
-from problems.control.feet_law import CONTROL_RATE_HZ, FeetLaw
+from problems.control.feet_law import CONTROL_RATE_HZ, FeetLaw, walk_laws
 from problems.control.mujoco import (
     CONTACT_TIME_CONSTANT,
     PRELOAD,
@@ -121,30 +121,8 @@ def run_feet_steps_in_mujoco(
     s, both feet on MuJoCo's ground; the stop counts as walked when, at the end, the swing
     foot's ball lies within :data:`STAND_GAP` of the stance ball and the hip moves slower
     than :data:`problems.control.mujoco.REST_SPEED` (else the run says it did not stand)."""
-    from problems.walking.footed import FootedGait
-
-    gaits = tuple(gaits)
-    if not gaits or not all(isinstance(gait, FootedGait) for gait in gaits):
-        raise DefinitionTypeError(
-            "`gaits`: solved steps on feet (FootedGait), at least one, got "
-            f"{[type(gait).__name__ for gait in gaits]}"
-        )
-    stops = [j for j, gait in enumerate(gaits) if gait.problem.stop]
-    if stops and stops != [len(gaits) - 1]:
-        raise DefinitionError(
-            f"`gaits`: a stop at quiet standing ends a walk; step {stops[0]} of {len(gaits)} "
-            "is one: end the walk there"
-        )
+    gaits, laws = walk_laws(gaits, laws)
     check_positive("stand", stand, "s")
-    names = gaits[0].problem.linkage.names
-    if any(gait.problem.linkage.names != names for gait in gaits):
-        raise DefinitionError("`gaits`: steps of one walker (the same links)")
-    if laws is None:
-        made: dict[int, FeetLaw] = {}
-        laws = tuple(made.setdefault(id(gait), FeetLaw(gait)) for gait in gaits)
-    laws = tuple(laws)
-    if len(laws) != len(gaits):
-        raise DefinitionError(f"`laws`: one per step, {len(gaits)}, got {len(laws)}")
     mujoco = import_mujoco()
     check_positive("contact_time_constant", contact_time_constant, "s")
     check_positive("preload", preload, "m")
