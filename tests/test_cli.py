@@ -1089,7 +1089,10 @@ def test_walk_on_feet_with_feedback_writes_its_law_and_walks_it_in_mujoco(tmp_pa
     out, err = out.getvalue(), err.getvalue()
     assert code == 0, err
     assert re.search(r"feedback: joint PD around the plan at 1000 Hz", out)
-    assert re.search(r"\n  closed loop +20/20 ", out), out
+    assert re.search(r"\n  closed loop +20/20 ", out), out  # MuJoCo's
+    simulation = out.split("the product's simulation on feet")[1].split("MuJoCo (")[0]
+    assert re.search(r"\n  closed loop +10/10 ", simulation), out
+    assert re.search(r"\n  mass \+10 % +10/10 ", simulation), out
     assert re.search(r"\n  open loop +[01]/20 .*fell: step", out), out
     assert re.search(r"largest push survived in MuJoCo: forward [\d.]+ N s", out)
     profile = LinkageTrajectory.load(folder / "torques.csv")

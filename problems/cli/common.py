@@ -639,13 +639,16 @@ def print_runs(out, runs: dict, steps: int, columns) -> None:
 def print_mujoco_runs(out, runs: dict, steps: int, pushes) -> None:
     """The table of walks in MuJoCo (:func:`print_runs` with the drives' peak, the stance
     foot's slip and normal force, the tracking error) and the largest pushes survived
-    ((forward, back) N s, or None: the undisturbed closed loop fell, no margin)."""
+    ((forward, back) N s, or None: the undisturbed closed loop fell, no margin; False: not
+    measured)."""
     print_runs(out, runs, steps, [
         ("peak |M| N m", 12, lambda steps: f"{max(r.peak_torque for r in steps):.1f}"),
         ("slip mm", 8, lambda steps: f"{1000 * max(r.slip for r in steps):.1f}"),
         ("peak Fy N", 9, lambda steps: f"{max(r.peak_normal for r in steps):.0f}"),
         ("tracking rad", 12, lambda steps: f"{max(r.tracking for r in steps):.2e}"),
     ])  # fmt: skip
+    if pushes is False:
+        return
     if pushes is None:
         print("  no push margin: the undisturbed closed loop fell", file=out)
         return

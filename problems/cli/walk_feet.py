@@ -91,6 +91,8 @@ def run_feet(args, out: TextIO, report: Reporter) -> int:
 
             write_walk_pictures(footed_figure(gait), gait, output, args, report)
         if law is not None:
+            _print_law(gait, law, out)
+            _feet_in_simulation(gait, law, report, out)
             engine = _feet_in_mujoco(gait, law, report, out)
             if engine is not None and not args.no_plots:
                 _draw_mujoco_walk(engine.runs["closed loop"], gait, output, report)
@@ -246,9 +248,31 @@ def _draw_mujoco_walk(run, gait, output, report) -> None:
         walking_plots.save_figure(figure, output.path("mujoco_walk.png"))
 
 
-def _feet_in_mujoco(gait, law, report, out):
-    """Print the law written in torques.csv and its walks in MuJoCo (``--feedback``);
-    returns the MuJoCo check, or None without MuJoCo."""
+#: steps a case in the product's simulation on feet (``--feedback``; MuJoCo's check walks 20)
+SIMULATION_STEPS = 10
+
+
+def _feet_in_simulation(gait, law, report, out) -> None:
+    """The file's law in the product's own simulation on feet (``--feedback``): the plan,
+    the disturbances on level ground, :data:`SIMULATION_STEPS` steps each."""
+    from problems.control.feet_simulation import simulate_feet
+    from problems.control.simulation import disturbances_for
+
+    step = gait.problem
+    cases = {("closed loop" if label == "plan" else label): d
+             for label, d in disturbances_for(step.linkage.n, step.torque_limit).items()
+             if "ground" not in label}  # fmt: skip
+    with report.working("walking in the product's simulation on feet (compliant heels and balls)"):
+        runs = {label: simulate_feet(gait, steps=SIMULATION_STEPS, disturbances=d, law=law)
+                for label, d in cases.items()}  # fmt: skip
+    print("the product's simulation on feet (the plan's equations on a floating base, heels "
+          "and balls on a compliant ground, problems.control.feet_simulation; the file's law):",
+          file=out)  # fmt: skip
+    print_mujoco_runs(out, runs, SIMULATION_STEPS, False)
+
+
+def _print_law(gait, law, out) -> None:
+    """The law written in torques.csv (``--feedback``)."""
     n = gait.problem.linkage.n
     kp, kd = law.gains[1]  # the double support's: uncapped, the same on every hinge
     print(
@@ -259,6 +283,11 @@ def _feet_in_mujoco(gait, law, report, out):
         "in torques.csv.meta.json)",
         file=out,
     )
+
+
+def _feet_in_mujoco(gait, law, report, out):
+    """The law's walks in MuJoCo (``--feedback``); returns the MuJoCo check, or None without
+    MuJoCo."""
     try:
         import mujoco  # noqa: F401 - only whether the extra is there
     except ImportError:
