@@ -46,6 +46,7 @@ import numpy as np
 
 from model.dynamics import Dynamics
 from planner.errors import DefinitionError, check_integer, check_positive
+from problems.control.buffered import BufferedCalls
 from problems.control.feet_law import CONTROL_RATE_HZ, FeetLaw, walk_laws
 from problems.control.mujoco import TOUCHDOWN_FORCE, MujocoStep
 from problems.control.mujoco_feet import STAND, stood
@@ -90,7 +91,7 @@ class Ground:
             check_positive("mu", self.mu)
 
 
-class FeetPlant:
+class FeetPlant(BufferedCalls):
     """The plan's tree on a floating base with compliant feet (module docstring).
 
     Parameters
@@ -152,19 +153,25 @@ class FeetPlant:
             floating = point.function("jacobian")(psi)  # columns (x0, y0, psi)
             jacobians.append(ca.horzcat(floating[:, 2:], floating[:, :2]))
         return ca.Function("feet_plant", [psi, dpsi, torques],
-                           [ca.densify(mass), right, ca.vertcat(*positions),
-                            ca.vertcat(*velocities), ca.vertcat(*jacobians)],
+                           [ca.densify(mass), ca.densify(right), ca.densify(ca.vertcat(*positions)),
+                            ca.densify(ca.vertcat(*velocities)),
+                            ca.densify(ca.vertcat(*jacobians))],
                            ["psi", "dpsi", "M"],
                            ["mass", "right", "positions", "velocities", "jacobians"])  # fmt: skip
 
     def terms(self, psi, dpsi, torques):
         """(M_e, b, positions (4,) complex, velocities (4,) complex relative to the root,
-        Jacobians (4, 2, n + 2)) at one state (:attr:`_terms`)."""
-        mass, right, positions, velocities, jacobians = self._terms(psi, dpsi, torques)
-        positions, velocities = np.asarray(positions), np.asarray(velocities)
-        return (np.asarray(mass), np.asarray(right).ravel(),
-                positions[:, 0] + 1j * positions[:, 1], velocities[:, 0] + 1j * velocities[:, 1],
-                np.asarray(jacobians).reshape(4, 2, self.n + 2))  # fmt: skip
+        Jacobians (4, 2, n + 2)) at one state (:attr:`_terms`, through CasADi's evaluation
+        buffer: its call's conversions cost more than its 1400 instructions)."""
+        n2 = self.n + 2
+        mass, right, positions, velocities, jacobians = self._buffered(
+            "terms", lambda: self._terms)(psi, dpsi, torques)  # fmt: skip
+        # CasADi's dense outputs are column-major
+        positions = positions.reshape(2, 4)
+        velocities = velocities.reshape(2, 4)
+        return (mass.reshape(n2, n2).T, right, positions[0] + 1j * positions[1],
+                velocities[0] + 1j * velocities[1],
+                jacobians.reshape(n2, 8).T.reshape(4, 2, n2))  # fmt: skip
 
     def momentum_jacobian(self, psi) -> np.ndarray:
         """G (n,) complex, kg m: the fixed base's linear momentum is G . dpsi (the floating
