@@ -1,6 +1,7 @@
 """Control: the way from a planned step (:mod:`problems.walking`) to a walking robot.
 
 * :mod:`simulation`: the hybrid plant (single and double support, strikes, falls, pushes);
+* :mod:`feet_simulation`: the walker on feet on a floating base, compliant heels and balls;
 * :mod:`linearisation`: the return map, its exact Jacobian, fixed points, Floquet multipliers;
 * :mod:`lqr`: linearisation along the step and the periodic LQR through the impact;
 * :mod:`tracking`: references indexed by the hip's phase and the controllers that track them;
