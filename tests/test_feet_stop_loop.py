@@ -205,3 +205,28 @@ def test_a_stop_ends_a_walk_in_mujoco(footed_gait):
         run_feet_steps_in_mujoco([stop, gait])
     with pytest.raises(DefinitionError, match="stand"):
         run_feet_steps_in_mujoco([gait], stand=0.0)
+
+
+def test_a_stop_on_feet_ends_standing_in_the_products_simulation(slow_and_stop):
+    """The same walk (two steps at 0.6 m/s, the stop) in the product's simulation on feet, as
+    in MuJoCo: all three walked, the swing ball set down beside the stance ball, the hip at
+    rest after the second's stand, the stop's record spanning the stop and the stand; pushed
+    10 N s forward in the stop it stands with the standing damping and is still swaying
+    without it; pushed 10 N s back in the stop it does not stand, and the run says so."""
+    from problems.control.feet_simulation import simulate_feet_steps
+    from problems.control.mujoco_feet import STAND_GAP
+    from problems.control.simulation import Disturbances
+
+    gait, stop = slow_and_stop
+    gaits = [gait, gait, stop]
+    run = simulate_feet_steps(gaits)
+    assert (run.walked, run.fell) == (3, None)
+    assert abs(run.steps[-1].length) < STAND_GAP
+    assert run.steps[-1].duration == pytest.approx(stop.duration + 1.0, abs=2e-3)
+    forward = Disturbances(push=10.0, push_step=2)
+    assert simulate_feet_steps(gaits, disturbances=forward).fell is None
+    plain = [FeetLaw(gait), FeetLaw(gait), FeetLaw(stop, stand_damping=0.0)]
+    undamped = simulate_feet_steps(gaits, disturbances=forward, laws=plain)
+    assert undamped.fell is not None and "still moving" in undamped.fell
+    back = simulate_feet_steps(gaits, disturbances=Disturbances(push=-10.0, push_step=2))
+    assert back.fell is not None and back.fell.startswith("step 2")
