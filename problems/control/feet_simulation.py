@@ -7,7 +7,7 @@ The plant is the plan's tree (:class:`problems.walking.footed.FootedStep`), its 
 inertias the plan's or scaled (``Disturbances.mass_scale``), on a floating base: q = (x0, y0,
 psi) with z0 = x0 + j y0 the first stance foot's ball in the world (the tree never re-roots:
 as in MuJoCo, the legs keep their bodies and only the law's labels swap). With the coupling G
-(``momentum_jacobian``: the body's linear momentum is m z0' + G psi') its equations are the
+(the body's linear momentum is m z0' + G psi') its equations are the
 fixed base's with the base's acceleration and the contacts' forces F_P at the four foot
 points P (``model.floating``):
 
@@ -128,16 +128,18 @@ class FeetPlant(BufferedCalls):
     @cached_property
     def _terms(self) -> ca.Function:
         """One SX Function of what a step evaluates: (psi, dpsi, M) -> the floating base's
-        mass matrix M_e (n + 2, n + 2) and right-hand side b (n + 2,) (:meth:`equations`),
-        the foot points' positions and velocities relative to the root (4, 2) each, and
-        their Jacobians d(x, y)/d(psi, x0, y0) stacked (8, n + 2): one call instead of a
-        dozen (the model's own Functions, composed)."""
+        mass matrix M_e (n + 2, n + 2) and right-hand side b (n + 2,) (M_e (psi'', z0'') = b
+        + the contacts' generalised forces), the foot points' positions and velocities
+        relative to the root (4, 2) each, their Jacobians d(x, y)/d(psi, x0, y0) stacked
+        (8, n + 2), and the hinges H0..Hn relative to the root (n + 1, 2): one call instead of
+        a dozen (the model's own Functions, composed)."""
         dynamics = self.dynamics
         n = self.n
         psi, dpsi, torques = ca.SX.sym("psi", n), ca.SX.sym("dpsi", n), ca.SX.sym("M", n)
         matrix = dynamics.function("mass_matrix")(psi)
         vx, vy = dynamics.function("com_velocities")(psi, dpsi)
         masses = ca.DM(self.masses)
+        # G: the fixed base's linear momentum is G . dpsi (the floating base's coupling row)
         coupling_x = ca.jacobian(ca.dot(masses, vx), dpsi)  # (1, n): Re G
         coupling_y = ca.jacobian(ca.dot(masses, vy), dpsi)
         mass = ca.blockcat([[matrix, coupling_x.T, coupling_y.T],
@@ -152,52 +154,27 @@ class FeetPlant(BufferedCalls):
             velocities.append(ca.horzcat(*point.function("velocity")(psi, dpsi)))
             floating = point.function("jacobian")(psi)  # columns (x0, y0, psi)
             jacobians.append(ca.horzcat(floating[:, 2:], floating[:, :2]))
-        return ca.Function("feet_plant", [psi, dpsi, torques],
-                           [ca.densify(mass), ca.densify(right), ca.densify(ca.vertcat(*positions)),
-                            ca.densify(ca.vertcat(*velocities)),
-                            ca.densify(ca.vertcat(*jacobians))],
+        hinges = ca.horzcat(*dynamics.function("hinge_positions")(psi))
+        outputs = [mass, right, ca.vertcat(*positions), ca.vertcat(*velocities),
+                   ca.vertcat(*jacobians), hinges]  # fmt: skip
+        return ca.Function("feet_plant", [psi, dpsi, torques], [ca.densify(o) for o in outputs],
                            ["psi", "dpsi", "M"],
-                           ["mass", "right", "positions", "velocities", "jacobians"])  # fmt: skip
+                           ["mass", "right", "positions", "velocities", "jacobians",
+                            "hinges"])  # fmt: skip
 
-    def terms(self, psi, dpsi, torques):
-        """(M_e, b, positions (4,) complex, velocities (4,) complex relative to the root,
-        Jacobians (4, 2, n + 2)) at one state (:attr:`_terms`, through CasADi's evaluation
-        buffer: its call's conversions cost more than its 1400 instructions)."""
-        n2 = self.n + 2
-        mass, right, positions, velocities, jacobians = self._buffered(
+    def terms(self, psi, dpsi, torques) -> _Terms:
+        """:class:`_Terms` at one state (:attr:`_terms`, through CasADi's evaluation buffer:
+        its call's conversions cost more than its 1400 instructions)."""
+        n, n2 = self.n, self.n + 2
+        mass, right, positions, velocities, jacobians, hinges = self._buffered(
             "terms", lambda: self._terms)(psi, dpsi, torques)  # fmt: skip
         # CasADi's dense outputs are column-major
-        positions = positions.reshape(2, 4)
-        velocities = velocities.reshape(2, 4)
-        return (mass.reshape(n2, n2).T, right, positions[0] + 1j * positions[1],
-                velocities[0] + 1j * velocities[1],
-                jacobians.reshape(n2, 8).T.reshape(4, 2, n2))  # fmt: skip
-
-    def momentum_jacobian(self, psi) -> np.ndarray:
-        """G (n,) complex, kg m: the fixed base's linear momentum is G . dpsi (the floating
-        base's coupling row, ``model.floating``)."""
-        n = self.n
-        velocities = self.dynamics.com_velocities(np.tile(psi, (n, 1)), np.eye(n))  # (n, n)
-        return velocities @ self.masses
-
-    def equations(self, psi, dpsi, torques, impulse: bool = False):
-        """(M_e (n + 2, n + 2), b (n + 2,)): the floating base's equations M_e (psi'', z0'')
-        = b + (the contacts' generalised forces), unknowns in the order (psi'', x0'', y0'')
-        (module docstring); ``impulse``: b the generalised impulse ``torques`` (n,) alone."""
-        n = self.n
-        mass, right = self.terms(psi, np.zeros(n) if dpsi is None else dpsi,
-                                 np.zeros(n) if impulse else torques)[:2]  # fmt: skip
-        if impulse:
-            right = np.concatenate([np.asarray(torques, dtype=float), np.zeros(2)])
-        return mass, right
-
-    def point_jacobian(self, index: int, psi) -> np.ndarray:
-        """d(x, y)/d(psi, x0, y0) (2, n + 2) of foot point ``index`` (:data:`FOOT_POINTS`)."""
-        n = self.n
-        jacobian = np.zeros((2, n + 2))
-        jacobian[:, :n] = self.points[index].jacobian(psi, floating=False)
-        jacobian[0, n] = jacobian[1, n + 1] = 1.0
-        return jacobian
+        positions, velocities = positions.reshape(2, 4), velocities.reshape(2, 4)
+        hinges = hinges.reshape(2, n + 1)
+        return _Terms(mass.reshape(n2, n2).T, right, positions[0] + 1j * positions[1],
+                      velocities[0] + 1j * velocities[1],
+                      jacobians.reshape(n2, 8).T.reshape(4, 2, n2),
+                      hinges[0] + 1j * hinges[1])  # fmt: skip
 
     def accelerations(self, psi, dpsi, torques, forces=(), base_force: complex = 0j,
                       impulse: bool = False):  # fmt: skip
@@ -210,22 +187,15 @@ class FeetPlant(BufferedCalls):
         ``impulse``: the jumps (dpsi, dz0) instead, ``torques`` then the generalised impulse on
         the angles (n,) N m s and ``base_force`` the linear impulse (N s); no bias terms."""
         n = self.n
-        mass, right = self.equations(psi, dpsi, torques, impulse)
+        zero = np.zeros(n)
+        terms = self.terms(psi, zero if dpsi is None else dpsi, zero if impulse else torques)
+        right = np.concatenate([torques, [0.0, 0.0]]) if impulse else terms.right.copy()
         right[n] += base_force.real
         right[n + 1] += base_force.imag
-        for index, force in enumerate(forces):
-            if force != 0:
-                right += self.point_jacobian(index, psi).T @ np.array([force.real, force.imag])
-        solution = np.linalg.solve(mass, right)
+        for jacobian, force in zip(terms.jacobians, forces, strict=False):
+            right += jacobian.T @ np.array([force.real, force.imag])
+        solution = np.linalg.solve(terms.mass, right)
         return solution[:n], complex(solution[n], solution[n + 1])
-
-    def positions(self, psi, base: complex) -> np.ndarray:
-        """The four foot points in the world (complex m), ``base`` the root's position."""
-        return self.terms(psi, np.zeros(self.n), np.zeros(self.n))[2] + base
-
-    def velocities(self, psi, dpsi, base_rate: complex) -> np.ndarray:
-        """The four foot points' velocities (complex m/s), ``base_rate`` the root's."""
-        return self.terms(psi, dpsi, np.zeros(self.n))[3] + base_rate
 
     def contact_forces(self, positions, velocities, anchors):
         """(forces (4,) complex N, anchors (4,) m, ``None`` where free): the ground's force on
@@ -252,10 +222,25 @@ class FeetPlant(BufferedCalls):
             after[i] = anchor
         return forces, after
 
-    def body_clearance(self, psi, base: complex) -> float:
-        """The lowest of the knees, hips, neck and head, m above the ground."""
-        hinges = self.dynamics.hinge_positions(psi)
-        return float(base.imag + np.min(hinges.imag[self._body_points]))
+    def body_clearance(self, hinges) -> float:
+        """The lowest of the knees, hips, neck and head, m above the ground (``hinges`` H0..Hn
+        in the world, complex m)."""
+        return float(np.min(hinges.imag[self._body_points]))
+
+
+@dataclass(frozen=True)
+class _Terms:
+    """What one evaluation of the plant gives (:meth:`FeetPlant.terms`): ``mass`` M_e and
+    ``right`` b of the floating base's equations, the foot points' ``positions`` and
+    ``velocities`` relative to the root (4,) complex, their ``jacobians`` (4, 2, n + 2), the
+    ``hinges`` H0..Hn relative to the root (n + 1,) complex."""
+
+    mass: np.ndarray
+    right: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray
+    jacobians: np.ndarray
+    hinges: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -289,7 +274,7 @@ class _Walk:
         # the first stance foot flat at rest on the ground, sunk to carry the body's weight
         # on its heel and ball (half each): the start neither drops nor bounces
         self.z[2 * n + 1] = -0.5 * plant.weight / plant.ground.stiffness
-        positions = plant.positions(psi, complex(0.0, self.z[2 * n + 1]))
+        positions = plant.terms(psi, np.zeros(n), np.zeros(n)).positions + 1j * self.z[2 * n + 1]
         self.anchors = [z.real if z.imag < 0.0 else None for z in positions]
 
     def advance(self, torques, h: float) -> None:
@@ -297,15 +282,17 @@ class _Walk:
         :func:`_step`), the contacts' anchors moved with it."""
         self.z, self.anchors = _step(self.plant, self.z, torques, self.anchors, h)
 
-    def forces(self) -> np.ndarray:
-        """The contact forces (4,) complex N at the state (its anchors as they are)."""
+    def sense(self):
+        """(the contact forces (4,) complex N, the foot points (4,) and the hinges (n + 1,) in
+        the world, complex m) at the state, its anchors as they are: one evaluation."""
         plant, z = self.plant, self.z
         n = plant.n
-        _, _, positions, velocities, _ = plant.terms(z[:n], z[n : 2 * n], np.zeros(n))
-        forces, _ = plant.contact_forces(positions + complex(z[-4], z[-3]),
-                                         velocities + complex(z[-2], z[-1]),
+        base = complex(z[-4], z[-3])
+        terms = plant.terms(z[:n], z[n : 2 * n], np.zeros(n))
+        points = terms.positions + base
+        forces, _ = plant.contact_forces(points, terms.velocities + complex(z[-2], z[-1]),
                                          self.anchors)  # fmt: skip
-        return forces
+        return forces, points, terms.hinges + base
 
     def push(self, link: str, impulse: float) -> None:
         """A horizontal impulse (N s) on ``link``'s centre of mass (the contacts' forces are
@@ -336,10 +323,11 @@ def _step(plant: FeetPlant, z: np.ndarray, torques, anchors, h: float):
     ground = plant.ground
     psi, dpsi = z[:n], z[n : 2 * n]
     base, rate = complex(z[-4], z[-3]), complex(z[-2], z[-1])
-    mass, right, positions, velocities, jacobians = plant.terms(psi, dpsi, torques)
-    forces, anchors = plant.contact_forces(positions + base, velocities + rate, anchors)
-    lhs = mass
-    for jacobian, force in zip(jacobians, forces, strict=True):
+    terms = plant.terms(psi, dpsi, torques)
+    forces, anchors = plant.contact_forces(terms.positions + base, terms.velocities + rate,
+                                           anchors)  # fmt: skip
+    lhs, right = terms.mass, terms.right
+    for jacobian, force in zip(terms.jacobians, forces, strict=True):
         if force == 0:
             continue
         right = right + jacobian.T @ np.array([force.real, force.imag])
@@ -395,110 +383,125 @@ def simulate_feet(gait, *, steps: int = 20, **options) -> FeetRun:
     return simulate_feet_steps((gait,) * steps, laws=(law,) * steps, **options)
 
 
+#: each physical foot's heel and ball among :data:`FOOT_POINTS` (the plant's labels: the
+#: first stance foot is foot 0)
+HEELS, BALLS = (0, 2), (1, 3)
+
+
+@dataclass
+class _Tally:
+    """One step of the law as it runs: its law, branch (0 single support, 1 double), the time
+    since it began and since the strike, and what its record keeps."""
+
+    law: FeetLaw
+    branch: int = 0
+    time: float = 0.0
+    strike: float = 0.0
+    tracking: float = 0.0
+    peak_torque: float = 0.0
+    peak_normal: float = 0.0
+    saturated: int = 0
+
+    def record(self, index: int, length: float, slip: float, double: float) -> MujocoStep:
+        return MujocoStep(index, self.time, length, slip, self.peak_normal, self.tracking,
+                          self.peak_torque, self.saturated, double)  # fmt: skip
+
+
+def _command(tally: _Tally, x, limit, open_loop: bool) -> np.ndarray:
+    """The drives' torques (n,) N m of the law for the state ``x`` in its labels, clipped at
+    ``limit`` (the root's 0: the ground's), the tally's tracking, peak and saturation kept."""
+    reference = tally.law.references[tally.branch]
+    since = tally.time - (tally.strike if tally.branch else 0.0)
+    if open_loop:
+        torques = reference.at_time(since)[1].copy()
+    else:
+        torques = tally.law.torques(tally.branch, x, since)
+    torques[0] = 0.0  # the ground's torque on the stance foot: no drive gives it
+    tally.tracking = max(tally.tracking, reference.tracking(x, since))
+    command = np.clip(torques, -limit, limit)
+    tally.peak_torque = max(tally.peak_torque, float(np.max(np.abs(command))))
+    tally.saturated += bool(np.any(np.abs(command[1:]) >= limit[1:]))
+    return command
+
+
+def _fall(walk: _Walk, hinges, tally: _Tally, index: int) -> str | None:
+    """Why the walk has fallen after this period, or None."""
+    if not np.all(np.isfinite(walk.z)):
+        return f"step {index}, t = {tally.time:.3f} s: the state is no longer finite"
+    if walk.plant.body_clearance(hinges) < -FALL_DEPTH:
+        return f"step {index}, t = {tally.time:.3f} s: a body point went under the ground"
+    if not tally.law.step.stop and tally.time > 2.0 * tally.law.step.step_time:
+        return f"step {index}: the step did not end within twice the step time"
+    return None
+
+
 def _run(plant: FeetPlant, laws, disturbances, stand, substeps, open_loop) -> FeetRun:
+    """The control loop of :func:`simulate_feet_steps`."""
     n = plant.n
-    swap = plant.swap
-    law = laws[0]
-    step = law.step
-    single = law.references[0]
-    start = single.states[0].copy()
+    start = laws[0].references[0].states[0].copy()
     if disturbances.initial is not None:
         start = start + np.asarray(disturbances.initial, dtype=float)
     walk = _Walk(plant, start)
     period = 1.0 / CONTROL_RATE_HZ
-    h = period / substeps
-    limit = np.array([0.0] + [step.limits[name] for name in step.linkage.names[1:]])
+    first = laws[0].step
+    limit = np.array([0.0] + [first.limits[name] for name in first.linkage.names[1:]])
     if disturbances.torque_limit is not None:
         limit = np.minimum(limit, disturbances.torque_limit)
-    torso = step.biped.upper_body[0]
-    hip = plant.dynamics.point(step.biped.stance_thigh)
+    torso = first.biped.upper_body[0]
+    hip = 1 + first.linkage.index(first.biped.stance_thigh)  # the hip among the hinges
     records: list[MujocoStep] = []
     times, states, hips = [], [], []
-    clock = t_step = t_strike = 0.0
-    branch, law_id = 0, 0  # the law's branch; the physical foot its stance foot is (0, 1)
+    tally, law_id = _Tally(laws[0]), 0  # law_id: the physical foot the law's stance foot is
     pushed = disturbances.push == 0.0
-    peak_normal = tracking = peak_torque = 0.0
-    saturated = 0
     fell = None
-    # the foot points of each physical foot in the plant's labels (the first stance foot's)
-    heel, ball = ((0, 2), (1, 3))
-    forces = walk.forces()
-
-    def ball_x(foot: int) -> float:
-        return float(plant.positions(walk.z[:n], complex(walk.z[-4], walk.z[-3]))[ball[foot]].real)
-
-    stance_ball = ball_x(0)
-    while len(records) < len(laws):
+    _, points, _ = walk.sense()
+    stance_ball = points[BALLS[0]].real
+    while len(records) < len(laws) and fell is None:
+        step = tally.law.step
         psi, dpsi = walk.z[:n], walk.z[n : 2 * n]
         if law_id:  # the law's labels: the other foot in stance
-            psi, dpsi = swap.map_state(psi, dpsi)
-        x = np.concatenate([psi, dpsi])
-        reference = law.references[branch]
-        since = t_step - (t_strike if branch else 0.0)
-        if open_loop:
-            torques = reference.at_time(since)[1].copy()
-        else:
-            torques = law.torques(branch, x, since)
-        torques[0] = 0.0  # the ground's torque on the stance foot: no drive gives it
-        tracking = max(tracking, reference.tracking(x, since))
-        command = np.clip(torques, -limit, limit)
-        peak_torque = max(peak_torque, float(np.max(np.abs(command))))
-        saturated += bool(np.any(np.abs(command[1:]) >= limit[1:]))
-        applied = swap.map_torques(command) if law_id else command
+            psi, dpsi = plant.swap.map_state(psi, dpsi)
+        command = _command(tally, np.concatenate([psi, dpsi]), limit, open_loop)
+        applied = plant.swap.map_torques(command) if law_id else command
         applied[0] = 0.0
         if not pushed and len(records) == disturbances.push_step and \
-                t_step >= disturbances.push_at * step.step_time - 1e-12:  # fmt: skip
+                tally.time >= disturbances.push_at * step.step_time - 1e-12:  # fmt: skip
             walk.push(torso, disturbances.push)
             pushed = True
         for _ in range(substeps):
-            walk.advance(applied, h)
-        forces = walk.forces()
-        t_step += period
-        clock += period
-        times.append(clock)
+            walk.advance(applied, period / substeps)
+        forces, points, hinges = walk.sense()
+        tally.time += period
+        times.append(times[-1] + period if times else period)
         states.append(walk.z.copy())
-        if not np.all(np.isfinite(walk.z)):
-            fell = f"step {len(records)}, t = {t_step:.3f} s: the state is no longer finite"
+        fell = _fall(walk, hinges, tally, len(records))
+        if fell is not None:
             break
-        base = complex(walk.z[-4], walk.z[-3])
-        if plant.body_clearance(walk.z[:n], base) < -FALL_DEPTH:
-            fell = f"step {len(records)}, t = {t_step:.3f} s: a body point went under the ground"
-            break
-        peak_normal = max(peak_normal, float(forces[heel[law_id]].imag + forces[ball[law_id]].imag))
-        slip = abs(ball_x(law_id) - stance_ball)
+        stance = forces[HEELS[law_id]].imag + forces[BALLS[law_id]].imag
+        tally.peak_normal = max(tally.peak_normal, float(stance))
+        slip = abs(points[BALLS[law_id]].real - stance_ball)
+        gap = points[BALLS[1 - law_id]].real - stance_ball  # the other ball, ahead
         if step.stop:  # quiet standing: the stop, then its last sample held
-            hips.append(float((base + complex(hip.position(walk.z[:n]))).real))
-            if t_step < single.duration + stand - 1e-12:
-                continue
-            gap = ball_x(1 - law_id) - ball_x(law_id)
-            fell = stood(len(records), gap, hips, period)
-            if fell is None:
-                records.append(MujocoStep(len(records), t_step, gap, slip, peak_normal, tracking,
-                                        peak_torque, saturated, 0.0))  # fmt: skip
-            break
-        if t_step > 2.0 * step.step_time:
-            fell = f"step {len(records)}: the step did not end within twice the step time"
-            break
-        s = law.phase(psi)
-        striking = heel[1 - law_id] if step.strike_role == "swing_heel" else ball[1 - law_id]
-        if branch == 0 and s > 0.5 and forces[striking].imag > TOUCHDOWN_FORCE:
-            branch, t_strike = 1, t_step  # the swing foot struck: the double support's branch
-        elif branch == 1 and s >= 1.0:
-            landing = ball_x(1 - law_id)
-            if landing - stance_ball < 0.25 * step.step_length:
-                fell = (f"step {len(records)}, t = {t_step:.3f} s: the front ball came down "
-                        f"{landing - stance_ball:+.3f} m from the stance ball")  # fmt: skip
+            hips.append(float(hinges[hip].real))
+            if tally.time >= tally.law.references[0].duration + stand - 1e-12:
+                beside = (points[BALLS[1 - law_id]] - points[BALLS[law_id]]).real
+                fell = stood(len(records), beside, hips, period)
+                if fell is None:
+                    records.append(tally.record(len(records), beside, slip, 0.0))
                 break
-            records.append(MujocoStep(len(records), t_step, landing - stance_ball, slip,
-                                    peak_normal, tracking, peak_torque, saturated,
-                                    t_step - t_strike))  # fmt: skip
-            law_id, branch = 1 - law_id, 0
-            law = laws[len(records) % len(laws)]
-            step, single = law.step, law.references[0]
-            stance_ball = landing
-            t_step = 0.0
-            peak_normal = tracking = peak_torque = 0.0
-            saturated = 0
+            continue
+        s = tally.law.phase(psi)
+        striking = (HEELS if step.strike_role == "swing_heel" else BALLS)[1 - law_id]
+        if tally.branch == 0 and s > 0.5 and forces[striking].imag > TOUCHDOWN_FORCE:
+            tally.branch, tally.strike = 1, tally.time  # struck: the double support's branch
+        elif tally.branch == 1 and s >= 1.0:
+            if gap < 0.25 * step.step_length:
+                fell = (f"step {len(records)}, t = {tally.time:.3f} s: the front ball came "
+                        f"down {gap:+.3f} m from the stance ball")  # fmt: skip
+                break
+            records.append(tally.record(len(records), gap, slip, tally.time - tally.strike))
+            law_id, stance_ball = 1 - law_id, stance_ball + gap
+            tally = _Tally(laws[len(records) % len(laws)])
     return FeetRun(tuple(records), fell, np.asarray(times),
                    np.asarray(states).reshape(-1, 2 * n + 4))  # fmt: skip
 
