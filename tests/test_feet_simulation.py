@@ -201,3 +201,9 @@ def test_bad_inputs_are_refused_by_name(footed_gait):
         Ground(stiffness=-1.0)
     with pytest.raises(DefinitionError, match="laws"):
         simulate_feet_steps((footed_gait,) * 2, laws=())
+    with pytest.raises(DefinitionError, match="stand"):
+        simulate_feet(footed_gait, steps=1, stand=0.0)
+    with pytest.raises(DefinitionError, match="substeps"):
+        simulate_feet(footed_gait, steps=1, substeps=0)
+    with pytest.raises(DefinitionError, match="mass_scale"):
+        FeetPlant(footed_gait.problem, mass_scale=0.0)
