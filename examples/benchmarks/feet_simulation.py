@@ -27,6 +27,11 @@ Table 4: a walk through speeds on feet in both, from the walk command's planner
 (``plan_sequence``): 1.0 -> 0.6 m/s and a stop at quiet standing, two periodic steps at each
 speed, as planned, 10 % heavier and pushed 10 N s in the speed change: steps walked and how
 the walk ended (stood, or why not).
+
+Table 5: a stop at quiet standing in both: two periodic steps at 0.6 m/s and the stop
+(``plan_transition(gait, "standing")``), pushed in the middle of the stop by +-5 and +-10 N s,
+with the stop's standing law (its sway damping) and without it (``stand_damping=0``): how the
+walk ended (stood, or why not: the hip's speed a second after the stop).
 """
 
 from __future__ import annotations
@@ -141,6 +146,30 @@ def _sequence() -> None:
     print()
 
 
+def _stop_pushes() -> None:
+    from problems.library import plan_transition
+
+    gait = footed_step_at(0.6, speed_limit=10.0).solve(progress=False)
+    (stop,) = plan_transition(gait, "standing", steps=1).gaits
+    gaits = [gait, gait, stop]
+    walk = FeetLaw(gait)
+    laws = {"damped": [walk, walk, FeetLaw(stop)],
+            "undamped": [walk, walk, FeetLaw(stop, stand_damping=0.0)]}  # fmt: skip
+    print("Table 5: two steps at 0.6 m/s and the stop, pushed in the stop, then 1 s standing")
+    print()
+    print("| push in the stop N s | law | product | MuJoCo |")
+    print("|---|---|---|---|")
+    for push in (0.0, 5.0, -5.0, 10.0, -10.0):
+        for name, each in laws.items():
+            cells = []
+            for simulate in (simulate_feet_steps, run_feet_steps_in_mujoco):
+                run = simulate(gaits, disturbances=Disturbances(push=push, push_step=2),
+                               laws=each)  # fmt: skip
+                cells.append("stood" if run.fell is None else run.fell.split(": ", 1)[-1][:70])
+            print(f"| {push:+g} | {name} | " + " | ".join(cells) + " |")
+    print()
+
+
 def main() -> int:
     warnings.simplefilter("ignore")  # the accuracy notes of the solves
     gait = footed_step_at(1.0, speed_limit=10.0).solve(progress=False)
@@ -149,6 +178,7 @@ def main() -> int:
     _pushes(gait, law)
     _grounds(gait, law)
     _sequence()
+    _stop_pushes()
     return 0
 
 
