@@ -32,6 +32,16 @@ Table 5: a stop at quiet standing in both: two periodic steps at 0.6 m/s and the
 (``plan_transition(gait, "standing")``), pushed in the middle of the stop by +-5 and +-10 N s,
 with the stop's standing law (its sway damping) and without it (``stand_damping=0``): how the
 walk ended (stood, or why not: the hip's speed a second after the stop).
+
+Table 6: does the closed loop on feet settle into a periodic walk? 30 steps as planned in
+both: the step's duration and length over the last 10 steps (their spread, and the largest
+change from one step to the next), and in the product's simulation the state at the phase
+s = 0.3 of each step's single support (in the law's labels, so that each step compares with
+the one before; the first control instant past it): the largest change of an angle and of a
+rate from one step to the next, over steps 2-5 and over the last 10. A loop that settles
+shrinks them step by step (the point-foot step under its periodic LQR, largest Floquet
+multiplier 0.067, shrinks a deviation 15 times a step); one that does not has no fixed point
+of its stride map to take multipliers at.
 """
 
 from __future__ import annotations
@@ -170,6 +180,60 @@ def _stop_pushes() -> None:
     print()
 
 
+#: Table 6's walk: its steps, the phase of its section and the steps read at its end
+SETTLE_STEPS, SECTION, LAST = 30, 0.3, 10
+
+
+def _sections(run, law) -> np.ndarray:
+    """Each step's state (2n,) at the first control instant past the phase SECTION of its
+    single support, in the law's labels (the steps alternate feet): (steps, 2n)."""
+    swap = law.step.biped.swap
+    n = law.step.linkage.n
+    ends = np.cumsum([s.duration for s in run.steps])
+    starts = np.concatenate([[0.0], ends[:-1]])
+    rows = []
+    for k, (start, end) in enumerate(zip(starts, ends, strict=True)):
+        for i in np.nonzero((run.time > start + 1e-9) & (run.time <= end + 1e-9))[0]:
+            psi, dpsi = run.states[i, :n], run.states[i, n : 2 * n]
+            if k % 2:
+                psi, dpsi = swap.map_state(psi, dpsi)
+            if law.phase(psi) >= SECTION:
+                rows.append(np.concatenate([psi, dpsi]))
+                break
+    return np.asarray(rows)
+
+
+def _settling(gait, law) -> None:
+    print(f"Table 6: {SETTLE_STEPS} steps as planned: does the loop settle? (the last {LAST} "
+          "steps; changes from one step to the next)")  # fmt: skip
+    print()
+    print("| simulation | steps | duration ms, min-max | largest change ms | length mm, min-max "
+          "| largest change mm | angles: change rad, steps 2-5 / last | rates: change rad/s, "
+          "steps 2-5 / last |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|")
+    n = gait.problem.linkage.n
+    product = simulate_feet(gait, steps=SETTLE_STEPS, law=law)
+    mujoco = run_feet_in_mujoco(gait, steps=SETTLE_STEPS, law=law)
+    for label, run in (("product", product), ("MuJoCo", mujoco)):
+        steps = run.steps[-LAST:]
+        durations = 1e3 * np.array([s.duration for s in steps])
+        lengths = 1e3 * np.array([s.length for s in steps])
+        cells = [label, f"{run.walked}/{SETTLE_STEPS}",
+                 f"{durations.min():.1f}-{durations.max():.1f}",
+                 f"{np.max(np.abs(np.diff(durations))):.1f}",
+                 f"{lengths.min():.1f}-{lengths.max():.1f}",
+                 f"{np.max(np.abs(np.diff(lengths))):.1f}"]  # fmt: skip
+        if run is product:
+            change = np.abs(np.diff(_sections(run, law), axis=0))
+            early, late = change[1:5], change[-LAST:]
+            cells += [f"{early[:, :n].max():.4f} / {late[:, :n].max():.4f}",
+                      f"{early[:, n:].max():.3f} / {late[:, n:].max():.3f}"]  # fmt: skip
+        else:
+            cells += ["-", "-"]
+        print("| " + " | ".join(cells) + " |")
+    print()
+
+
 def main() -> int:
     warnings.simplefilter("ignore")  # the accuracy notes of the solves
     gait = footed_step_at(1.0, speed_limit=10.0).solve(progress=False)
@@ -179,6 +243,7 @@ def main() -> int:
     _grounds(gait, law)
     _sequence()
     _stop_pushes()
+    _settling(gait, law)
     return 0
 
 
