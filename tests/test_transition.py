@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from model.linkage_trajectory import LinkageTrajectory
-from planner.errors import AnthropoidError, DefinitionError
+from planner.errors import AnthropoidError, DefinitionError, DefinitionTypeError
 from planner.trajectory import Trajectory
 from problems.__main__ import main
 from problems.library import (
@@ -259,6 +259,26 @@ def test_speeds_are_checked():
                             ([0, 1.0, 1.0], "repeats"), ([0, -1.0], ">= 0")):  # fmt: skip
         with pytest.raises(DefinitionError, match=message):
             plan_sequence(speeds)
+
+
+def test_transition_counts_given_are_walked_in_one_try_and_bad_ones_refused():
+    """A count given is that transition's only try (no search from 1 step: the start from
+    standing, which one step walks, takes the two asked for), the joins hold through the
+    impact map, and a count left 0 is still searched; a wrong list is refused by name before
+    any plan."""
+    walk = plan_sequence([0, 0.6, 0], steps_at_speed=1, transition_steps=[2, 0])
+    start, stop = walk.transitions
+    assert start.steps == 2 and [k for k, _ in start.attempts] == [2]
+    assert start.attempts[0][1] == "solved and verified"
+    assert stop.attempts[0][0] == 1  # searched: from one step
+    _joins_hold(start, end_state=walk.gaits[0.6].solution.states[-1])
+    for counts, message in (([2], "one count per transition, 2"),
+                            ([2, -1], r"transition_steps\[1\]`: must be >= 1"),
+                            ([1.5, 0], r"transition_steps\[0\]`: must be an integer")):  # fmt: skip
+        with pytest.raises((DefinitionError, DefinitionTypeError), match=message):
+            plan_sequence([0, 0.6, 0], transition_steps=counts)
+    assert main(["walk", "--speeds", "0,0.6,0", "--transition-steps", "2"]) == 2
+    assert main(["walk", "--speeds", "0,0.6,0", "--transition-steps", "2,x"]) == 2
 
 
 def test_the_command_writes_one_verified_file_of_the_walk(tmp_path, capsys):

@@ -264,6 +264,19 @@ def speeds_option(text: str) -> tuple[float, ...]:
     return values
 
 
+def counts_option(text: str) -> tuple[int, ...]:
+    """A comma-separated list of step counts (each an integer >= 0; 0: searched)."""
+    try:
+        values = tuple(int(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"give step counts separated by commas, 0 where searched, e.g. 5,2,0,1; got {text!r}"
+        ) from None
+    if any(v < 0 for v in values):
+        raise argparse.ArgumentTypeError(f"give step counts >= 0 (0: searched); got {text!r}")
+    return values
+
+
 def formats_option(text: str) -> tuple[str, ...]:
     items = tuple(dict.fromkeys(f.strip().lower().lstrip(".") for f in text.split(",") if f))
     unknown = [f for f in items if f not in FORMATS]

@@ -22,6 +22,7 @@ from problems.cli.common import (
     accuracy_option,
     check_clearance,
     check_samples,
+    counts_option,
     legs_option,
     new_folder,
     non_negative,
@@ -200,6 +201,15 @@ def _add_sequence_options(walk: argparse.ArgumentParser) -> None:
         metavar="K",
         help="with --speeds: the most steps a transition may take (default: 6); the fewest "
         "that solve within the limits and verify are taken",
+    )
+    walk.add_argument(
+        "--transition-steps",
+        type=counts_option,
+        default=None,
+        metavar="K1,K2,..",
+        help="with --speeds: each transition's step count, in order (0: searched as "
+        "--max-transition-steps says); a count given has one try, at --retry-iterations' "
+        "cap: a walk planned again with the counts its last run printed skips the failed tries",
     )
     walk.add_argument(
         "--transition-iterations",

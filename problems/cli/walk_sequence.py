@@ -82,6 +82,13 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
         speeds = checked_speeds(args.speeds)
     except AnthropoidError as error:
         raise UsageError(f"--speeds: {error}") from None
+    counts = args.transition_steps
+    if counts is not None and len(counts) != len(speeds) - 1:
+        raise UsageError(
+            f"--transition-steps: one count per transition, {len(speeds) - 1} for --speeds "
+            f"{','.join(f'{v:g}' for v in speeds)}, got {len(counts)}; give 0 where the count "
+            "is searched"
+        )
     feet = args.preset == "six-link-feet"
     library = _library(args.library, feet)
     if library is not None:
@@ -112,6 +119,7 @@ def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_opti
                                      max_steps=args.max_transition_steps, library=library,
                                      transition_iterations=args.transition_iterations,
                                      retry_iterations=args.retry_iterations or None,
+                                     transition_steps=args.transition_steps,
                                      progress=report.step, **options)  # fmt: skip
         except AnthropoidError as error:
             raise CommandFailed(f"the walk through {args.speeds}: {error}") from error
@@ -322,6 +330,8 @@ def _print_plan(sequence, seconds: float, caught, rate_hz: float, out) -> None:
               f"{peaks[worst]:.1f} ({worst})", file=out)  # fmt: skip
         for k, why in t.attempts[:-1]:
             print(f"    {k} step(s) failed: {why[:150]}", file=out)
+    counts = ",".join(str(t.steps) for t in sequence.transitions)
+    print(f"  planned again without the search: --transition-steps {counts}", file=out)
     for warning in caught:
         print(f"  warning: {str(warning.message)[:200]}", file=out)
 

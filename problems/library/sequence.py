@@ -334,6 +334,7 @@ def plan_sequence(
     feet: bool = False,
     transition_iterations: int = SEARCH_ITERATIONS,
     retry_iterations: int | None = RETRY_ITERATIONS,
+    transition_steps: Sequence[int | None] | None = None,
     progress: Callable[[str], None] | None = None,
     **step_options,
 ) -> WalkSequence:
@@ -350,12 +351,18 @@ def plan_sequence(
     iterations for each count a transition tries;
     ``retry_iterations``: a second pass's, for the counts that stopped on the first cap when
     none solved (:func:`plan_transition`; None: no second pass; on feet slowing from 1.4 m/s
-    needs it: 1.4 -> 1.2 m/s failed 1-3 steps at 300 and solved in 1 at 1000). Every step is
+    needs it: 1.4 -> 1.2 m/s failed 1-3 steps at 300 and solved in 1 at 1000).
+    ``transition_steps``: one count per transition, in order (None or 0: searched as above),
+    a count given solved in that many steps only, in one try at the larger of the two caps
+    (its wall time capped as a search's try): a walk whose counts an earlier run found
+    planned again without the failed tries (on feet the start from standing alone spent 35
+    minutes in them). Every step is
     verified at every exported sample (the transitions' as they are planned, the whole walk
     again by :meth:`WalkSequence.verify`)."""
     speeds = checked_speeds(speeds)
     repeats = check_integer("steps_at_speed", steps_at_speed, 1)
     iterations = check_integer("transition_iterations", transition_iterations, 1)
+    forced = _transition_counts(transition_steps, len(speeds) - 1)
     say = progress or (lambda _: None)
     if library is not None and not isinstance(library, GaitLibrary):
         raise DefinitionTypeError(
@@ -384,9 +391,12 @@ def plan_sequence(
     transition_options = {} if feet else step_options
     for a, b in itertools.pairwise(ends):
         label = f"{speeds[len(transitions)]:g} -> {speeds[len(transitions) + 1]:g} m/s"
+        count = forced[len(transitions)]
+        # a count given has one try: at the second pass's cap when that is the larger
+        cap = iterations if count is None else max(iterations, retry_iterations or 0)
         transition = plan_transition(
-            a, b, steps=None, max_steps=max_steps, options={"max_iter": iterations},
-            retry_iterations=retry_iterations,
+            a, b, steps=count, max_steps=max_steps, options={"max_iter": cap},
+            retry_iterations=retry_iterations if count is None else None,
             progress=lambda line, label=label: say(f"{label}: {line}"), **transition_options,
         )  # fmt: skip
         transitions.append(transition)
@@ -404,6 +414,26 @@ def plan_sequence(
         clock += gait.duration
         foothold += gait.problem.step_length
     return WalkSequence(speeds, gaits, tuple(transitions), tuple(steps))
+
+
+def _transition_counts(counts, transitions: int) -> tuple[int | None, ...]:
+    """``transition_steps`` checked: one entry per transition, each None or 0 (searched) or
+    a count of steps >= 1."""
+    if counts is None:
+        return (None,) * transitions
+    counts = tuple(counts)
+    if len(counts) != transitions:
+        raise DefinitionError(
+            f"`transition_steps`: one count per transition, {transitions} for these speeds, "
+            f"got {len(counts)} ({list(counts)!r}); give 0 (or None) where the count is searched"
+        )
+    checked = []
+    for k, count in enumerate(counts):
+        if count is None or (isinstance(count, int | np.integer) and count == 0):
+            checked.append(None)
+            continue
+        checked.append(check_integer(f"transition_steps[{k}]", count, 1))
+    return tuple(checked)
 
 
 @dataclass(frozen=True)
