@@ -34,6 +34,9 @@ def built(tmp_path_factory):
         code = main(["library", "--feet", "--speeds-mps", "0.9,1.0,1.1", "--output-dir",
                      str(folder)])  # fmt: skip
     assert code == 0, errors.getvalue()
+    assert "the gait at 1.1 m/s: no |lambda_1| on feet: `gait`: its walk under the law falls" in (
+        errors.getvalue()
+    )
     return GaitLibrary.load(folder / "library.npz"), printed.getvalue(), folder / "library.npz"
 
 
@@ -53,11 +56,11 @@ def _single_support_residual(library: GaitLibrary, speed: float) -> float:
 
 def test_the_command_prints_each_gaits_contact_phases(built):
     _, printed, _ = built
-    assert "| speed m/s | step m in s | IPOPT iterations | peak abs M N m | contact phases s |" in (
-        printed
-    )
+    assert ("| speed m/s | step m in s | IPOPT iterations | peak abs M N m | contact phases s | "
+            "abs lambda_1 |") in printed  # fmt: skip
     row = next(line for line in printed.splitlines() if line.startswith("| 1.000 |"))
     assert "| 1.000 | 0.500 in 0.500 |" in row and "flat " in row and "double " in row
+    assert 0.5 < float(row.split("|")[-2]) < 1.0  # the push's decay per step
 
 
 def test_every_gait_keeps_its_phases_forces_and_gains(library):
@@ -76,7 +79,12 @@ def test_every_gait_keeps_its_phases_forces_and_gains(library):
         assert np.all(gait.extras["F_swing_heel_y"][double][1:] > 0.0)
         assert gait.gains.shape == (gait.time.size, n, 2 * n)
         assert np.all(gait.gains[:, 0] == 0.0)  # the ground's torque on the stance foot
-        assert np.all(np.isnan(gait.multipliers))  # no return map on feet: none, not zeros
+        # on feet |lambda_1| alone (a push's decay per step), the others not computed: NaN;
+        # the 1.1 m/s step, unbounded in joint speed, falls unpushed on the estimate's 8 kHz
+        # clock in its eighth step: NaN, warned (measured)
+        if gait.speed <= 1.0:
+            assert 0.5 < gait.multipliers[0].real < 1.0 and gait.multipliers[0].imag == 0.0
+        assert np.all(np.isnan(gait.multipliers[1:]))
         assert "joint PD" in gait.law["design"]
         assert verify_gait(library.at(gait.speed), library.linkage).ok
 

@@ -40,8 +40,13 @@ s = 0.3 of each step's single support (in the law's labels, so that each step co
 the one before; the first control instant past it): the largest change of an angle and of a
 rate from one step to the next, over steps 2-5 and over the last 10. A loop that settles
 shrinks them step by step (the point-foot step under its periodic LQR, largest Floquet
-multiplier 0.067, shrinks a deviation 15 times a step); one that does not has no fixed point
-of its stride map to take multipliers at.
+multiplier 0.067, shrinks a deviation 15 times a step). The product's runs on the law's clock
+of 1 (the file's), 2, 4, 8 and 16 kHz: the strike and the hand-over are detected once a
+period, so a slower clock kicks each step by up to a period.
+
+Table 7: the footed loop's largest multiplier |lambda_1| from a push's decay
+(``problems.control.feet_multiplier.dominant_multiplier``): pushes either way, on two clocks,
+over two lengths of walk; the first row is what a gait library on feet stores.
 """
 
 from __future__ import annotations
@@ -53,7 +58,13 @@ import warnings
 import numpy as np
 
 from problems.control.feet_law import FeetLaw
-from problems.control.feet_simulation import Ground, simulate_feet, simulate_feet_steps
+from problems.control.feet_multiplier import dominant_multiplier
+from problems.control.feet_simulation import (
+    Ground,
+    section_states,
+    simulate_feet,
+    simulate_feet_steps,
+)
 from problems.control.mujoco_feet import run_feet_in_mujoco, run_feet_steps_in_mujoco
 from problems.control.simulation import Disturbances, disturbances_for, largest_push
 from problems.walking.footed import footed_step_at
@@ -180,57 +191,70 @@ def _stop_pushes() -> None:
     print()
 
 
-#: Table 6's walk: its steps, the phase of its section and the steps read at its end
+#: Table 6's walk: its steps, the phase of its section, the steps read at its end, the clocks
 SETTLE_STEPS, SECTION, LAST = 30, 0.3, 10
-
-
-def _sections(run, law) -> np.ndarray:
-    """Each step's state (2n,) at the first control instant past the phase SECTION of its
-    single support, in the law's labels (the steps alternate feet): (steps, 2n)."""
-    swap = law.step.biped.swap
-    n = law.step.linkage.n
-    ends = np.cumsum([s.duration for s in run.steps])
-    starts = np.concatenate([[0.0], ends[:-1]])
-    rows = []
-    for k, (start, end) in enumerate(zip(starts, ends, strict=True)):
-        for i in np.nonzero((run.time > start + 1e-9) & (run.time <= end + 1e-9))[0]:
-            psi, dpsi = run.states[i, :n], run.states[i, n : 2 * n]
-            if k % 2:
-                psi, dpsi = swap.map_state(psi, dpsi)
-            if law.phase(psi) >= SECTION:
-                rows.append(np.concatenate([psi, dpsi]))
-                break
-    return np.asarray(rows)
+CLOCKS_HZ = (1000.0, 2000.0, 4000.0, 8000.0, 16000.0)
 
 
 def _settling(gait, law) -> None:
     print(f"Table 6: {SETTLE_STEPS} steps as planned: does the loop settle? (the last {LAST} "
-          "steps; changes from one step to the next)")  # fmt: skip
+          "steps; changes from one step to the next; the law's clock, one integration step a "
+          "period past 4 kHz)")  # fmt: skip
     print()
-    print("| simulation | steps | duration ms, min-max | largest change ms | length mm, min-max "
-          "| largest change mm | angles: change rad, steps 2-5 / last | rates: change rad/s, "
-          "steps 2-5 / last |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|")
+    print("| simulation | clock kHz | steps | duration ms, min-max | largest change ms | length "
+          "mm, min-max | largest change mm | angles: change rad, steps 2-5 / last | rates: "
+          "change rad/s, steps 2-5 / last | s |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|")
     n = gait.problem.linkage.n
-    product = simulate_feet(gait, steps=SETTLE_STEPS, law=law)
+    runs = []
+    for rate in CLOCKS_HZ:
+        clock = time.perf_counter()
+        run = simulate_feet(gait, steps=SETTLE_STEPS, law=law, rate_hz=rate,
+                            substeps=max(1, round(4000.0 / rate)))  # fmt: skip
+        runs.append(("product", rate, run, time.perf_counter() - clock))
+    clock = time.perf_counter()
     mujoco = run_feet_in_mujoco(gait, steps=SETTLE_STEPS, law=law)
-    for label, run in (("product", product), ("MuJoCo", mujoco)):
+    runs.append(("MuJoCo", 1000.0, mujoco, time.perf_counter() - clock))
+    for label, rate, run, seconds in runs:
         steps = run.steps[-LAST:]
         durations = 1e3 * np.array([s.duration for s in steps])
         lengths = 1e3 * np.array([s.length for s in steps])
-        cells = [label, f"{run.walked}/{SETTLE_STEPS}",
-                 f"{durations.min():.1f}-{durations.max():.1f}",
-                 f"{np.max(np.abs(np.diff(durations))):.1f}",
+        cells = [label, f"{rate / 1e3:g}", f"{run.walked}/{SETTLE_STEPS}",
+                 f"{durations.min():.2f}-{durations.max():.2f}",
+                 f"{np.max(np.abs(np.diff(durations))):.2f}",
                  f"{lengths.min():.1f}-{lengths.max():.1f}",
                  f"{np.max(np.abs(np.diff(lengths))):.1f}"]  # fmt: skip
-        if run is product:
-            change = np.abs(np.diff(_sections(run, law), axis=0))
+        if label == "product":
+            change = np.abs(np.diff(section_states(run, law, SECTION), axis=0))
             early, late = change[1:5], change[-LAST:]
             cells += [f"{early[:, :n].max():.4f} / {late[:, :n].max():.4f}",
                       f"{early[:, n:].max():.3f} / {late[:, n:].max():.3f}"]  # fmt: skip
         else:
             cells += ["-", "-"]
-        print("| " + " | ".join(cells) + " |")
+        print("| " + " | ".join(cells) + f" | {seconds:.1f} |")
+    print()
+
+
+#: Table 7's estimates: (push N s, steps, clock Hz); the first is the library's
+ESTIMATES = ((6.0, 14, 8000.0), (-6.0, 14, 8000.0), (3.0, 24, 16000.0), (-3.0, 24, 16000.0))
+
+
+def _multiplier(gait, law) -> None:
+    print("Table 7: the footed loop's largest Floquet multiplier |lambda_1|, from a push's "
+          "decay against the unpushed walk (problems.control.feet_multiplier)")  # fmt: skip
+    print()
+    print("| push N s | steps | clock kHz | abs lambda_1 | ratios used | spread (max abs log) "
+          "| steps to halve a deviation | s |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|")
+    for push, steps, rate in ESTIMATES:
+        clock = time.perf_counter()
+        estimate = dominant_multiplier(gait, law=law, push=push, steps=steps, rate_hz=rate)
+        seconds = time.perf_counter() - clock
+        halve = np.log(0.5) / np.log(estimate.modulus)
+        print(
+            f"| {push:+g} | {steps} | {rate / 1e3:g} | {estimate.modulus:.3f} | "
+            f"{estimate.ratios.size} | {estimate.spread:.3f} | {halve:.1f} | {seconds:.1f} |"
+        )
     print()
 
 
@@ -244,6 +268,7 @@ def main() -> int:
     _sequence()
     _stop_pushes()
     _settling(gait, law)
+    _multiplier(gait, law)
     return 0
 
 

@@ -42,7 +42,8 @@ def add_parser(commands, common: argparse.ArgumentParser, limits: argparse.Argum
                         "unbounded, its gaits at 1.2 m/s and faster fall in MuJoCo)")  # fmt: skip
     parser.add_argument("--no-multipliers", action="store_true",
                         help="skip the Floquet multipliers (the closed loop's fixed point: "
-                        "about as long as the gait's solve)")  # fmt: skip
+                        "about as long as the gait's solve; on feet |lambda_1| alone, from a "
+                        "push's decay in the product's simulation: about 17 s a gait)")  # fmt: skip
     parser.add_argument("--compiled", action="store_true",
                         help="compile the NLP's functions and the simulation's period "
                         "Jacobians to native code with the system's C compiler first where "
@@ -70,15 +71,16 @@ def run(args, out: TextIO, report: Reporter) -> int:
                                     **bound)  # fmt: skip
     for warning in caught:  # one line each, not Python's two with a source line
         report.warn(f"a gait of the library: {warning.message}")
-    last = "contact phases s" if args.feet else "largest abs multiplier"
+    # on feet: the phases, then |lambda_1| alone (from a push's decay; problems.library.build)
+    last = "contact phases s | abs lambda_1" if args.feet else "largest abs multiplier"
     print(f"| speed m/s | step m in s | IPOPT iterations | peak abs M N m | {last} |", file=out)
-    print("|---|---|---|---|---|", file=out)
+    print("|---|---|---|---|---|" + ("---|" if args.feet else ""), file=out)
     for gait in library.gaits:
+        largest = np.max(np.abs(gait.multipliers)) if not args.feet else abs(gait.multipliers[0])
+        said = "-" if np.isnan(largest) else f"{largest:.3f}"
         if args.feet:
-            said = ", ".join(f"{name} {duration:.3f}" for name, duration in gait.segments)
-        else:
-            largest = np.max(np.abs(gait.multipliers))
-            said = "-" if np.isnan(largest) else f"{largest:.3f}"
+            phases = ", ".join(f"{name} {duration:.3f}" for name, duration in gait.segments)
+            said = f"{phases} | {said}"
         # the drives' torques: on feet the root's is the ground's torque on the stance foot
         drives = gait.torques[:, 1:] if args.feet else gait.torques
         print(

@@ -45,7 +45,7 @@ import casadi as ca
 import numpy as np
 
 from model.dynamics import Dynamics
-from planner.errors import DefinitionError, check_integer, check_positive
+from planner.errors import DefinitionError, check_integer, check_positive, check_real
 from problems.control.buffered import BufferedCalls
 from problems.control.feet_law import CONTROL_RATE_HZ, FeetLaw, walk_laws
 from problems.control.mujoco import TOUCHDOWN_FORCE, MujocoStep
@@ -351,6 +351,7 @@ def simulate_feet_steps(
     substeps: int = SUBSTEPS,
     ground: Ground | None = None,
     open_loop: bool = False,
+    rate_hz: float = CONTROL_RATE_HZ,
 ) -> FeetRun:
     """Walk the steps on feet ``gaits`` (:class:`problems.walking.footed.FootedGait`, one per
     step, in order) once each from the first one's start in the product's plant on feet
@@ -360,10 +361,15 @@ def simulate_feet_steps(
     the swing ball beside the stance ball, the hip at rest). ``open_loop``: the plan's torques
     by the time since the branch began, no feedback. Disturbances: the start off the plan, a
     push on the torso (an impulse at ``push_at`` of step ``push_step``), the masses scaled,
-    the drives saturated lower (the ground stays level: ``ground_rise`` is refused)."""
+    the drives saturated lower (the ground stays level: ``ground_rise`` is refused).
+    ``rate_hz``: the controller's clock, Hz (the law evaluated, its torques held, its strike
+    and hand-over detected once a period; ``substeps`` integration steps a period): the
+    file's 1 kHz by default, faster to see the loop without its clock
+    (:mod:`problems.control.feet_multiplier`)."""
     gaits, laws = walk_laws(gaits, laws)
     check_positive("stand", stand, "s")
     substeps = check_integer("substeps", substeps, 1)
+    rate_hz = check_positive("rate_hz", rate_hz, "Hz")
     disturbances = disturbances or Disturbances()
     if disturbances.ground_rise != 0.0:
         raise DefinitionError(
@@ -371,7 +377,7 @@ def simulate_feet_steps(
             "on feet walks level ground: leave it 0 (MuJoCo's loop takes a step of the ground)"
         )
     plant = FeetPlant(gaits[0].problem, disturbances.mass_scale, ground)
-    return _run(plant, laws, disturbances, stand, substeps, open_loop)
+    return _run(plant, laws, disturbances, stand, substeps, open_loop, 1.0 / rate_hz)
 
 
 def simulate_feet(gait, *, steps: int = 20, **options) -> FeetRun:
@@ -435,14 +441,14 @@ def _fall(walk: _Walk, hinges, tally: _Tally, index: int) -> str | None:
     return None
 
 
-def _run(plant: FeetPlant, laws, disturbances, stand, substeps, open_loop) -> FeetRun:
-    """The control loop of :func:`simulate_feet_steps`."""
+def _run(plant: FeetPlant, laws, disturbances, stand, substeps, open_loop,
+         period: float) -> FeetRun:  # fmt: skip
+    """The control loop of :func:`simulate_feet_steps` (``period``: the controller's, s)."""
     n = plant.n
     start = laws[0].references[0].states[0].copy()
     if disturbances.initial is not None:
         start = start + np.asarray(disturbances.initial, dtype=float)
     walk = _Walk(plant, start)
-    period = 1.0 / CONTROL_RATE_HZ
     first = laws[0].step
     limit = np.array([0.0] + [first.limits[name] for name in first.linkage.names[1:]])
     if disturbances.torque_limit is not None:
@@ -506,10 +512,36 @@ def _run(plant: FeetPlant, laws, disturbances, stand, substeps, open_loop) -> Fe
                    np.asarray(states).reshape(-1, 2 * n + 4))  # fmt: skip
 
 
+def section_states(run: FeetRun, law: FeetLaw, phase: float = 0.3) -> np.ndarray:
+    """Each walked step's state x = (psi, dpsi) (2n,) at the first control instant its
+    single support reaches ``phase`` of ``law`` (a step of a walk of that one law), in the
+    law's labels (the steps alternate feet: step k's in the other foot's labels for odd k,
+    so that every step compares with the one before): (steps, 2n). A Poincare section of
+    the walk, the stride map's points."""
+    check_real("phase", phase)
+    if not 0.0 < phase < 1.0:
+        raise DefinitionError(f"`phase`: {phase!r}; a phase of the single support, in (0, 1)")
+    swap = law.step.biped.swap
+    n = law.step.linkage.n
+    ends = np.cumsum([step.duration for step in run.steps])
+    starts = np.concatenate([[0.0], ends[:-1]])
+    rows = []
+    for k, (start, end) in enumerate(zip(starts, ends, strict=True)):
+        for i in np.nonzero((run.time > start + 1e-9) & (run.time <= end + 1e-9))[0]:
+            psi, dpsi = run.states[i, :n], run.states[i, n : 2 * n]
+            if k % 2:
+                psi, dpsi = swap.map_state(psi, dpsi)
+            if law.phase(psi) >= phase:
+                rows.append(np.concatenate([psi, dpsi]))
+                break
+    return np.asarray(rows).reshape(-1, 2 * n)
+
+
 __all__ = [
     "FeetPlant",
     "FeetRun",
     "Ground",
+    "section_states",
     "simulate_feet",
     "simulate_feet_steps",
 ]

@@ -1,8 +1,9 @@
 """Building a gait library: one periodic step per speed, on point feet or on feet, planned,
 verified at every exported sample, given its feedback (on point feet the periodic LQR and its
 closed loop's Floquet multipliers; on feet the joint PD of
-:class:`problems.control.feet_law.FeetLaw`, the law the step on feet walks with in MuJoCo:
-the footed cycle has no return map in the product yet, so no multipliers).
+:class:`problems.control.feet_law.FeetLaw`, the law the step on feet walks with in MuJoCo,
+and its largest multiplier's modulus alone, from how a push dies out in the product's
+simulation on feet: :mod:`problems.control.feet_multiplier`; the rest NaN).
 
 The speeds are solved in order from the middle of the grid outward; each step after the first
 starts from its neighbour's solution (:meth:`planner.OCP.guess`: re-gridded in normalised time;
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import itertools
 import time
+import warnings
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -27,6 +29,7 @@ from model.linkage_trajectory import LinkageTrajectory
 from planner.errors import AnthropoidError, DefinitionError, check_positive
 from problems.control.feedback import design_feedback, gains_from
 from problems.control.feet_law import FeetLaw
+from problems.control.feet_multiplier import dominant_multiplier
 from problems.control.linearisation import fixed_point
 from problems.library.library import GaitLibrary, LibraryGait
 from problems.walking.footed import footed_step_at, step_at_speed
@@ -34,6 +37,10 @@ from problems.walking.step import walking_step
 
 #: the rate of the stored samples, Hz (the torque files')
 RATE_HZ = 1000.0
+#: the estimate of |lambda_1| on feet (problems.control.feet_multiplier): a 6 N s push, 14
+#: steps on an 8 kHz clock (about 17 s a gait; at 16 kHz, 3 N s and 24 steps the 1 m/s
+#: step's agrees to 0.005: examples/benchmarks/feet_simulation.py table 7)
+FEET_ESTIMATE = {"push": 6.0, "steps": 14, "rate_hz": 8000.0}
 #: the closed loop's fixed point to this (max |P(x) - x|, rad and rad/s): its multipliers
 #: agree to 1e-8 with the search run to 1e-10 (the 1 m/s step), one Newton step (0.26 s) fewer
 FIXED_POINT_TOLERANCE = 1e-6
@@ -125,9 +132,11 @@ def _step(speed: float, linkage: Linkage | None, feet: bool, options: dict):
 
 
 def _feet_gait(gait, speed: float, multipliers: bool, compiled=None) -> LibraryGait:
-    """One step on feet's samples, verification, contact phases and joint PD gains
-    (``multipliers`` is not used: the footed cycle has no return map, see the module)."""
-    profile = FeetLaw(gait, rate_hz=RATE_HZ).channels(gait.exported(RATE_HZ))
+    """One step on feet's samples, verification, contact phases and joint PD gains, and
+    (``multipliers``) its closed loop's |lambda_1| first among NaN (see the module; NaN
+    with a warning where the estimate cannot be made: the push falls or dies out at once)."""
+    law = FeetLaw(gait, rate_hz=RATE_HZ)
+    profile = law.channels(gait.exported(RATE_HZ))
     linked = LinkageTrajectory.of(profile)
     root = f"F_{root_contact(linked.link_names)}_"  # the stance foot's: from the motion
     contacts = [key for key in profile.extras if key.startswith("F_") and not key.startswith(root)]
@@ -135,12 +144,30 @@ def _feet_gait(gait, speed: float, multipliers: bool, compiled=None) -> LibraryG
     settings["before_events"] = _before_events(
         gait, settings.get("before_events") or [], len(linked.link_names)
     )
+    values = np.full(2 * len(linked.link_names), np.nan + 0j)
+    if multipliers:
+        values[0] = _feet_modulus(gait, law, speed)
     return _sampled_gait(
-        gait, speed, profile, np.full(2 * len(linked.link_names), np.nan + 0j), settings,
+        gait, speed, profile, values, settings,
         segments=tuple(zip(gait.problem.sequence, gait.durations(), strict=True)),
         extras={key: np.asarray(profile.extras[key][0], dtype=float)
                 for key in (*contacts, "double_support")},
     )  # fmt: skip
+
+
+def _feet_modulus(gait, law: FeetLaw, speed: float) -> float:
+    """|lambda_1| of the step on feet's closed loop (:data:`FEET_ESTIMATE`; a push that
+    fells the walk halved once), or NaN with a warning naming why not."""
+    push = FEET_ESTIMATE["push"]
+    for attempt in (push, push / 2.0):
+        try:
+            return dominant_multiplier(gait, law=law, **{**FEET_ESTIMATE, "push": attempt}).modulus
+        except DefinitionError as error:
+            why = str(error)
+            if "pushed walk fell" not in why:
+                break
+    warnings.warn(f"the gait at {speed:g} m/s: no |lambda_1| on feet: {why}", stacklevel=3)
+    return float("nan")
 
 
 def _sampled_gait(gait, speed, profile, multipliers, settings, **on_feet) -> LibraryGait:

@@ -5,11 +5,12 @@ A :class:`GaitLibrary` holds, per speed of its grid (increasing), one planned pe
 (:class:`LibraryGait`): its exported samples at ``rate_hz`` as written and verified (time,
 psi, dpsi, ddpsi, hinge torques), the phase of each sample and the feedback's gains there
 (K (K, n, 2n) on x = (psi, dpsi), the model file's law: the periodic LQR on point feet, the
-joint PD on feet), the closed loop's Floquet multipliers (largest moduli first; NaN on feet,
-which have no return map), the IPOPT iterations and the step's settings. A step on feet is
-several contact phases (flat foot, heel rise, double support: ``segments``, their names and
-durations) and carries the columns a point foot has not (``extras``: the front foot's ground
-force in the double support, the feedback's branch ``double_support``).
+joint PD on feet), the closed loop's Floquet multipliers (largest moduli first; on feet the
+largest's modulus alone, measured from a push's decay, the others NaN), the IPOPT
+iterations and the step's settings. A step on feet is several contact phases (flat foot,
+heel rise, double support: ``segments``, their names and durations) and carries the columns
+a point foot has not (``extras``: the front foot's ground force in the double support, the
+feedback's branch ``double_support``).
 
 :meth:`GaitLibrary.at` interpolates between the two gaits whose speeds bracket the command,
 sample by sample in normalised time, each contact phase on its own: a sample at t in phase
