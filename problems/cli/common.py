@@ -237,13 +237,18 @@ def non_negative(unit: str) -> Callable[[str], float]:
     return parse
 
 
-def angles(text: str) -> tuple[float, ...]:
+def _comma_list(text: str, convert, refusal: str) -> tuple:
+    """``text``'s comma-separated parts, each through ``convert``; ``refusal`` (its
+    ``{text}`` the text as given) when one does not convert."""
     try:
-        values = tuple(float(v) for v in text.split(","))
+        return tuple(convert(part) for part in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected comma-separated numbers in rad, one per link, got {text!r}"
-        ) from None
+        raise argparse.ArgumentTypeError(refusal.format(text=repr(text))) from None
+
+
+def angles(text: str) -> tuple[float, ...]:
+    values = _comma_list(text, float, "expected comma-separated numbers in rad, one per link, "
+                         "got {text}")  # fmt: skip
     if not all(math.isfinite(v) for v in values):
         raise argparse.ArgumentTypeError(f"must be finite numbers in rad, got {text!r}")
     return values
@@ -251,12 +256,8 @@ def angles(text: str) -> tuple[float, ...]:
 
 def speeds_option(text: str) -> tuple[float, ...]:
     """A comma-separated list of speeds, m/s (each a finite number >= 0)."""
-    try:
-        values = tuple(float(part) for part in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"give speeds in m/s separated by commas, e.g. 0,1.0,1.4,0.6,0; got {text!r}"
-        ) from None
+    values = _comma_list(text, float, "give speeds in m/s separated by commas, e.g. "
+                         "0,1.0,1.4,0.6,0; got {text}")  # fmt: skip
     if len(values) < 2 or not all(math.isfinite(v) and v >= 0 for v in values):
         raise argparse.ArgumentTypeError(
             f"give two or more speeds >= 0 m/s, e.g. 0,1.0,0; got {text!r}"
@@ -266,12 +267,8 @@ def speeds_option(text: str) -> tuple[float, ...]:
 
 def counts_option(text: str) -> tuple[int, ...]:
     """A comma-separated list of step counts (each an integer >= 0; 0: searched)."""
-    try:
-        values = tuple(int(part) for part in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"give step counts separated by commas, 0 where searched, e.g. 5,2,0,1; got {text!r}"
-        ) from None
+    values = _comma_list(text, int, "give step counts separated by commas, 0 where searched, "
+                         "e.g. 5,2,0,1; got {text}")  # fmt: skip
     if any(v < 0 for v in values):
         raise argparse.ArgumentTypeError(f"give step counts >= 0 (0: searched); got {text!r}")
     return values
