@@ -170,25 +170,37 @@ def test_a_stop_on_feet_ends_standing_in_mujoco_and_a_fall_in_it_is_named(slow_a
     10 N s forward in the stop it stands with the standing damping and is still swaying
     without it; pushed 10 N s back in the stop it falls, and the run says so, in the stop."""
     pytest.importorskip("mujoco")
-    from problems.control.mujoco_feet import STAND_GAP, run_feet_steps_in_mujoco
+    from problems.control.mujoco_feet import run_feet_steps_in_mujoco
+
+    run = _walks_the_stop(run_feet_steps_in_mujoco, *slow_and_stop)
+    assert run.time[-1] == pytest.approx(sum(s.duration for s in run.steps), abs=2e-3)
+
+
+def _walks_the_stop(walk, gait, stop):
+    """The checks of a stop's walk both simulations pass (``walk``: MuJoCo's
+    ``run_feet_steps_in_mujoco`` or ``simulate_feet_steps``): two steps of ``gait`` and the
+    ``stop`` walked and stood, its swing ball beside the stance ball, its record spanning the
+    stop and a second's stand; pushed 10 N s forward in the stop it stands with the standing
+    damping and still sways without it; pushed 10 N s back it does not stand, in the stop.
+    Returns the undisturbed run."""
+    from problems.control.mujoco_feet import STAND_GAP
     from problems.control.simulation import Disturbances
 
-    gait, stop = slow_and_stop
     gaits = [gait, gait, stop]
-    run = run_feet_steps_in_mujoco(gaits)
+    run = walk(gaits)
     assert (run.walked, run.fell) == (3, None)
     assert abs(run.steps[-1].length) < STAND_GAP
     # the stop's record spans the stop and a second's stand after it
     assert run.steps[-1].duration == pytest.approx(stop.duration + 1.0, abs=2e-3)
-    assert run.time[-1] == pytest.approx(sum(s.duration for s in run.steps), abs=2e-3)
     forward = Disturbances(push=10.0, push_step=2)
-    pushed = run_feet_steps_in_mujoco(gaits, disturbances=forward)
+    pushed = walk(gaits, disturbances=forward)
     assert pushed.fell is None, pushed.fell
     plain = [FeetLaw(gait), FeetLaw(gait), FeetLaw(stop, stand_damping=0.0)]
-    undamped = run_feet_steps_in_mujoco(gaits, disturbances=forward, laws=plain)
+    undamped = walk(gaits, disturbances=forward, laws=plain)
     assert undamped.fell is not None and "still moving" in undamped.fell
-    back = run_feet_steps_in_mujoco(gaits, disturbances=Disturbances(push=-10.0, push_step=2))
+    back = walk(gaits, disturbances=Disturbances(push=-10.0, push_step=2))
     assert back.fell is not None and back.fell.startswith("step 2")
+    return run
 
 
 def test_a_stop_ends_a_walk_in_mujoco(footed_gait):
@@ -214,19 +226,5 @@ def test_a_stop_on_feet_ends_standing_in_the_products_simulation(slow_and_stop):
     10 N s forward in the stop it stands with the standing damping and is still swaying
     without it; pushed 10 N s back in the stop it does not stand, and the run says so."""
     from problems.control.feet_simulation import simulate_feet_steps
-    from problems.control.mujoco_feet import STAND_GAP
-    from problems.control.simulation import Disturbances
 
-    gait, stop = slow_and_stop
-    gaits = [gait, gait, stop]
-    run = simulate_feet_steps(gaits)
-    assert (run.walked, run.fell) == (3, None)
-    assert abs(run.steps[-1].length) < STAND_GAP
-    assert run.steps[-1].duration == pytest.approx(stop.duration + 1.0, abs=2e-3)
-    forward = Disturbances(push=10.0, push_step=2)
-    assert simulate_feet_steps(gaits, disturbances=forward).fell is None
-    plain = [FeetLaw(gait), FeetLaw(gait), FeetLaw(stop, stand_damping=0.0)]
-    undamped = simulate_feet_steps(gaits, disturbances=forward, laws=plain)
-    assert undamped.fell is not None and "still moving" in undamped.fell
-    back = simulate_feet_steps(gaits, disturbances=Disturbances(push=-10.0, push_step=2))
-    assert back.fell is not None and back.fell.startswith("step 2")
+    _walks_the_stop(simulate_feet_steps, *slow_and_stop)

@@ -75,20 +75,22 @@ def _feet_options(args, speeds) -> dict:
 def run_sequence(args, out: TextIO, report: Reporter, checked_options, step_options) -> int:
     """Plan, verify from the file read back, draw, write as a set (``checked_options``,
     ``step_options``: walk's, which reads its options into walking_step's arguments)."""
-    from problems.library.sequence import checked_speeds, plan_sequence, verify_sequence
+    from problems.library.sequence import (
+        checked_speeds,
+        checked_transition_counts,
+        plan_sequence,
+        verify_sequence,
+    )
 
     mesh, sole = _check(args, checked_options)
     try:
         speeds = checked_speeds(args.speeds)
     except AnthropoidError as error:
         raise UsageError(f"--speeds: {error}") from None
-    counts = args.transition_steps
-    if counts is not None and len(counts) != len(speeds) - 1:
-        raise UsageError(
-            f"--transition-steps: one count per transition, {len(speeds) - 1} for --speeds "
-            f"{','.join(f'{v:g}' for v in speeds)}, got {len(counts)}; give 0 where the count "
-            "is searched"
-        )
+    try:
+        checked_transition_counts(args.transition_steps, len(speeds) - 1)
+    except AnthropoidError as error:
+        raise UsageError(f"--transition-steps: {error}") from None
     feet = args.preset == "six-link-feet"
     library = _library(args.library, feet)
     if library is not None:

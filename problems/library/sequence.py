@@ -362,7 +362,7 @@ def plan_sequence(
     speeds = checked_speeds(speeds)
     repeats = check_integer("steps_at_speed", steps_at_speed, 1)
     iterations = check_integer("transition_iterations", transition_iterations, 1)
-    forced = _transition_counts(transition_steps, len(speeds) - 1)
+    forced = checked_transition_counts(transition_steps, len(speeds) - 1)
     say = progress or (lambda _: None)
     if library is not None and not isinstance(library, GaitLibrary):
         raise DefinitionTypeError(
@@ -416,7 +416,7 @@ def plan_sequence(
     return WalkSequence(speeds, gaits, tuple(transitions), tuple(steps))
 
 
-def _transition_counts(counts, transitions: int) -> tuple[int | None, ...]:
+def checked_transition_counts(counts, transitions: int) -> tuple[int | None, ...]:
     """``transition_steps`` checked: one entry per transition, each None or 0 (searched) or
     a count of steps >= 1."""
     if counts is None:
@@ -578,6 +578,7 @@ __all__ = [
     "SequenceStep",
     "WalkSequence",
     "checked_speeds",
+    "checked_transition_counts",
     "plan_sequence",
     "sequence_steps",
     "sequence_world",
