@@ -372,3 +372,34 @@ def test_a_step_on_feet_is_replanned_with_its_drives_verified_within_every_limit
         assert margin > -1e-4, (limit, margin, where)
     given = compare(ideal.exported(), walker, with_rotors=False)["worst"]
     assert min(margin for margin, _ in given.values()) < 0.0  # the ideal plan asks too much
+
+
+def test_a_footed_plan_failing_at_the_strike_says_why_and_what_to_change(monkeypatch):
+    """A footed plan with drives whose heel strike's impulse rows fail (the rear ball's cone,
+    which a geared ankle's rotor leaves: examples/benchmarks/drives_on_feet.py) is refused
+    with the reason and the changes that may leave a step; other failures pass unchanged.
+    The solves carrying rotors are replaced by failures named as IPOPT names them."""
+    from planner.errors import AnthropoidError
+    from problems.drives.loop import STRIKE_HINT, plan_step_with_drives
+    from problems.walking.footed import FootedStep
+
+    solve = FootedStep.solve
+    rows = {"text": "heel rise: end[impulse][3]: 0.00284"}
+
+    def failing(self, *args, **kwargs):
+        if not self.dynamics.rotors:
+            return solve(self, *args, **kwargs)
+        raise AnthropoidError(f"IPOPT failed with status Infeasible_Problem_Detected after 285 "
+                              f"iterations; worst violations: {rows['text']}")  # fmt: skip
+
+    monkeypatch.setattr(FootedStep, "solve", failing)
+    from model.presets import anthropoid_with_feet
+
+    feet = anthropoid_with_feet()
+    with pytest.raises(AnthropoidError, match="end\\[impulse\\]") as raised:
+        plan_step_with_drives(feet, DRIVES, 0.5, 0.5)
+    assert STRIKE_HINT in str(raised.value) and "mu" in STRIKE_HINT
+    rows["text"] = "double: path[rear unloads] interval 24 midpoint: 13.8"
+    with pytest.raises(AnthropoidError) as raised:
+        plan_step_with_drives(feet, DRIVES, 0.5, 0.5)
+    assert STRIKE_HINT not in str(raised.value)

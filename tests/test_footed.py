@@ -101,6 +101,34 @@ def test_momentum_over_the_periodic_step(gait):
     assert abs(impulse.real) < 2e-5 * weight_time
 
 
+def test_the_strike_impulses_are_the_momentum_balances_of_the_sampled_impact(gait, profile):
+    """``strike_impulses`` (the strike map's own impulses at the single support's last node)
+    against the verification's least-squares balances of linear and angular momentum between
+    the file's last sample before the strike and its first after (numpy, another
+    derivation); the plan keeps the rear ball inside its cone (mu 0.8), the front heel pushed
+    up."""
+    from problems.gait.verification import _held_impact, _Kinematics
+
+    step = gait.problem
+    n = step.linkage.n
+    impulses = gait.strike_impulses()
+    before = gait.segments()[1][0].states[-1]
+    after = gait.segments()[2][0].states[0]
+    landing = complex(step.landing, 0.0)
+    strike_link = step.linkage.index(step.biped.swing_leg[-1])
+    residual, rear, front, _ = _held_impact(_Kinematics(FEET), before[:n], before[n:],
+                                            after[n:], landing, strike_link)  # fmt: skip
+    assert np.max(np.abs(residual)) < 1e-8
+    scale = step.biped.total_mass * 1.0  # N s of the body at 1 m/s
+    assert abs(impulses["front"] - front) < 1e-8 * scale
+    assert abs(impulses["rear"] - rear) < 1e-8 * scale
+    assert impulses["front"].imag > 0.0 and impulses["front_friction"] <= step.mu + 1e-6
+    assert impulses["rear_friction"] == pytest.approx(
+        abs(impulses["rear"].real) / impulses["rear"].imag
+    )
+    assert impulses["rear_friction"] <= step.mu + 1e-3
+
+
 def test_the_stance_has_a_push_off_and_carries_the_weight(gait):
     stance = gait.stance()
     weight = gait.problem.weight

@@ -370,7 +370,23 @@ def plan_step_with_drives(linkage: Linkage, drives: Mapping[str, Drive], step_le
             return step.solve(step.problem.guess(warm.solution), progress=False), walker
         except AnthropoidError:
             pass  # from the law, below
-    return step.solve(progress=False), walker
+    try:
+        return step.solve(progress=False), walker
+    except AnthropoidError as error:
+        if feet and STRIKE_ROWS in str(error):
+            raise AnthropoidError(f"{error}. {STRIKE_HINT}") from error
+        raise
+
+
+#: how a failed footed plan names the heel strike's impulse cones (``footed_step``'s rows)
+STRIKE_ROWS = "end[impulse]"
+#: why those rows fail with drives, and what to change (examples/benchmarks/drives_on_feet.py)
+STRIKE_HINT = (
+    "The heel strike's impulses left their friction cones: a geared ankle's rotor turns with "
+    "the rear foot, whose ball takes the strike's impulse (the ideal plans already hold it on "
+    "its cone's edge); a grippier ground (mu), a lower ankle ratio or a lighter rotor may "
+    "leave a step"
+)
 
 
 def motor_report(

@@ -1112,6 +1112,27 @@ class FootedGait(SteppingGait):
     def durations(self) -> tuple[float, ...]:
         return tuple(float(solution.T) for solution, _ in self.segments())
 
+    def strike_impulses(self) -> dict[str, complex]:
+        """The ground's impulses at the strike (:attr:`FootedStep.strike` at the single
+        support's last node), N s as x + iy: ``front`` on the striking heel (or ball),
+        ``rear`` on the held stance ball; and each one's friction use |Lx| / Ly
+        (``front_friction``, ``rear_friction``: the strike needs a ground of at least that
+        mu; inf for an impulse that pulls). A stop has no strike: DefinitionError."""
+        step = self.problem
+        if step.stop:
+            raise DefinitionError("`strike_impulses`: a stop sets its foot down without a strike")
+        n = step.linkage.n
+        single = [s for s, name in zip(self.solution.phases, step.sequence, strict=True)
+                  if name != "double"][-1]  # fmt: skip
+        x = np.asarray(single.states[-1], dtype=float)
+        _, front, rear = step.strike.held_impulses(ca.DM(x[:n]), ca.DM(x[n:]))
+        front, rear = (np.array(ca.evalf(v), dtype=float).ravel() for v in (front, rear))
+        impulses = {"front": complex(front[0], front[1]), "rear": complex(rear[0], rear[1])}
+        for key, value in list(impulses.items()):
+            use = abs(value.real) / value.imag if value.imag > 0.0 else math.inf
+            impulses[f"{key}_friction"] = use
+        return impulses
+
     def to_trajectory(self, rate_hz: float | None = None):
         """:meth:`Gait.to_trajectory`; a stop's (:attr:`FootedStep.stop`) with the front
         contact's force channels too, zero (its swing foot sets down unloaded), so that its
